@@ -1,0 +1,60 @@
+// The `rayline` command line. This is the only translation unit that includes CLI11;
+// every subcommand registers here and runs from its own cmd_*.cpp.
+#include <CLI/CLI.hpp>
+
+#include "apps/cli_common.hpp"
+#include "apps/cmd_plan.hpp"
+#include "apps/cmd_platform.hpp"
+
+namespace {
+
+using namespace rayline::cli;
+
+void add_platform(CLI::App& app, std::function<int()>& action) {
+  auto* platform = app.add_subcommand("platform", "Inspect platform (device connectivity graph) files");
+  platform->require_subcommand(1);
+  auto opt = std::make_shared<PlatformCheckOptions>();
+  auto* check = platform->add_subcommand(
+      "check", "Validate a platform file and summarise it: nodes, devices, channels, shortest fetch times");
+  check->add_option("file", opt->file, "Platform JSON file")->required();
+  check->add_option("--block-size", opt->block_size, "Block size for the fetch-time table")
+      ->default_val(opt->block_size);
+  check->add_flag("--json", opt->json, "Print the summary as JSON");
+  check->callback([opt, &action] { action = [opt] { return run_platform_check(*opt); }; });
+}
+
+void add_plan(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<PlanOptions>();
+  auto* plan = app.add_subcommand("plan", "Plan a static job set with GMB and report makespan and utilisation");
+  plan->add_option("--platform", opt->platform, "Platform JSON (default: platforms/paper-cluster.json)");
+  plan->add_option("--jobs", opt->jobs, "Job-set JSON (default: a synthetic ray-batching job set)");
+  plan->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
+  plan->add_option("--trace", opt->trace, "Write timelines as Chrome trace JSON (open in Perfetto)");
+  plan->add_option("--jobs-csv", opt->jobs_csv, "Write per-job CSV");
+  plan->add_option("--synthetic-blocks", opt->synthetic_blocks, "Scene blocks of the synthetic job set")
+      ->default_val(opt->synthetic_blocks)->check(CLI::Range(1, 1000000));
+  plan->add_option("--synthetic-jobs", opt->synthetic_jobs, "Jobs of the synthetic job set")
+      ->default_val(opt->synthetic_jobs)->check(CLI::Range(1, 100000000));
+  plan->add_option("--seed", opt->seed, "Seed of the synthetic job set")->default_val(opt->seed);
+  plan->add_flag("--quiet,-q", opt->quiet, "Print only the summary line");
+  plan->callback([opt, &action] { action = [opt] { return run_plan(*opt); }; });
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Rayline: timeline scheduling for out-of-core ray batching (Son & Yoon, HPG 2017)"};
+  app.set_version_flag("--version", std::string("rayline ") + RAYLINE_VERSION);
+  app.require_subcommand(1);
+  std::function<int()> action;
+  add_platform(app, action);
+  add_plan(app, action);
+  // New subcommands: add an add_<name>(app, action) above and call it here.
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : kExitBadInput;
+  }
+  return action ? guarded(action) : kExitBadInput;
+}

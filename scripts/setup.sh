@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Idempotent setup: install the Debian packages Rayline needs (only the missing ones),
+# then configure and build.  Usage: scripts/setup.sh [build-dir] [extra cmake args...]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD_DIR="${1:-build}"; shift || true
+
+PACKAGES=(
+  cmake ninja-build g++ pkg-config
+  libsimgrid-dev libembree-dev libtbb-dev libopenexr-dev nlohmann-json3-dev
+  libgtest-dev libbenchmark-dev libcli11-dev libeigen3-dev libassimp-dev
+  libvulkan-dev mesa-vulkan-drivers glslc
+  python3-matplotlib python3-pandas jupyter-nbconvert python3-nbformat python3-ipykernel python3-imath
+)
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${#missing[@]} package(s): ${missing[*]}"
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "setup: all ${#PACKAGES[@]} packages present"
+fi
+
+cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" > "$BUILD_DIR.cmake.log" 2>&1 \
+  || { cat "$BUILD_DIR.cmake.log"; exit 1; }
+cmake --build "$BUILD_DIR" --parallel "$(nproc)"
