@@ -1,0 +1,68 @@
+#include "sched/exact_executor.hpp"
+
+#include <algorithm>
+
+namespace rayline {
+
+void ExactExecutor::dispatch(ActivityId id, const Activity&) {
+  if (static_cast<std::size_t>(id) >= st_.size()) {
+    st_.resize(static_cast<std::size_t>(id) + 1);
+    waiters_.resize(static_cast<std::size_t>(id) + 1);
+  }
+  st_[id].dispatched = true;
+  try_start(id);
+}
+
+// An activity starts when every dependency and its predecessor on every timeline it uses
+// have finished (the executor follows each timeline in order, Sec. 4.1).
+void ExactExecutor::try_start(ActivityId id) {
+  State& s = st_[id];
+  if (!s.dispatched || s.started) return;
+  const Activity& a = schedule_.activity(id);
+  Time start = now_;
+  auto ready = [&](ActivityId p) {
+    if (static_cast<std::size_t>(p) < st_.size() && st_[p].done) {
+      start = std::max(start, st_[p].end);
+      return true;
+    }
+    if (static_cast<std::size_t>(p) >= waiters_.size()) waiters_.resize(static_cast<std::size_t>(p) + 1);
+    waiters_[p].push_back(id);
+    return false;
+  };
+  for (ActivityId p : a.deps)
+    if (!ready(p)) return;
+  for (ActivityId p : a.timeline_prev)
+    if (!ready(p)) return;
+  s.started = true;
+  const Time dur = perturb ? perturb(id, a) : a.duration;
+  s.end = start + dur;
+  running_.emplace(s.end, id);
+  pending_starts_.push_back({ExecutorEvent::Type::Started, id, start});
+}
+
+bool ExactExecutor::advance(std::vector<ExecutorEvent>& out) {
+  if (!pending_starts_.empty()) {
+    out.insert(out.end(), pending_starts_.begin(), pending_starts_.end());
+    pending_starts_.clear();
+    return true;
+  }
+  if (running_.empty()) return false;
+  const Time t = running_.top().first;
+  now_ = std::max(now_, t);
+  while (!running_.empty() && running_.top().first == t) {
+    const ActivityId id = running_.top().second;
+    running_.pop();
+    st_[id].done = true;
+    out.push_back({ExecutorEvent::Type::Finished, id, t});
+    if (static_cast<std::size_t>(id) < waiters_.size()) {
+      std::vector<ActivityId> w;
+      w.swap(waiters_[id]);
+      for (ActivityId x : w) try_start(x);
+    }
+  }
+  out.insert(out.end(), pending_starts_.begin(), pending_starts_.end());
+  pending_starts_.clear();
+  return true;
+}
+
+}  // namespace rayline

@@ -1,0 +1,55 @@
+// Greedy Makespan Balancing (Sec. 4.2-4.4).
+//   * device selection: the compute device whose timeline ends first (least planned time);
+//   * job selection (Sec. 4.3): the queued E-job that can start earliest on it, i.e. the
+//     smallest fetching overhead; ties (e.g. all fetch-free) go to the smallest
+//     T_SETUP / T_EXEC (highest granularity), then to the oldest job;
+//   * fetch paths by SDC (Eq. 3), committed as chained T-jobs before the E-job;
+//   * repeat until the queue is empty or every device is planned up to now + k;
+//   * aging (Sec. 4.3, "Possible starvation and workarounds"): a job that has waited in
+//     the queue longer than `aging` is taken before any non-aged job (oldest first),
+//     so no job starves even when tiny k lets fetch-free jobs fill every window.
+#pragma once
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "placer.hpp"
+#include "scheduler.hpp"
+
+namespace rayline {
+
+struct GmbOptions {
+  Time horizon = 2.0;         // k, seconds (the paper uses 2000 ms)
+  Time aging = -1;            // seconds a job may wait before it jumps the queue; <0: 5k (min 1 s); kNever: off
+  bool granularity_tiebreak = true;
+};
+
+class GmbScheduler final : public Scheduler {
+ public:
+  explicit GmbScheduler(GmbOptions opt = {}) : opt_(opt) {}
+  std::string name() const override { return "gmb"; }
+  PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
+  const GmbOptions& options() const { return opt_; }
+  Time aging_threshold() const;
+
+ private:
+  struct Choice {
+    JobId job = kNone;
+    Time start = kNever;
+    double granularity = 0;  // T_SETUP / T_EXEC
+    bool aged = false;
+    Time created = 0;
+  };
+  Choice select(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
+  bool commit(const Choice& c, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s, PlanStats& st);
+  const std::array<double, kDataKindCount>& bytes_by_kind(JobId j, const JobPool& pool);
+
+  GmbOptions opt_;
+  const Schedule* bound_ = nullptr;
+  std::unique_ptr<Placer> placer_;
+  std::vector<std::array<double, kDataKindCount>> job_bytes_;
+  std::vector<char> job_bytes_known_;
+  std::vector<std::pair<JobId, MemId>> blocked_pairs_;  // sorted: infeasible this round (capacity)
+};
+
+}  // namespace rayline

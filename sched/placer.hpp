@@ -1,0 +1,33 @@
+// Placer: commits one E-job on one compute device together with the T-jobs that fetch its
+// missing inputs along SDC paths (Sec. 4.4), applying capacity admission (evictions) on
+// every hop. GMB decides *what* goes *where*; the Placer does the committing, so every
+// scheduler (GMB, the baselines, the exhaustive reference in the tests) builds schedules
+// with the same mechanics.
+#pragma once
+#include <vector>
+
+#include "fetch_path.hpp"
+#include "scheduler.hpp"
+
+namespace rayline {
+
+class Placer {
+ public:
+  explicit Placer(const Schedule& s) : finder_(s) {}
+  FetchPathFinder& finder() { return finder_; }
+
+  // Earliest time job j could start on d if the device is free from `ready` (kNever if an
+  // input cannot reach d's memory device or a job it follows is not planned).
+  Time earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s);
+
+  // Commit j on d (T-jobs first, then the E-job not before `ready`). False when capacity
+  // makes it impossible (nothing is committed then, except in the rare case documented in
+  // place()). Transfers start no earlier than `now`.
+  bool place(JobId j, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s, PlanStats& st);
+
+ private:
+  FetchPathFinder finder_;
+  std::vector<ChannelId> path_;
+};
+
+}  // namespace rayline

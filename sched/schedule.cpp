@@ -1,0 +1,320 @@
+#include "sched/schedule.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace rayline {
+
+namespace {
+const std::vector<Copy> kNoCopies;
+}
+
+Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
+    : graph_(&graph),
+      pool_(&pool),
+      device_tl_(graph.computes.size()),
+      resource_tl_(graph.resources.size()),
+      resource_version_(graph.resources.size(), 0),
+      memory_version_(graph.memories.size(), 0),
+      used_(graph.memories.size(), 0),
+      device_pending_(graph.computes.size(), 0) {}
+
+const std::vector<Copy>& Schedule::copies(BlockId b) const {
+  return static_cast<std::size_t>(b) < copies_.size() ? copies_[b] : kNoCopies;
+}
+
+const Copy* Schedule::copy_at(BlockId b, MemId m) const {
+  if (static_cast<std::size_t>(b) >= copies_.size()) return nullptr;
+  for (const Copy& c : copies_[b])
+    if (c.mem == m) return &c;
+  return nullptr;
+}
+
+Copy* Schedule::mutable_copy(BlockId b, MemId m) {
+  return const_cast<Copy*>(static_cast<const Schedule*>(this)->copy_at(b, m));
+}
+
+void Schedule::add_copy(BlockId b, Copy c) {
+  if (static_cast<std::size_t>(b) >= copies_.size()) {
+    copies_.resize(pool_->block_count());
+    holders_version_.resize(pool_->block_count(), 0);
+  }
+  if (copy_at(b, c.mem)) throw std::logic_error("block already on that memory device: " + pool_->block(b).name);
+  used_[c.mem] += pool_->block(b).bytes;
+  ++memory_version_[c.mem];
+  ++holders_version_[b];
+  copies_[b].push_back(std::move(c));
+}
+
+void Schedule::put_initial(BlockId b, MemId m, Time ready, bool origin) {
+  Copy c;
+  c.mem = m;
+  c.initial_ready = ready;
+  c.origin = origin;
+  add_copy(b, std::move(c));
+}
+
+Time Schedule::channel_finish(ChannelId c) const {
+  Time t = 0;
+  for (ResourceId r : graph_->channels[c].resources) t = std::max(t, resource_tl_[r].busy_until);
+  return t;
+}
+
+// Capacity (issue 2): eviction is a decision the plan makes and can explain. Candidates,
+// cheapest first:
+//   1. bytes already leaving m at a planned time (a consumed ray queue, a queue moved on);
+//   2. cached copies nobody queued wants any more (next use = never: Belady's first pick);
+//   3. cached copies wanted by fewer queued jobs.
+// Within a class the copy whose last planned use ends first goes first (it frees soonest).
+// Never evicted: a block's origin copy, ray queues (unique data), the job's own inputs.
+Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<BlockId>& keep) const {
+  Admission adm;
+  const Bytes cap = graph_->memories[m].capacity;
+  if (bytes > cap) {
+    adm.at = kNever;
+    return adm;
+  }
+  if (cap - used_[m] >= bytes) return adm;
+  struct Cand { int value; Time at; Bytes bytes; BlockId block; ActivityId leaving; };
+  std::vector<Cand> cands;
+  for (const Leaving& l : leaving_)
+    if (l.mem == m) cands.push_back({-1, end_of(l.at), l.bytes, l.block, l.at});
+  for (std::size_t b = 0; b < copies_.size(); ++b) {
+    const DataBlock& blk = pool_->block(static_cast<BlockId>(b));
+    if (blk.consumed || !blk.movable) continue;
+    if (std::find(keep.begin(), keep.end(), static_cast<BlockId>(b)) != keep.end()) continue;
+    for (const Copy& c : copies_[b]) {
+      if (c.mem != m || c.origin) continue;
+      Time at = copy_ready(c);
+      for (ActivityId u : c.users) at = std::max(at, end_of(u));
+      cands.push_back({pool_->queued_demand(static_cast<BlockId>(b)), at, blk.bytes, static_cast<BlockId>(b), kNone});
+    }
+  }
+  std::sort(cands.begin(), cands.end(), [](const Cand& a, const Cand& b) {
+    if (a.value != b.value) return a.value < b.value;
+    if (a.at != b.at) return a.at < b.at;
+    return a.block < b.block;
+  });
+  Bytes free = cap - used_[m];
+  for (const Cand& c : cands) {
+    if (free >= bytes) break;
+    free += c.bytes;
+    adm.at = std::max(adm.at, c.at);
+    if (c.leaving != kNone) {
+      adm.wait_for.push_back(c.leaving);
+    } else {
+      adm.victims.emplace_back(c.block, m);
+      const Copy* cp = copy_at(c.block, m);
+      if (cp->producer != kNone) adm.wait_for.push_back(cp->producer);
+      adm.wait_for.insert(adm.wait_for.end(), cp->users.begin(), cp->users.end());
+    }
+  }
+  if (free < bytes) adm.at = kNever;
+  return adm;
+}
+
+void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const std::string& reason) {
+  auto& v = copies_[b];
+  auto it = std::find_if(v.begin(), v.end(), [m](const Copy& c) { return c.mem == m; });
+  if (it == v.end()) throw std::logic_error("evicting a copy that is not there");
+  used_[m] -= pool_->block(b).bytes;
+  v.erase(it);
+  ++holders_version_[b];
+  ++memory_version_[m];
+  evictions_.push_back({b, m, at, for_activity, pool_->queued_demand(b), reason});
+}
+
+void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
+  auto& v = copies_[b];
+  auto it = std::find_if(v.begin(), v.end(), [m](const Copy& c) { return c.mem == m; });
+  if (it == v.end()) throw std::logic_error("dropping a copy that is not there");
+  v.erase(it);
+  ++holders_version_[b];
+  leaving_.push_back({b, m, leaving_with, pool_->block(b).bytes});
+}
+
+
+ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time not_before, const Admission& adm) {
+  const Channel& ch = graph_->channels[c];
+  const Copy* src = copy_at(b, ch.from);
+  if (!src) throw std::logic_error("transfer source holds no copy of " + pool_->block(b).name);
+  if (copy_at(b, ch.to)) throw std::logic_error("transfer destination already holds " + pool_->block(b).name);
+  if (adm.at == kNever) throw std::logic_error("transfer committed without room at the destination");
+  const DataBlock& blk = pool_->block(b);
+  const auto id = static_cast<ActivityId>(acts_.size());
+  Activity a;
+  a.kind = ActivityKind::Transfer;
+  a.job = for_job;
+  a.block = b;
+  a.channel = c;
+  a.bytes = blk.bytes;
+  a.move = blk.consumed;  // Sec. 5.1: ray queues move (and merge on arrival), scene data is copied
+  a.duration = graph_->transfer_time(c, blk.bytes);  // Eq. 1
+  // Eq. 3: the hop starts when the data is at the source and the channel is free.
+  const Time start = std::max({not_before, copy_ready(*src), channel_finish(c), adm.at});
+  a.start = a.planned_start = start;
+  a.end = a.planned_end = start + a.duration;
+  if (src->producer != kNone) a.deps.push_back(src->producer);
+  a.deps.insert(a.deps.end(), adm.wait_for.begin(), adm.wait_for.end());
+  for (ResourceId r : ch.resources) {
+    Timeline& tl = resource_tl_[r];
+    if (!tl.items.empty()) a.timeline_prev.push_back(tl.items.back());
+    tl.items.push_back(id);
+    tl.busy_until = a.end;
+    ++resource_version_[r];
+  }
+  acts_.push_back(std::move(a));
+  ++unfinished_;
+  for (const auto& [vb, vm] : adm.victims)
+    evict(vb, vm, adm.at, id, "room for " + blk.name + " (" + std::to_string(blk.bytes) + " B); victim's queued demand " +
+                                  std::to_string(pool_->queued_demand(vb)) + ", last planned use ends by t=" +
+                                  std::to_string(adm.at) + "s");
+  for (const Leaving& l : leaving_)
+    if (l.mem == ch.to && std::find(adm.wait_for.begin(), adm.wait_for.end(), l.at) != adm.wait_for.end())
+      used_[l.mem] -= l.bytes;
+  std::erase_if(leaving_, [&](const Leaving& l) {
+    return l.mem == ch.to && std::find(adm.wait_for.begin(), adm.wait_for.end(), l.at) != adm.wait_for.end();
+  });
+  if (blk.consumed) {
+    drop_copy_later(b, ch.from, id);
+  } else {
+    mutable_copy(b, ch.from)->users.push_back(id);
+  }
+  Copy dst;
+  dst.mem = ch.to;
+  dst.producer = id;
+  add_copy(b, std::move(dst));
+  return id;
+}
+
+ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Admission& out_adm) {
+  const Job& job = pool_->job(j);
+  const MemId m = graph_->computes[d].memory;
+  if (out_adm.at == kNever) throw std::logic_error("E-job committed without room for its outputs");
+  const auto id = static_cast<ActivityId>(acts_.size());
+  Activity a;
+  a.kind = ActivityKind::Exec;
+  a.job = j;
+  a.device = d;
+  std::vector<InputSize> sizes;
+  Time ready = 0;
+  for (BlockId b : job.inputs) {
+    const Copy* c = copy_at(b, m);
+    if (!c) throw std::logic_error("E-job committed before input " + pool_->block(b).name + " is on its memory");
+    ready = std::max(ready, copy_ready(*c));
+    if (c->producer != kNone) a.deps.push_back(c->producer);
+    sizes.push_back({pool_->block(b).kind, pool_->block(b).bytes});
+  }
+  for (JobId p : job.after) {
+    const ActivityId pa = pool_->activity(p);
+    if (pa == kNone) throw std::logic_error("E-job committed before a job it must follow");
+    a.deps.push_back(pa);
+    ready = std::max(ready, acts_[pa].end);
+  }
+  a.deps.insert(a.deps.end(), out_adm.wait_for.begin(), out_adm.wait_for.end());
+  ready = std::max(ready, out_adm.at);
+  a.data_ready = ready;
+  a.duration = graph_->timing.exec_time(d, job.type, sizes);  // Eq. 2
+  a.setup = a.duration > 0 ? graph_->timing.setup_time(d, job.type) : 0;
+  Timeline& tl = device_tl_[d];
+  const Time start = std::max({not_before, tl.busy_until, ready});
+  a.start = a.planned_start = start;
+  a.end = a.planned_end = start + a.duration;
+  if (!tl.items.empty()) a.timeline_prev.push_back(tl.items.back());
+  tl.items.push_back(id);
+  tl.busy_until = a.end;
+  acts_.push_back(std::move(a));
+  ++unfinished_;
+  ++device_pending_[d];
+  for (const auto& [vb, vm] : out_adm.victims)
+    evict(vb, vm, out_adm.at, id, "room for outputs of " + job.name);
+  for (const Leaving& l : leaving_)
+    if (l.mem == m && std::find(out_adm.wait_for.begin(), out_adm.wait_for.end(), l.at) != out_adm.wait_for.end())
+      used_[l.mem] -= l.bytes;
+  std::erase_if(leaving_, [&](const Leaving& l) {
+    return l.mem == m && std::find(out_adm.wait_for.begin(), out_adm.wait_for.end(), l.at) != out_adm.wait_for.end();
+  });
+  for (BlockId b : job.inputs) {
+    if (pool_->block(b).consumed) drop_copy_later(b, m, id);
+    else mutable_copy(b, m)->users.push_back(id);
+  }
+  for (BlockId o : job.outputs) {
+    Copy c;
+    c.mem = m;
+    c.producer = id;
+    add_copy(o, std::move(c));
+  }
+  return id;
+}
+
+Time Schedule::inputs_ready_at(JobId j, MemId m) const {
+  Time t = 0;
+  for (BlockId b : pool_->job(j).inputs) {
+    const Copy* c = copy_at(b, m);
+    if (!c) return kNever;
+    t = std::max(t, copy_ready(*c));
+  }
+  return t;
+}
+
+Time Schedule::after_deps_ready(JobId j) const {
+  Time t = 0;
+  for (JobId p : pool_->job(j).after) {
+    const ActivityId a = pool_->activity(p);
+    if (a == kNone) return kNever;
+    t = std::max(t, acts_[a].end);
+  }
+  return t;
+}
+
+void Schedule::on_started(ActivityId id, Time t) {
+  Activity& a = acts_[id];
+  a.state = ActivityState::Running;
+  a.start = t;
+  a.end = std::max(a.end, t);
+}
+
+void Schedule::on_finished(ActivityId id, Time t) {
+  Activity& a = acts_[id];
+  if (a.state == ActivityState::Done) return;
+  if (a.state == ActivityState::Planned) a.start = t;
+  a.state = ActivityState::Done;
+  a.end = t;
+  --unfinished_;
+  if (a.kind == ActivityKind::Exec) --device_pending_[a.device];
+  std::erase_if(leaving_, [&](const Leaving& l) {
+    if (l.at != id) return false;
+    used_[l.mem] -= l.bytes;
+    ++memory_version_[l.mem];
+    return true;
+  });
+}
+
+void Schedule::reproject(Time now) {
+  while (first_unfinished_ < static_cast<ActivityId>(acts_.size()) &&
+         acts_[first_unfinished_].state == ActivityState::Done)
+    ++first_unfinished_;
+  for (ActivityId id = first_unfinished_; id < static_cast<ActivityId>(acts_.size()); ++id) {
+    Activity& a = acts_[id];
+    if (a.state == ActivityState::Done) continue;
+    if (a.state == ActivityState::Running) {
+      a.end = std::max(now, a.start + a.duration);
+      continue;
+    }
+    Time s = now;
+    for (ActivityId p : a.deps) s = std::max(s, acts_[p].end);
+    for (ActivityId p : a.timeline_prev) s = std::max(s, acts_[p].end);
+    a.start = s;
+    a.end = s + a.duration;
+  }
+  for (Timeline& tl : device_tl_)
+    tl.busy_until = tl.items.empty() ? 0 : acts_[tl.items.back()].end;
+  for (std::size_t r = 0; r < resource_tl_.size(); ++r) {
+    Timeline& tl = resource_tl_[r];
+    const Time nb = tl.items.empty() ? 0 : acts_[tl.items.back()].end;
+    if (nb != tl.busy_until) ++resource_version_[r];
+    tl.busy_until = nb;
+  }
+}
+
+}  // namespace rayline

@@ -1,0 +1,150 @@
+// Schedule (Sec. 4.1, Fig. 4): one Timeline per compute device and per channel resource,
+// the E-jobs and T-jobs committed onto them (Activities), and where every data block is
+// held, from when, under each memory device's capacity.
+//
+// Timelines are append-only, as in the paper: a new activity starts no earlier than the
+// end of the last one on its timeline (FinishTime(c) in Eq. 3). Activities only ever
+// depend on activities committed before them, so increasing ActivityId is a topological
+// order; reproject() uses that to move every unfinished activity after reality diverged.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "device_graph.hpp"
+#include "job_pool.hpp"
+
+namespace rayline {
+
+enum class ActivityKind : std::uint8_t { Exec, Transfer };
+enum class ActivityState : std::uint8_t { Planned, Running, Done, Failed, Cancelled };
+
+struct Activity {
+  ActivityKind kind = ActivityKind::Exec;
+  ActivityState state = ActivityState::Planned;
+  JobId job = kNone;           // Exec: the E-job. Transfer: the E-job it fetches for.
+  BlockId block = kNone;       // Transfer: the block moved or copied
+  DeviceId device = kNone;     // Exec
+  ChannelId channel = kNone;   // Transfer
+  bool move = false;           // Transfer: source copy dropped at the end (ray queues)
+  Bytes bytes = 0;             // Transfer: |w|
+  Time duration = 0;           // predicted: Eq. 1 or Eq. 2
+  Time setup = 0;              // Exec: T_SETUP part of duration
+  Time planned_start = 0, planned_end = 0;  // as committed (never changed afterwards)
+  Time start = 0, end = 0;     // projected; the measured values once known
+  Time data_ready = 0;         // Exec: when every input was resident (fetching idle, Sec. 4.2)
+  std::vector<ActivityId> deps;      // data / eviction / job-job dependencies
+  std::vector<ActivityId> timeline_prev;  // predecessor on each of its timelines
+};
+
+// A copy of a block on a memory device (the holders of Sec. 4.4).
+struct Copy {
+  MemId mem = kNone;
+  ActivityId producer = kNone;  // Transfer or Exec that creates it; kNone: present initially
+  Time initial_ready = 0;       // for producer == kNone
+  std::vector<ActivityId> users;  // E-jobs reading it and T-jobs sending it
+  bool origin = false;          // the block's home (never evicted)
+};
+
+// Why a copy was evicted: the plan explains itself (issue 2: eviction is a decision).
+struct Eviction {
+  BlockId block;
+  MemId mem;
+  Time at;                 // the end of the copy's last planned use
+  ActivityId for_activity; // the transfer/E-job that needed the space
+  int queued_demand;       // queued jobs still reading the block when it was chosen
+  std::string reason;
+};
+
+struct Timeline {
+  std::vector<ActivityId> items;
+  Time busy_until = 0;     // FinishTime of the timeline (projected)
+};
+
+class Schedule {
+ public:
+  Schedule(const DeviceGraph& graph, const JobPool& pool);
+
+  const DeviceGraph& graph() const { return *graph_; }
+  const JobPool& pool() const { return *pool_; }
+
+  // Data placement. Initial copies: put(b, m, ready_time, origin).
+  void put_initial(BlockId b, MemId m, Time ready = 0, bool origin = true);
+  const std::vector<Copy>& copies(BlockId b) const;
+  const Copy* copy_at(BlockId b, MemId m) const;
+  Time copy_ready(const Copy& c) const {
+    return c.producer == kNone ? c.initial_ready : acts_[c.producer].end;
+  }
+  // Bytes reserved on m (present, incoming, or leaving at a planned time).
+  Bytes used(MemId m) const { return used_[m]; }
+  std::uint64_t holders_version(BlockId b) const {
+    return static_cast<std::size_t>(b) < holders_version_.size() ? holders_version_[b] : 0;
+  }
+  std::uint64_t memory_version(MemId m) const { return memory_version_[m]; }
+
+  // Timelines.
+  const Timeline& device_timeline(DeviceId d) const { return device_tl_[d]; }
+  const Timeline& resource_timeline(ResourceId r) const { return resource_tl_[r]; }
+  Time channel_finish(ChannelId c) const;  // FinishTime(c) of Eq. 3
+  std::uint64_t resource_version(ResourceId r) const { return resource_version_[r]; }
+
+  // Activities.
+  std::size_t activity_count() const { return acts_.size(); }
+  const Activity& activity(ActivityId a) const { return acts_[a]; }
+  const std::vector<Eviction>& evictions() const { return evictions_; }
+
+  // ---- committing (used by schedulers) --------------------------------------------
+  // Earliest time `bytes` more fit on m, evicting cached copies if needed; kNever when
+  // impossible. `keep` lists blocks that must not be evicted (the job's own inputs).
+  struct Admission {
+    Time at = 0;
+    std::vector<std::pair<BlockId, MemId>> victims;  // copies to evict
+    std::vector<ActivityId> wait_for;                // activities that must end first
+  };
+  Admission admission(MemId m, Bytes bytes, const std::vector<BlockId>& keep) const;
+
+  // Appends a T-job moving/copying b over channel c, starting no earlier than `not_before`
+  // (Eq. 3: max(l_p, FinishTime(c))) after applying `adm`. Returns its id.
+  ActivityId commit_transfer(BlockId b, ChannelId c, JobId for_job, Time not_before, const Admission& adm);
+  // Appends an E-job; inputs must already be (or be arriving) on the device's memory.
+  ActivityId commit_exec(JobId j, DeviceId d, Time not_before, const Admission& out_adm);
+
+  // ---- reality (used by the runtime loop) -------------------------------------------
+  void on_started(ActivityId a, Time t);
+  void on_finished(ActivityId a, Time t);
+  // Moves every unfinished activity to the earliest time consistent with the measured
+  // ones and `now` (reality wins, DESIGN.md), updating busy_until of every timeline.
+  void reproject(Time now);
+  std::size_t unfinished_on_device(DeviceId d) const { return device_pending_[d]; }
+  std::size_t unfinished() const { return unfinished_; }
+
+  // Input readiness of a job on memory m: max copy_ready over inputs, kNever if missing.
+  Time inputs_ready_at(JobId j, MemId m) const;
+  // Ends of the activities of `after` jobs, kNever if one is not planned yet.
+  Time after_deps_ready(JobId j) const;
+
+ private:
+  void evict(BlockId b, MemId m, Time at, ActivityId for_activity, const std::string& reason);
+  Copy* mutable_copy(BlockId b, MemId m);
+  void add_copy(BlockId b, Copy c);
+  void drop_copy_later(BlockId b, MemId m, ActivityId leaving_with);
+  Time end_of(ActivityId a) const { return a == kNone ? 0 : acts_[a].end; }
+
+  const DeviceGraph* graph_;
+  const JobPool* pool_;
+  std::vector<Activity> acts_;
+  std::vector<Timeline> device_tl_, resource_tl_;
+  std::vector<std::uint64_t> resource_version_, memory_version_, holders_version_;
+  std::vector<std::vector<Copy>> copies_;          // per block (grows with the pool)
+  std::vector<Bytes> used_;                        // per memory device
+  // Copies leaving (consumed or moved away) at the end of an activity: their bytes stay
+  // reserved until then; admission may count on them from that time.
+  struct Leaving { BlockId block; MemId mem; ActivityId at; Bytes bytes; };
+  std::vector<Leaving> leaving_;
+  std::vector<Eviction> evictions_;
+  std::vector<std::size_t> device_pending_;
+  std::size_t unfinished_ = 0;
+  ActivityId first_unfinished_ = 0;
+  friend class ScheduleTestAccess;
+};
+
+}  // namespace rayline

@@ -1,0 +1,28 @@
+// The engine-agnostic Scheduler seam (DESIGN.md, control loop): GMB today, the baselines
+// (Budge 2009, LoadAnyOnce) later, all driven by the same runtime loop and executors.
+#pragma once
+#include <string>
+
+#include "job_pool.hpp"
+#include "schedule.hpp"
+
+namespace rayline {
+
+struct PlanStats {
+  int execs = 0;          // E-jobs placed
+  int transfers = 0;      // T-jobs placed
+  int evictions = 0;
+  double wall_seconds = 0;
+  std::uint64_t path_searches = 0, path_cache_hits = 0;
+};
+
+class Scheduler {
+ public:
+  virtual ~Scheduler() = default;
+  virtual std::string name() const = 0;
+  // Extend `schedule` with jobs from the queue of `pool`, planning every compute device up
+  // to now + horizon (Sec. 4.2). New activities are appended (ids >= the count before).
+  virtual PlanStats plan(Time now, JobPool& pool, Schedule& schedule) = 0;
+};
+
+}  // namespace rayline

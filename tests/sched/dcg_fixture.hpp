@@ -1,0 +1,171 @@
+// Test support: build small device connectivity graphs by hand (no JSON), and an
+// independent checker of the invariants of DESIGN.md over a finished schedule.
+#pragma once
+#include <algorithm>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "sched/device_graph.hpp"
+#include "sched/schedule.hpp"
+
+namespace rayline::testing {
+
+struct DcgBuilder {
+  DeviceGraph g;
+  DcgBuilder() {
+    g.name = "test";
+    g.job_types = {"RayIntersect", "Compute"};
+  }
+  NodeId node(const std::string& n) {
+    g.nodes.push_back({n, {}, {}});
+    return static_cast<NodeId>(g.nodes.size() - 1);
+  }
+  MemId mem(const std::string& n, Bytes cap = Bytes(1) << 40, MemoryKind k = MemoryKind::Host, NodeId node = 0) {
+    g.memories.push_back({n, k, cap, node});
+    return static_cast<MemId>(g.memories.size() - 1);
+  }
+  DeviceId dev(const std::string& n, MemId m, ComputeKind k = ComputeKind::Cpu) {
+    g.computes.push_back({n, n, k, m, g.memories[m].node});
+    return static_cast<DeviceId>(g.computes.size() - 1);
+  }
+  ResourceId resource(const std::string& n, double bw) {
+    g.resources.push_back({n, bw});
+    return static_cast<ResourceId>(g.resources.size() - 1);
+  }
+  // A directed channel on its own resource.
+  ChannelId channel(MemId a, MemId b, double bw, Time lat = 0, std::vector<ResourceId> res = {}) {
+    if (res.empty()) res.push_back(resource(g.memories[a].name + "->" + g.memories[b].name, bw));
+    g.channels.push_back({g.memories[a].name + "->" + g.memories[b].name, "test", a, b, lat, bw, res});
+    return static_cast<ChannelId>(g.channels.size() - 1);
+  }
+  // Half duplex: both directions share one resource.
+  void half_duplex(MemId a, MemId b, double bw, Time lat = 0) {
+    const ResourceId r = resource(g.memories[a].name + "<->" + g.memories[b].name, bw);
+    channel(a, b, bw, lat, {r});
+    channel(b, a, bw, lat, {r});
+  }
+  void full_duplex(MemId a, MemId b, double bw, Time lat = 0) {
+    channel(a, b, bw, lat);
+    channel(b, a, bw, lat);
+  }
+  // Make every device run job type j at `rate` bytes/s of `kind` input with `setup` s.
+  void timing(JobTypeId j, DataKind kind, double bytes_per_s, Time setup = 0) {
+    g.finalize();
+    for (std::size_t d = 0; d < g.computes.size(); ++d) {
+      auto& c = g.timing.at(static_cast<DeviceId>(d), j);
+      c.supported = true;
+      c.setup = setup;
+      c.rate[static_cast<int>(kind)] = 1.0 / bytes_per_s;
+    }
+  }
+  DeviceGraph build() {
+    g.finalize();
+    return g;
+  }
+};
+
+// Independent checks over a schedule, from its activity list and eviction log only.
+struct PlanCheck {
+  std::vector<std::string> errors;
+  void fail(std::string s) { if (errors.size() < 20) errors.push_back(std::move(s)); }
+};
+
+inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
+  PlanCheck out;
+  const DeviceGraph& g = s.graph();
+  const double eps = 1e-9;
+  // 1. No overlap on any timeline.
+  auto check_tl = [&](const Timeline& tl, const std::string& what) {
+    for (std::size_t i = 1; i < tl.items.size(); ++i) {
+      const Activity& p = s.activity(tl.items[i - 1]);
+      const Activity& a = s.activity(tl.items[i]);
+      if (a.start < p.end - eps) out.fail(what + ": activity " + std::to_string(tl.items[i]) + " overlaps its predecessor");
+    }
+  };
+  for (std::size_t d = 0; d < g.computes.size(); ++d) check_tl(s.device_timeline(static_cast<DeviceId>(d)), g.computes[d].name);
+  for (std::size_t r = 0; r < g.resources.size(); ++r) check_tl(s.resource_timeline(static_cast<ResourceId>(r)), g.resources[r].name);
+
+  // 2. Residency intervals per (block, mem), rebuilt from transfers / E-jobs / evictions.
+  struct Stay { Time reserve, arrive, leave; };
+  std::map<std::pair<BlockId, MemId>, std::vector<Stay>> stays;
+  // Initial copies are those at mems no activity delivered to: reconstruct from the pool's
+  // blocks with no producer job whose first use reads from a memory without a transfer in.
+  std::vector<std::vector<std::pair<ActivityId, MemId>>> arrivals(pool.block_count());
+  for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
+    const Activity& a = s.activity(id);
+    if (a.kind == ActivityKind::Transfer) {
+      const Channel& c = g.channels[a.channel];
+      stays[{a.block, c.to}].push_back({a.start, a.end, kNever});
+      if (a.move) {
+        auto& v = stays[{a.block, c.from}];
+        if (!v.empty()) v.back().leave = std::min(v.back().leave, a.end);
+      }
+    } else {
+      const MemId m = g.computes[a.device].memory;
+      for (BlockId o : pool.job(a.job).outputs) stays[{o, m}].push_back({a.start, a.end, kNever});
+      for (BlockId b : pool.job(a.job).inputs) {
+        auto it = stays.find({b, m});
+        const bool initial = it == stays.end() || it->second.empty();
+        if (initial) {
+          stays[{b, m}].push_back({0, 0, kNever});
+          it = stays.find({b, m});
+        }
+        Stay& st = it->second.back();
+        if (st.arrive > a.start + eps) out.fail("E-job " + pool.job(a.job).name + " starts before input " + pool.block(b).name + " is resident");
+        if (pool.block(b).consumed) st.leave = std::min(st.leave, a.end);
+      }
+    }
+  }
+  for (const Eviction& e : s.evictions()) {
+    auto it = stays.find({e.block, e.mem});
+    if (it == stays.end() || it->second.empty()) continue;  // an initial copy never used
+    Stay& st = it->second.back();
+    st.leave = std::min(st.leave, e.at);
+  }
+  // Every E-job input must stay until the job ends.
+  for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
+    const Activity& a = s.activity(id);
+    if (a.kind != ActivityKind::Exec) continue;
+    const MemId m = g.computes[a.device].memory;
+    for (BlockId b : pool.job(a.job).inputs) {
+      const auto& v = stays[{b, m}];
+      bool ok = false;
+      for (const Stay& st : v) ok = ok || (st.arrive <= a.start + eps && st.leave >= a.end - eps);
+      if (!ok) out.fail("input " + pool.block(b).name + " of " + pool.job(a.job).name + " not resident for the whole E-job");
+    }
+  }
+  // 3. Capacity: sweep reservations per memory device (initial copies that were never used
+  // are not visible here; tests size capacities so that initial copies are accounted).
+  std::map<MemId, std::vector<std::pair<Time, double>>> sweep;
+  for (const auto& [key, v] : stays)
+    for (const Stay& st : v) {
+      sweep[key.second].push_back({st.reserve, static_cast<double>(pool.block(key.first).bytes)});
+      if (st.leave != kNever) sweep[key.second].push_back({st.leave, -static_cast<double>(pool.block(key.first).bytes)});
+    }
+  for (auto& [m, ev] : sweep) {
+    std::sort(ev.begin(), ev.end(), [](auto& a, auto& b) { return a.first != b.first ? a.first < b.first : a.second < b.second; });
+    double cur = 0;
+    for (auto& [t, delta] : ev) {
+      cur += delta;
+      if (cur > static_cast<double>(g.memories[m].capacity) + 0.5)
+        out.fail(g.memories[m].name + " over capacity at t=" + std::to_string(t));
+    }
+  }
+  // 4. Every non-discarded job has exactly one E-job.
+  std::vector<int> count(pool.job_count(), 0);
+  for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id)
+    if (s.activity(id).kind == ActivityKind::Exec) ++count[s.activity(id).job];
+  for (std::size_t j = 0; j < pool.job_count(); ++j)
+    if (pool.state(static_cast<JobId>(j)) != JobState::Discarded && count[j] != 1)
+      out.fail("job " + pool.job(static_cast<JobId>(j)).name + " has " + std::to_string(count[j]) + " E-jobs");
+  return out;
+}
+
+inline Time makespan(const Schedule& s) {
+  Time t = 0;
+  for (std::size_t i = 0; i < s.activity_count(); ++i) t = std::max(t, s.activity(static_cast<ActivityId>(i)).end);
+  return t;
+}
+
+}  // namespace rayline::testing
