@@ -85,6 +85,8 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
     if (std::find(keep.begin(), keep.end(), static_cast<BlockId>(b)) != keep.end()) continue;
     for (const Copy& c : copies_[b]) {
       if (c.mem != m || c.origin) continue;
+      // The last copy of a block the queue still wants is data, not cache.
+      if (copies_[b].size() == 1 && pool_->queued_demand(static_cast<BlockId>(b)) > 0) continue;
       Time at = copy_ready(c);
       for (ActivityId u : c.users) at = std::max(at, end_of(u));
       cands.push_back({pool_->queued_demand(static_cast<BlockId>(b)), at, blk.bytes, static_cast<BlockId>(b), kNone});
@@ -117,11 +119,27 @@ void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const
   auto& v = copies_[b];
   auto it = std::find_if(v.begin(), v.end(), [m](const Copy& c) { return c.mem == m; });
   if (it == v.end()) throw std::logic_error("evicting a copy that is not there");
+  std::vector<ActivityId> after = it->users;
+  if (it->producer != kNone) after.push_back(it->producer);
   used_[m] -= pool_->block(b).bytes;
   v.erase(it);
   ++holders_version_[b];
   ++memory_version_[m];
-  evictions_.push_back({b, m, at, for_activity, pool_->queued_demand(b), reason});
+  evictions_.push_back({b, m, at, for_activity, pool_->queued_demand(b), reason, std::move(after)});
+}
+
+// Belady-style explanation: the victim had no (or the least) queued demand, i.e. its next
+// use is the farthest we know of; its last planned use ends by `adm.at`.
+void Schedule::apply_evictions(const Admission& adm, MemId m, ActivityId for_activity, const std::string& what) {
+  for (const auto& [vb, vm] : adm.victims)
+    evict(vb, vm, adm.at, for_activity,
+          "room for " + what + "; victim wanted by " + std::to_string(pool_->queued_demand(vb)) +
+              " queued job(s), last planned use ends by t=" + std::to_string(adm.at) + " s");
+  std::erase_if(leaving_, [&](const Leaving& l) {
+    if (l.mem != m || std::find(adm.wait_for.begin(), adm.wait_for.end(), l.at) == adm.wait_for.end()) return false;
+    used_[l.mem] -= l.bytes;  // its room now belongs to the incoming block, from `adm.at` on
+    return true;
+  });
 }
 
 void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
@@ -165,16 +183,7 @@ ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time
   }
   acts_.push_back(std::move(a));
   ++unfinished_;
-  for (const auto& [vb, vm] : adm.victims)
-    evict(vb, vm, adm.at, id, "room for " + blk.name + " (" + std::to_string(blk.bytes) + " B); victim's queued demand " +
-                                  std::to_string(pool_->queued_demand(vb)) + ", last planned use ends by t=" +
-                                  std::to_string(adm.at) + "s");
-  for (const Leaving& l : leaving_)
-    if (l.mem == ch.to && std::find(adm.wait_for.begin(), adm.wait_for.end(), l.at) != adm.wait_for.end())
-      used_[l.mem] -= l.bytes;
-  std::erase_if(leaving_, [&](const Leaving& l) {
-    return l.mem == ch.to && std::find(adm.wait_for.begin(), adm.wait_for.end(), l.at) != adm.wait_for.end();
-  });
+  apply_evictions(adm, ch.to, id, blk.name + " (" + std::to_string(blk.bytes) + " B)");
   if (blk.consumed) {
     drop_copy_later(b, ch.from, id);
   } else {
@@ -226,14 +235,7 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   acts_.push_back(std::move(a));
   ++unfinished_;
   ++device_pending_[d];
-  for (const auto& [vb, vm] : out_adm.victims)
-    evict(vb, vm, out_adm.at, id, "room for outputs of " + job.name);
-  for (const Leaving& l : leaving_)
-    if (l.mem == m && std::find(out_adm.wait_for.begin(), out_adm.wait_for.end(), l.at) != out_adm.wait_for.end())
-      used_[l.mem] -= l.bytes;
-  std::erase_if(leaving_, [&](const Leaving& l) {
-    return l.mem == m && std::find(out_adm.wait_for.begin(), out_adm.wait_for.end(), l.at) != out_adm.wait_for.end();
-  });
+  apply_evictions(out_adm, m, id, "outputs of " + job.name);
   for (BlockId b : job.inputs) {
     if (pool_->block(b).consumed) drop_copy_later(b, m, id);
     else mutable_copy(b, m)->users.push_back(id);

@@ -53,6 +53,7 @@ struct Eviction {
   ActivityId for_activity; // the transfer/E-job that needed the space
   int queued_demand;       // queued jobs still reading the block when it was chosen
   std::string reason;
+  std::vector<ActivityId> after;  // the copy goes once these end (its producer and users)
 };
 
 struct Timeline {
@@ -66,6 +67,8 @@ class Schedule {
 
   const DeviceGraph& graph() const { return *graph_; }
   const JobPool& pool() const { return *pool_; }
+  // After copying a Schedule together with its JobPool, point the copy at the new pool.
+  void rebind(const JobPool& pool) { pool_ = &pool; }
 
   // Data placement. Initial copies: put(b, m, ready_time, origin).
   void put_initial(BlockId b, MemId m, Time ready = 0, bool origin = true);
@@ -124,6 +127,7 @@ class Schedule {
 
  private:
   void evict(BlockId b, MemId m, Time at, ActivityId for_activity, const std::string& reason);
+  void apply_evictions(const Admission& adm, MemId m, ActivityId for_activity, const std::string& what);
   Copy* mutable_copy(BlockId b, MemId m);
   void add_copy(BlockId b, Copy c);
   void drop_copy_later(BlockId b, MemId m, ActivityId leaving_with);

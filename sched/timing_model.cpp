@@ -160,9 +160,9 @@ FitReport TimingModel::fit(std::span<const TimingSample> samples) {
       report.entries.push_back(e);
       continue;
     }
-    // NNLS-lite: drop the most negative coefficient and refit (a subset of independent
-    // columns stays independent, so no rank check can fail here).
-    while (!active.empty()) {
+    // NNLS-lite: drop the most negative coefficient and refit. A subset of independent
+    // columns stays independent; the rank check is kept only as a numerical safety net.
+    while (full_rank && !active.empty()) {
       Eigen::Index worst = 0;
       const double mn = xs.minCoeff(&worst);
       if (mn >= 0) break;
@@ -172,6 +172,10 @@ FitReport TimingModel::fit(std::span<const TimingSample> samples) {
         break;
       }
       solve(active, xs, full_rank);
+    }
+    if (!full_rank) {
+      report.entries.push_back(e);
+      continue;
     }
 
     Eigen::VectorXd x = Eigen::VectorXd::Zero(m);

@@ -120,8 +120,10 @@ inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
   for (const Eviction& e : s.evictions()) {
     auto it = stays.find({e.block, e.mem});
     if (it == stays.end() || it->second.empty()) continue;  // an initial copy never used
+    Time at = 0;  // actual time: the end of the copy's producer and users
+    for (ActivityId a : e.after) at = std::max(at, s.activity(a).end);
     Stay& st = it->second.back();
-    st.leave = std::min(st.leave, e.at);
+    st.leave = std::min(st.leave, at);
   }
   // Every E-job input must stay until the job ends.
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {

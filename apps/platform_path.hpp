@@ -1,0 +1,8 @@
+// Resolve a --platform argument: an existing path, or a built-in name such as
+// "paper-cluster" / "paper-A" looked up in $RAYLINE_PLATFORMS or the source tree.
+#pragma once
+#include <string>
+
+namespace rayline::cli {
+std::string resolve_platform(const std::string& arg);  // empty arg: paper-cluster
+}
