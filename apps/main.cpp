@@ -5,6 +5,7 @@
 #include "apps/cli_common.hpp"
 #include "apps/cmd_plan.hpp"
 #include "apps/cmd_platform.hpp"
+#include "apps/cmd_simulate.hpp"
 
 namespace {
 
@@ -40,6 +41,23 @@ void add_plan(CLI::App& app, std::function<int()>& action) {
   plan->callback([opt, &action] { action = [opt] { return run_plan(*opt); }; });
 }
 
+void add_simulate(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<SimulateOptions>();
+  auto* sim = app.add_subcommand("simulate", "Run a schedule on the SimGrid virtual platform and measure it");
+  sim->add_option("--platform", opt->platform, "Platform JSON or built-in name (default: paper-cluster)");
+  sim->add_option("--workload", opt->workload, "'ray-stream' or a job-set JSON file")->default_val(opt->workload);
+  sim->add_option("--scheduler", opt->scheduler, "gmb (the paper) or gmb-ca (completion-aware)")->default_val(opt->scheduler);
+  sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
+  sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->default_val(opt->duration);
+  sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed);
+  sim->add_option("--exec-noise", opt->exec_noise, "Actual E-job time = predicted x U[1-n,1+n]")->default_val(opt->exec_noise);
+  sim->add_option("--blocks", opt->blocks, "Scene blocks of the ray stream")->default_val(opt->blocks)->check(CLI::Range(1, 1000000));
+  sim->add_option("--out", opt->out, "Output directory (metrics.json, jobs.csv, timeline.json)")->default_val(opt->out);
+  sim->add_flag("--paje", opt->paje, "Also write SimGrid's Paje trace (simgrid.trace)");
+  sim->add_flag("--no-progress", opt->no_progress, "No progress line");
+  sim->callback([opt, &action] { action = [opt] { return run_simulate(*opt); }; });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -49,6 +67,7 @@ int main(int argc, char** argv) {
   std::function<int()> action;
   add_platform(app, action);
   add_plan(app, action);
+  add_simulate(app, action);
   // New subcommands: add an add_<name>(app, action) above and call it here.
   try {
     app.parse(argc, argv);

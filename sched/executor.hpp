@@ -4,6 +4,7 @@
 // activities started from maestro; render/ with worker threads and file reads; this
 // project's tests with ExactExecutor (plans run exactly as predicted, or perturbed).
 #pragma once
+#include <functional>
 #include <vector>
 
 #include "schedule.hpp"
@@ -26,6 +27,14 @@ class Executor {
   // in flight and nothing can happen.
   virtual bool advance(std::vector<ExecutorEvent>& out) = 0;
   virtual Time now() const = 0;
+
+  // Push mode, for engines that cannot hand control back at the next event (SimGrid 3.32
+  // runs to completion): the executor calls `sink` from inside its own event processing,
+  // at the simulated instant of the events, and the sink may dispatch new activities.
+  // run_push() returns when nothing is in flight any more, or at `until`.
+  using Sink = std::function<void(std::vector<ExecutorEvent>&)>;
+  virtual bool supports_push() const { return false; }
+  virtual void run_push(const Sink& /*sink*/, Time /*until*/) {}
 };
 
 }  // namespace rayline

@@ -13,14 +13,14 @@ void FetchPathFinder::clear() {
 }
 
 void FetchPathFinder::resource_changed(ResourceId r) {
-  for (BlockId b : users_of_resource_[r]) trees_[b].valid = false;
+  for (auto [b, m] : users_of_resource_[r]) trees_[b].dest_valid[m] = 0;
   users_of_resource_[r].clear();
 }
 
-FetchPathFinder::Tree& FetchPathFinder::tree(BlockId b) {
+FetchPathFinder::Tree& FetchPathFinder::tree(BlockId b, MemId m) {
   if (static_cast<std::size_t>(b) >= trees_.size()) trees_.resize(schedule_->pool().block_count());
   Tree& t = trees_[b];
-  if (t.valid && t.holders_version == schedule_->holders_version(b)) {
+  if (t.valid && t.dest_valid[m] && t.holders_version == schedule_->holders_version(b)) {
     ++hits_;
     return t;
   }
@@ -67,18 +67,19 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
       }
     }
   }
+  t.dest_valid.assign(nm, 1);
   for (std::size_t m = 0; m < nm; ++m)
-    if (t.via[m] != kNone)
-      for (ResourceId r : g.channels[t.via[m]].resources) users_of_resource_[r].push_back(b);
+    for (MemId q = static_cast<MemId>(m); t.via[q] != kNone; q = g.channels[t.via[q]].from)
+      for (ResourceId r : g.channels[t.via[q]].resources) users_of_resource_[r].emplace_back(b, static_cast<MemId>(m));
   t.valid = true;
   t.holders_version = schedule_->holders_version(b);
 }
 
-Time FetchPathFinder::arrival(BlockId b, MemId m) { return tree(b).arrival[m]; }
+Time FetchPathFinder::arrival(BlockId b, MemId m) { return tree(b, m).arrival[m]; }
 
 void FetchPathFinder::path(BlockId b, MemId m, std::vector<ChannelId>& out) {
   out.clear();
-  const Tree& t = tree(b);
+  const Tree& t = tree(b, m);
   if (t.arrival[m] == kNever) return;
   const DeviceGraph& g = schedule_->graph();
   for (MemId q = m; t.via[q] != kNone; q = g.channels[t.via[q]].from) out.push_back(t.via[q]);

@@ -5,8 +5,9 @@
 //     l_{S->q} = max(l_{S->p}, FinishTime(c_pq)) + T_TRANS(c_pq, |w|)        (Eq. 3)
 // One run yields a shortest-path tree to every memory device, so results are cached per
 // block and invalidated only by what a commit changes: the block's holders (versioned by
-// the Schedule) or the busy-until of a resource on the tree (pushed by the scheduler).
-// Within one planning pass costs never decrease, so a tree none of whose edges changed
+// the Schedule), or the busy-until of a resource on the path to a destination (pushed by
+// the scheduler; only the destinations whose path crosses that resource are invalidated).
+// Within one planning pass costs never decrease, so a path none of whose edges changed
 // stays optimal.
 //
 // Capacity is not part of the search (it would invalidate every tree reaching the
@@ -42,13 +43,14 @@ class FetchPathFinder {
     std::uint64_t holders_version = 0;
     std::vector<Time> arrival;     // per memory device
     std::vector<ChannelId> via;    // incoming tree channel per memory device (kNone at roots)
+    std::vector<char> dest_valid;  // per memory device: no resource on its path changed
   };
-  Tree& tree(BlockId b);
+  Tree& tree(BlockId b, MemId m);
   void search(BlockId b, Tree& t);
 
   const Schedule* schedule_;
   std::vector<Tree> trees_;
-  std::vector<std::vector<BlockId>> users_of_resource_;  // reverse index for invalidation
+  std::vector<std::vector<std::pair<BlockId, MemId>>> users_of_resource_;  // reverse index for invalidation
   std::vector<std::pair<Time, MemId>> heap_;
   std::vector<char> done_;
   std::uint64_t searches_ = 0, hits_ = 0;

@@ -17,30 +17,15 @@ Time GmbScheduler::aging_threshold() const {
   return std::max(1.0, 5 * opt_.horizon);
 }
 
-const std::array<double, kDataKindCount>& GmbScheduler::bytes_by_kind(JobId j, const JobPool& pool) {
-  if (static_cast<std::size_t>(j) >= job_bytes_.size()) {
-    job_bytes_.resize(pool.job_count());
-    job_bytes_known_.resize(pool.job_count(), 0);
-  }
-  if (!job_bytes_known_[j]) {
-    auto& a = job_bytes_[j];
-    a.fill(0);
-    for (BlockId b : pool.job(j).inputs)
-      a[static_cast<int>(pool.block(b).kind)] += static_cast<double>(pool.block(b).bytes);
-    job_bytes_known_[j] = 1;
-  }
-  return job_bytes_[j];
-}
-
 Time GmbScheduler::exec_estimate(JobId j, DeviceId d, const JobPool& pool, const Schedule& s) {
   const Job& job = pool.job(j);
   const ExecCoefficients& k = s.graph().timing.at(d, job.type);
-  const auto& bytes = bytes_by_kind(j, pool);
   double exec = 0;
   bool any = false;
-  for (int i = 0; i < kDataKindCount; ++i) {
-    exec += k.rate[i] * bytes[i];
-    any = any || bytes[i] > 0;
+  for (BlockId b : job.inputs) {
+    const DataBlock& blk = pool.block(b);
+    exec += k.rate[static_cast<int>(blk.kind)] * static_cast<double>(blk.bytes);
+    any = any || blk.bytes > 0;
   }
   return any ? exec + k.setup : 0;  // Eq. 2
 }
@@ -66,22 +51,84 @@ GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Tim
   return c;
 }
 
-// Sec. 4.3: the job that can start earliest on d (smallest fetching overhead), ties by
-// granularity T_SETUP/T_EXEC; aged jobs first.
+// Sec. 4.3 order: aged jobs first (oldest first); then the earliest possible start (the
+// smallest fetching overhead); ties to the smallest T_SETUP/T_EXEC (highest granularity);
+// then the job that entered the queue first.
+bool GmbScheduler::prefer(const Choice& c, const Choice& best) const {
+  if (best.job == kNone) return true;
+  if (c.aged != best.aged) return c.aged;
+  if (c.aged && c.created != best.created) return c.created < best.created;
+  if (!nearly_equal(c.start, best.start)) return c.start < best.start;
+  if (!nearly_equal(c.granularity, best.granularity)) return c.granularity < best.granularity;
+  return c.job < best.job;
+}
+
 GmbScheduler::Choice GmbScheduler::select(DeviceId d, Time ready, Time now, const JobPool& pool,
                                           const Schedule& s) {
+  if (!any_aged_) return select_pruned(d, ready, now, pool, s);
   Choice best;
   for (JobId j : pool.queued()) {
     if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
     const Choice c = evaluate(j, d, ready, now, pool, s);
-    if (c.job == kNone) continue;
-    bool better;
-    if (best.job == kNone) better = true;
-    else if (c.aged != best.aged) better = c.aged;
-    else if (c.aged && c.created != best.created) better = c.created < best.created;
-    else if (!nearly_equal(c.start, best.start)) better = c.start < best.start;
-    else better = c.granularity < best.granularity && !nearly_equal(c.granularity, best.granularity);
-    if (better) best = c;
+    if (c.job != kNone && prefer(c, best)) best = c;
+  }
+  return best;
+}
+
+void GmbScheduler::build_index(Time now, const JobPool& pool) {
+  buckets_.clear();
+  bucket_of_block_.assign(pool.block_count(), -1);
+  const Time aging = aging_threshold();
+  any_aged_ = false;
+  for (JobId j : pool.queued()) {
+    const Job& job = pool.job(j);
+    any_aged_ = any_aged_ || (aging != kNever && now - job.created >= aging);
+    BlockId key = kNone;
+    for (BlockId b : job.inputs)
+      if (key == kNone || pool.block(b).bytes > pool.block(key).bytes) key = b;
+    if (key == kNone) key = static_cast<BlockId>(pool.block_count());  // no inputs: its own bucket
+    if (static_cast<std::size_t>(key) >= bucket_of_block_.size()) bucket_of_block_.resize(static_cast<std::size_t>(key) + 1, -1);
+    if (bucket_of_block_[key] < 0) {
+      bucket_of_block_[key] = static_cast<std::int32_t>(buckets_.size());
+      buckets_.push_back({key, {}});
+    }
+    buckets_[static_cast<std::size_t>(bucket_of_block_[key])].jobs.push_back(j);
+  }
+}
+
+// Same choice as the full scan, visiting buckets by a lower bound on their start time:
+// the key block's ready time if it is on m already, otherwise now + the fastest single
+// hop into m (any fetch needs at least one).
+GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time now, const JobPool& pool,
+                                                 const Schedule& s) {
+  const DeviceGraph& g = s.graph();
+  const MemId m = g.computes[d].memory;
+  order_.clear();
+  for (std::size_t i = 0; i < buckets_.size(); ++i) {
+    Bucket& bk = buckets_[i];
+    std::erase_if(bk.jobs, [&](JobId j) { return pool.state(j) != JobState::Queued; });
+    if (bk.jobs.empty()) continue;
+    Time lb = ready;
+    if (static_cast<std::size_t>(bk.key) < pool.block_count()) {
+      if (const Copy* c = s.copy_at(bk.key, m)) {
+        lb = std::max(lb, s.copy_ready(*c));
+      } else {
+        Time hop = kNever;
+        for (ChannelId ch : g.in_channels(m)) hop = std::min(hop, g.transfer_time(ch, pool.block(bk.key).bytes));
+        lb = std::max(lb, now + hop);
+      }
+    }
+    order_.emplace_back(lb, static_cast<std::int32_t>(i));
+  }
+  std::sort(order_.begin(), order_.end());
+  Choice best;
+  for (const auto& [lb, i] : order_) {
+    if (best.job != kNone && lb > best.start && !nearly_equal(lb, best.start)) break;
+    for (JobId j : buckets_[static_cast<std::size_t>(i)].jobs) {
+      if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
+      const Choice c = evaluate(j, d, ready, now, pool, s);
+      if (c.job != kNone && prefer(c, best)) best = c;
+    }
   }
   return best;
 }
@@ -123,6 +170,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   placer_->finder().clear();
   placer_->finder().set_now(now);
   blocked_pairs_.clear();
+  build_index(now, pool);
   const std::uint64_t searches0 = placer_->finder().searches(), hits0 = placer_->finder().hits();
   now_ = now;
   const Time end = now + opt_.horizon;

@@ -50,15 +50,26 @@ class GmbScheduler final : public Scheduler {
   bool better_elsewhere(const Choice& c, DeviceId d, const JobPool& pool, const Schedule& s);
   Time exec_estimate(JobId j, DeviceId d, const JobPool& pool, const Schedule& s);
   bool commit(const Choice& c, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s, PlanStats& st);
-  const std::array<double, kDataKindCount>& bytes_by_kind(JobId j, const JobPool& pool);
 
   GmbOptions opt_;
   const Schedule* bound_ = nullptr;
   std::unique_ptr<Placer> placer_;
-  std::vector<std::array<double, kDataKindCount>> job_bytes_;
-  std::vector<char> job_bytes_known_;
   std::vector<std::pair<JobId, MemId>> blocked_pairs_;
   std::vector<JobId> deferred_;  // completion_aware: jobs left to other devices this placement
+  // Selection index (rebuilt each plan call): queued jobs grouped by their largest input
+  // ("key" block). A job cannot start before its key block is on the device's memory, so
+  // a bucket whose lower bound already loses to the best candidate is skipped whole.
+  struct Bucket {
+    BlockId key;
+    std::vector<JobId> jobs;
+  };
+  std::vector<Bucket> buckets_;
+  std::vector<std::int32_t> bucket_of_block_;
+  std::vector<std::pair<Time, std::int32_t>> order_;
+  bool any_aged_ = false;
+  void build_index(Time now, const JobPool& pool);
+  Choice select_pruned(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
+  bool prefer(const Choice& c, const Choice& best) const;
   Time now_ = 0;  // sorted: infeasible this round (capacity)
 };
 

@@ -50,6 +50,12 @@ void JobPool::mark_discarded(JobId j) {
   state_[j] = JobState::Discarded;
 }
 
+void JobPool::add_input(JobId j, BlockId b) {
+  if (state_[j] != JobState::Queued) throw std::logic_error("can only merge into a queued job");
+  jobs_[j].inputs.push_back(b);
+  ++demand_.at(b);
+}
+
 void JobPool::requeue(JobId j) {
   if (queue_pos_[j] >= 0) return;
   state_[j] = JobState::Queued;

@@ -32,6 +32,9 @@ class JobPool {
   void mark_done(JobId j);
   void mark_discarded(JobId j);  // Sec. 5.2: a predicted job that did not happen
   void requeue(JobId j);         // a planned job whose activity was cancelled/failed
+  // Sec. 5.1: a ray queue arriving where a queued job already holds one for the same block
+  // merges into it: the block becomes one more input of that (still unplanned) job.
+  void add_input(JobId j, BlockId b);
 
   // Queued jobs that read block b (eviction value: data still wanted by the queue).
   int queued_demand(BlockId b) const { return demand_[b]; }

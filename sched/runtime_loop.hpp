@@ -32,6 +32,9 @@ class RuntimeLoop {
 
  private:
   void plan_and_dispatch(Time now, RunStats& st);
+  bool handle(std::vector<ExecutorEvent>& events, RunStats& st);  // true: re-plan now
+  // After the executor drained: true when the run is over (finished or stalled).
+  bool drained(RunStats& st);
   Scheduler& scheduler_;
   Executor& executor_;
   Workload& workload_;

@@ -1,0 +1,23 @@
+// `rayline simulate`: run a schedule on the SimGrid virtual platform (issue 3).
+#pragma once
+#include <cstdint>
+#include <string>
+
+namespace rayline::cli {
+
+struct SimulateOptions {
+  std::string platform;            // default: paper-cluster
+  std::string workload = "ray-stream";
+  std::string scheduler = "gmb";
+  std::string horizon = "2s";
+  std::string duration = "60s";
+  std::uint64_t seed = 1;
+  double exec_noise = 0.0;
+  int blocks = 129;
+  std::string out = "out/simulate";
+  bool paje = false;
+  bool no_progress = false;
+};
+int run_simulate(const SimulateOptions& opt);
+
+}  // namespace rayline::cli

@@ -1,0 +1,85 @@
+#include "sim/sim_executor.hpp"
+
+#include <stdexcept>
+
+namespace rayline::sim {
+
+SimExecutor::SimExecutor(SgPlatform& platform, const Schedule& schedule, SimExecutorOptions opt)
+    : platform_(platform), schedule_(schedule), opt_(std::move(opt)),
+      last_on_channel_(schedule.graph().channels.size(), kNone) {}
+
+void SimExecutor::dispatch(ActivityId id, const Activity& a) {
+  if (static_cast<std::size_t>(id) >= st_.size()) {
+    st_.resize(static_cast<std::size_t>(id) + 1);
+    waiters_.resize(static_cast<std::size_t>(id) + 1);
+  }
+  State& s = st_[id];
+  s.dispatched = true;
+  if (a.kind == ActivityKind::Transfer) {
+    s.channel_prev = last_on_channel_[a.channel];
+    last_on_channel_[a.channel] = id;
+  }
+  try_start(id);
+}
+
+bool SimExecutor::ready(ActivityId dep, ActivityId waiter) {
+  if (static_cast<std::size_t>(dep) < st_.size() && st_[dep].done) return true;
+  if (static_cast<std::size_t>(dep) >= waiters_.size()) waiters_.resize(static_cast<std::size_t>(dep) + 1);
+  waiters_[dep].push_back(waiter);
+  return false;
+}
+
+void SimExecutor::try_start(ActivityId id) {
+  State& s = st_[id];
+  if (!s.dispatched || s.started) return;
+  const Activity& a = schedule_.activity(id);
+  for (ActivityId p : a.deps)
+    if (!ready(p, id)) return;
+  if (a.kind == ActivityKind::Exec || opt_.order_per_resource) {
+    for (ActivityId p : a.timeline_prev)
+      if (!ready(p, id)) return;
+  } else if (s.channel_prev != kNone && !ready(s.channel_prev, id)) {
+    return;
+  }
+  s.started = true;
+  ++started_count_;
+  buffered_.push_back({ExecutorEvent::Type::Started, id, platform_.now()});
+  auto cb = [this, id](const SgCompletion& c) { on_done(id, c.finish_s, c.ok); };
+  if (a.kind == ActivityKind::Transfer) {
+    platform_.start_transfer(a.channel, a.bytes, cb);
+  } else {
+    const double f = opt_.exec_factor ? opt_.exec_factor(id, a) : 1.0;
+    platform_.start_exec(a.device, a.duration * f, cb);
+  }
+}
+
+void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
+  st_[id].done = true;
+  std::vector<ExecutorEvent> events;
+  events.swap(buffered_);
+  events.push_back({ok ? ExecutorEvent::Type::Finished : ExecutorEvent::Type::Failed, id, finish});
+  std::vector<ActivityId> w;
+  if (static_cast<std::size_t>(id) < waiters_.size()) w.swap(waiters_[id]);
+  // Report first (the loop may re-plan and dispatch at this very instant), then start
+  // whatever this completion unblocked.
+  if (sink_) (*sink_)(events);
+  for (ActivityId x : w) try_start(x);
+}
+
+bool SimExecutor::advance(std::vector<ExecutorEvent>&) {
+  throw std::logic_error("SimExecutor runs in push mode only (SimGrid 3.32 runs to completion)");
+}
+
+void SimExecutor::run_push(const Sink& sink, Time until) {
+  sink_ = &sink;
+  if (until == kNever) platform_.run();
+  else platform_.run_until(until);
+  sink_ = nullptr;
+  if (!buffered_.empty()) {
+    std::vector<ExecutorEvent> events;
+    events.swap(buffered_);
+    sink(events);
+  }
+}
+
+}  // namespace rayline::sim

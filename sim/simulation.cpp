@@ -1,0 +1,228 @@
+#include "sim/simulation.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+#include "sched/error.hpp"
+#include "sched/gmb_scheduler.hpp"
+#include "sched/job_set.hpp"
+#include "sched/platform_loader.hpp"
+#include "sched/ray_stream.hpp"
+#include "sched/runtime_loop.hpp"
+#include "sched/trace_output.hpp"
+#include "sched/utilisation.hpp"
+#include "sim/sim_executor.hpp"
+
+namespace rayline::sim {
+
+namespace {
+
+void write_text(const std::filesystem::path& p, const std::string& text) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + p.string());
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(std::min<double>(static_cast<double>(v.size() - 1), q * static_cast<double>(v.size())))];
+}
+
+}  // namespace
+
+SimulationSummary run_simulation(const SimulationConfig& cfg) {
+  namespace fs = std::filesystem;
+  using nlohmann::json;
+  const auto wall0 = std::chrono::steady_clock::now();
+  if (cfg.scheduler != "gmb" && cfg.scheduler != "gmb-ca")
+    throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca)");
+  if (!(cfg.horizon > 0)) throw InputError("--horizon", "", "must be > 0");
+  if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
+  if (cfg.exec_noise < 0 || cfg.exec_noise >= 1) throw InputError("--exec-noise", "", "must be in [0, 1)");
+  const DeviceGraph g = load_platform(cfg.platform_file);
+  const bool stream = cfg.workload == "ray-stream";
+  std::unique_ptr<JobSet> set;
+  if (!stream) set = std::make_unique<JobSet>(load_job_set(cfg.workload, g));  // validate before any output
+
+  const fs::path out(cfg.out_dir);
+  const fs::path partial = out.string() + ".partial." + std::to_string(::getpid());
+  std::error_code ec;
+  fs::remove_all(partial, ec);
+  fs::create_directories(partial, ec);
+  if (ec) throw InputError(cfg.out_dir, "", "cannot create output directory: " + ec.message());
+  struct Cleanup {
+    fs::path p;
+    bool keep = false;
+    ~Cleanup() {
+      std::error_code e;
+      if (!keep) fs::remove_all(p, e);
+    }
+  } cleanup{partial};
+
+  SgOptions sgo;
+  if (cfg.paje)
+    sgo.config = {"tracing:yes", "tracing/uncategorized:yes", "tracing/precision:9",
+                  "tracing/filename:" + (partial / "simgrid.trace").string()};
+  SgPlatform platform(g, sgo);
+  JobPool pool_local;
+  JobPool& pool = set ? set->pool : pool_local;
+  Schedule s(g, pool);
+  std::unique_ptr<Workload> wl;
+  RayStreamWorkload* rs = nullptr;
+  if (stream) {
+    RayStreamOptions ro;
+    ro.blocks = cfg.blocks;
+    ro.seed = cfg.seed;
+    auto w = std::make_unique<RayStreamWorkload>(g, ro);
+    rs = w.get();
+    wl = std::move(w);
+  } else {
+    for (auto [b, m] : set->initial) s.put_initial(b, m);
+    wl = std::make_unique<StaticWorkload>();
+  }
+  GmbScheduler gmb({.horizon = cfg.horizon, .completion_aware = cfg.scheduler == "gmb-ca"});
+  SimExecutorOptions xo;
+  if (cfg.exec_noise > 0) {
+    const double n = cfg.exec_noise;
+    const std::uint64_t seed = cfg.seed;
+    xo.exec_factor = [n, seed](ActivityId id, const Activity&) {
+      std::uint64_t z = seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(id) * 0xBF58476D1CE4E5B9ull;
+      z = (z ^ (z >> 31)) * 0x94D049BB133111EBull;
+      z ^= z >> 29;
+      return 1 - n + 2 * n * (static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0));
+    };
+  }
+  SimExecutor ex(platform, s, xo);
+  RuntimeLoop loop(gmb, ex, *wl, pool, s);
+  auto last_print = std::chrono::steady_clock::now();
+  if (cfg.progress) {
+    loop.on_progress = [&](Time now, const RunStats&) {
+      const auto t = std::chrono::steady_clock::now();
+      if (t - last_print < std::chrono::milliseconds(500)) return;
+      last_print = t;
+      std::fprintf(stderr, "\r[simulate] t=%7.2f / %.0f s  rays %.3g  activities %zu   ", now, cfg.duration,
+                   rs ? static_cast<double>(rs->rays_traced()) : 0.0, s.activity_count());
+    };
+  }
+  const RunStats st = loop.run(stream ? cfg.duration : kNever);
+  if (cfg.progress) std::fprintf(stderr, "\n");
+  const Time end = stream ? cfg.duration : st.makespan;
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+
+  // ---- metrics ---------------------------------------------------------------------
+  json m;
+  m["platform"] = g.name;
+  m["platform_file"] = cfg.platform_file;
+  m["workload"] = cfg.workload;
+  m["scheduler"] = cfg.scheduler;
+  m["horizon_s"] = cfg.horizon;
+  m["seed"] = cfg.seed;
+  m["simulated_s"] = end;
+  m["stalled"] = st.stalled;
+  std::uint64_t done_exec = 0, done_transfer = 0;
+  std::vector<double> err_exec, err_transfer;
+  double work_done = 0;
+  std::vector<double> per_second(static_cast<std::size_t>(std::ceil(std::max<Time>(end, 1e-9))), 0.0);
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.state != ActivityState::Done) continue;
+    const double actual = a.end - a.start;
+    const double rel = a.duration > 0 ? std::abs(actual - a.duration) / a.duration : 0;
+    if (a.kind == ActivityKind::Exec) {
+      ++done_exec;
+      err_exec.push_back(rel);
+      const double w = static_cast<double>(pool.job(a.job).work);
+      work_done += w;
+      const auto bin = std::min(per_second.size() - 1, static_cast<std::size_t>(std::max(0.0, a.end)));
+      per_second[bin] += w;
+    } else {
+      ++done_transfer;
+      err_transfer.push_back(rel);
+    }
+  }
+  m["work_units_done"] = work_done;
+  m["rays_per_second"] = end > 0 ? work_done / end : 0;
+  m["rays_per_second_series"] = per_second;
+  m["activities"] = {{"e_jobs_done", done_exec}, {"t_jobs_done", done_transfer},
+                     {"committed", s.activity_count()}, {"evictions", s.evictions().size()},
+                     {"queued_at_end", pool.queued_count()}};
+  if (rs) m["activities"]["queue_merges"] = rs->merges();
+  auto mean = [](const std::vector<double>& v) {
+    double t = 0;
+    for (double x : v) t += x;
+    return v.empty() ? 0.0 : t / static_cast<double>(v.size());
+  };
+  m["prediction_error"] = {{"exec_mean_rel", mean(err_exec)}, {"exec_p95_rel", percentile(err_exec, 0.95)},
+                           {"transfer_mean_rel", mean(err_transfer)}, {"transfer_p95_rel", percentile(err_transfer, 0.95)}};
+  const Utilisation u = compute_utilisation(s, 0, end);
+  json devs = json::array();
+  std::map<std::string, DeviceTime> by_kind;
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    const DeviceTime& t = u.devices[d];
+    devs.push_back({{"name", g.computes[d].name}, {"kind", to_string(g.computes[d].kind)}, {"busy_s", t.busy},
+                    {"setup_s", t.setup}, {"fetching_s", t.fetching}, {"idle_s", t.idle},
+                    {"utilisation", t.utilisation(u.span)}});
+    DeviceTime& k = by_kind[std::string(to_string(g.computes[d].kind))];
+    k.busy += t.busy;
+    k.setup += t.setup;
+    k.fetching += t.fetching;
+    k.idle += t.idle;
+  }
+  m["devices"] = devs;
+  for (const auto& [k, t] : by_kind) {
+    const double tot = std::max(1e-300, t.busy + t.setup + t.fetching + t.idle);
+    m["device_summary"][k] = {{"busy", t.busy / tot}, {"setup", t.setup / tot}, {"fetching", t.fetching / tot},
+                              {"true_idle", t.idle / tot}};
+  }
+  // Channel utilisation: bytes moved (exact SimGrid integral) / (bandwidth x time).
+  std::vector<char> is_lan(g.resources.size(), 0);
+  for (const Channel& c : g.channels)
+    if (c.kind == "lan")
+      for (ResourceId r : c.resources) is_lan[r] = 1;
+  json res = json::array();
+  double lan_sum = 0;
+  int lan_n = 0;
+  for (std::size_t r = 0; r < g.resources.size(); ++r) {
+    const double bytes = platform.resource_bytes(static_cast<ResourceId>(r));
+    const double util = end > 0 ? bytes / (g.resources[r].bandwidth * end) : 0;
+    res.push_back({{"resource", g.resources[r].name}, {"bandwidth_Bps", g.resources[r].bandwidth}, {"bytes", bytes},
+                   {"utilisation", util}, {"lan", static_cast<bool>(is_lan[r])}});
+    if (is_lan[r]) {
+      lan_sum += util;
+      ++lan_n;
+    }
+  }
+  m["resources"] = res;
+  m["lan_utilisation_mean"] = lan_n ? lan_sum / lan_n : 0.0;
+  m["scheduler_cost"] = {{"wall_s", st.scheduler_wall_seconds}, {"plan_calls", st.plan_calls},
+                         {"share_of_simulated_time", end > 0 ? st.scheduler_wall_seconds / end : 0}};
+  m["simulator"] = {{"wall_s", wall}, {"speedup_vs_simulated", wall > 0 ? end / wall : 0},
+                    {"activities_per_wall_s", wall > 0 ? static_cast<double>(done_exec + done_transfer) / wall : 0}};
+
+  write_text(partial / "metrics.json", m.dump(2) + "\n");
+  write_text(partial / "jobs.csv", jobs_csv(s));
+  write_text(partial / "timeline.json", chrome_trace_json(s, true));
+  fs::remove_all(out, ec);
+  fs::rename(partial, out, ec);
+  if (ec) throw InputError(cfg.out_dir, "", "cannot move results into place: " + ec.message());
+  cleanup.keep = true;
+
+  SimulationSummary sum;
+  sum.simulated = end;
+  sum.wall_seconds = wall;
+  sum.scheduler_seconds = st.scheduler_wall_seconds;
+  sum.rays_per_second = end > 0 ? work_done / end : 0;
+  sum.activities = done_exec + done_transfer;
+  return sum;
+}
+
+}  // namespace rayline::sim

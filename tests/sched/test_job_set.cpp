@@ -1,0 +1,150 @@
+// Job-set files (rayline plan --jobs): parsing, every bad-input case naming the field,
+// the synthetic generator's determinism, and the trace / CSV outputs of a planned set.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "dcg_fixture.hpp"
+#include "sched/error.hpp"
+#include "sched/exact_executor.hpp"
+#include "sched/gmb_scheduler.hpp"
+#include "sched/job_set.hpp"
+#include "sched/runtime_loop.hpp"
+#include "sched/trace_output.hpp"
+#include "sched/utilisation.hpp"
+
+using namespace rayline;
+
+namespace {
+DeviceGraph two_node_graph() {
+  rayline::testing::DcgBuilder b;
+  const NodeId n0 = b.node("n0"), n1 = b.node("n1");
+  const MemId d0 = b.mem("n0.disk", Bytes(1) << 40, MemoryKind::Disk, n0);
+  const MemId r0 = b.mem("n0.ram", Bytes(8) << 30, MemoryKind::Host, n0);
+  const MemId r1 = b.mem("n1.ram", Bytes(8) << 30, MemoryKind::Host, n1);
+  b.half_duplex(d0, r0, 150e6, 0.01);
+  b.full_duplex(r0, r1, 125e6, 1e-4);
+  b.dev("n0.cpu0", r0);
+  b.dev("n1.cpu0", r1);
+  b.timing(0, DataKind::RayQueue, 32e6, 5e-6);
+  return b.build();
+}
+
+const char* kGood = R"({
+  "name": "tiny",
+  "blocks": [
+    {"name": "scene0", "kind": "SceneData", "size": "200MB", "at": ["n0.disk"]},
+    {"name": "rays0", "kind": "RayQueue", "size": "32MB", "at": ["n1.ram"], "scene_block": "scene0"},
+    {"name": "rays1", "kind": "RayQueue", "size": "16MB", "at": ["n0.ram"], "scene_block": "scene0"},
+    {"name": "hits0", "kind": "RayQueue", "size": "8MB"}
+  ],
+  "jobs": [
+    {"name": "j0", "type": "RayIntersect", "inputs": ["scene0", "rays0"], "outputs": ["hits0"], "work": 500000},
+    {"name": "j1", "type": "RayIntersect", "inputs": ["scene0", "rays1"]},
+    {"name": "j2", "type": "RayIntersect", "inputs": ["scene0", "hits0"], "after": ["j1"], "created": "0s"}
+  ]
+})";
+
+std::string error_of(const std::string& text) {
+  try {
+    parse_job_set(text, "jobs.json", two_node_graph());
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string with(const std::string& from, const std::string& to) {
+  std::string s = kGood;
+  const auto p = s.find(from);
+  if (p == std::string::npos) throw std::logic_error("fixture text not found: " + from);
+  return s.replace(p, from.size(), to);
+}
+}  // namespace
+
+TEST(JobSet, ParsesBlocksJobsAndDependencies) {
+  const DeviceGraph g = two_node_graph();
+  JobSet set = parse_job_set(kGood, "jobs.json", g);
+  ASSERT_EQ(set.pool.block_count(), 4u);
+  ASSERT_EQ(set.pool.job_count(), 3u);
+  EXPECT_EQ(set.pool.block(1).kind, DataKind::RayQueue);
+  EXPECT_TRUE(set.pool.block(1).consumed);
+  EXPECT_EQ(set.pool.block(1).scene_block, 0);
+  EXPECT_EQ(set.pool.block(0).bytes, 200000000u);
+  EXPECT_EQ(set.pool.producer(3), 0);
+  EXPECT_EQ(set.pool.job(2).after, std::vector<JobId>{1});
+  EXPECT_EQ(set.pool.job(0).work, 500000u);
+  EXPECT_EQ(set.initial.size(), 3u);
+}
+
+TEST(JobSet, BadInputNamesTheField) {
+  EXPECT_NE(error_of("{").find("invalid JSON"), std::string::npos);
+  EXPECT_NE(error_of(with("\"name\": \"tiny\",", "\"nmae\": \"tiny\",")).find("$.nmae: unknown key"), std::string::npos);
+  EXPECT_NE(error_of(with("\"size\": \"200MB\"", "\"size\": \"200 parsecs\"")).find("blocks[0].size"), std::string::npos);
+  EXPECT_NE(error_of(with("\"kind\": \"SceneData\"", "\"kind\": \"Scenery\"")).find("blocks[0].kind: unknown data kind"), std::string::npos);
+  EXPECT_NE(error_of(with("[\"n0.disk\"]", "[\"n9.disk\"]")).find("blocks[0].at: unknown memory device 'n9.disk'"), std::string::npos);
+  EXPECT_NE(error_of(with("\"type\": \"RayIntersect\", \"inputs\": [\"scene0\", \"rays1\"]", "\"type\": \"Teleport\", \"inputs\": [\"scene0\", \"rays1\"]"))
+                .find("jobs[1].type: unknown job type 'Teleport'"), std::string::npos);
+  EXPECT_NE(error_of(with("\"inputs\": [\"scene0\", \"rays1\"]", "\"inputs\": [\"scene0\", \"rays9\"]")).find("jobs[1].inputs: unknown block 'rays9'"), std::string::npos);
+  EXPECT_NE(error_of(with("\"after\": [\"j1\"]", "\"after\": [\"j7\"]")).find("jobs[2].after: unknown job 'j7'"), std::string::npos);
+  EXPECT_NE(error_of(with("{\"name\": \"j1\", \"type\": \"RayIntersect\", \"inputs\": [\"scene0\", \"rays1\"]}",
+                          "{\"name\": \"j1\", \"type\": \"RayIntersect\", \"inputs\": [\"scene0\", \"rays1\"], \"after\": [\"j2\"]}"))
+                .find("dependency cycle"), std::string::npos);
+  EXPECT_NE(error_of(with("\"outputs\": [\"hits0\"]", "\"outputs\": [\"rays1\"]")).find("placed initially and produced"), std::string::npos);
+  // An unused block is fine.
+  EXPECT_EQ(error_of(with("{\"name\": \"hits0\", \"kind\": \"RayQueue\", \"size\": \"8MB\"}",
+                          "{\"name\": \"hits0\", \"kind\": \"RayQueue\", \"size\": \"8MB\"}, "
+                          "{\"name\": \"orphan\", \"kind\": \"Generic\", \"size\": \"1MB\", \"at\": [\"n0.ram\"]}")),
+            "");
+  EXPECT_NE(error_of(with("\"outputs\": [\"hits0\"], ", "")).find("neither placed"), std::string::npos);
+  EXPECT_NE(error_of(with("\"name\": \"rays1\"", "\"name\": \"rays0\"")).find("duplicate block name"), std::string::npos);
+  EXPECT_NE(error_of(with("\"created\": \"0s\"", "\"created\": \"-3s\"")).find("jobs[2].created"), std::string::npos);
+}
+
+TEST(JobSet, PlannedSetProducesTraceCsvAndUtilisation) {
+  const DeviceGraph g = two_node_graph();
+  JobSet set = parse_job_set(kGood, "jobs.json", g);
+  Schedule s(g, set.pool);
+  for (auto [b, m] : set.initial) s.put_initial(b, m);
+  GmbScheduler gmb({.horizon = 2.0});
+  ExactExecutor ex(s);
+  StaticWorkload wl;
+  RuntimeLoop loop(gmb, ex, wl, set.pool, s);
+  const RunStats st = loop.run();
+  ASSERT_FALSE(st.stalled);
+  for (JobId j = 0; j < 3; ++j) EXPECT_EQ(set.pool.state(j), JobState::Done);
+  const auto check = rayline::testing::check_schedule(s, set.pool);
+  EXPECT_TRUE(check.errors.empty()) << check.errors.front();
+  // Chrome trace: valid JSON, one complete event per E-job, one per T-job and resource.
+  const auto trace = nlohmann::json::parse(chrome_trace_json(s, true));
+  int execs = 0, transfers = 0;
+  for (const auto& e : trace["traceEvents"]) {
+    if (e["ph"] != "X") continue;
+    const std::string cat = e["cat"];
+    if (cat.starts_with("E-job")) ++execs;
+    if (cat.starts_with("T-job")) ++transfers;
+  }
+  EXPECT_EQ(execs, 6);  // 3 planned + 3 actual
+  EXPECT_GT(transfers, 0);
+  const std::string csv = jobs_csv(s);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), static_cast<long>(s.activity_count() + 1));
+  EXPECT_NE(csv.find("n1.cpu0"), std::string::npos);
+  // Time split adds up to the span on every device.
+  const Utilisation u = compute_utilisation(s, 0, st.makespan);
+  for (const DeviceTime& t : u.devices) EXPECT_NEAR(t.busy + t.setup + t.fetching + t.idle, st.makespan, 1e-9);
+}
+
+TEST(JobSet, SyntheticIsDeterministicAndPlacesQueuesInHostMemory) {
+  const DeviceGraph g = two_node_graph();
+  const JobSet a = synthetic_ray_batching(g, 16, 100, 7), b = synthetic_ray_batching(g, 16, 100, 7),
+               c = synthetic_ray_batching(g, 16, 100, 8);
+  ASSERT_EQ(a.pool.block_count(), 116u);
+  bool differs = false;
+  for (std::size_t i = 0; i < a.pool.block_count(); ++i) {
+    EXPECT_EQ(a.pool.block(static_cast<BlockId>(i)).bytes, b.pool.block(static_cast<BlockId>(i)).bytes);
+    differs = differs || a.pool.block(static_cast<BlockId>(i)).bytes != c.pool.block(static_cast<BlockId>(i)).bytes;
+  }
+  EXPECT_TRUE(differs);
+  for (auto [blk, m] : a.initial)
+    EXPECT_EQ(g.memories[m].kind, a.pool.block(blk).kind == DataKind::SceneData ? MemoryKind::Disk : MemoryKind::Host);
+}
