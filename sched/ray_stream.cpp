@@ -55,6 +55,8 @@ BlockId RayStreamWorkload::new_queue_block(int block, std::uint64_t rays, JobPoo
 void RayStreamWorkload::add_queue(int block, std::uint64_t rays, MemId where, BlockId produced, Time now,
                                   JobPool& pool, Schedule& s) {
   BlockId qb = produced;
+  if (qb == kNone) primary_rays_ += rays;
+  else spawned_rays_ += rays;
   if (qb == kNone) {
     qb = new_queue_block(block, rays, pool);
     s.put_initial(qb, where, now, false);

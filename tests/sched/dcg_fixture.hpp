@@ -91,8 +91,21 @@ inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
   std::map<std::pair<BlockId, MemId>, std::vector<Stay>> stays;
   // Initial copies are those at mems no activity delivered to: reconstruct from the pool's
   // blocks with no producer job whose first use reads from a memory without a transfer in.
-  std::vector<std::vector<std::pair<ActivityId, MemId>>> arrivals(pool.block_count());
+  // Evictions are replayed in commit order: each closes the stay that was current when the
+  // activity needing the room was committed.
+  std::vector<std::vector<const Eviction*>> evictions_at(s.activity_count() + 1);
+  for (const Eviction& e : s.evictions())
+    if (e.for_activity >= 0 && static_cast<std::size_t>(e.for_activity) < s.activity_count())
+      evictions_at[static_cast<std::size_t>(e.for_activity)].push_back(&e);
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
+    for (const Eviction* e : evictions_at[static_cast<std::size_t>(id)]) {
+      auto it = stays.find({e->block, e->mem});
+      if (it == stays.end() || it->second.empty()) continue;  // an initial copy never used
+      Time at = 0;  // actual time: the end of the copy's producer and users
+      for (ActivityId a : e->after) at = std::max(at, s.activity(a).end);
+      Stay& st = it->second.back();
+      st.leave = std::min(st.leave, at);
+    }
     const Activity& a = s.activity(id);
     if (a.kind == ActivityKind::Transfer) {
       const Channel& c = g.channels[a.channel];
@@ -116,14 +129,6 @@ inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
         if (pool.block(b).consumed) st.leave = std::min(st.leave, a.end);
       }
     }
-  }
-  for (const Eviction& e : s.evictions()) {
-    auto it = stays.find({e.block, e.mem});
-    if (it == stays.end() || it->second.empty()) continue;  // an initial copy never used
-    Time at = 0;  // actual time: the end of the copy's producer and users
-    for (ActivityId a : e.after) at = std::max(at, s.activity(a).end);
-    Stay& st = it->second.back();
-    st.leave = std::min(st.leave, at);
   }
   // Every E-job input must stay until the job ends.
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {

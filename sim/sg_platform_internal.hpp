@@ -1,0 +1,76 @@
+// Sim-internal view of SgPlatform: the SimGrid objects behind each DCG element. Include
+// only from sim/*.cpp (it pulls in SimGrid's forward declarations).
+#pragma once
+#include <simgrid/forward.h>
+
+#include <cstdint>
+#include <exception>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+#include "sim/sg_platform.hpp"
+
+namespace rayline::sim {
+
+struct SgPlatform::Impl {
+  // The engine first: members below hold SimGrid references and are destroyed before it.
+  std::unique_ptr<simgrid::s4u::Engine> engine;
+  DeviceGraph graph;
+
+  std::vector<simgrid::s4u::Host*> memory_hosts;   // by MemId
+  std::vector<simgrid::s4u::Host*> compute_hosts;  // by DeviceId
+  std::vector<simgrid::s4u::Link*> resource_links;  // by ResourceId
+  std::vector<simgrid::s4u::Link*> channel_links;   // by ChannelId
+  std::vector<simgrid::s4u::Host*> channel_src;     // by ChannelId: memory host, or a relay
+  std::vector<simgrid::s4u::Host*> channel_dst;     // by ChannelId: memory host
+  std::vector<std::vector<std::int32_t>> channel_route;  // by ChannelId: link indices of its route
+
+  // Exact integrals, by link index (resources first, then channels) and by DeviceId.
+  std::vector<double> link_bytes;
+  std::vector<double> device_work_s;
+  std::vector<int> link_active, device_active;  // running SimGrid activities using it
+  std::vector<std::int32_t> active_links, active_devices;  // indices with active > 0 (lazily pruned)
+  std::vector<char> link_listed, device_listed;
+
+  struct Pending {
+    SgActivityId id = 0;
+    Time start_s = 0;
+    ChannelId channel = kNone;  // transfer, or
+    DeviceId device = kNone;    // exec
+    SgCallback done;
+    simgrid::s4u::ActivityPtr activity;  // null during the latency phase
+  };
+  std::unordered_map<SgActivityId, Pending> pending;
+  std::unordered_map<const simgrid::s4u::Activity*, SgActivityId> by_activity;
+  std::unordered_map<SgActivityId, simgrid::kernel::timer::Timer*> timers;  // latency phases, 0-cost items
+  // Finished activities: SimGrid still touches them after on_completion returns, so the
+  // last reference is dropped at the next time step (or after run()).
+  std::vector<simgrid::s4u::ActivityPtr> graveyard;
+  SgActivityId next_id = 1;
+  // Set once a callback threw (or on destruction): every pending activity is cancelled,
+  // no callback fires any more, start_* refuses; run() rethrows `error`.
+  bool stopped = false;
+  std::exception_ptr error;
+
+  void launch_comm(SgActivityId id, Bytes bytes);           // latency paid: start the Comm
+  void set_timer(SgActivityId id, Time date, bool launch, Bytes bytes);
+  void stop_all();                                          // cancel everything pending
+  void complete(SgActivityId id, Time finish_s, bool ok);  // bookkeeping, then the user callback
+  void on_time_advance(double delta);                      // integrate link/host usage
+  void use_channel_links(ChannelId c, int delta_count);
+  void mark_active(std::int32_t link, int delta_count);
+  void mark_device(DeviceId d, int delta_count);
+
+  simgrid::s4u::Host* memory_host(MemId m) const { return memory_hosts.at(m); }
+  simgrid::s4u::Host* compute_host(DeviceId d) const { return compute_hosts.at(d); }
+  simgrid::s4u::Link* resource_link(ResourceId r) const { return resource_links.at(r); }
+  simgrid::s4u::Link* channel_link(ChannelId c) const { return channel_links.at(c); }
+
+  std::int32_t resource_link_index(ResourceId r) const { return r; }
+  std::int32_t channel_link_index(ChannelId c) const {
+    return static_cast<std::int32_t>(graph.resources.size()) + c;
+  }
+};
+
+}  // namespace rayline::sim
