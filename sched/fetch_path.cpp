@@ -39,7 +39,9 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
   heap_.clear();
   auto cmp = [](const auto& a, const auto& c) { return a.first > c.first; };
   // Virtual source S: one edge per holder, weighted by the copy's ready time.
+  holder_.assign(nm, 0);
   for (const Copy& c : schedule_->copies(b)) {
+    holder_[c.mem] = 1;
     const Time r = std::max(now_, schedule_->copy_ready(c));
     if (r < t.arrival[c.mem]) {
       t.arrival[c.mem] = r;
@@ -56,7 +58,8 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
       done_[p] = 1;
       for (ChannelId c : g.out_channels(p)) {
         const MemId q = g.channels[c].to;
-        if (done_[q] || g.memories[q].capacity < blk.bytes) continue;
+        // A holder never receives a second copy (its own copy may still be in flight).
+        if (done_[q] || holder_[q] || g.memories[q].capacity < blk.bytes) continue;
         const Time lq = std::max(lp, schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);  // Eq. 3
         if (lq < t.arrival[q]) {
           t.arrival[q] = lq;

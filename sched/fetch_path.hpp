@@ -52,7 +52,7 @@ class FetchPathFinder {
   std::vector<Tree> trees_;
   std::vector<std::vector<std::pair<BlockId, MemId>>> users_of_resource_;  // reverse index for invalidation
   std::vector<std::pair<Time, MemId>> heap_;
-  std::vector<char> done_;
+  std::vector<char> done_, holder_;
   std::uint64_t searches_ = 0, hits_ = 0;
   Time now_ = 0;
 };

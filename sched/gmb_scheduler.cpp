@@ -96,9 +96,9 @@ void GmbScheduler::build_index(Time now, const JobPool& pool) {
   }
 }
 
-// Same choice as the full scan, visiting buckets by a lower bound on their start time:
-// the key block's ready time if it is on m already, otherwise now + the fastest single
-// hop into m (any fetch needs at least one).
+// Same choice as the full scan, visiting buckets in order of a lower bound on their start
+// (FetchBound on the key block), and evaluating exactly (SDC) only the jobs whose own
+// bound could still win.
 GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time now, const JobPool& pool,
                                                  const Schedule& s) {
   const DeviceGraph& g = s.graph();
@@ -109,25 +109,61 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
     std::erase_if(bk.jobs, [&](JobId j) { return pool.state(j) != JobState::Queued; });
     if (bk.jobs.empty()) continue;
     Time lb = ready;
-    if (static_cast<std::size_t>(bk.key) < pool.block_count()) {
-      if (const Copy* c = s.copy_at(bk.key, m)) {
-        lb = std::max(lb, s.copy_ready(*c));
-      } else {
-        Time hop = kNever;
-        for (ChannelId ch : g.in_channels(m)) hop = std::min(hop, g.transfer_time(ch, pool.block(bk.key).bytes));
-        lb = std::max(lb, now + hop);
-      }
-    }
+    if (static_cast<std::size_t>(bk.key) < pool.block_count())
+      lb = std::max(lb, bound_time_->lower_bound(s, bk.key, m, now));
+    if (lb == kNever) continue;
     order_.emplace_back(lb, static_cast<std::int32_t>(i));
   }
   std::sort(order_.begin(), order_.end());
   Choice best;
-  for (const auto& [lb, i] : order_) {
-    if (best.job != kNone && lb > best.start && !nearly_equal(lb, best.start)) break;
-    for (JobId j : buckets_[static_cast<std::size_t>(i)].jobs) {
+  auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
+  const Time aging = aging_threshold();
+  for (const auto& [blb, i] : order_) {
+    if (loses(blb)) break;
+    const Bucket& bk = buckets_[static_cast<std::size_t>(i)];
+    const bool has_key = static_cast<std::size_t>(bk.key) < pool.block_count();
+    // The key block's exact SDC arrival (one cached search per block and memory device).
+    Time key_at = ready;
+    if (has_key) {
+      if (const Copy* c = s.copy_at(bk.key, m)) {
+        key_at = std::max(ready, s.copy_ready(*c));
+      } else {
+        // When the best direct hop meets the lower bound, that is SDC's answer too.
+        const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now);
+        const Time at = ub <= blb * (1 + 1e-12) ? ub : placer_->finder().arrival(bk.key, m);
+        key_at = std::max(ready, at);
+      }
+    }
+    if (key_at == kNever || loses(key_at)) continue;
+    for (JobId j : bk.jobs) {
       if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
-      const Choice c = evaluate(j, d, ready, now, pool, s);
-      if (c.job != kNone && prefer(c, best)) best = c;
+      const Job& job = pool.job(j);
+      if (!g.timing.supports(d, job.type)) continue;
+      if (std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) continue;
+      Time start = std::max(key_at, s.after_deps_ready(j));
+      for (BlockId b : job.inputs) {
+        if (start == kNever || loses(start)) break;
+        if (has_key && b == bk.key) continue;
+        // Exact without a search when a direct hop already lands by `start`.
+        if (bound_time_->direct_upper_bound(s, b, m, now) <= start) continue;
+        if (loses(bound_time_->lower_bound(s, b, m, now))) {
+          start = kNever;
+          break;
+        }
+        const Copy* c = s.copy_at(b, m);
+        start = std::max(start, c ? s.copy_ready(*c) : placer_->finder().arrival(b, m));
+      }
+      if (start == kNever || loses(start)) continue;
+      Choice c;
+      c.job = j;
+      c.start = start;
+      c.created = job.created;
+      c.aged = aging != kNever && now - job.created >= aging;
+      if (opt_.granularity_tiebreak) {
+        const Time exec = exec_estimate(j, d, pool, s);
+        c.granularity = exec > 0 ? g.timing.setup_time(d, job.type) / exec : 0;
+      }
+      if (prefer(c, best)) best = c;
     }
   }
   return best;
@@ -151,6 +187,7 @@ bool GmbScheduler::better_elsewhere(const Choice& c, DeviceId d, const JobPool& 
   return false;
 }
 
+
 bool GmbScheduler::commit(const Choice& c, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s,
                           PlanStats& st) {
   if (placer_->place(c.job, d, ready, now, pool, s, st)) return true;
@@ -164,6 +201,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   PlanStats st;
   if (bound_ != &s || !placer_) {
     placer_ = std::make_unique<Placer>(s);
+    bound_time_ = std::make_unique<FetchBound>(s.graph());
     bound_ = &s;
   }
   s.reproject(now);

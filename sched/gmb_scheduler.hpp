@@ -13,6 +13,7 @@
 #include <memory>
 #include <vector>
 
+#include "fetch_bound.hpp"
 #include "placer.hpp"
 #include "scheduler.hpp"
 
@@ -54,6 +55,7 @@ class GmbScheduler final : public Scheduler {
   GmbOptions opt_;
   const Schedule* bound_ = nullptr;
   std::unique_ptr<Placer> placer_;
+  std::unique_ptr<FetchBound> bound_time_;
   std::vector<std::pair<JobId, MemId>> blocked_pairs_;
   std::vector<JobId> deferred_;  // completion_aware: jobs left to other devices this placement
   // Selection index (rebuilt each plan call): queued jobs grouped by their largest input

@@ -1,0 +1,111 @@
+// `rayline plan` and `rayline simulate` from the outside: defaults run, outputs are
+// complete and in standard formats, bad input exits 2 with the file and field named and
+// leaves no partial result behind.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+#include "cli_run.hpp"
+
+using rayline::testing::rayline_cli;
+namespace fs = std::filesystem;
+
+namespace {
+fs::path scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("rayline-cli-" + std::to_string(::getpid()) + "-" + name);
+  fs::remove_all(p);
+  return p;
+}
+const std::string kPlatforms = RAYLINE_PLATFORMS;
+const std::string kData = RAYLINE_TEST_DATA;
+}  // namespace
+
+TEST(CliPlan, HelpAndVersion) {
+  EXPECT_EQ(rayline_cli("--help").code, 0);
+  const auto v = rayline_cli("--version");
+  EXPECT_EQ(v.code, 0);
+  EXPECT_NE(v.out.find("rayline"), std::string::npos);
+  EXPECT_EQ(rayline_cli("plan --help").code, 0);
+  EXPECT_EQ(rayline_cli("simulate --help").code, 0);
+  EXPECT_EQ(rayline_cli("no-such-command").code, 2);
+  EXPECT_EQ(rayline_cli("plan --no-such-flag").code, 2);
+}
+
+TEST(CliPlan, DefaultsRunOnThePaperClusterAndWriteTraceAndCsv) {
+  const fs::path dir = scratch("plan");
+  fs::create_directories(dir);
+  const auto r = rayline_cli("plan --quiet --synthetic-jobs 300 --trace " + (dir / "t.json").string() + " --jobs-csv " +
+                             (dir / "j.csv").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("makespan"), std::string::npos);
+  EXPECT_NE(r.out.find("84 compute devices"), std::string::npos) << r.out;
+  std::ifstream t(dir / "t.json");
+  const auto trace = nlohmann::json::parse(t);
+  EXPECT_GT(trace["traceEvents"].size(), 300u);
+  EXPECT_TRUE(fs::exists(dir / "j.csv"));
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << "temporary file left: " << e.path();
+  fs::remove_all(dir);
+}
+
+TEST(CliPlan, JobFileOnAPlatformSubset) {
+  const auto r = rayline_cli("plan --platform " + kPlatforms + "/paper-2A.json --jobs " + kData + "/jobs/fig4.json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("E-jobs 2"), std::string::npos) << r.out;
+}
+
+TEST(CliPlan, BadInputExitsTwoNamingFileAndField) {
+  auto r = rayline_cli("plan --horizon 0s");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--horizon"), std::string::npos) << r.out;
+  r = rayline_cli("plan --horizon two");
+  EXPECT_EQ(r.code, 2);
+  r = rayline_cli("plan --jobs /nonexistent/jobs.json");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("/nonexistent/jobs.json"), std::string::npos) << r.out;
+  r = rayline_cli("plan --platform /nonexistent/platform.json");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("/nonexistent/platform.json"), std::string::npos) << r.out;
+  const fs::path bad = scratch("bad-jobs.json");
+  std::ofstream(bad) << R"({"blocks": [{"name": "b", "kind": "SceneData", "size": "1MB", "at": ["Z9.ram"]}], "jobs": []})";
+  r = rayline_cli("plan --jobs " + bad.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("blocks[0].at"), std::string::npos) << r.out;
+  r = rayline_cli("plan --synthetic-jobs 10 --trace /nonexistent-dir/trace.json");
+  EXPECT_EQ(r.code, 2);
+  fs::remove(bad);
+}
+
+TEST(CliSimulate, ShortRunWritesCompleteResults) {
+  const fs::path out = scratch("sim");
+  const auto r = rayline_cli("simulate --platform paper-A --duration 5s --no-progress --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream f(out / "metrics.json");
+  const auto m = nlohmann::json::parse(f);
+  for (const char* key : {"rays_per_second", "rays_per_second_series", "devices", "device_summary", "resources",
+                          "lan_utilisation_mean", "prediction_error", "scheduler_cost", "simulator"})
+    EXPECT_TRUE(m.contains(key)) << key;
+  EXPECT_GT(m["rays_per_second"].get<double>(), 0);
+  EXPECT_DOUBLE_EQ(m["simulated_s"].get<double>(), 5.0);
+  EXPECT_TRUE(fs::exists(out / "jobs.csv"));
+  std::ifstream t(out / "timeline.json");
+  EXPECT_TRUE(nlohmann::json::parse(t).contains("traceEvents"));
+  fs::remove_all(out);
+}
+
+TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
+  const fs::path out = scratch("sim-bad");
+  for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
+                                 "--platform /nonexistent.json", "--exec-noise 2"}) {
+    const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
+    EXPECT_EQ(r.code, 2) << args << ": " << r.out;
+    EXPECT_FALSE(fs::exists(out)) << args;
+    bool partial = false;
+    for (const auto& e : fs::directory_iterator(out.parent_path()))
+      partial = partial || e.path().filename().string().starts_with(out.filename().string() + ".partial");
+    EXPECT_FALSE(partial) << args;
+  }
+}
