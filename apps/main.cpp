@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include "apps/cli_common.hpp"
+#include "apps/cmd_generate.hpp"
 #include "apps/cmd_plan.hpp"
 #include "apps/cmd_platform.hpp"
 #include "apps/cmd_simulate.hpp"
@@ -58,6 +59,20 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->callback([opt, &action] { action = [opt] { return run_simulate(*opt); }; });
 }
 
+void add_generate(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<GenerateOptions>();
+  auto* gen = app.add_subcommand(
+      "generate", "Write a procedural scene (binary PLY + companion scene JSON), deterministic per seed");
+  gen->add_option("name", opt->name, "Generator: museum-like, boeing-like, cornell, furnace, block-crossing");
+  gen->add_option("--triangles,-n", opt->triangles, "Triangle count, K/M/G suffixes allowed (default: per generator)");
+  gen->add_option("--out,-o", opt->out, "Mesh output path (.ply)");
+  gen->add_option("--seed", opt->seed, "Random seed")->default_val(opt->seed);
+  gen->add_option("--scene-out", opt->scene_out, "Companion scene JSON (default: OUT with .json; '-': none)");
+  gen->add_flag("--list", opt->list, "List the generators and exit");
+  gen->add_flag("--quiet,-q", opt->quiet, "Print only the timing line");
+  gen->callback([opt, &action] { action = [opt] { return run_generate(*opt); }; });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -68,6 +83,7 @@ int main(int argc, char** argv) {
   add_platform(app, action);
   add_plan(app, action);
   add_simulate(app, action);
+  add_generate(app, action);
   // New subcommands: add an add_<name>(app, action) above and call it here.
   try {
     app.parse(argc, argv);

@@ -1,5 +1,6 @@
 #include "sim/sim_executor.hpp"
 
+#include <chrono>
 #include <stdexcept>
 
 namespace rayline::sim {
@@ -54,6 +55,7 @@ void SimExecutor::try_start(ActivityId id) {
 }
 
 void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
+  const auto t0 = std::chrono::steady_clock::now();
   st_[id].done = true;
   std::vector<ExecutorEvent> events;
   events.swap(buffered_);
@@ -64,6 +66,7 @@ void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   // whatever this completion unblocked.
   if (sink_) (*sink_)(events);
   for (ActivityId x : w) try_start(x);
+  callback_wall_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 bool SimExecutor::advance(std::vector<ExecutorEvent>&) {

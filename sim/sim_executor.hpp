@@ -30,6 +30,9 @@ class SimExecutor final : public Executor {
   void run_push(const Sink& sink, Time until) override;
 
   std::size_t started() const { return started_count_; }
+  // Wall seconds spent in our completion handling (runtime loop, scheduler, bookkeeping);
+  // the rest of run_push() is SimGrid's own work (max-min solver, event queue).
+  double callback_wall_seconds() const { return callback_wall_; }
 
  private:
   void try_start(ActivityId id);
@@ -49,6 +52,7 @@ class SimExecutor final : public Executor {
   std::vector<ExecutorEvent> buffered_;  // Started events, delivered with the next batch
   const Sink* sink_ = nullptr;
   std::size_t started_count_ = 0;
+  double callback_wall_ = 0;
 };
 
 }  // namespace rayline::sim

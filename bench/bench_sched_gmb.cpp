@@ -1,0 +1,55 @@
+// GMB planning speed (issue 2): placements per second and wall time to plan a full 2 s
+// horizon on the paper cluster with 129 scene blocks and 1 000 queued RayIntersect jobs.
+// A placement is one committed E-job or T-job. Run: build/bench/bench_sched_gmb
+#include <benchmark/benchmark.h>
+
+#include "sched/gmb_scheduler.hpp"
+#include "sched/job_set.hpp"
+#include "sched/platform_loader.hpp"
+
+using namespace rayline;
+
+namespace {
+
+void plan_horizon(benchmark::State& state, const char* platform, int blocks, int jobs, Time horizon) {
+  const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/" + platform);
+  const JobSet base = synthetic_ray_batching(g, blocks, jobs, 42);
+  double placements = 0, execs = 0, searches = 0, hits = 0, plan_seconds = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    JobSet set = base;
+    auto s = std::make_unique<Schedule>(g, set.pool);
+    for (auto [b, m] : set.initial) s->put_initial(b, m);
+    GmbScheduler gmb({.horizon = horizon});
+    state.ResumeTiming();
+    const PlanStats st = gmb.plan(0, set.pool, *s);
+    benchmark::DoNotOptimize(st);
+    state.PauseTiming();
+    placements += st.execs + st.transfers;
+    execs += st.execs;
+    searches += static_cast<double>(st.path_searches);
+    hits += static_cast<double>(st.path_cache_hits);
+    plan_seconds += st.wall_seconds;
+    s.reset();
+    state.ResumeTiming();
+  }
+  state.counters["placements/s"] = benchmark::Counter(placements, benchmark::Counter::kIsRate);
+  state.counters["placements"] = benchmark::Counter(placements, benchmark::Counter::kAvgIterations);
+  state.counters["E-jobs"] = benchmark::Counter(execs, benchmark::Counter::kAvgIterations);
+  state.counters["sdc_searches"] = benchmark::Counter(searches, benchmark::Counter::kAvgIterations);
+  state.counters["sdc_cache_hit%"] = hits + searches > 0 ? 100 * hits / (hits + searches) : 0;
+  state.counters["plan_ms"] = benchmark::Counter(plan_seconds * 1e3, benchmark::Counter::kAvgIterations);
+}
+
+void BM_GmbPaperCluster_2s(benchmark::State& s) { plan_horizon(s, "paper-cluster.json", 129, 1000, 2.0); }
+void BM_GmbPaperCluster_10s(benchmark::State& s) { plan_horizon(s, "paper-cluster.json", 129, 1000, 10.0); }
+void BM_GmbPaperCluster_all(benchmark::State& s) { plan_horizon(s, "paper-cluster.json", 129, 1000, 1e9); }
+void BM_GmbSingleNodeA_2s(benchmark::State& s) { plan_horizon(s, "paper-A.json", 129, 1000, 2.0); }
+
+}  // namespace
+
+BENCHMARK(BM_GmbPaperCluster_2s)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GmbPaperCluster_10s)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GmbPaperCluster_all)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_GmbSingleNodeA_2s)->Unit(benchmark::kMillisecond);
+BENCHMARK_MAIN();

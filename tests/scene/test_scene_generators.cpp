@@ -1,0 +1,117 @@
+// Generators: exact triangle budgets, byte-identical output per seed, sane bounds, files
+// readable by both PLY paths, companion scenes that load and stream the same count.
+#include <gtest/gtest.h>
+
+#include "render/scene/builder.hpp"
+#include "render/scene/generators.hpp"
+#include "render/scene/mesh_import.hpp"
+#include "render/scene/scene_stream.hpp"
+#include "scene_fixture.hpp"
+#include "sched/error.hpp"
+
+namespace rayline::scene {
+namespace {
+
+class Generate : public testing::TempDir {};
+
+struct Case {
+  const char* name;
+  std::uint64_t triangles;
+  Float3 lo, hi;  // bounds must lie within
+};
+const Case kCases[] = {
+    {"cornell", 1000, {0, 0, 0}, {1, 1, 1}},
+    {"furnace", 5000, {-1.0001f, -1.0001f, -1.0001f}, {1.0001f, 1.0001f, 1.0001f}},
+    {"block-crossing", 3000, {-1.1f, -1.1f, -1.1f}, {1.1f, 1.1f, 1.1f}},
+    {"museum-like", 60000, {-16.5f, -0.5f, -12.5f}, {16.5f, 12.5f, 12.5f}},
+    {"boeing-like", 60000, {-0.5f, -4, -19}, {65, 7, 19}},
+};
+
+TEST(ExactPatch, GivesExactlyTheCount) {
+  for (std::uint64_t n = 1; n <= 300; ++n) {
+    MeshBuilder mb;
+    mb.exact_patch(n, {0, 0, 0}, {1, 0, 0}, {0, 1, 0});
+    ASSERT_EQ(mb.triangle_count(), n);
+    CountingSink c;
+    mb.flush(c, 0);
+    EXPECT_NEAR(c.bounds.hi.x, 1, 1e-6f);
+    EXPECT_NEAR(c.bounds.hi.y, 1, 1e-6f);
+  }
+}
+
+TEST_F(Generate, CountsAndBounds) {
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(c.name);
+    CountingSink sink;
+    run_generator(c.name, c.triangles, 7, sink);
+    EXPECT_LE(std::abs(double(sink.triangles) - double(c.triangles)), 0.01 * double(c.triangles));
+    EXPECT_GE(sink.bounds.lo.x, c.lo.x); EXPECT_GE(sink.bounds.lo.y, c.lo.y); EXPECT_GE(sink.bounds.lo.z, c.lo.z);
+    EXPECT_LE(sink.bounds.hi.x, c.hi.x); EXPECT_LE(sink.bounds.hi.y, c.hi.y); EXPECT_LE(sink.bounds.hi.z, c.hi.z);
+    EXPECT_GT(length(sink.bounds.extent()), 0.5f);
+  }
+}
+
+TEST_F(Generate, CountScalesAcrossSizes) {
+  for (const char* name : {"museum-like", "boeing-like"})
+    for (std::uint64_t n : {20'000ull, 123'457ull, 400'000ull}) {
+      CountingSink sink;
+      run_generator(name, n, 1, sink);
+      EXPECT_LE(std::abs(double(sink.triangles) - double(n)), 0.01 * double(n)) << name << " " << n;
+    }
+}
+
+TEST_F(Generate, SameSeedSameBytes) {
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(c.name);
+    const auto a = generate_to_file(c.name, c.triangles, 11, path("a.ply"));
+    const auto b = generate_to_file(c.name, c.triangles, 11, path("b.ply"));
+    EXPECT_EQ(a.triangles, b.triangles);
+    EXPECT_TRUE(read(path("a.ply")) == read(path("b.ply")));
+    if (std::string(c.name) != "cornell" && std::string(c.name) != "furnace") {
+      generate_to_file(c.name, c.triangles, 12, path("c.ply"));
+      EXPECT_FALSE(read(path("a.ply")) == read(path("c.ply"))) << "seed has no effect";
+    }
+  }
+}
+
+TEST_F(Generate, FileIsReadableAndCompanionSceneLoads) {
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(c.name);
+    const auto r = generate_to_file(c.name, c.triangles, 5, path("g.ply"));
+    EXPECT_EQ(r.scene_path, path("g.json"));
+    const ImportStats native = mesh_file_stats(path("g.ply"));
+    EXPECT_EQ(native.triangles, r.triangles);
+    const ImportStats viaassimp =
+        stream_mesh_file(path("g.ply"), {}, [](std::span<const Triangle>) {}, ImportPath::assimp);
+    EXPECT_EQ(viaassimp.triangles, r.triangles);
+    const Scene s = load_scene(path("g.json"));
+    std::vector<std::uint64_t> per_material(s.materials.size());
+    const ImportStats st = stream_scene(s, [&](std::span<const Triangle> b) {
+      for (auto& t : b) ++per_material.at(t.material);
+    });
+    EXPECT_EQ(st.triangles, r.triangles);
+    // No temporaries left behind.
+    int files = 0;
+    for (auto& e : std::filesystem::directory_iterator(dir_)) files += e.path().string().find(".tmp.") != std::string::npos;
+    EXPECT_EQ(files, 0);
+  }
+}
+
+TEST_F(Generate, GeneratorMeshInSceneStreamsWithoutFiles) {
+  MeshInstance m;
+  m.generator = "museum-like";
+  m.triangles = 30000;
+  m.seed = 2;
+  const Scene s = generator_scene("museum-like", m, {});
+  EXPECT_EQ(scene_stats(s).triangles, 30000u);
+}
+
+TEST_F(Generate, BadRequests) {
+  CountingSink sink;
+  EXPECT_THROW(run_generator("sponza", 1000, 1, sink), InputError);
+  EXPECT_THROW(run_generator("museum-like", 10, 1, sink), InputError);
+  EXPECT_THROW(generate_to_file("cornell", 1000, 1, path("missing-dir/x.ply")), InputError);
+}
+
+}  // namespace
+}  // namespace rayline::scene
