@@ -1,8 +1,12 @@
-// `rayline platform check FILE`: validate (via the loader) and summarise a DCG.
+// `rayline platform check FILE`: validate (via the loader) and summarise a DCG (Sec. 3.2):
+// counts, and the uncontended Eq. 1 fetch time of one block from the nearest disk to every
+// memory device (the "move data or move rays" trade-off of Sec. 6 at a glance).
 #include "apps/cmd_platform.hpp"
 
 #include <cstdio>
 #include <map>
+#include <string>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "apps/platform_path.hpp"
@@ -38,7 +42,10 @@ int run_platform_check(const PlatformCheckOptions& opt) {
     j["resources"] = g.resources.size();
     j["job_types"] = g.job_types;
     j["block_bytes"] = block;
-    for (std::size_t m = 0; m < g.memories.size(); ++m) j["shortest_fetch_s"][g.memories[m].name] = fetch[m];
+    j["shortest_fetch_s"] = nlohmann::json::object();
+    for (std::size_t m = 0; m < g.memories.size(); ++m)  // null: unreachable from every disk
+      j["shortest_fetch_s"][g.memories[m].name] =
+          fetch[m] == kNever ? nlohmann::json(nullptr) : nlohmann::json(fetch[m]);
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
@@ -54,9 +61,13 @@ int run_platform_check(const PlatformCheckOptions& opt) {
   std::printf("  channels         %zu (on %zu contended resources)\n", g.channels.size(), g.resources.size());
   std::printf("\nshortest fetch of a %s block from any disk (Eq. 1 along the best path, no contention):\n",
               opt.block_size.c_str());
-  for (std::size_t m = 0; m < g.memories.size(); ++m)
-    std::printf("  %-16s %-5s %10.4f s\n", g.memories[m].name.c_str(), std::string(to_string(g.memories[m].kind)).c_str(),
-                fetch[m]);
+  for (std::size_t m = 0; m < g.memories.size(); ++m) {
+    const std::string kind(to_string(g.memories[m].kind));
+    if (fetch[m] == kNever)
+      std::printf("  %-16s %-5s %12s\n", g.memories[m].name.c_str(), kind.c_str(), "unreachable");
+    else
+      std::printf("  %-16s %-5s %10.4f s\n", g.memories[m].name.c_str(), kind.c_str(), fetch[m]);
+  }
   return 0;
 }
 

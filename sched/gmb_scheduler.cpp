@@ -175,18 +175,21 @@ bool GmbScheduler::better_elsewhere(const Choice& c, DeviceId d, const JobPool& 
   if (c.aged) return false;
   const Time finish_here = c.start + exec_estimate(c.job, d, pool, s);
   const DeviceGraph& g = s.graph();
+  const Job& job = pool.job(c.job);
   for (std::size_t o = 0; o < g.computes.size(); ++o) {
     const auto od = static_cast<DeviceId>(o);
-    if (od == d || !g.timing.supports(od, pool.job(c.job).type)) continue;
+    if (od == d || !g.timing.supports(od, job.type)) continue;
     const Time ready_o = std::max(now_, s.device_timeline(od).busy_until);
-    if (ready_o >= finish_here) continue;
+    const Time exec_o = exec_estimate(c.job, od, pool, s);
+    if (ready_o + exec_o >= finish_here) continue;  // cheap prunes first,
+    Time lb = ready_o;
+    for (BlockId b : job.inputs) lb = std::max(lb, bound_time_->lower_bound(s, b, g.computes[od].memory, now_));
+    if (lb + exec_o >= finish_here) continue;  // then FetchBound, then the exact SDC start
     const Time start_o = placer_->earliest_start(c.job, od, ready_o, s);
-    if (start_o == kNever) continue;
-    if (start_o + exec_estimate(c.job, od, pool, s) < finish_here * (1 - 1e-9)) return true;
+    if (start_o != kNever && start_o + exec_o < finish_here * (1 - 1e-9)) return true;
   }
   return false;
 }
-
 
 bool GmbScheduler::commit(const Choice& c, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s,
                           PlanStats& st) {
@@ -225,7 +228,8 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     for (;;) {
       const Choice c = select(d, ready, now, pool, s);
       if (c.job == kNone) break;  // nothing this device can run: it leaves this round
-      if (opt_.completion_aware && c.start > ready && better_elsewhere(c, d, pool, s)) {
+      // At most 16 deferrals per placement keep the refinement's cost bounded.
+      if (opt_.completion_aware && c.start > ready && deferred_.size() < 16 && better_elsewhere(c, d, pool, s)) {
         deferred_.push_back(c.job);
         continue;
       }

@@ -1,5 +1,12 @@
-// Platform files (schema: platforms/README.md). Node types are templates; nodes
-// instantiate them; networks join node memories through per-node NIC resources.
+// Platform files -> device connectivity graph (DCG, Sec. 3.2, Fig. 2). Schema and every
+// assumed number: platforms/README.md. In short:
+//   * node_types are templates (memory devices, compute devices, intra-node channels);
+//   * nodes instantiate a type and may patch it: an entry of the node's memory/compute/
+//     channels lists with the name of a template entry is merged into it (RFC 7396 merge
+//     patch, null deletes a key), an entry with a new name is added;
+//   * networks join one memory device per member node through per-node NIC resources.
+// Every problem is an InputError(file, JSON path of the field, message). nlohmann_json
+// stays inside this file (the header does not include it).
 #include "sched/platform_loader.hpp"
 
 #include <fstream>
@@ -8,6 +15,7 @@
 #include <queue>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include "sched/error.hpp"
 #include "sched/units.hpp"
@@ -21,24 +29,35 @@ namespace {
 const std::vector<std::string> kDefaultJobTypes = {"RayIntersect", "ShadowIntersect", "GenerateRays", "Shade",
                                                    "Accumulate", "AdditiveCompose", "Compute"};
 
+std::string join(const std::string& field, const std::string& key) { return field.empty() ? key : field + "." + key; }
+std::string at(const std::string& field, std::size_t i) { return field + "[" + std::to_string(i) + "]"; }
+
+std::string type_name(const json& v) { return v.type_name(); }
+
 struct Ctx {
   std::string file;
 
   [[noreturn]] void fail(const std::string& field, const std::string& msg) const { throw InputError(file, field, msg); }
 
+  // Unknown keys are errors: a typo ("bandwith") must not silently fall back to a default.
   void keys(const json& o, const std::set<std::string>& allowed, const std::string& field) const {
-    if (!o.is_object()) fail(field, "expected an object");
+    if (!o.is_object()) fail(field.empty() ? "(top level)" : field, "expected an object, got " + type_name(o));
     for (auto it = o.begin(); it != o.end(); ++it)
-      if (!allowed.count(it.key())) fail(field + "." + it.key(), "unknown key");
+      if (!allowed.count(it.key())) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        fail(join(field, it.key()), "unknown key (allowed: " + list + ")");
+      }
   }
   const json& need(const json& o, const char* k, const std::string& field) const {
     auto it = o.find(k);
-    if (it == o.end()) fail(field + "." + k, "missing");
+    if (it == o.end()) fail(join(field, k), "missing");
     return *it;
   }
   std::string str(const json& o, const char* k, const std::string& field) const {
     const json& v = need(o, k, field);
-    if (!v.is_string() || v.get<std::string>().empty()) fail(field + "." + k, "expected a non-empty string");
+    if (!v.is_string() || v.get<std::string>().empty())
+      fail(join(field, k), "expected a non-empty string, got " + type_name(v));
     return v.get<std::string>();
   }
   std::string opt_str(const json& o, const char* k, const std::string& field, const std::string& def) const {
@@ -48,218 +67,341 @@ struct Ctx {
     static const json empty = json::array();
     auto it = o.find(k);
     if (it == o.end()) {
-      if (required) fail(field + "." + k, "missing");
+      if (required) fail(join(field, k), "missing");
       return empty;
     }
-    if (!it->is_array()) fail(field + "." + k, "expected an array");
+    if (!it->is_array()) fail(join(field, k), "expected an array, got " + type_name(*it));
     return *it;
   }
-  double bytes(const json& o, const char* k, const std::string& field) const {
+  template <class F>
+  double quantity(const json& o, const char* k, const std::string& field, F parse) const {
+    const std::string s = str(o, k, field);
     try {
-      return units::parse_bytes(str(o, k, field));
+      return parse(s);
     } catch (const std::invalid_argument& e) {
-      fail(field + "." + k, e.what());
+      fail(join(field, k), e.what());
     }
   }
-  double bandwidth(const json& o, const char* k, const std::string& field) const {
-    try {
-      return units::parse_bandwidth(str(o, k, field));
-    } catch (const std::invalid_argument& e) {
-      fail(field + "." + k, e.what());
-    }
+  double bytes(const json& o, const char* k, const std::string& f) const { return quantity(o, k, f, units::parse_bytes); }
+  double bandwidth(const json& o, const char* k, const std::string& f) const {
+    return quantity(o, k, f, units::parse_bandwidth);
   }
-  double duration(const json& o, const char* k, const std::string& field) const {
-    try {
-      return units::parse_duration(str(o, k, field));
-    } catch (const std::invalid_argument& e) {
-      fail(field + "." + k, e.what());
-    }
+  double duration(const json& o, const char* k, const std::string& f) const {
+    return quantity(o, k, f, units::parse_duration);
+  }
+  Duplex duplex(const json& o, const std::string& f) const {
+    const std::string d = opt_str(o, "duplex", f, "full");
+    if (d == "half") return Duplex::Half;
+    if (d == "full") return Duplex::Full;
+    fail(join(f, "duplex"), "expected \"half\" (one medium shared by both directions) or \"full\", got \"" + d + "\"");
   }
 };
 
-std::string at(const std::string& field, std::size_t i) { return field + "[" + std::to_string(i) + "]"; }
+// One entry of a node's memory/compute/channels list after applying the node's patches,
+// with the JSON path to report its errors at (the node's own entry when it touched it).
+struct Entry {
+  json value;
+  std::string field;
+};
+
+std::vector<Entry> merged_list(const Ctx& cx, const json* type, const std::string& tf, const json& node,
+                               const std::string& nf, const char* key) {
+  std::vector<Entry> out;
+  auto name_of = [&](const json& e, const std::string& f) {
+    if (!e.is_object()) cx.fail(f, "expected an object, got " + type_name(e));
+    return cx.str(e, "name", f);
+  };
+  if (type) {
+    const json& list = cx.arr(*type, key, tf, false);
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string f = at(join(tf, key), i);
+      name_of(list[i], f);
+      out.push_back({list[i], f});
+    }
+  }
+  const json& patches = cx.arr(node, key, nf, false);
+  for (std::size_t i = 0; i < patches.size(); ++i) {
+    const std::string f = at(join(nf, key), i);
+    const std::string n = name_of(patches[i], f);
+    bool merged = false;
+    for (Entry& e : out)
+      if (e.value.is_object() && e.value.value("name", std::string()) == n) {
+        e.value.merge_patch(patches[i]);
+        e.field = f;
+        merged = true;
+        break;
+      }
+    if (!merged) out.push_back({patches[i], f});
+  }
+  return out;
+}
+
+struct PendingTiming {
+  DeviceId device;
+  json timing;
+  std::string field;
+};
 
 }  // namespace
 
 DeviceGraph parse_platform(std::string_view text, const std::string& file) {
   Ctx cx{file};
   json root;
+  // JSON itself lets a key repeat (the last one wins); in a platform file that is almost
+  // always a copy-paste slip ("A" defined twice), so reject it with its path.
+  struct Frame {
+    bool object;
+    std::string name, key;
+    std::set<std::string> keys;
+  };
+  std::vector<Frame> stack;
+  auto path = [&] {
+    std::string p;
+    for (std::size_t i = 1; i < stack.size(); ++i)
+      p += stack[i].name == "[]" ? "[]" : (p.empty() ? "" : ".") + stack[i].name;
+    return p;
+  };
+  const json::parser_callback_t no_duplicate_keys = [&](int, json::parse_event_t ev, json& v) {
+    using E = json::parse_event_t;
+    if (ev == E::object_start || ev == E::array_start) {
+      std::string name;
+      if (!stack.empty()) name = stack.back().object ? stack.back().key : "[]";
+      stack.push_back({ev == E::object_start, name, "", {}});
+    } else if (ev == E::object_end || ev == E::array_end) {
+      if (!stack.empty()) stack.pop_back();
+    } else if (ev == E::key && !stack.empty()) {
+      const std::string k = v.is_string() ? v.get<std::string>() : std::string();
+      if (!stack.back().keys.insert(k).second) cx.fail(join(path(), k), "duplicate key");
+      stack.back().key = k;
+    }
+    return true;
+  };
   try {
-    root = json::parse(text);
+    root = json::parse(text, no_duplicate_keys);
   } catch (const json::parse_error& e) {
-    cx.fail("", std::string("invalid JSON: ") + e.what());
+    // e.what() is "[json.exception.parse_error.101] parse error at line L, column C: ...".
+    std::string msg = e.what();
+    if (const auto p = msg.find("] "); msg.starts_with("[json.exception") && p != std::string::npos) msg.erase(0, p + 2);
+    cx.fail("", "invalid JSON: " + msg);
   }
-  cx.keys(root, {"name", "description", "job_types", "node_types", "nodes", "networks"}, "$");
+  cx.keys(root, {"name", "description", "job_types", "node_types", "nodes", "networks"}, "");
   DeviceGraph g;
   g.source_file = file;
-  g.name = cx.str(root, "name", "$");
+  g.name = cx.str(root, "name", "");
+  if (root.contains("description") && !root["description"].is_string()) cx.fail("description", "expected a string");
+
+  // Job types (JobTypeId order). Default: the path-tracing job graph of Fig. 3 + Compute.
   if (root.contains("job_types")) {
-    const json& jt = cx.arr(root, "job_types", "$");
+    const json& jt = cx.arr(root, "job_types", "");
+    if (jt.empty()) cx.fail("job_types", "expected at least one job type");
     for (std::size_t i = 0; i < jt.size(); ++i) {
-      if (!jt[i].is_string()) cx.fail(at("job_types", i), "expected a string");
-      if (g.job_type(jt[i].get<std::string>()) != kNone) cx.fail(at("job_types", i), "duplicate job type");
+      if (!jt[i].is_string() || jt[i].get<std::string>().empty()) cx.fail(at("job_types", i), "expected a non-empty string");
+      if (g.job_type(jt[i].get<std::string>()) != kNone)
+        cx.fail(at("job_types", i), "duplicate job type '" + jt[i].get<std::string>() + "'");
       g.job_types.push_back(jt[i].get<std::string>());
     }
   } else {
     g.job_types = kDefaultJobTypes;
   }
-  const json& types = cx.need(root, "node_types", "$");
-  if (!types.is_object() || types.empty()) cx.fail("node_types", "expected a non-empty object of node types");
 
-  struct PendingTiming {
-    DeviceId device;
-    const json* timing;
-    std::string field;
-  };
+  static const json no_types = json::object();
+  const json& types = root.contains("node_types") ? root["node_types"] : no_types;
+  if (!types.is_object()) cx.fail("node_types", "expected an object: type name -> node template");
+  for (auto it = types.begin(); it != types.end(); ++it)
+    cx.keys(it.value(), {"description", "memory", "compute", "channels"}, "node_types." + it.key());
+
   std::vector<PendingTiming> timings;
   std::map<std::string, std::map<std::string, MemId>> node_mem;  // node -> local memory name -> id
+  std::vector<std::string> mem_field;                            // MemId -> JSON path (for errors)
 
-  const json& nodes = cx.arr(root, "nodes", "$");
+  const json& nodes = cx.arr(root, "nodes", "");
   if (nodes.empty()) cx.fail("nodes", "a platform needs at least one node");
   for (std::size_t ni = 0; ni < nodes.size(); ++ni) {
     const std::string nf = at("nodes", ni);
-    cx.keys(nodes[ni], {"name", "type"}, nf);
-    const std::string nname = cx.str(nodes[ni], "name", nf);
-    if (g.find_node(nname) != kNone) cx.fail(nf + ".name", "duplicate node name '" + nname + "'");
-    const std::string tname = cx.str(nodes[ni], "type", nf);
-    if (!types.contains(tname)) cx.fail(nf + ".type", "unknown node type '" + tname + "'");
-    const json& t = types[tname];
-    const std::string tf = "node_types." + tname;
-    cx.keys(t, {"description", "memory", "compute", "channels"}, tf);
+    const json& node = nodes[ni];
+    cx.keys(node, {"name", "type", "description", "memory", "compute", "channels"}, nf);
+    const std::string nname = cx.str(node, "name", nf);
+    if (nname.find('.') != std::string::npos) cx.fail(join(nf, "name"), "node names may not contain '.'");
+    if (g.find_node(nname) != kNone) cx.fail(join(nf, "name"), "duplicate node name '" + nname + "'");
+    const json* type = nullptr;
+    std::string tf;  // JSON path of the template ("node_types.A")
+    std::string model_prefix = nname;
+    if (node.contains("type")) {
+      const std::string tname = cx.str(node, "type", nf);
+      if (!types.contains(tname)) {
+        std::string list;
+        for (auto it = types.begin(); it != types.end(); ++it) list += (list.empty() ? "" : ", ") + it.key();
+        cx.fail(join(nf, "type"), "unknown node type '" + tname + "' (node_types: " + (list.empty() ? "none" : list) + ")");
+      }
+      type = &types[tname];
+      tf = "node_types." + tname;
+      model_prefix = tname;
+    }
     const auto node_id = static_cast<NodeId>(g.nodes.size());
     g.nodes.push_back({nname, {}, {}});
     auto& local = node_mem[nname];
-    const json& mems = cx.arr(t, "memory", tf);
-    if (mems.empty()) cx.fail(tf + ".memory", "a node needs at least one memory device");
-    for (std::size_t i = 0; i < mems.size(); ++i) {
-      const std::string f = at(tf + ".memory", i);
-      cx.keys(mems[i], {"name", "kind", "capacity"}, f);
+
+    // Memory devices: vertices of the DCG.
+    const auto mems = merged_list(cx, type, tf, node, nf, "memory");
+    if (mems.empty()) cx.fail(join(type ? tf : nf, "memory"), "a node needs at least one memory device");
+    for (const Entry& e : mems) {
+      const std::string& f = e.field;
+      cx.keys(e.value, {"name", "kind", "capacity", "description"}, f);
       MemoryDevice m;
-      const std::string local_name = cx.str(mems[i], "name", f);
-      if (local.count(local_name)) cx.fail(f + ".name", "duplicate memory device '" + local_name + "'");
+      const std::string local_name = cx.str(e.value, "name", f);
+      if (local.count(local_name)) cx.fail(join(f, "name"), "duplicate memory device name '" + local_name + "'");
       m.name = nname + "." + local_name;
-      const std::string kind = cx.str(mems[i], "kind", f);
+      const std::string kind = cx.str(e.value, "kind", f);
       if (kind == "disk") m.kind = MemoryKind::Disk;
       else if (kind == "host") m.kind = MemoryKind::Host;
       else if (kind == "gpu") m.kind = MemoryKind::Gpu;
-      else cx.fail(f + ".kind", "unknown memory kind '" + kind + "' (disk, host or gpu)");
-      const double cap = cx.bytes(mems[i], "capacity", f);
-      if (!(cap > 0)) cx.fail(f + ".capacity", "must be > 0");
+      else cx.fail(join(f, "kind"), "unknown memory kind '" + kind + "' (expected disk, host or gpu)");
+      const double cap = cx.bytes(e.value, "capacity", f);
+      if (!(cap > 0)) cx.fail(join(f, "capacity"), "must be > 0");
+      if (cap > 9.2e18) cx.fail(join(f, "capacity"), "too large");
       m.capacity = static_cast<Bytes>(cap);
       m.node = node_id;
       local[local_name] = static_cast<MemId>(g.memories.size());
       g.nodes.back().memories.push_back(static_cast<MemId>(g.memories.size()));
       g.memories.push_back(std::move(m));
+      mem_field.push_back(f);
     }
-    const json& comps = cx.arr(t, "compute", tf, false);
-    for (std::size_t i = 0; i < comps.size(); ++i) {
-      const std::string f = at(tf + ".compute", i);
-      cx.keys(comps[i], {"name", "kind", "count", "memory", "timing"}, f);
-      const std::string cname = cx.str(comps[i], "name", f);
-      const std::string kind = cx.str(comps[i], "kind", f);
-      ComputeKind ck;
+
+    // Compute devices: each attached to exactly one memory device (Sec. 3.2).
+    for (const Entry& e : merged_list(cx, type, tf, node, nf, "compute")) {
+      const std::string& f = e.field;
+      cx.keys(e.value, {"name", "kind", "count", "memory", "timing", "description"}, f);
+      const std::string cname = cx.str(e.value, "name", f);
+      const std::string kind = cx.str(e.value, "kind", f);
+      ComputeKind ck = ComputeKind::Cpu;
       if (kind == "cpu") ck = ComputeKind::Cpu;
       else if (kind == "gpu") ck = ComputeKind::Gpu;
-      else cx.fail(f + ".kind", "unknown compute kind '" + kind + "' (cpu or gpu)");
+      else cx.fail(join(f, "kind"), "unknown compute kind '" + kind + "' (expected cpu or gpu)");
       int count = 1;
-      if (comps[i].contains("count")) {
-        if (!comps[i]["count"].is_number_integer() || comps[i]["count"].get<long long>() < 1 || comps[i]["count"].get<long long>() > 65536)
-          cx.fail(f + ".count", "expected an integer from 1 to 65536");
-        count = comps[i]["count"].get<int>();
+      if (e.value.contains("count")) {
+        const json& c = e.value["count"];
+        if (!c.is_number_integer() || c.get<long long>() < 1 || c.get<long long>() > 65536)
+          cx.fail(join(f, "count"), "expected an integer from 1 to 65536");
+        count = c.get<int>();
       }
-      if (!comps[i].contains("memory")) cx.fail(f + ".memory", "missing: every compute device is attached to a memory device");
-      const std::string mem = cx.str(comps[i], "memory", f);
-      if (!local.count(mem)) cx.fail(f + ".memory", "unknown memory device '" + mem + "' in node type '" + tname + "'");
-      const json* timing = comps[i].contains("timing") ? &comps[i]["timing"] : nullptr;
+      if (!e.value.contains("memory"))
+        cx.fail(join(f, "memory"), "missing: every compute device is attached to a memory device");
+      const std::string mem = cx.str(e.value, "memory", f);
+      if (!local.count(mem)) cx.fail(join(f, "memory"), "unknown memory device '" + mem + "' on node '" + nname + "'");
+      const bool has_timing = e.value.contains("timing");
+      if (has_timing && !e.value["timing"].is_object())
+        cx.fail(join(f, "timing"), "expected an object: job type -> {setup, rate}");
       for (int k = 0; k < count; ++k) {
         ComputeDevice d;
-        d.name = nname + "." + (count > 1 ? cname + std::to_string(k) : cname);
-        d.model = tname + "." + cname;
+        d.name = nname + "." + (count > 1 ? cname + std::to_string(k) : cname);  // "A0.cpu3"
+        if (g.find_compute(d.name) != kNone) cx.fail(join(f, "name"), "duplicate compute device name '" + d.name + "'");
+        d.model = model_prefix + "." + cname;
         d.kind = ck;
         d.memory = local[mem];
         d.node = node_id;
         const auto id = static_cast<DeviceId>(g.computes.size());
         g.nodes.back().computes.push_back(id);
         g.computes.push_back(std::move(d));
-        if (timing) timings.push_back({id, timing, f + ".timing"});
+        if (has_timing) timings.push_back({id, e.value["timing"], join(f, "timing")});
       }
     }
-    const json& chans = cx.arr(t, "channels", tf, false);
-    for (std::size_t i = 0; i < chans.size(); ++i) {
-      const std::string f = at(tf + ".channels", i);
-      cx.keys(chans[i], {"name", "kind", "between", "duplex", "latency", "bandwidth"}, f);
-      const std::string cname = cx.str(chans[i], "name", f);
-      const json& between = cx.arr(chans[i], "between", f);
-      if (between.size() != 2 || !between[0].is_string() || !between[1].is_string())
-        cx.fail(f + ".between", "expected two memory device names");
+
+    // Intra-node channels: a half-duplex medium (SATA) is one resource for both
+    // directions; a full-duplex one (PCIe) one resource per direction.
+    std::set<std::string> chan_names;
+    for (const Entry& e : merged_list(cx, type, tf, node, nf, "channels")) {
+      const std::string& f = e.field;
+      cx.keys(e.value, {"name", "kind", "between", "duplex", "latency", "bandwidth", "description"}, f);
+      const std::string cname = cx.str(e.value, "name", f);
+      if (!chan_names.insert(cname).second) cx.fail(join(f, "name"), "duplicate channel name '" + cname + "'");
+      const json& between = cx.arr(e.value, "between", f);
+      if (between.size() != 2) cx.fail(join(f, "between"), "expected two memory device names, e.g. [\"disk\", \"ram\"]");
       MemId ends[2];
-      for (int e = 0; e < 2; ++e) {
-        const std::string mname = between[static_cast<std::size_t>(e)].get<std::string>();
-        if (!local.count(mname)) cx.fail(at(f + ".between", static_cast<std::size_t>(e)), "unknown memory device '" + mname + "'");
-        ends[e] = local[mname];
+      for (std::size_t k = 0; k < 2; ++k) {
+        const std::string ef = at(join(f, "between"), k);
+        if (!between[k].is_string()) cx.fail(ef, "expected a memory device name");
+        const std::string mname = between[k].get<std::string>();
+        if (!local.count(mname)) cx.fail(ef, "unknown memory device '" + mname + "' on node '" + nname + "'");
+        ends[k] = local[mname];
       }
-      if (ends[0] == ends[1]) cx.fail(f + ".between", "a channel joins two different memory devices");
-      const std::string duplex = cx.opt_str(chans[i], "duplex", f, "full");
-      if (duplex != "half" && duplex != "full") cx.fail(f + ".duplex", "expected \"half\" or \"full\"");
-      const double bw = cx.bandwidth(chans[i], "bandwidth", f);
-      const double lat = cx.duration(chans[i], "latency", f);
-      const std::string kind = cx.opt_str(chans[i], "kind", f, cname);
+      if (ends[0] == ends[1]) cx.fail(join(f, "between"), "a channel joins two different memory devices");
+      const Duplex dup = cx.duplex(e.value, f);
+      const double lat = cx.duration(e.value, "latency", f);
+      const double bw = cx.bandwidth(e.value, "bandwidth", f);
+      const std::string kind = cx.opt_str(e.value, "kind", f, cname);
       const std::string base = nname + "." + cname;
-      std::vector<ResourceId> res;
-      if (duplex == "half") {
+      ResourceId res[2];
+      if (dup == Duplex::Half) {
         g.resources.push_back({base, bw});
-        res = {static_cast<ResourceId>(g.resources.size() - 1), static_cast<ResourceId>(g.resources.size() - 1)};
+        res[0] = res[1] = static_cast<ResourceId>(g.resources.size() - 1);
       } else {
         g.resources.push_back({base + ".fwd", bw});
         g.resources.push_back({base + ".rev", bw});
-        res = {static_cast<ResourceId>(g.resources.size() - 2), static_cast<ResourceId>(g.resources.size() - 1)};
+        res[0] = static_cast<ResourceId>(g.resources.size() - 2);
+        res[1] = static_cast<ResourceId>(g.resources.size() - 1);
       }
       for (int dir = 0; dir < 2; ++dir) {
         Channel c;
         const MemId a = ends[dir], b = ends[1 - dir];
-        c.name = base + ":" + g.memories[a].name.substr(nname.size() + 1) + "->" + g.memories[b].name.substr(nname.size() + 1);
+        c.name = base + ":" + g.memories[a].name.substr(nname.size() + 1) + "->" +
+                 g.memories[b].name.substr(nname.size() + 1);  // "A0.sata:disk->ram"
         c.kind = kind;
         c.from = a;
         c.to = b;
         c.latency = lat;
         c.bandwidth = bw;
-        c.resources = {res[static_cast<std::size_t>(dir)]};
+        c.resources = {res[dir]};
         g.channels.push_back(std::move(c));
       }
     }
   }
 
-  const json& nets = cx.arr(root, "networks", "$", false);
+  // Networks: a switched LAN; every member contributes one memory device and its NIC.
+  // A channel joins every ordered pair of members at min(NIC_src, NIC_dst) and occupies
+  // the sender's outgoing and the receiver's incoming NIC (one shared NIC if half duplex).
+  const json& nets = cx.arr(root, "networks", "", false);
+  std::set<std::string> net_names;
   for (std::size_t ni = 0; ni < nets.size(); ++ni) {
     const std::string f = at("networks", ni);
-    cx.keys(nets[ni], {"name", "kind", "latency", "duplex", "members"}, f);
+    cx.keys(nets[ni], {"name", "kind", "latency", "duplex", "bandwidth", "members", "description"}, f);
     const std::string name = cx.str(nets[ni], "name", f);
+    if (!net_names.insert(name).second) cx.fail(join(f, "name"), "duplicate network name '" + name + "'");
     const std::string kind = cx.opt_str(nets[ni], "kind", f, "lan");
     const double lat = cx.duration(nets[ni], "latency", f);
-    const std::string duplex = cx.opt_str(nets[ni], "duplex", f, "full");
-    if (duplex != "half" && duplex != "full") cx.fail(f + ".duplex", "expected \"half\" or \"full\"");
+    const Duplex dup = cx.duplex(nets[ni], f);
+    const bool has_default_bw = nets[ni].contains("bandwidth");
+    const double default_bw = has_default_bw ? cx.bandwidth(nets[ni], "bandwidth", f) : 0;
     const json& members = cx.arr(nets[ni], "members", f);
-    if (members.size() < 2) cx.fail(f + ".members", "a network joins at least two nodes");
-    struct Member { std::string node; MemId mem; double bw; ResourceId out, in; };
+    if (members.size() < 2) cx.fail(join(f, "members"), "a network joins at least two nodes");
+    struct Member {
+      std::string node;
+      MemId mem;
+      double bw;
+      ResourceId out, in;
+    };
     std::vector<Member> ms;
     std::set<std::string> seen;
     for (std::size_t i = 0; i < members.size(); ++i) {
-      const std::string mf = at(f + ".members", i);
+      const std::string mf = at(join(f, "members"), i);
       cx.keys(members[i], {"node", "memory", "bandwidth"}, mf);
       const std::string node = cx.str(members[i], "node", mf);
-      if (!node_mem.count(node)) cx.fail(mf + ".node", "unknown node '" + node + "'");
-      if (!seen.insert(node).second) cx.fail(mf + ".node", "node '" + node + "' is listed twice");
+      if (!node_mem.count(node)) cx.fail(join(mf, "node"), "unknown node '" + node + "'");
+      if (!seen.insert(node).second) cx.fail(join(mf, "node"), "node '" + node + "' is listed twice");
       const std::string mem = cx.opt_str(members[i], "memory", mf, "ram");
-      if (!node_mem[node].count(mem)) cx.fail(mf + ".memory", "unknown memory device '" + mem + "' on node '" + node + "'");
-      Member m{node, node_mem[node][mem], cx.bandwidth(members[i], "bandwidth", mf), kNone, kNone};
+      if (!node_mem[node].count(mem))
+        cx.fail(join(mf, "memory"), "unknown memory device '" + mem + "' on node '" + node + "'");
+      double bw = default_bw;
+      if (members[i].contains("bandwidth")) bw = cx.bandwidth(members[i], "bandwidth", mf);
+      else if (!has_default_bw) cx.fail(join(mf, "bandwidth"), "missing (NIC speed; or give the network a bandwidth)");
+      Member m{node, node_mem[node][mem], bw, kNone, kNone};
       const std::string base = node + "." + name;
-      if (duplex == "full") {
-        g.resources.push_back({base + ".out", m.bw});
+      if (dup == Duplex::Full) {
+        g.resources.push_back({base + ".out", bw});
         m.out = static_cast<ResourceId>(g.resources.size() - 1);
-        g.resources.push_back({base + ".in", m.bw});
+        g.resources.push_back({base + ".in", bw});
         m.in = static_cast<ResourceId>(g.resources.size() - 1);
       } else {
-        g.resources.push_back({base + ".nic", m.bw});
+        g.resources.push_back({base + ".nic", bw});
         m.out = m.in = static_cast<ResourceId>(g.resources.size() - 1);
       }
       ms.push_back(m);
@@ -268,7 +410,7 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
       for (const Member& b : ms) {
         if (a.node == b.node) continue;
         Channel c;
-        c.name = name + ":" + a.node + "->" + b.node;
+        c.name = name + ":" + a.node + "->" + b.node;  // "lan:A0->B"
         c.kind = kind;
         c.from = a.mem;
         c.to = b.mem;
@@ -280,28 +422,40 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
   }
 
   g.finalize();
+
+  // Eq. 2 coefficients. A throughput X B/s of an input kind becomes rate = 1/X s per byte;
+  // a job type a device does not list is unsupported there.
   for (const PendingTiming& pt : timings) {
-    const json& t = *pt.timing;
-    if (!t.is_object()) cx.fail(pt.field, "expected an object of job types");
+    const json& t = pt.timing;
     for (auto it = t.begin(); it != t.end(); ++it) {
-      const std::string f = pt.field + "." + it.key();
+      const std::string f = join(pt.field, it.key());
       const JobTypeId j = g.job_type(it.key());
       if (j == kNone) cx.fail(f, "unknown job type '" + it.key() + "' (not in job_types)");
       cx.keys(it.value(), {"setup", "rate"}, f);
+      if (it.value().empty()) cx.fail(f, "expected \"setup\" and/or \"rate\"");
       ExecCoefficients& c = g.timing.at(pt.device, j);
+      c = ExecCoefficients{};
       c.supported = true;
       c.setup = it.value().contains("setup") ? cx.duration(it.value(), "setup", f) : 0;
-      const json& rate = cx.need(it.value(), "rate", f);
-      if (!rate.is_object() || rate.empty()) cx.fail(f + ".rate", "expected an object: data kind -> throughput, e.g. {\"RayQueue\": \"32MB/s\"}");
-      for (auto r = rate.begin(); r != rate.end(); ++r) {
-        DataKind k;
-        if (!parse_data_kind(r.key(), k)) cx.fail(f + ".rate." + r.key(), "unknown data kind");
-        c.rate[static_cast<int>(k)] = 1.0 / cx.bandwidth(rate, r.key().c_str(), f + ".rate");  // Eq. 2: seconds per byte
+      if (it.value().contains("rate")) {
+        const json& rate = it.value()["rate"];
+        if (!rate.is_object())
+          cx.fail(join(f, "rate"), "expected an object: data kind -> throughput, e.g. {\"RayQueue\": \"640MB/s\"}");
+        for (auto r = rate.begin(); r != rate.end(); ++r) {
+          DataKind k;
+          if (!parse_data_kind(r.key(), k)) {
+            std::string list;
+            for (auto n : kDataKindNames) list += (list.empty() ? "" : ", ") + std::string(n);
+            cx.fail(join(join(f, "rate"), r.key()), "unknown data kind (expected one of " + list + ")");
+          }
+          c.rate[static_cast<int>(k)] = 1.0 / cx.bandwidth(rate, r.key().c_str(), join(f, "rate"));
+        }
       }
     }
   }
-  // Every memory device a compute device works from must be reachable from a disk (where
-  // the scene lives), or nothing could ever run there.
+
+  // Every memory device a compute device works from must be reachable from a disk (a data
+  // holder, where scene blocks live), or nothing could ever run there.
   std::vector<char> reach(g.memories.size(), 0);
   std::queue<MemId> q;
   for (std::size_t m = 0; m < g.memories.size(); ++m)
@@ -309,7 +463,7 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
       reach[m] = 1;
       q.push(static_cast<MemId>(m));
     }
-  if (q.empty()) cx.fail("node_types", "no memory device of kind \"disk\": nothing can hold the scene");
+  if (q.empty()) cx.fail("nodes", "no memory device of kind \"disk\": nothing can hold the scene");
   while (!q.empty()) {
     const MemId m = q.front();
     q.pop();
@@ -321,8 +475,9 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
   }
   for (const ComputeDevice& d : g.computes)
     if (!reach[d.memory])
-      cx.fail("memory[" + g.memories[d.memory].name + "]",
-              "unreachable from every disk: compute device '" + d.name + "' could never get data");
+      cx.fail(mem_field[d.memory], "memory device '" + g.memories[d.memory].name +
+                                       "' is unreachable from every disk (add a channel or network), so compute device '" +
+                                       d.name + "' could never get data");
   return g;
 }
 
@@ -331,6 +486,7 @@ DeviceGraph load_platform(const std::string& path) {
   if (!in) throw InputError(path, "", "cannot open platform file");
   std::stringstream ss;
   ss << in.rdbuf();
+  if (in.bad()) throw InputError(path, "", "cannot read platform file");
   return parse_platform(ss.str(), path);
 }
 

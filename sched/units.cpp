@@ -66,8 +66,8 @@ double parse_bytes(std::string_view text) {
   prefix(unit, mult);
   if (unit == "B") return v * mult;
   if (unit == "b")  // "8Gb" is almost always a typo for "8GB": sizes are bytes only
-    throw std::invalid_argument("'" + std::string(text) + "' is not a valid size (sizes are in bytes: write B, e.g. \"8GiB\" or \"210MB\"; b = bit is only for bandwidths)");
-  throw std::invalid_argument("'" + std::string(text) + "' is not a valid size (unknown unit; expected B or b with k/M/G/T or Ki/Mi/Gi/Ti, e.g. \"8GiB\")");
+    throw std::invalid_argument("'" + std::string(text) + "' is not a valid size (sizes are in bytes: expected B, e.g. \"8GiB\" or \"210MB\"; b = bit is only for bandwidths)");
+  throw std::invalid_argument("'" + std::string(text) + "' is not a valid size (unknown unit; expected B with an optional k/M/G/T or Ki/Mi/Gi/Ti prefix, e.g. \"8GiB\", \"210MB\", \"64B\")");
 }
 
 double parse_bandwidth(std::string_view text) {
@@ -81,7 +81,7 @@ double parse_bandwidth(std::string_view text) {
   if (u == "B") bytes = v * mult;
   else if (u == "b") bytes = v * mult / 8;
   else throw std::invalid_argument("'" + std::string(text) + "' is not a valid bandwidth (unknown unit; expected e.g. \"150MB/s\" or \"1Gb/s\")");
-  if (!(bytes > 0)) throw std::invalid_argument("'" + std::string(text) + "' is not a valid bandwidth (must be > 0)");
+  if (!(bytes > 0)) throw std::invalid_argument("'" + std::string(text) + "' is not a valid bandwidth (must be > 0; expected e.g. \"150MB/s\")");
   return bytes;
 }
 
@@ -101,7 +101,7 @@ double parse_rate(std::string_view text) {
   double mult;
   prefix(unit, mult);
   if (unit != "/s") throw std::invalid_argument("'" + std::string(text) + "' is not a valid rate (expected e.g. \"10M/s\")");
-  if (!(v > 0)) throw std::invalid_argument("'" + std::string(text) + "' is not a valid rate (must be > 0)");
+  if (!(v > 0)) throw std::invalid_argument("'" + std::string(text) + "' is not a valid rate (must be > 0; expected e.g. \"10M/s\")");
   return v * mult;
 }
 

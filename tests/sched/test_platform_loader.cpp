@@ -1,0 +1,428 @@
+// Platform loader (sched/platform_loader.*): the paper's cluster and its subsets load with
+// the device counts of Sec. 6, channels get the contention resources of their medium, and
+// every kind of bad input is an InputError naming the file and the JSON path of the field.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "sched/error.hpp"
+#include "sched/platform_loader.hpp"
+
+namespace {
+
+using namespace rayline;
+using nlohmann::json;
+
+std::string platform_path(const std::string& name) { return std::string(RAYLINE_PLATFORMS) + "/" + name; }
+
+int count_kind(const DeviceGraph& g, ComputeKind k) {
+  int n = 0;
+  for (const auto& c : g.computes) n += c.kind == k;
+  return n;
+}
+int count_kind(const DeviceGraph& g, MemoryKind k) {
+  int n = 0;
+  for (const auto& m : g.memories) n += m.kind == k;
+  return n;
+}
+ChannelId find_channel(const DeviceGraph& g, const std::string& name) {
+  for (std::size_t i = 0; i < g.channels.size(); ++i)
+    if (g.channels[i].name == name) return static_cast<ChannelId>(i);
+  return kNone;
+}
+
+// ---------------------------------------------------------------- the shipped platforms
+
+TEST(PlatformLoader, PaperClusterHasThePapersDeviceCounts) {
+  const DeviceGraph g = load_platform(platform_path("paper-cluster.json"));
+  EXPECT_EQ(g.name, "paper-cluster");
+  EXPECT_EQ(g.nodes.size(), 8u);
+  EXPECT_EQ(g.computes.size(), 84u);  // 4*9 + 9 + 17 + 17 + 5 (Sec. 6)
+  EXPECT_EQ(g.memories.size(), 24u);  // 8 x (disk, RAM, GPU memory)
+  EXPECT_EQ(count_kind(g, ComputeKind::Gpu), 8);
+  EXPECT_EQ(count_kind(g, ComputeKind::Cpu), 76);
+  EXPECT_EQ(count_kind(g, MemoryKind::Disk), 8);
+  EXPECT_EQ(count_kind(g, MemoryKind::Host), 8);
+  EXPECT_EQ(count_kind(g, MemoryKind::Gpu), 8);
+  // 8 nodes x (SATA + PCIe, two directions each) + LAN between all ordered pairs.
+  EXPECT_EQ(g.channels.size(), 8u * 4u + 8u * 7u);
+  EXPECT_EQ(g.job_types.size(), 7u);
+  EXPECT_NE(g.job_type("RayIntersect"), kNone);
+  EXPECT_NE(g.job_type("AdditiveCompose"), kNone);
+  // Qualified names; count expands to cpu0..cpuN-1.
+  EXPECT_NE(g.find_memory("A0.ram"), kNone);
+  EXPECT_NE(g.find_memory("A3.gpu0mem"), kNone);
+  EXPECT_NE(g.find_compute("A0.cpu7"), kNone);
+  EXPECT_EQ(g.find_compute("A0.cpu8"), kNone);
+  EXPECT_NE(g.find_compute("C.cpu15"), kNone);
+  EXPECT_NE(g.find_compute("R.cpu3"), kNone);
+  EXPECT_EQ(g.find_compute("R.cpu4"), kNone);
+  EXPECT_NE(g.find_compute("D.gpu0"), kNone);
+  // Every compute device sits on its node's memory and the right memory kind.
+  for (const auto& c : g.computes) {
+    ASSERT_NE(c.memory, kNone);
+    EXPECT_EQ(g.memories[c.memory].node, c.node);
+    EXPECT_EQ(g.memories[c.memory].kind, c.kind == ComputeKind::Gpu ? MemoryKind::Gpu : MemoryKind::Host);
+  }
+  // GPU memories: Titan 6 GiB, Titan X 12 GiB (D), GTX 980 4 GiB (R).
+  EXPECT_EQ(g.memories[g.find_memory("A0.gpu0mem")].capacity, Bytes(6) << 30);
+  EXPECT_EQ(g.memories[g.find_memory("D.gpu0mem")].capacity, Bytes(12) << 30);
+  EXPECT_EQ(g.memories[g.find_memory("R.gpu0mem")].capacity, Bytes(4) << 30);
+  EXPECT_EQ(g.memories[g.find_memory("B.ram")].capacity, Bytes(8) << 30);
+}
+
+TEST(PlatformLoader, ScalingSubsets) {
+  struct Case {
+    const char* file;
+    std::size_t nodes, computes, memories;
+  };
+  for (const Case& c : {Case{"paper-A.json", 1, 9, 3}, Case{"paper-2A.json", 2, 18, 6}, Case{"paper-3A.json", 3, 27, 9},
+                        Case{"paper-4A.json", 4, 36, 12}, Case{"paper-4A+B.json", 5, 45, 15},
+                        Case{"paper-4A+B+C.json", 6, 62, 18}, Case{"paper-4A+B+C+D.json", 7, 79, 21},
+                        Case{"paper-cluster.json", 8, 84, 24}, Case{"workstation-4gpu.json", 1, 20, 6}}) {
+    SCOPED_TRACE(c.file);
+    const DeviceGraph g = load_platform(platform_path(c.file));
+    EXPECT_EQ(g.nodes.size(), c.nodes);
+    EXPECT_EQ(g.computes.size(), c.computes);
+    EXPECT_EQ(g.memories.size(), c.memories);
+    EXPECT_EQ(g.timing.devices(), static_cast<int>(g.computes.size()));
+  }
+  const DeviceGraph ws = load_platform(platform_path("workstation-4gpu.json"));
+  EXPECT_EQ(count_kind(ws, ComputeKind::Gpu), 4);
+  EXPECT_EQ(count_kind(ws, ComputeKind::Cpu), 16);
+}
+
+TEST(PlatformLoader, HalfDuplexChannelsShareOneResourceFullDuplexDoNot) {
+  const DeviceGraph g = load_platform(platform_path("paper-A.json"));
+  const ChannelId up = find_channel(g, "A0.sata:disk->ram"), down = find_channel(g, "A0.sata:ram->disk");
+  ASSERT_NE(up, kNone);
+  ASSERT_NE(down, kNone);
+  ASSERT_EQ(g.channels[up].resources.size(), 1u);
+  EXPECT_EQ(g.channels[up].resources, g.channels[down].resources);  // SATA: one head
+  EXPECT_DOUBLE_EQ(g.channels[up].bandwidth, 150e6);
+  EXPECT_DOUBLE_EQ(g.channels[up].latency, 10e-3);
+  const ChannelId h2d = find_channel(g, "A0.pcie0:ram->gpu0mem"), d2h = find_channel(g, "A0.pcie0:gpu0mem->ram");
+  ASSERT_NE(h2d, kNone);
+  ASSERT_NE(d2h, kNone);
+  EXPECT_NE(g.channels[h2d].resources, g.channels[d2h].resources);  // PCIe: full duplex
+  EXPECT_DOUBLE_EQ(g.channels[h2d].bandwidth, 12e9);
+}
+
+TEST(PlatformLoader, LanBandwidthIsTheSlowerNicAndUsesBothPorts) {
+  const DeviceGraph g = load_platform(platform_path("paper-cluster.json"));
+  const ChannelId aa = find_channel(g, "lan:A0->A1"), ab = find_channel(g, "lan:A0->B"), ba = find_channel(g, "lan:B->A0");
+  ASSERT_NE(aa, kNone);
+  ASSERT_NE(ab, kNone);
+  ASSERT_NE(ba, kNone);
+  EXPECT_DOUBLE_EQ(g.channels[aa].bandwidth, 125e6);   // 1 GbE between A nodes
+  EXPECT_DOUBLE_EQ(g.channels[ab].bandwidth, 12.5e6);  // limited by B's 100 Mb NIC
+  EXPECT_DOUBLE_EQ(g.channels[ba].bandwidth, 12.5e6);
+  EXPECT_DOUBLE_EQ(g.channels[aa].latency, 100e-6);
+  EXPECT_EQ(g.channels[ab].from, g.find_memory("A0.ram"));
+  EXPECT_EQ(g.channels[ab].to, g.find_memory("B.ram"));
+  // Full duplex: sender's NIC-out and receiver's NIC-in.
+  ASSERT_EQ(g.channels[ab].resources.size(), 2u);
+  EXPECT_EQ(g.resources[g.channels[ab].resources[0]].name, "A0.lan.out");
+  EXPECT_EQ(g.resources[g.channels[ab].resources[1]].name, "B.lan.in");
+  EXPECT_EQ(g.channels[aa].resources[0], g.channels[ab].resources[0]);  // A0's port is shared
+}
+
+TEST(PlatformLoader, TimingIsSecondsPerByteOfTheThroughput) {
+  const DeviceGraph g = load_platform(platform_path("paper-cluster.json"));
+  const JobTypeId ri = g.job_type("RayIntersect");
+  const DeviceId gpu = g.find_compute("A0.gpu0"), cpu = g.find_compute("A0.cpu0"), titanx = g.find_compute("D.gpu0");
+  ASSERT_TRUE(g.timing.supports(gpu, ri));
+  EXPECT_DOUBLE_EQ(g.timing.at(gpu, ri).setup, 50e-6);
+  const int rq = static_cast<int>(DataKind::RayQueue);
+  EXPECT_DOUBLE_EQ(g.timing.at(gpu, ri).rate[rq], 1.0 / 640e6);  // 10 M rays/s x 64 B
+  EXPECT_DOUBLE_EQ(g.timing.at(cpu, ri).rate[rq], 1.0 / 32e6);   // 0.5 M rays/s x 64 B
+  EXPECT_DOUBLE_EQ(g.timing.at(cpu, ri).setup, 5e-6);
+  EXPECT_LT(g.timing.at(titanx, ri).rate[rq], g.timing.at(gpu, ri).rate[rq]);  // Titan X is faster
+}
+
+TEST(PlatformLoader, ShortestFetchFromDisks) {
+  const DeviceGraph g = load_platform(platform_path("paper-cluster.json"));
+  std::vector<MemId> disks;
+  for (std::size_t m = 0; m < g.memories.size(); ++m)
+    if (g.memories[m].kind == MemoryKind::Disk) disks.push_back(static_cast<MemId>(m));
+  const auto t = g.shortest_fetch_times(disks, 210'000'000);
+  EXPECT_NEAR(t[g.find_memory("A0.ram")], 0.01 + 1.4, 1e-9);  // ~1.4 s from the local HDD
+  EXPECT_NEAR(t[g.find_memory("A0.gpu0mem")], 1.41 + 10e-6 + 210e6 / 12e9, 1e-9);
+}
+
+// ---------------------------------------------------------------- a small inline platform
+
+json base() {
+  return json::parse(R"({
+    "name": "t",
+    "node_types": {
+      "N": {
+        "memory": [
+          {"name": "disk", "kind": "disk", "capacity": "1TB"},
+          {"name": "ram", "kind": "host", "capacity": "8GiB"},
+          {"name": "gpu0mem", "kind": "gpu", "capacity": "6GiB"}
+        ],
+        "compute": [
+          {"name": "cpu", "kind": "cpu", "count": 2, "memory": "ram",
+           "timing": {"RayIntersect": {"setup": "5us", "rate": {"RayQueue": "32MB/s"}}}},
+          {"name": "gpu0", "kind": "gpu", "memory": "gpu0mem",
+           "timing": {"RayIntersect": {"setup": "50us", "rate": {"RayQueue": "640MB/s", "SceneData": "10GB/s"}},
+                      "Shade": {"setup": "50us"}}}
+        ],
+        "channels": [
+          {"name": "sata", "kind": "sata", "between": ["disk", "ram"], "duplex": "half", "latency": "10ms", "bandwidth": "150MB/s"},
+          {"name": "pcie0", "kind": "pcie", "between": ["ram", "gpu0mem"], "duplex": "full", "latency": "10us", "bandwidth": "12GB/s"}
+        ]
+      }
+    },
+    "nodes": [{"name": "n0", "type": "N"}, {"name": "n1", "type": "N"}],
+    "networks": [{"name": "lan", "latency": "100us", "duplex": "full",
+                  "members": [{"node": "n0", "bandwidth": "1Gb/s"}, {"node": "n1", "bandwidth": "100Mb/s"}]}]
+  })");
+}
+
+DeviceGraph parse(const json& j) { return parse_platform(j.dump(), "inline.json"); }
+
+TEST(PlatformLoader, InlineBaseLoads) {
+  const DeviceGraph g = parse(base());
+  EXPECT_EQ(g.nodes.size(), 2u);
+  EXPECT_EQ(g.computes.size(), 6u);
+  EXPECT_EQ(g.memories.size(), 6u);
+  EXPECT_EQ(g.channels.size(), 2u * 4u + 2u);
+  EXPECT_EQ(g.source_file, "inline.json");
+  const DeviceId gpu = g.find_compute("n1.gpu0");
+  ASSERT_NE(gpu, kNone);
+  EXPECT_TRUE(g.timing.supports(gpu, g.job_type("Shade")));
+  EXPECT_FALSE(g.timing.supports(gpu, g.job_type("Accumulate")));  // absent => unsupported
+  EXPECT_FALSE(g.timing.supports(g.find_compute("n0.cpu1"), g.job_type("Shade")));
+  EXPECT_DOUBLE_EQ(g.timing.at(gpu, g.job_type("RayIntersect")).rate[static_cast<int>(DataKind::SceneData)], 1e-10);
+  EXPECT_DOUBLE_EQ(g.channels[find_channel(g, "lan:n0->n1")].bandwidth, 12.5e6);
+}
+
+TEST(PlatformLoader, PerNodeOverridesPatchTheTemplate) {
+  json j = base();
+  j["nodes"][1]["memory"] = json::parse(R"([{"name": "gpu0mem", "capacity": "12GiB"}])");
+  j["nodes"][1]["compute"] = json::parse(R"([{"name": "cpu", "count": 4},
+      {"name": "gpu0", "timing": {"Shade": null}},
+      {"name": "gpu1", "kind": "gpu", "memory": "gpu1mem"}])");
+  j["nodes"][1]["memory"].push_back(json::parse(R"({"name": "gpu1mem", "kind": "gpu", "capacity": "4GiB"})"));
+  j["nodes"][1]["channels"] = json::parse(
+      R"([{"name": "pcie1", "between": ["ram", "gpu1mem"], "latency": "10us", "bandwidth": "12GB/s"}])");
+  const DeviceGraph g = parse(j);
+  EXPECT_EQ(g.memories[g.find_memory("n1.gpu0mem")].capacity, Bytes(12) << 30);
+  EXPECT_EQ(g.memories[g.find_memory("n0.gpu0mem")].capacity, Bytes(6) << 30);  // template untouched
+  EXPECT_NE(g.find_compute("n1.cpu3"), kNone);
+  EXPECT_EQ(g.find_compute("n0.cpu3"), kNone);
+  EXPECT_FALSE(g.timing.supports(g.find_compute("n1.gpu0"), g.job_type("Shade")));
+  EXPECT_TRUE(g.timing.supports(g.find_compute("n1.gpu0"), g.job_type("RayIntersect")));
+  EXPECT_TRUE(g.timing.supports(g.find_compute("n0.gpu0"), g.job_type("Shade")));
+  EXPECT_NE(g.find_compute("n1.gpu1"), kNone);
+  EXPECT_NE(find_channel(g, "n1.pcie1:ram->gpu1mem"), kNone);
+}
+
+TEST(PlatformLoader, NodeWithoutTypeAndCustomJobTypes) {
+  const DeviceGraph g = parse_platform(R"({
+    "name": "solo", "job_types": ["Compute"],
+    "nodes": [{"name": "w", "memory": [{"name": "disk", "kind": "disk", "capacity": "1TB"},
+                                       {"name": "ram", "kind": "host", "capacity": "1GiB"}],
+               "compute": [{"name": "cpu", "kind": "cpu", "memory": "ram",
+                            "timing": {"Compute": {"rate": {"Generic": "1GB/s"}}}}],
+               "channels": [{"name": "ssd", "between": ["disk", "ram"], "latency": "0s", "bandwidth": "1GB/s"}]}]})",
+                                       "solo.json");
+  EXPECT_EQ(g.job_types, std::vector<std::string>{"Compute"});
+  EXPECT_NE(g.find_compute("w.cpu"), kNone);  // count 1: no index suffix
+  EXPECT_TRUE(g.timing.supports(0, 0));
+}
+
+TEST(PlatformLoader, HalfDuplexNetworkSharesOneNicPerNode) {
+  json j = base();
+  j["networks"][0]["duplex"] = "half";
+  const DeviceGraph g = parse(j);
+  const Channel& a = g.channels[find_channel(g, "lan:n0->n1")];
+  const Channel& b = g.channels[find_channel(g, "lan:n1->n0")];
+  EXPECT_EQ(a.resources[0], b.resources[1]);  // n0's NIC both ways
+  EXPECT_EQ(a.resources[1], b.resources[0]);
+  EXPECT_EQ(g.resources[a.resources[0]].name, "n0.lan.nic");
+}
+
+// ---------------------------------------------------------------- bad input
+
+struct Bad {
+  const char* what;
+  std::function<void(json&)> edit;
+  const char* field;  // expected InputError::field()
+  const char* message = "";  // expected substring of the message ("" = any)
+};
+
+void expect_error(const std::string& text, const std::string& field, const std::string& message) {
+  try {
+    parse_platform(text, "bad.json");
+    ADD_FAILURE() << "accepted; expected an error at " << field;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "bad.json");
+    EXPECT_EQ(e.field(), field) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+  }
+}
+
+TEST(PlatformLoader, BadInputNamesTheField) {
+  const std::vector<Bad> cases = {
+      {"missing name", [](json& j) { j.erase("name"); }, "name", "missing"},
+      {"name wrong type", [](json& j) { j["name"] = 3; }, "name", "string"},
+      {"nodes wrong type", [](json& j) { j["nodes"] = json::object(); }, "nodes", "array"},
+      {"no nodes", [](json& j) { j["nodes"] = json::array(); }, "nodes", ""},
+      {"unknown top-level key", [](json& j) { j["netwroks"] = json::array(); }, "netwroks", "unknown key"},
+      {"unknown channel key", [](json& j) { j["node_types"]["N"]["channels"][0]["bandwith"] = "1GB/s"; },
+       "node_types.N.channels[0].bandwith", "unknown key"},
+      {"unknown node key", [](json& j) { j["nodes"][0]["typ"] = "N"; }, "nodes[0].typ", "unknown key"},
+      {"missing node name", [](json& j) { j["nodes"][1].erase("name"); }, "nodes[1].name", "missing"},
+      {"duplicate node", [](json& j) { j["nodes"][1]["name"] = "n0"; }, "nodes[1].name", "duplicate"},
+      {"unknown node type", [](json& j) { j["nodes"][1]["type"] = "X"; }, "nodes[1].type", "unknown node type"},
+      {"duplicate memory", [](json& j) { j["node_types"]["N"]["memory"][2]["name"] = "ram"; },
+       "node_types.N.memory[2].name", "duplicate"},
+      {"bad memory kind", [](json& j) { j["node_types"]["N"]["memory"][1]["kind"] = "dram"; },
+       "node_types.N.memory[1].kind", "disk, host or gpu"},
+      {"malformed capacity", [](json& j) { j["node_types"]["N"]["memory"][1]["capacity"] = "8 GiB"; },
+       "node_types.N.memory[1].capacity", "expected"},
+      {"capacity not a string", [](json& j) { j["node_types"]["N"]["memory"][1]["capacity"] = 8; },
+       "node_types.N.memory[1].capacity", "string"},
+      {"zero capacity", [](json& j) { j["node_types"]["N"]["memory"][1]["capacity"] = "0B"; },
+       "node_types.N.memory[1].capacity", "> 0"},
+      {"compute without memory", [](json& j) { j["node_types"]["N"]["compute"][0].erase("memory"); },
+       "node_types.N.compute[0].memory", "memory device"},
+      {"unknown memory ref", [](json& j) { j["node_types"]["N"]["compute"][1]["memory"] = "vram"; },
+       "node_types.N.compute[1].memory", "unknown memory device 'vram'"},
+      {"bad compute kind", [](json& j) { j["node_types"]["N"]["compute"][1]["kind"] = "tpu"; },
+       "node_types.N.compute[1].kind", "cpu or gpu"},
+      {"count not integer", [](json& j) { j["node_types"]["N"]["compute"][0]["count"] = "8"; },
+       "node_types.N.compute[0].count", "integer"},
+      {"count zero", [](json& j) { j["node_types"]["N"]["compute"][0]["count"] = 0; }, "node_types.N.compute[0].count",
+       "integer"},
+      {"duplicate compute",
+       [](json& j) {
+         j["node_types"]["N"]["compute"].push_back(json{{"name", "cpu1"}, {"kind", "cpu"}, {"memory", "ram"}});
+       },
+       "node_types.N.compute[2].name", "duplicate compute device name 'n0.cpu1'"},
+      {"unknown job type",
+       [](json& j) { j["node_types"]["N"]["compute"][0]["timing"]["RayTrace"] = json{{"setup", "1us"}}; },
+       "node_types.N.compute[0].timing.RayTrace", "unknown job type"},
+      {"unknown data kind",
+       [](json& j) { j["node_types"]["N"]["compute"][0]["timing"]["RayIntersect"]["rate"]["Rays"] = "1MB/s"; },
+       "node_types.N.compute[0].timing.RayIntersect.rate.Rays", "unknown data kind"},
+      {"zero rate",
+       [](json& j) { j["node_types"]["N"]["compute"][0]["timing"]["RayIntersect"]["rate"]["RayQueue"] = "0MB/s"; },
+       "node_types.N.compute[0].timing.RayIntersect.rate.RayQueue", "> 0"},
+      {"unknown timing key",
+       [](json& j) { j["node_types"]["N"]["compute"][0]["timing"]["RayIntersect"]["setpu"] = "1us"; },
+       "node_types.N.compute[0].timing.RayIntersect.setpu", "unknown key"},
+      {"bad setup", [](json& j) { j["node_types"]["N"]["compute"][0]["timing"]["RayIntersect"]["setup"] = "5"; },
+       "node_types.N.compute[0].timing.RayIntersect.setup", "missing unit"},
+      {"negative bandwidth", [](json& j) { j["node_types"]["N"]["channels"][1]["bandwidth"] = "-12GB/s"; },
+       "node_types.N.channels[1].bandwidth", "negative"},
+      {"zero bandwidth", [](json& j) { j["node_types"]["N"]["channels"][1]["bandwidth"] = "0GB/s"; },
+       "node_types.N.channels[1].bandwidth", "> 0"},
+      {"bandwidth without /s", [](json& j) { j["node_types"]["N"]["channels"][0]["bandwidth"] = "150MB"; },
+       "node_types.N.channels[0].bandwidth", "expected"},
+      {"missing latency", [](json& j) { j["node_types"]["N"]["channels"][0].erase("latency"); },
+       "node_types.N.channels[0].latency", "missing"},
+      {"bad duplex", [](json& j) { j["node_types"]["N"]["channels"][0]["duplex"] = "simplex"; },
+       "node_types.N.channels[0].duplex", "half"},
+      {"channel to unknown memory", [](json& j) { j["node_types"]["N"]["channels"][0]["between"][1] = "mem"; },
+       "node_types.N.channels[0].between[1]", "unknown memory device 'mem'"},
+      {"channel to itself", [](json& j) { j["node_types"]["N"]["channels"][0]["between"] = {"ram", "ram"}; },
+       "node_types.N.channels[0].between", "different"},
+      {"duplicate channel", [](json& j) { j["node_types"]["N"]["channels"][1]["name"] = "sata"; },
+       "node_types.N.channels[1].name", "duplicate"},
+      {"network unknown node", [](json& j) { j["networks"][0]["members"][1]["node"] = "n7"; },
+       "networks[0].members[1].node", "unknown node 'n7'"},
+      {"network unknown memory", [](json& j) { j["networks"][0]["members"][0]["memory"] = "nic"; },
+       "networks[0].members[0].memory", "unknown memory device 'nic'"},
+      {"network missing NIC speed", [](json& j) { j["networks"][0]["members"][0].erase("bandwidth"); },
+       "networks[0].members[0].bandwidth", "missing"},
+      {"network zero NIC", [](json& j) { j["networks"][0]["members"][0]["bandwidth"] = "0Mb/s"; },
+       "networks[0].members[0].bandwidth", "> 0"},
+      {"network member twice", [](json& j) { j["networks"][0]["members"][1]["node"] = "n0"; },
+       "networks[0].members[1].node", "twice"},
+      {"duplicate job type", [](json& j) { j["job_types"] = {"RayIntersect", "RayIntersect"}; }, "job_types[1]",
+       "duplicate"},
+      {"override error at node path", [](json& j) { j["nodes"][1]["memory"] = {{{"name", "ram"}, {"capacity", "lots"}}}; },
+       "nodes[1].memory[0].capacity", "expected"},
+      {"override entry without name", [](json& j) { j["nodes"][1]["compute"] = {{{"count", 3}}}; },
+       "nodes[1].compute[0].name", "missing"},
+      {"unreachable memory (no SATA)",
+       [](json& j) { j["node_types"]["N"]["channels"].erase(0); }, "node_types.N.memory[1]",
+       "'n0.ram' is unreachable"},
+      {"unreachable GPU memory (override)",
+       [](json& j) {
+         j["nodes"][1]["memory"] = {{{"name", "gpu1mem"}, {"kind", "gpu"}, {"capacity", "1GiB"}}};
+         j["nodes"][1]["compute"] = {{{"name", "gpu1"}, {"kind", "gpu"}, {"memory", "gpu1mem"}}};
+       },
+       "nodes[1].memory[0]", "'n1.gpu1mem' is unreachable"},
+      {"no disk at all",
+       [](json& j) {
+         j["node_types"]["N"]["memory"][0]["kind"] = "host";
+       },
+       "nodes", "disk"},
+  };
+  for (const Bad& c : cases) {
+    SCOPED_TRACE(c.what);
+    json j = base();
+    c.edit(j);
+    expect_error(j.dump(), c.field, c.message);
+  }
+}
+
+TEST(PlatformLoader, InvalidJsonReportsLineAndColumn) {
+  expect_error("{\n  \"name\": \"x\",\n  \"nodes\": [,]\n}", "", "line 3");
+  expect_error("", "", "invalid JSON");
+  expect_error("[1, 2]", "(top level)", "object");
+}
+
+TEST(PlatformLoader, DuplicateJsonKeysAreRejected) {
+  std::string text = base().dump();
+  // A second definition of node type "N" would silently replace the first.
+  const std::string n = "\"N\":";
+  const auto pos = text.find(n);
+  ASSERT_NE(pos, std::string::npos);
+  text.insert(pos, "\"N\":{},");
+  expect_error(text, "node_types.N", "duplicate key");
+  expect_error(R"({"name": "a", "nodes": [{"name": "x", "name": "y"}]})", "nodes[].name", "duplicate key");
+}
+
+TEST(PlatformLoader, FixtureFilesFailWithTheirFileAndField) {
+  const std::string dir = std::string(RAYLINE_TEST_DATA) + "/platforms/bad/";
+  struct Case {
+    const char* file;
+    const char* field;
+  };
+  for (const Case& c : {Case{"invalid_json.json", ""}, Case{"unknown_memory.json", "node_types.A.compute[1].memory"},
+                        Case{"bad_bandwidth.json", "node_types.A.channels[1].bandwidth"},
+                        Case{"unreachable_gpu.json", "node_types.A.memory[2]"},
+                        Case{"unknown_key.json", "networks[0].members[0].bandwith"}}) {
+    SCOPED_TRACE(c.file);
+    ASSERT_TRUE(std::filesystem::exists(dir + c.file));
+    try {
+      load_platform(dir + c.file);
+      ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), dir + c.file);
+      EXPECT_EQ(e.field(), c.field) << e.what();
+    }
+  }
+}
+
+TEST(PlatformLoader, MissingFile) {
+  try {
+    load_platform("/nonexistent/platform.json");
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "/nonexistent/platform.json");
+    EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos);
+  }
+}
+
+}  // namespace
