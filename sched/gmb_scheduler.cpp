@@ -141,9 +141,14 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
       if (!g.timing.supports(d, job.type)) continue;
       if (std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) continue;
       Time start = std::max(key_at, s.after_deps_ready(j));
+      if (has_key && !s.copy_at(bk.key, m) && !Placer::may_fetch(job, bk.key, s)) continue;
       for (BlockId b : job.inputs) {
         if (start == kNever || loses(start)) break;
         if (has_key && b == bk.key) continue;
+        if (!s.copy_at(b, m) && !Placer::may_fetch(job, b, s)) {
+          start = kNever;
+          break;
+        }
         // Exact without a search when a direct hop already lands by `start`.
         if (bound_time_->direct_upper_bound(s, b, m, now) <= start) continue;
         if (loses(bound_time_->lower_bound(s, b, m, now))) {

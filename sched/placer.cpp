@@ -4,12 +4,19 @@
 
 namespace rayline {
 
+bool Placer::may_fetch(const Job& j, BlockId b, const Schedule& s) {
+  if (s.pool().block(b).kind != DataKind::Framebuffer) return true;
+  return s.graph().job_types[static_cast<std::size_t>(j.type)] == "AdditiveCompose";
+}
+
 Time Placer::earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s) {
   const MemId m = s.graph().computes[d].memory;
   Time arrive = s.after_deps_ready(j);
   if (arrive == kNever) return kNever;
-  for (BlockId b : s.pool().job(j).inputs) {
+  const Job& job = s.pool().job(j);
+  for (BlockId b : job.inputs) {
     const Copy* c = s.copy_at(b, m);
+    if (!c && !may_fetch(job, b, s)) return kNever;
     arrive = std::max(arrive, c ? s.copy_ready(*c) : finder_.arrival(b, m));
     if (arrive == kNever) return kNever;
   }
@@ -26,6 +33,7 @@ bool Placer::place(JobId j, DeviceId d, Time ready, Time now, JobPool& pool, Sch
   Bytes need_here = 0;
   for (BlockId b : job.inputs) {
     if (s.copy_at(b, m)) continue;
+    if (!may_fetch(job, b, s)) return false;
     need_here += pool.block(b).bytes;
     finder_.path(b, m, path_);
     if (path_.empty()) return false;

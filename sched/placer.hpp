@@ -16,6 +16,9 @@ class Placer {
   explicit Placer(const Schedule& s) : finder_(s) {}
   FetchPathFinder& finder() { return finder_; }
 
+  // Sec. 5.1: framebuffers move only for AdditiveCompose; every other block may be fetched.
+  static bool may_fetch(const Job& j, BlockId b, const Schedule& s);
+
   // Earliest time job j could start on d if the device is free from `ready` (kNever if an
   // input cannot reach d's memory device or a job it follows is not planned).
   Time earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s);
