@@ -208,7 +208,7 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
   const json& types = root.contains("node_types") ? root["node_types"] : no_types;
   if (!types.is_object()) cx.fail("node_types", "expected an object: type name -> node template");
   for (auto it = types.begin(); it != types.end(); ++it)
-    cx.keys(it.value(), {"description", "memory", "compute", "channels"}, "node_types." + it.key());
+    cx.keys(it.value(), {"description", "memory", "compute", "channels", "media"}, "node_types." + it.key());
 
   std::vector<PendingTiming> timings;
   std::map<std::string, std::map<std::string, MemId>> node_mem;  // node -> local memory name -> id
@@ -219,7 +219,7 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
   for (std::size_t ni = 0; ni < nodes.size(); ++ni) {
     const std::string nf = at("nodes", ni);
     const json& node = nodes[ni];
-    cx.keys(node, {"name", "type", "description", "memory", "compute", "channels"}, nf);
+    cx.keys(node, {"name", "type", "description", "memory", "compute", "channels", "media"}, nf);
     const std::string nname = cx.str(node, "name", nf);
     if (nname.find('.') != std::string::npos) cx.fail(join(nf, "name"), "node names may not contain '.'");
     if (g.find_node(nname) != kNone) cx.fail(join(nf, "name"), "duplicate node name '" + nname + "'");
@@ -306,13 +306,36 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
       }
     }
 
+    // Shared media inside a node (e.g. one PCIe root complex behind several GPUs): one
+    // resource each; every channel that names it in "media" also occupies it, in both
+    // directions, so those channels contend (DCG contention, device_graph.hpp).
+    std::map<std::string, ResourceId> media;
+    for (const Entry& e : merged_list(cx, type, tf, node, nf, "media")) {
+      cx.keys(e.value, {"name", "bandwidth", "description"}, e.field);
+      const std::string mname = cx.str(e.value, "name", e.field);
+      if (media.count(mname)) cx.fail(join(e.field, "name"), "duplicate medium '" + mname + "'");
+      g.resources.push_back({nname + "." + mname, cx.bandwidth(e.value, "bandwidth", e.field)});
+      media[mname] = static_cast<ResourceId>(g.resources.size() - 1);
+    }
+
     // Intra-node channels: a half-duplex medium (SATA) is one resource for both
     // directions; a full-duplex one (PCIe) one resource per direction.
     std::set<std::string> chan_names;
     for (const Entry& e : merged_list(cx, type, tf, node, nf, "channels")) {
       const std::string& f = e.field;
-      cx.keys(e.value, {"name", "kind", "between", "duplex", "latency", "bandwidth", "description"}, f);
+      cx.keys(e.value, {"name", "kind", "between", "duplex", "latency", "bandwidth", "media", "description"}, f);
       const std::string cname = cx.str(e.value, "name", f);
+      std::vector<ResourceId> shared;
+      if (e.value.contains("media")) {
+        const json& ms = cx.arr(e.value, "media", f);
+        for (std::size_t k = 0; k < ms.size(); ++k) {
+          const std::string mf = at(join(f, "media"), k);
+          if (!ms[k].is_string()) cx.fail(mf, "expected the name of a medium");
+          auto it = media.find(ms[k].get<std::string>());
+          if (it == media.end()) cx.fail(mf, "unknown medium '" + ms[k].get<std::string>() + "' on node '" + nname + "'");
+          shared.push_back(it->second);
+        }
+      }
       if (!chan_names.insert(cname).second) cx.fail(join(f, "name"), "duplicate channel name '" + cname + "'");
       const json& between = cx.arr(e.value, "between", f);
       if (between.size() != 2) cx.fail(join(f, "between"), "expected two memory device names, e.g. [\"disk\", \"ram\"]");
@@ -351,6 +374,7 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
         c.latency = lat;
         c.bandwidth = bw;
         c.resources = {res[dir]};
+        c.resources.insert(c.resources.end(), shared.begin(), shared.end());
         g.channels.push_back(std::move(c));
       }
     }

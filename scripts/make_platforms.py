@@ -99,7 +99,10 @@ ws = {
         "compute": [{"name": "cpu", "kind": "cpu", "count": 16, "memory": "ram", "timing": cpu_timing(0.8)}] +
                    [{"name": f"gpu{i}", "kind": "gpu", "memory": f"gpu{i}mem", "timing": gpu_timing(40)} for i in range(ws_gpus)],
         "channels": [{"name": "nvme", "kind": "nvme", "between": ["disk", "ram"], "duplex": "half", "latency": "100us", "bandwidth": "2GB/s"}] +
-                    [{"name": f"pcie{i}", "kind": "pcie", "between": ["ram", f"gpu{i}mem"], "duplex": "full", "latency": "10us", "bandwidth": "12GB/s"} for i in range(ws_gpus)],
+                    [{"name": f"pcie{i}", "kind": "pcie", "between": ["ram", f"gpu{i}mem"], "duplex": "full", "latency": "10us",
+                      "bandwidth": "12GB/s", "media": [f"root{i // 2}"]} for i in range(ws_gpus)],
+        # Two GPUs behind each CPU root complex: their PCIe transfers contend for it.
+        "media": [{"name": f"root{r}", "bandwidth": "16GB/s"} for r in range(ws_gpus // 2)],
     }},
     "nodes": [{"name": "W", "type": "W"}],
 }
