@@ -193,4 +193,12 @@ std::uint64_t emit_cube_sphere(MeshSink& sink, std::uint64_t triangles, std::uin
   return emitted;
 }
 
+int quadratic_detail_level(const std::function<std::uint64_t(int)>& count, double fraction, std::uint64_t triangles) {
+  const double c1 = double(count(1)), c2 = double(count(2)), c3 = double(count(3));
+  const double a = (c3 - 2 * c2 + c1) / 2, b = c2 - c1 - 3 * a, c = c1 - a - b;
+  const double target = fraction * double(triangles);
+  if (target <= c1) return 1;
+  return std::max(1, int((-b + std::sqrt(b * b - 4 * a * (c - target))) / (2 * a)));
+}
+
 }  // namespace rayline::scene

@@ -11,6 +11,11 @@
 
 namespace rayline::scene {
 
+// Generators size their fixed parts with a detail level q whose triangle count grows
+// quadratically: fit count(q) = a q^2 + b q + c from q = 1, 2, 3 and return the largest q
+// whose count stays within `fraction` of `triangles` (at least 1).
+int quadratic_detail_level(const std::function<std::uint64_t(int)>& count, double fraction, std::uint64_t triangles);
+
 class MeshBuilder {
  public:
   std::uint32_t vertex(Float3 p) {

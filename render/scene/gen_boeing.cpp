@@ -159,11 +159,7 @@ void emit_boeing(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
   BudgetSink sink(out);
   Rng rng(seed);
   // Hull and wings: the largest q within 8 % of the budget (quadratic in q).
-  const double c1 = double(count_hull(1)), c2 = double(count_hull(2)), c3 = double(count_hull(3));
-  const double a = (c3 - 2 * c2 + c1) / 2, b = c2 - c1 - 3 * a, c = c1 - a - b;
-  const double target = 0.08 * double(triangles);
-  int q = 1;
-  if (target > c1) q = std::max(1, int((-b + std::sqrt(b * b - 4 * a * (c - target))) / (2 * a)));
+  const int q = quadratic_detail_level(count_hull, 0.08, triangles);
   emit_hull(sink, q);
 
   // Structure: circumferential frames every 0.6 m and the cabin floor.

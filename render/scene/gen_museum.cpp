@@ -129,11 +129,7 @@ void emit_museum(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
   Rng rng(seed);
   // Architecture: largest q whose count stays within 15 % of the budget (counts are a
   // quadratic in q: fit it from q = 1, 2, 3).
-  const double c1 = double(count_architecture(1)), c2 = double(count_architecture(2)), c3 = double(count_architecture(3));
-  const double a = (c3 - 2 * c2 + c1) / 2, b = c2 - c1 - 3 * a, c = c1 - a - b;
-  const double target = 0.15 * double(triangles);
-  int q = 1;
-  if (target > c1) q = std::max(1, int((-b + std::sqrt(b * b - 4 * a * (c - target))) / (2 * a)));
+  const int q = quadratic_detail_level(count_architecture, 0.15, triangles);
   emit_architecture(sink, q);
 
   // Statues: as many sites as the budget affords ~20 K triangles each, in a seeded order.

@@ -27,7 +27,7 @@ TEST(CliPlan, HelpAndVersion) {
   EXPECT_EQ(rayline_cli("--help").code, 0);
   const auto v = rayline_cli("--version");
   EXPECT_EQ(v.code, 0);
-  EXPECT_NE(v.out.find("rayline"), std::string::npos);
+  EXPECT_NE(v.all.find("rayline"), std::string::npos);
   EXPECT_EQ(rayline_cli("plan --help").code, 0);
   EXPECT_EQ(rayline_cli("simulate --help").code, 0);
   EXPECT_EQ(rayline_cli("no-such-command").code, 2);
@@ -39,9 +39,9 @@ TEST(CliPlan, DefaultsRunOnThePaperClusterAndWriteTraceAndCsv) {
   fs::create_directories(dir);
   const auto r = rayline_cli("plan --quiet --synthetic-jobs 300 --trace " + (dir / "t.json").string() + " --jobs-csv " +
                              (dir / "j.csv").string());
-  ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("makespan"), std::string::npos);
-  EXPECT_NE(r.out.find("84 compute devices"), std::string::npos) << r.out;
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.all.find("makespan"), std::string::npos);
+  EXPECT_NE(r.all.find("84 compute devices"), std::string::npos) << r.all;
   std::ifstream t(dir / "t.json");
   const auto trace = nlohmann::json::parse(t);
   EXPECT_GT(trace["traceEvents"].size(), 300u);
@@ -53,27 +53,27 @@ TEST(CliPlan, DefaultsRunOnThePaperClusterAndWriteTraceAndCsv) {
 
 TEST(CliPlan, JobFileOnAPlatformSubset) {
   const auto r = rayline_cli("plan --platform " + kPlatforms + "/paper-2A.json --jobs " + kData + "/jobs/fig4.json");
-  ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("E-jobs 2"), std::string::npos) << r.out;
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.all.find("E-jobs 2"), std::string::npos) << r.all;
 }
 
 TEST(CliPlan, BadInputExitsTwoNamingFileAndField) {
   auto r = rayline_cli("plan --horizon 0s");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.out.find("--horizon"), std::string::npos) << r.out;
+  EXPECT_NE(r.all.find("--horizon"), std::string::npos) << r.all;
   r = rayline_cli("plan --horizon two");
   EXPECT_EQ(r.code, 2);
   r = rayline_cli("plan --jobs /nonexistent/jobs.json");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.out.find("/nonexistent/jobs.json"), std::string::npos) << r.out;
+  EXPECT_NE(r.all.find("/nonexistent/jobs.json"), std::string::npos) << r.all;
   r = rayline_cli("plan --platform /nonexistent/platform.json");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.out.find("/nonexistent/platform.json"), std::string::npos) << r.out;
+  EXPECT_NE(r.all.find("/nonexistent/platform.json"), std::string::npos) << r.all;
   const fs::path bad = scratch("bad-jobs.json");
   std::ofstream(bad) << R"({"blocks": [{"name": "b", "kind": "SceneData", "size": "1MB", "at": ["Z9.ram"]}], "jobs": []})";
   r = rayline_cli("plan --jobs " + bad.string());
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.out.find("blocks[0].at"), std::string::npos) << r.out;
+  EXPECT_NE(r.all.find("blocks[0].at"), std::string::npos) << r.all;
   r = rayline_cli("plan --synthetic-jobs 10 --trace /nonexistent-dir/trace.json");
   EXPECT_EQ(r.code, 2);
   fs::remove(bad);
@@ -82,7 +82,7 @@ TEST(CliPlan, BadInputExitsTwoNamingFileAndField) {
 TEST(CliSimulate, ShortRunWritesCompleteResults) {
   const fs::path out = scratch("sim");
   const auto r = rayline_cli("simulate --platform paper-A --duration 5s --no-progress --out " + out.string());
-  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_EQ(r.code, 0) << r.all;
   std::ifstream f(out / "metrics.json");
   const auto m = nlohmann::json::parse(f);
   for (const char* key : {"rays_per_second", "rays_per_second_series", "devices", "device_summary", "resources",
@@ -101,7 +101,7 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
                                  "--platform /nonexistent.json", "--exec-noise 2"}) {
     const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
-    EXPECT_EQ(r.code, 2) << args << ": " << r.out;
+    EXPECT_EQ(r.code, 2) << args << ": " << r.all;
     EXPECT_FALSE(fs::exists(out)) << args;
     bool partial = false;
     for (const auto& e : fs::directory_iterator(out.parent_path()))

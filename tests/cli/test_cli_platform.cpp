@@ -1,6 +1,8 @@
 // `rayline platform check`: runs the real binary (RAYLINE_BINARY). Exit codes: 0 ok,
 // 2 bad input with "FILE: FIELD: message" on stderr (DESIGN.md, "Bad input").
 #include <gtest/gtest.h>
+
+#include "cli_run.hpp"
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -14,32 +16,8 @@
 
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-CliRun rayline(const std::string& args) {
-  namespace fs = std::filesystem;
-  const fs::path err_file =
-      fs::temp_directory_path() / ("rayline_cli_platform_" + std::to_string(::getpid()) + ".stderr");
-  const std::string cmd = std::string(RAYLINE_BINARY) + " " + args + " 2>" + err_file.string();
-  CliRun r;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf{};
-  std::size_t n;
-  while ((n = std::fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int status = ::pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(err_file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  r.err = ss.str();
-  std::error_code ec;
-  fs::remove(err_file, ec);
-  return r;
-}
+using CliRun = rayline::testing::CliResult;
+CliRun rayline(const std::string& args) { return rayline::testing::rayline_cli(args); }
 
 const std::string kPlatforms = RAYLINE_PLATFORMS;
 const std::string kBad = std::string(RAYLINE_TEST_DATA) + "/platforms/bad/";
