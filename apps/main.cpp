@@ -47,7 +47,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   auto* sim = app.add_subcommand("simulate", "Run a schedule on the SimGrid virtual platform and measure it");
   sim->add_option("--platform", opt->platform, "Platform JSON or built-in name (default: paper-cluster)");
   sim->add_option("--workload", opt->workload, "'ray-stream' or a job-set JSON file")->default_val(opt->workload);
-  sim->add_option("--scheduler", opt->scheduler, "gmb (the paper) or gmb-ca (completion-aware)")->default_val(opt->scheduler);
+  sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware) or loadanyonce (Navratil 2014 baseline)")->default_val(opt->scheduler);
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->default_val(opt->duration);
   sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed);

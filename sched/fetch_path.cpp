@@ -20,7 +20,9 @@ void FetchPathFinder::resource_changed(ResourceId r) {
 FetchPathFinder::Tree& FetchPathFinder::tree(BlockId b, MemId m) {
   if (static_cast<std::size_t>(b) >= trees_.size()) trees_.resize(schedule_->pool().block_count());
   Tree& t = trees_[b];
-  if (t.valid && t.dest_valid[m] && t.holders_version == schedule_->holders_version(b)) {
+  const bool restricted = scene_local_ && schedule_->pool().block(b).kind == DataKind::SceneData;
+  restrict_node_ = restricted ? schedule_->graph().memories[m].node : kNone;
+  if (t.valid && t.dest_valid[m] && t.holders_version == schedule_->holders_version(b) && t.node == restrict_node_) {
     ++hits_;
     return t;
   }
@@ -40,8 +42,18 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
   auto cmp = [](const auto& a, const auto& c) { return a.first > c.first; };
   // Virtual source S: one edge per holder, weighted by the copy's ready time.
   holder_.assign(nm, 0);
+  t.node = restrict_node_;
+  // scene_local_: a rank loads from its own node when the node holds the block, else from
+  // the storage that does (a central scene database); never from another node's cache.
+  bool node_has_copy = false;
+  if (restrict_node_ != kNone)
+    for (const Copy& c : schedule_->copies(b)) node_has_copy = node_has_copy || g.memories[c.mem].node == restrict_node_;
   for (const Copy& c : schedule_->copies(b)) {
     holder_[c.mem] = 1;
+    if (restrict_node_ != kNone) {
+      const bool local = g.memories[c.mem].node == restrict_node_;
+      if (node_has_copy ? !local : !c.origin) continue;
+    }
     const Time r = std::max(now_, schedule_->copy_ready(c));
     if (r < t.arrival[c.mem]) {
       t.arrival[c.mem] = r;

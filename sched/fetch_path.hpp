@@ -33,6 +33,12 @@ class FetchPathFinder {
   void clear();                         // after reproject(): everything may have moved
   // Transfers cannot start in the past: a holder's edge from S weighs max(ready, now).
   void set_now(Time now) { if (now != now_) { now_ = now; clear(); } }
+  // Baselines that never send scene data between nodes (GraviT compiles SEND_DOMS out):
+  // SceneData then starts from the destination node's own copies when it has any, else
+  // from origin copies (a central scene database), never from another node's cache.
+  void set_scene_from_origin_or_local(bool on) {
+    if (on != scene_local_) { scene_local_ = on; clear(); }
+  }
 
   std::uint64_t searches() const { return searches_; }
   std::uint64_t hits() const { return hits_; }
@@ -44,8 +50,10 @@ class FetchPathFinder {
     std::vector<Time> arrival;     // per memory device
     std::vector<ChannelId> via;    // incoming tree channel per memory device (kNone at roots)
     std::vector<char> dest_valid;  // per memory device: no resource on its path changed
+    NodeId node = kNone;           // scene_local_: the node the roots were restricted to
   };
   Tree& tree(BlockId b, MemId m);
+  NodeId restrict_node_ = kNone;  // with scene_local_: the destination's node
   void search(BlockId b, Tree& t);
 
   const Schedule* schedule_;
@@ -55,6 +63,7 @@ class FetchPathFinder {
   std::vector<char> done_, holder_;
   std::uint64_t searches_ = 0, hits_ = 0;
   Time now_ = 0;
+  bool scene_local_ = false;
 };
 
 }  // namespace rayline

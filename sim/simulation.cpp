@@ -14,6 +14,7 @@
 #include "sched/error.hpp"
 #include "sched/gmb_scheduler.hpp"
 #include "sched/job_set.hpp"
+#include "sched/load_any_once.hpp"
 #include "sched/platform_loader.hpp"
 #include "sched/ray_stream.hpp"
 #include "sched/runtime_loop.hpp"
@@ -43,8 +44,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   namespace fs = std::filesystem;
   using nlohmann::json;
   const auto wall0 = std::chrono::steady_clock::now();
-  if (cfg.scheduler != "gmb" && cfg.scheduler != "gmb-ca")
-    throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca)");
+  if (cfg.scheduler != "gmb" && cfg.scheduler != "gmb-ca" && cfg.scheduler != "loadanyonce")
+    throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca, loadanyonce)");
   if (!(cfg.horizon > 0)) throw InputError("--horizon", "", "must be > 0");
   if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
   if (cfg.exec_noise < 0 || cfg.exec_noise >= 1) throw InputError("--exec-noise", "", "must be in [0, 1)");
@@ -89,7 +90,9 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     for (auto [b, m] : set->initial) s.put_initial(b, m);
     wl = std::make_unique<StaticWorkload>();
   }
-  GmbScheduler gmb({.horizon = cfg.horizon, .completion_aware = cfg.scheduler == "gmb-ca"});
+  std::unique_ptr<Scheduler> scheduler;
+  if (cfg.scheduler == "loadanyonce") scheduler = std::make_unique<LoadAnyOnceScheduler>();
+  else scheduler = std::make_unique<GmbScheduler>(GmbOptions{.horizon = cfg.horizon, .completion_aware = cfg.scheduler == "gmb-ca"});
   SimExecutorOptions xo;
   if (cfg.exec_noise > 0) {
     const double n = cfg.exec_noise;
@@ -102,7 +105,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     };
   }
   SimExecutor ex(platform, s, xo);
-  RuntimeLoop loop(gmb, ex, *wl, pool, s);
+  RuntimeLoop loop(*scheduler, ex, *wl, pool, s);
   auto last_print = std::chrono::steady_clock::now();
   if (cfg.progress) {
     loop.on_progress = [&](Time now, const RunStats&) {

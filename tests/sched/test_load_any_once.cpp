@@ -1,0 +1,148 @@
+// LoadAnyOnce (the paper's Navratil 2014 baseline, GraviT rule): the decision rule pinned
+// on hand-built states, bulk-synchronous rounds, whole domains to one rank, scene data
+// only from storage or the rank's own node, and the schedule invariants.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "dcg_fixture.hpp"
+#include "sched/exact_executor.hpp"
+#include "sched/load_any_once.hpp"
+#include "sched/runtime_loop.hpp"
+
+using namespace rayline;
+
+TEST(LoadAnyOnce, HighestDemandDomainsGoToRanksZeroOneTwoRestIdle) {
+  const std::vector<std::uint64_t> demand = {5, 50, 0, 30, 40};
+  EXPECT_EQ(load_any_once_assign(demand, 3), (std::vector<std::int32_t>{1, 4, 3}));
+  // More ranks than demanded domains: the extra ranks idle; zero demand is never loaded.
+  EXPECT_EQ(load_any_once_assign(demand, 6), (std::vector<std::int32_t>{1, 4, 3, 0, kNone, kNone}));
+  // Equal demand: higher domain id first, as GraviT's (count << 7) + id key popped last.
+  EXPECT_EQ(load_any_once_assign({10, 10, 10}, 2), (std::vector<std::int32_t>{2, 1}));
+  // Demands beyond 2^24 rays (where GraviT's int key overflows) still sort correctly.
+  EXPECT_EQ(load_any_once_assign({std::uint64_t(1) << 40, std::uint64_t(1) << 30}, 1), (std::vector<std::int32_t>{0}));
+  EXPECT_TRUE(load_any_once_assign({}, 4) == std::vector<std::int32_t>(4, kNone));
+}
+
+namespace {
+struct TwoNodes {
+  DeviceGraph g;
+  MemId disk0, ram0, disk1, ram1;
+  TwoNodes() {
+    rayline::testing::DcgBuilder b;
+    const NodeId n0 = b.node("n0"), n1 = b.node("n1");
+    disk0 = b.mem("n0.disk", Bytes(1) << 40, MemoryKind::Disk, n0);
+    ram0 = b.mem("n0.ram", Bytes(8) << 30, MemoryKind::Host, n0);
+    disk1 = b.mem("n1.disk", Bytes(1) << 40, MemoryKind::Disk, n1);
+    ram1 = b.mem("n1.ram", Bytes(8) << 30, MemoryKind::Host, n1);
+    b.half_duplex(disk0, ram0, 150e6, 0.01);
+    b.half_duplex(disk1, ram1, 150e6, 0.01);
+    b.full_duplex(ram0, ram1, 1e9, 1e-4);  // a fast LAN: GMB would copy from the peer's RAM
+    for (int c = 0; c < 2; ++c) b.dev("n0.cpu" + std::to_string(c), ram0);
+    for (int c = 0; c < 2; ++c) b.dev("n1.cpu" + std::to_string(c), ram1);
+    b.timing(0, DataKind::RayQueue, 32e6, 5e-6);
+    g = b.build();
+  }
+};
+
+BlockId block(JobPool& pool, const std::string& name, DataKind k, Bytes bytes) {
+  DataBlock d;
+  d.name = name;
+  d.kind = k;
+  d.bytes = bytes;
+  d.consumed = is_consumed_by_use(k);
+  return pool.add_block(d);
+}
+}  // namespace
+
+TEST(LoadAnyOnce, RoundsAreBulkSynchronousAndDomainsAreDrainedByOneRank) {
+  TwoNodes t;
+  JobPool pool;
+  Schedule s(t.g, pool);
+  std::vector<BlockId> scene;
+  for (int b = 0; b < 3; ++b) {
+    scene.push_back(block(pool, "scene" + std::to_string(b), DataKind::SceneData, 200'000'000));
+    s.put_initial(scene.back(), t.disk0);
+    s.put_initial(scene.back(), t.disk1);
+  }
+  // Domain demand: scene0 has 3 queues, scene1 2, scene2 1 (32 MB each = 500 k rays).
+  const int per[3] = {3, 2, 1};
+  for (int b = 0; b < 3; ++b)
+    for (int q = 0; q < per[b]; ++q) {
+      const BlockId rq = block(pool, "rays" + std::to_string(b) + "_" + std::to_string(q), DataKind::RayQueue, 32'000'000);
+      s.put_initial(rq, q % 2 ? t.ram1 : t.ram0);
+      Job j;
+      j.name = "j" + std::to_string(b) + "_" + std::to_string(q);
+      j.type = 0;
+      j.inputs = {scene[static_cast<std::size_t>(b)], rq};
+      pool.add_job(std::move(j));
+    }
+  LoadAnyOnceScheduler lao;
+  lao.plan(0, pool, s);
+  EXPECT_EQ(pool.queued_count(), 0u);
+  // Ranks 0, 1, 2 got scene0, scene1, scene2; rank 3 idles.
+  for (std::size_t j = 0; j < pool.job_count(); ++j) {
+    const Activity& a = s.activity(pool.activity(static_cast<JobId>(j)));
+    const std::string& name = pool.job(static_cast<JobId>(j)).name;
+    EXPECT_EQ(a.device, name[1] - '0') << name;
+  }
+  EXPECT_TRUE(s.device_timeline(3).items.empty());
+  // Scene data only from the rank's own storage (every node has a full copy): every
+  // SceneData transfer is disk -> RAM on one node, none crosses the LAN.
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.kind != ActivityKind::Transfer || pool.block(a.block).kind != DataKind::SceneData) continue;
+    const Channel& c = t.g.channels[a.channel];
+    EXPECT_EQ(t.g.memories[c.from].kind, MemoryKind::Disk) << c.name;
+    EXPECT_EQ(t.g.memories[c.from].node, t.g.memories[c.to].node) << c.name;
+  }
+  // A new job while the round runs: nothing is planned until every rank is idle.
+  const BlockId rq = block(pool, "late", DataKind::RayQueue, 32'000'000);
+  s.put_initial(rq, t.ram0);
+  Job late;
+  late.name = "late";
+  late.type = 0;
+  late.inputs = {scene[0], rq};
+  pool.add_job(std::move(late));
+  const PlanStats ps = lao.plan(0.5, pool, s);
+  EXPECT_EQ(ps.execs, 0);
+  EXPECT_EQ(pool.queued_count(), 1u);
+}
+
+TEST(LoadAnyOnce, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
+  for (int seed = 0; seed < 30; ++seed) {
+    std::mt19937 rng(300 + seed);
+    TwoNodes t;
+    JobPool pool;
+    Schedule s(t.g, pool);
+    std::vector<BlockId> scene;
+    const int nb = 2 + seed % 6;
+    for (int b = 0; b < nb; ++b) {
+      scene.push_back(block(pool, "scene" + std::to_string(b), DataKind::SceneData,
+                            std::uniform_int_distribution<Bytes>(10'000'000, 300'000'000)(rng)));
+      s.put_initial(scene.back(), t.disk0);
+      s.put_initial(scene.back(), t.disk1);
+    }
+    const int nj = 5 + seed % 20;
+    for (int q = 0; q < nj; ++q) {
+      const BlockId rq = block(pool, "rays" + std::to_string(q), DataKind::RayQueue,
+                               std::uniform_int_distribution<Bytes>(1'000'000, 64'000'000)(rng));
+      s.put_initial(rq, q % 2 ? t.ram1 : t.ram0);
+      Job j;
+      j.name = "j" + std::to_string(q);
+      j.type = 0;
+      j.inputs = {scene[std::uniform_int_distribution<std::size_t>(0, scene.size() - 1)(rng)], rq};
+      pool.add_job(std::move(j));
+    }
+    LoadAnyOnceScheduler lao;
+    ExactExecutor ex(s);
+    StaticWorkload wl;
+    RuntimeLoop loop(lao, ex, wl, pool, s);
+    const RunStats st = loop.run();
+    ASSERT_FALSE(st.stalled) << seed;
+    for (std::size_t j = 0; j < pool.job_count(); ++j) EXPECT_EQ(pool.state(static_cast<JobId>(j)), JobState::Done);
+    const auto c = rayline::testing::check_schedule(s, pool);
+    for (const auto& e : c.errors) ADD_FAILURE() << "seed " << seed << ": " << e;
+    EXPECT_GE(lao.rounds(), 1u);
+  }
+}
