@@ -40,6 +40,11 @@ int run_simulate(const SimulateOptions& opt) {
               static_cast<unsigned long long>(s.activities), s.scheduler_seconds,
               s.simulated > 0 ? 100 * s.scheduler_seconds / s.simulated : 0.0);
   std::printf("results: %s/metrics.json, jobs.csv, timeline.json\n", opt.out.c_str());
+  if (s.stalled) {
+    std::fprintf(stderr, "rayline: %zu queued job(s) could not be placed on any device (capacity or no path)\n",
+                 s.queued_at_end);
+    return kExitFailure;
+  }
   return kExitOk;
 }
 

@@ -18,6 +18,15 @@ RayStreamWorkload::RayStreamWorkload(const DeviceGraph& g, RayStreamOptions opt)
   if (hosts_.empty() || disks_.empty()) throw InputError(g.source_file, "memory", "the ray stream needs a disk and a host memory");
   if (opt_.blocks < 1) throw InputError("--blocks", "", "must be >= 1");
   if (opt_.backlog <= 0) opt_.backlog = 2 * static_cast<int>(g.computes.size());
+  // Every block must fit some memory device a compute device works from, or nothing runs.
+  Bytes largest = 0;
+  for (const ComputeDevice& d : g.computes) largest = std::max(largest, g.memories[d.memory].capacity);
+  const double block = static_cast<double>(opt_.scene_bytes) / opt_.blocks * 1.1;  // blocks vary by +-10 %
+  if (block > static_cast<double>(largest))
+    throw InputError("--blocks", "", std::to_string(opt_.blocks) + " blocks of a " + std::to_string(opt_.scene_bytes >> 20) +
+                                         " MiB scene are up to " + std::to_string(static_cast<Bytes>(block) >> 20) +
+                                         " MiB each, larger than every memory device a compute device can use (" +
+                                         std::to_string(largest >> 20) + " MiB in " + g.source_file + "); use more blocks");
 }
 
 double RayStreamWorkload::uniform() {  // splitmix64 -> [0, 1)
@@ -100,16 +109,17 @@ void RayStreamWorkload::top_up(Time now, JobPool& pool, Schedule& s) {
   }
   double zipf_total = 0;
   for (int b = 0; b < opt_.blocks; ++b) zipf_total += 1.0 / (b + 1);
-  while (pool.queued_count() < static_cast<std::size_t>(opt_.backlog)) {
+  // Batches that merge into queued jobs add work but not jobs: bound the attempts, so a
+  // scene with few blocks (few distinct queues) cannot spin here.
+  for (int attempt = 0; attempt < 4 * opt_.backlog && pool.queued_count() < static_cast<std::size_t>(opt_.backlog);
+       ++attempt) {
     // Rays concentrate on visible blocks: Zipf popularity.
     double u = uniform() * zipf_total;
     int b = 0;
     while (b + 1 < opt_.blocks && (u -= 1.0 / (b + 1)) > 0) ++b;
     const auto rays = static_cast<std::uint64_t>(opt_.rays_min + (opt_.rays_max - opt_.rays_min) * uniform());
     const MemId host = hosts_[static_cast<std::size_t>(uniform() * static_cast<double>(hosts_.size())) % hosts_.size()];
-    const std::size_t before = pool.queued_count();
     add_queue(b, rays, host, kNone, now, pool, s);
-    if (pool.queued_count() == before) continue;  // merged; keep filling
   }
 }
 

@@ -246,6 +246,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   sum.scheduler_seconds = st.scheduler_wall_seconds;
   sum.rays_per_second = end > 0 ? work_done / end : 0;
   sum.activities = done_exec + done_transfer;
+  sum.stalled = st.stalled;
+  sum.queued_at_end = pool.queued_count();
   return sum;
 }
 

@@ -29,6 +29,8 @@ struct SimulationSummary {
   double scheduler_seconds = 0;
   double rays_per_second = 0;
   std::uint64_t activities = 0;
+  bool stalled = false;        // queued jobs that no device could ever take
+  std::size_t queued_at_end = 0;
 };
 
 SimulationSummary run_simulation(const SimulationConfig& cfg);

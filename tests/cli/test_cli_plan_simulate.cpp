@@ -99,7 +99,7 @@ TEST(CliSimulate, ShortRunWritesCompleteResults) {
 TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   const fs::path out = scratch("sim-bad");
   for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
-                                 "--platform /nonexistent.json", "--exec-noise 2"}) {
+                                 "--platform /nonexistent.json", "--exec-noise 2", "--blocks 1"}) {
     const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
     EXPECT_EQ(r.code, 2) << args << ": " << r.all;
     EXPECT_FALSE(fs::exists(out)) << args;

@@ -93,3 +93,23 @@ TEST(RayStream, DeterministicForASeed) {
   EXPECT_DOUBLE_EQ(a.makespan, b.makespan);
   EXPECT_NE(a.traced, c.traced);
 }
+
+// Few blocks mean few distinct queues: new batches merge instead of adding jobs, and the
+// stream must still make progress (it used to spin trying to reach its backlog).
+TEST(RayStream, OneBlockSceneMergesInsteadOfSpinning) {
+  const DeviceGraph g = cluster();
+  RayStreamOptions o;
+  o.blocks = 1;
+  o.scene_bytes = 100'000'000;
+  o.stop_new_batches = 2.0;
+  JobPool pool;
+  Schedule s(g, pool);
+  RayStreamWorkload wl(g, o);
+  GmbScheduler gmb({.horizon = 2.0});
+  ExactExecutor ex(s);
+  RuntimeLoop loop(gmb, ex, wl, pool, s);
+  const RunStats st = loop.run();
+  EXPECT_FALSE(st.stalled);
+  EXPECT_GT(wl.merges(), 0u);
+  EXPECT_EQ(wl.rays_traced(), wl.primary_rays() + wl.spawned_rays());
+}
