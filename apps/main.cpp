@@ -4,6 +4,7 @@
 
 #include "apps/cli_common.hpp"
 #include "apps/cmd_generate.hpp"
+#include "apps/cmd_partition.hpp"
 #include "apps/cmd_plan.hpp"
 #include "apps/cmd_platform.hpp"
 #include "apps/cmd_simulate.hpp"
@@ -47,7 +48,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   auto* sim = app.add_subcommand("simulate", "Run a schedule on the SimGrid virtual platform and measure it");
   sim->add_option("--platform", opt->platform, "Platform JSON or built-in name (default: paper-cluster)");
   sim->add_option("--workload", opt->workload, "'ray-stream' or a job-set JSON file")->default_val(opt->workload);
-  sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware) or loadanyonce (Navratil 2014 baseline)")->default_val(opt->scheduler);
+  sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014) or budge (Budge 2009)")->default_val(opt->scheduler);
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->default_val(opt->duration);
   sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed);
@@ -73,6 +74,19 @@ void add_generate(CLI::App& app, std::function<int()>& action) {
   gen->callback([opt, &action] { action = [opt] { return run_generate(*opt); }; });
 }
 
+void add_partition(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<PartitionOptions>();
+  auto* part = app.add_subcommand(
+      "partition", "Split a scene into N spatially coherent blocks on disk (streaming median-split kd-tree)");
+  part->add_option("--scene", opt->scene, "Scene JSON or bare mesh file (default: the built-in scene)");
+  part->add_option("--blocks,-n", opt->blocks, "Number of blocks")->default_val(opt->blocks)->check(CLI::Range(1, 1 << 20));
+  part->add_option("--out,-o", opt->out, "Output folder (replaced atomically)")->default_val(opt->out);
+  part->add_option("--memory-limit", opt->memory_limit, "Bound on the sample and block buffers")
+      ->default_val(opt->memory_limit);
+  part->add_flag("--quiet,-q", opt->quiet, "Print only the timing line");
+  part->callback([opt, &action] { action = [opt] { return run_partition(*opt); }; });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -84,6 +98,7 @@ int main(int argc, char** argv) {
   add_plan(app, action);
   add_simulate(app, action);
   add_generate(app, action);
+  add_partition(app, action);
   // New subcommands: add an add_<name>(app, action) above and call it here.
   try {
     app.parse(argc, argv);

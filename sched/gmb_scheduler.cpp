@@ -12,6 +12,13 @@ namespace {
 bool nearly_equal(Time a, Time b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(a)); }
 }  // namespace
 
+std::string GmbScheduler::describe() const {
+  const Time a = aging_threshold();
+  return "gmb{k=" + std::to_string(opt_.horizon) + "s; aging=" + (a == kNever ? std::string("off") : std::to_string(a) + "s") +
+         "; granularity_tiebreak=" + (opt_.granularity_tiebreak ? "1" : "0") +
+         "; completion_aware=" + (opt_.completion_aware ? "1" : "0") + "}";
+}
+
 Time GmbScheduler::aging_threshold() const {
   if (opt_.aging >= 0) return opt_.aging;
   return std::max(1.0, 5 * opt_.horizon);

@@ -34,6 +34,7 @@ class GmbScheduler final : public Scheduler {
  public:
   explicit GmbScheduler(GmbOptions opt = {}) : opt_(opt) {}
   std::string name() const override { return "gmb"; }
+  std::string describe() const override;
   PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
   const GmbOptions& options() const { return opt_; }
   Time aging_threshold() const;

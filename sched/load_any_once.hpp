@@ -29,6 +29,9 @@ std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>&
 class LoadAnyOnceScheduler final : public Scheduler {
  public:
   std::string name() const override { return "loadanyonce"; }
+  std::string describe() const override {
+    return "loadanyonce{GraviT original: BSP rounds; one domain per rank; scene from own node or storage; one rank per device}";
+  }
   PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
   std::uint64_t rounds() const { return rounds_; }
   std::uint64_t domain_loads() const { return domain_loads_; }  // GraviT's domain_counter

@@ -92,8 +92,10 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
       cands.push_back({pool_->queued_demand(static_cast<BlockId>(b)), at, blk.bytes, static_cast<BlockId>(b), kNone});
     }
   }
-  std::sort(cands.begin(), cands.end(), [](const Cand& a, const Cand& b) {
-    if (a.value != b.value) return a.value < b.value;
+  const bool lru = eviction_policy_ == EvictionPolicy::Lru;
+  std::sort(cands.begin(), cands.end(), [lru](const Cand& a, const Cand& b) {
+    if (!lru && a.value != b.value) return a.value < b.value;
+    if (lru && (a.value < 0) != (b.value < 0)) return a.value < 0;  // leaving bytes are free either way
     if (a.at != b.at) return a.at < b.at;
     return a.block < b.block;
   });

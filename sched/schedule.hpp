@@ -66,6 +66,12 @@ class Schedule {
   Schedule(const DeviceGraph& graph, const JobPool& pool);
 
   const DeviceGraph& graph() const { return *graph_; }
+
+  // Eviction order: Rayline's default (bytes already leaving, then copies the queue wants
+  // least, then whose last planned use ends first), or plain LRU (last use first, ignoring
+  // the queue) for baselines that model LRU caches (Budge 2009).
+  enum class EvictionPolicy : std::uint8_t { QueueAware, Lru };
+  void set_eviction_policy(EvictionPolicy p) { eviction_policy_ = p; }
   const JobPool& pool() const { return *pool_; }
   // After copying a Schedule together with its JobPool, point the copy at the new pool.
   void rebind(const JobPool& pool) { pool_ = &pool; }
@@ -147,6 +153,7 @@ class Schedule {
   std::vector<Eviction> evictions_;
   std::vector<std::size_t> device_pending_;
   std::size_t unfinished_ = 0;
+  EvictionPolicy eviction_policy_ = EvictionPolicy::QueueAware;
   ActivityId first_unfinished_ = 0;
   friend class ScheduleTestAccess;
 };

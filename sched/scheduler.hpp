@@ -20,6 +20,8 @@ class Scheduler {
  public:
   virtual ~Scheduler() = default;
   virtual std::string name() const = 0;
+  // The decision parameters, printed with every result.
+  virtual std::string describe() const { return name(); }
   // Extend `schedule` with jobs from the queue of `pool`, planning every compute device up
   // to now + horizon (Sec. 4.2). New activities are appended (ids >= the count before).
   virtual PlanStats plan(Time now, JobPool& pool, Schedule& schedule) = 0;

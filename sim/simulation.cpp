@@ -13,6 +13,7 @@
 
 #include "sched/error.hpp"
 #include "sched/gmb_scheduler.hpp"
+#include "sched/budge.hpp"
 #include "sched/job_set.hpp"
 #include "sched/load_any_once.hpp"
 #include "sched/platform_loader.hpp"
@@ -44,8 +45,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   namespace fs = std::filesystem;
   using nlohmann::json;
   const auto wall0 = std::chrono::steady_clock::now();
-  if (cfg.scheduler != "gmb" && cfg.scheduler != "gmb-ca" && cfg.scheduler != "loadanyonce")
-    throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca, loadanyonce)");
+  if (cfg.scheduler != "gmb" && cfg.scheduler != "gmb-ca" && cfg.scheduler != "loadanyonce" && cfg.scheduler != "budge")
+    throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca, loadanyonce, budge)");
   if (!(cfg.horizon > 0)) throw InputError("--horizon", "", "must be > 0");
   if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
   if (cfg.exec_noise < 0 || cfg.exec_noise >= 1) throw InputError("--exec-noise", "", "must be in [0, 1)");
@@ -92,6 +93,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   }
   std::unique_ptr<Scheduler> scheduler;
   if (cfg.scheduler == "loadanyonce") scheduler = std::make_unique<LoadAnyOnceScheduler>();
+  else if (cfg.scheduler == "budge") scheduler = std::make_unique<BudgeScheduler>();
   else scheduler = std::make_unique<GmbScheduler>(GmbOptions{.horizon = cfg.horizon, .completion_aware = cfg.scheduler == "gmb-ca"});
   SimExecutorOptions xo;
   if (cfg.exec_noise > 0) {
@@ -129,6 +131,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   m["platform_file"] = cfg.platform_file;
   m["workload"] = cfg.workload;
   m["scheduler"] = cfg.scheduler;
+  m["scheduler_parameters"] = scheduler->describe();
   m["horizon_s"] = cfg.horizon;
   m["seed"] = cfg.seed;
   m["simulated_s"] = end;

@@ -1,0 +1,89 @@
+// `rayline partition`: loads the scene, runs the streaming partitioner and reports the
+// time and throughput (distinct scene triangles per second, both passes together).
+#include "apps/cmd_partition.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "render/partition/partition.hpp"
+#include "render/scene/scene.hpp"
+#include "sched/error.hpp"
+
+namespace rayline::cli {
+
+std::uint64_t parse_bytes(const std::string& text, const std::string& field) {
+  std::size_t pos = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &pos);
+  } catch (const std::exception&) {
+    throw InputError(field, "", "not a size: '" + text + "' (e.g. 1GiB, 512MiB)");
+  }
+  std::string suffix = text.substr(pos);
+  if (suffix.size() >= 2 && suffix.substr(suffix.size() - 2) == "iB") suffix.resize(suffix.size() - 2);
+  else if (!suffix.empty() && suffix.back() == 'B') suffix.pop_back();
+  double mul = 1;
+  if (suffix == "K" || suffix == "k") mul = 1024.0;
+  else if (suffix == "M") mul = 1024.0 * 1024;
+  else if (suffix == "G") mul = 1024.0 * 1024 * 1024;
+  else if (suffix == "T") mul = 1024.0 * 1024 * 1024 * 1024;
+  else if (!suffix.empty()) throw InputError(field, "", "unknown unit in '" + text + "' (B, KiB, MiB, GiB, TiB)");
+  const double n = std::round(v * mul);
+  if (!(n >= 1) || n > 1e15) throw InputError(field, "", "'" + text + "' out of range");
+  return static_cast<std::uint64_t>(n);
+}
+
+int run_partition(const PartitionOptions& opt) {
+  namespace part = rayline::partition;
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  part::PartitionOptions po;
+  po.blocks = opt.blocks;
+  po.memory_limit = parse_bytes(opt.memory_limit, "--memory-limit");
+  const scene::Scene sc = opt.scene.empty() ? scene::default_scene() : scene::load_scene(opt.scene);
+
+  const bool progress = !opt.quiet && ::isatty(2);
+  auto last = Clock::now();
+  if (progress) {
+    po.progress = [&](const part::PartitionProgress& p) {
+      const auto now = Clock::now();
+      if (now - last < std::chrono::milliseconds(250)) return;
+      last = now;
+      if (p.pass == 1)
+        std::fprintf(stderr, "\rpass 1/2 (bounds, sample): %.1f M triangles   ", double(p.triangles_done) / 1e6);
+      else
+        std::fprintf(stderr, "\rpass 2/2 (blocks): %5.1f %% of %.1f M triangles   ",
+                     100.0 * double(p.triangles_done) / double(std::max<std::uint64_t>(p.triangles_total, 1)),
+                     double(p.triangles_total) / 1e6);
+      std::fflush(stderr);
+    };
+  }
+  const part::PartitionResult r = part::partition_scene(sc, opt.out, po);
+  if (progress) std::fprintf(stderr, "\r%60s\r", "");
+  const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+  const auto& idx = r.index;
+  if (!opt.quiet) {
+    std::uint64_t lo = UINT64_MAX, hi = 0, bytes = 0;
+    for (const auto& b : idx.blocks) lo = std::min(lo, b.triangles), hi = std::max(hi, b.triangles), bytes += b.file_bytes;
+    const double mean = double(idx.references) / double(idx.blocks.size());
+    std::printf("partitioned %s: %llu triangles into %zu blocks (%s)\n", idx.scene.c_str(),
+                static_cast<unsigned long long>(idx.scene_triangles), idx.blocks.size(), r.dir.c_str());
+    std::printf("references %llu (%.2f %% duplicated across split planes), %.1f MiB on disk\n",
+                static_cast<unsigned long long>(idx.references),
+                100.0 * double(idx.references - idx.scene_triangles) / double(idx.scene_triangles),
+                double(bytes) / (1 << 20));
+    std::printf("triangles per block: min %llu, max %llu, mean %.0f (max/mean %.3f)\n",
+                static_cast<unsigned long long>(lo), static_cast<unsigned long long>(hi), mean,
+                mean > 0 ? double(hi) / mean : 0.0);
+    std::printf("pass 1 (bounds, sample of %llu centroids) %.2f s, pass 2 (route, write) %.2f s\n",
+                static_cast<unsigned long long>(r.sample_size), r.seconds_pass1, r.seconds_pass2);
+  }
+  std::printf("time %.2f s, %.2f MTriangles/s\n", s, double(idx.scene_triangles) / 1e6 / std::max(s, 1e-9));
+  return 0;
+}
+
+}  // namespace rayline::cli

@@ -1,0 +1,22 @@
+// `rayline partition --scene F --blocks N --out DIR`: split a scene into N spatially
+// coherent blocks on disk by a streaming median-split kd-tree (issue 6; format in
+// render/partition/block_file.hpp and partition.hpp).
+#pragma once
+#include <cstdint>
+#include <string>
+
+namespace rayline::cli {
+
+struct PartitionOptions {
+  std::string scene;               // scene JSON or bare mesh; empty: the built-in scene
+  std::uint32_t blocks = 64;
+  std::string out = "out/blocks";
+  std::string memory_limit = "1GiB";  // bound on sample + block buffers
+  bool quiet = false;
+};
+int run_partition(const PartitionOptions& opt);
+
+// "1GiB", "512MiB", "64M", "1000000" → bytes (K/M/G/T: 2^10.. with or without "iB"/"B").
+std::uint64_t parse_bytes(const std::string& text, const std::string& field);
+
+}  // namespace rayline::cli

@@ -1,0 +1,42 @@
+// Budge et al. 2009 as Son & Yoon describe it (Sec. 6): image-space decomposition over
+// nodes, and inside a node out-of-core ray batching over its CPU threads and GPU with
+// case-by-case priority rules. The original rules are not public (notes/baselines.md,
+// Sec. 1), so they are explicit parameters, printed with every result (describe()):
+//   * image space: a ray queue is processed on the node that holds it (rays never cross
+//     the LAN) and scene data comes from that node's own disk or cache;
+//   * greedy dispatch: whenever a device is idle it takes one job (no planning horizon);
+//   * priority: jobs whose scene block is already resident on the device's memory first,
+//     then the largest queue (most rays); ties to the older job;
+//   * GPU preference: a CPU leaves an intersection job whose block fits in a GPU memory
+//     of its node to that GPU while the GPU is idle or about to be;
+//   * caches: LRU eviction on every memory device.
+#pragma once
+#include <memory>
+#include <string>
+
+#include "placer.hpp"
+#include "scheduler.hpp"
+
+namespace rayline {
+
+struct BudgeOptions {
+  bool resident_first = true;   // rule 1: data already resident
+  bool largest_queue = true;    // rule 2: then the largest queue (else FIFO)
+  bool gpu_preferred = true;    // rule 3: intersection on the GPU when the block fits
+  bool lru = true;              // caches: LRU
+};
+
+class BudgeScheduler final : public Scheduler {
+ public:
+  explicit BudgeScheduler(BudgeOptions o = {}) : opt_(o) {}
+  std::string name() const override { return "budge"; }
+  std::string describe() const override;  // the rule parameters, for every result
+  PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
+
+ private:
+  BudgeOptions opt_;
+  const Schedule* bound_ = nullptr;
+  std::unique_ptr<Placer> placer_;
+};
+
+}  // namespace rayline

@@ -1,0 +1,166 @@
+// Budge et al. 2009 as parametrised in sched/budge.hpp: each rule pinned on a hand-built
+// state, and the schedule invariants on random instances.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "dcg_fixture.hpp"
+#include "sched/budge.hpp"
+#include "sched/exact_executor.hpp"
+#include "sched/runtime_loop.hpp"
+
+using namespace rayline;
+
+namespace {
+struct Nodes {
+  DeviceGraph g;
+  std::vector<MemId> disk, ram, gpu;
+  std::vector<DeviceId> cpu, gpudev;
+  explicit Nodes(int n, bool with_gpu) {
+    rayline::testing::DcgBuilder b;
+    for (int i = 0; i < n; ++i) {
+      const std::string p = "n" + std::to_string(i);
+      const NodeId nd = b.node(p);
+      disk.push_back(b.mem(p + ".disk", Bytes(1) << 40, MemoryKind::Disk, nd));
+      ram.push_back(b.mem(p + ".ram", Bytes(8) << 30, MemoryKind::Host, nd));
+      b.half_duplex(disk.back(), ram.back(), 150e6, 0.01);
+      cpu.push_back(b.dev(p + ".cpu0", ram.back()));
+      if (with_gpu) {
+        gpu.push_back(b.mem(p + ".gpumem", Bytes(6) << 30, MemoryKind::Gpu, nd));
+        b.full_duplex(ram.back(), gpu.back(), 12e9, 1e-5);
+        gpudev.push_back(b.dev(p + ".gpu", gpu.back(), ComputeKind::Gpu));
+      }
+    }
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        if (i != j) b.channel(ram[static_cast<std::size_t>(i)], ram[static_cast<std::size_t>(j)], 125e6, 1e-4);
+    b.timing(0, DataKind::RayQueue, 32e6, 5e-6);
+    g = b.build();
+  }
+};
+
+BlockId block(JobPool& pool, const std::string& name, DataKind k, Bytes bytes) {
+  DataBlock d;
+  d.name = name;
+  d.kind = k;
+  d.bytes = bytes;
+  d.consumed = is_consumed_by_use(k);
+  return pool.add_block(d);
+}
+
+JobId job(JobPool& pool, const std::string& name, std::vector<BlockId> in) {
+  Job j;
+  j.name = name;
+  j.type = 0;
+  j.inputs = std::move(in);
+  return pool.add_job(std::move(j));
+}
+}  // namespace
+
+TEST(Budge, ResidentDataFirstThenLargestQueue) {
+  for (bool resident_first : {true, false}) {
+    Nodes t(1, false);
+    JobPool pool;
+    Schedule s(t.g, pool);
+    const BlockId hot = block(pool, "hot", DataKind::SceneData, 100'000'000);
+    const BlockId cold = block(pool, "cold", DataKind::SceneData, 100'000'000);
+    s.put_initial(hot, t.disk[0]);
+    s.put_initial(hot, t.ram[0], 0, false);  // already cached in RAM
+    s.put_initial(cold, t.disk[0]);
+    const BlockId small = block(pool, "small", DataKind::RayQueue, 1'000'000);
+    const BlockId large = block(pool, "large", DataKind::RayQueue, 30'000'000);
+    s.put_initial(small, t.ram[0]);
+    s.put_initial(large, t.ram[0]);
+    const JobId a = job(pool, "resident-small", {hot, small});
+    const JobId b = job(pool, "cold-large", {cold, large});
+    BudgeScheduler bs({.resident_first = resident_first});
+    bs.plan(0, pool, s);
+    EXPECT_EQ(pool.state(resident_first ? a : b), JobState::Planned);
+    EXPECT_EQ(pool.state(resident_first ? b : a), JobState::Queued) << "one job per idle device";
+  }
+}
+
+TEST(Budge, RaysNeverLeaveTheirNodeAndSceneComesFromTheNodesOwnDisk) {
+  Nodes t(2, false);
+  JobPool pool;
+  Schedule s(t.g, pool);
+  const BlockId sc = block(pool, "scene", DataKind::SceneData, 100'000'000);
+  s.put_initial(sc, t.disk[0]);
+  s.put_initial(sc, t.disk[1]);
+  for (int q = 0; q < 4; ++q) {
+    const BlockId rq = block(pool, "rays" + std::to_string(q), DataKind::RayQueue, 8'000'000);
+    s.put_initial(rq, t.ram[1]);  // all rays belong to node 1's image region
+    job(pool, "j" + std::to_string(q), {sc, rq});
+  }
+  BudgeScheduler bs;
+  ExactExecutor ex(s);
+  StaticWorkload wl;
+  RuntimeLoop loop(bs, ex, wl, pool, s);
+  ASSERT_FALSE(loop.run().stalled);
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.kind == ActivityKind::Exec) {
+      EXPECT_EQ(a.device, t.cpu[1]);
+    } else {
+      // Only node 1's own SATA link: nothing crosses the LAN.
+      EXPECT_EQ(t.g.memories[t.g.channels[a.channel].from].node, 1);
+      EXPECT_EQ(t.g.memories[t.g.channels[a.channel].to].node, 1);
+    }
+  }
+  EXPECT_NE(bs.describe().find("resident_first=1"), std::string::npos);
+}
+
+TEST(Budge, IntersectionGoesToTheGpuWhenTheBlockFits) {
+  Nodes t(1, true);
+  JobPool pool;
+  Schedule s(t.g, pool);
+  const BlockId sc = block(pool, "scene", DataKind::SceneData, 200'000'000);
+  s.put_initial(sc, t.disk[0]);
+  const BlockId rq = block(pool, "rays", DataKind::RayQueue, 8'000'000);
+  s.put_initial(rq, t.ram[0]);
+  const JobId j = job(pool, "j", {sc, rq});
+  BudgeScheduler bs;
+  bs.plan(0, pool, s);
+  ASSERT_EQ(pool.state(j), JobState::Planned);
+  EXPECT_EQ(s.activity(pool.activity(j)).device, t.gpudev[0]);
+  // Without the rule the CPU (device 0, first in order) may take it.
+  JobPool pool2;
+  Schedule s2(t.g, pool2);
+  const BlockId sc2 = block(pool2, "scene", DataKind::SceneData, 200'000'000);
+  s2.put_initial(sc2, t.disk[0]);
+  const BlockId rq2 = block(pool2, "rays", DataKind::RayQueue, 8'000'000);
+  s2.put_initial(rq2, t.ram[0]);
+  const JobId j2 = job(pool2, "j", {sc2, rq2});
+  BudgeScheduler bs2({.gpu_preferred = false});
+  bs2.plan(0, pool2, s2);
+  ASSERT_EQ(pool2.state(j2), JobState::Planned);
+}
+
+TEST(Budge, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
+  for (int seed = 0; seed < 30; ++seed) {
+    std::mt19937 rng(900 + seed);
+    Nodes t(1 + seed % 3, seed % 2 == 0);
+    JobPool pool;
+    Schedule s(t.g, pool);
+    std::vector<BlockId> scene;
+    for (int b = 0; b < 2 + seed % 5; ++b) {
+      scene.push_back(block(pool, "scene" + std::to_string(b), DataKind::SceneData,
+                            std::uniform_int_distribution<Bytes>(10'000'000, 400'000'000)(rng)));
+      for (MemId d : t.disk) s.put_initial(scene.back(), d);
+    }
+    for (int q = 0; q < 5 + seed % 15; ++q) {
+      const BlockId rq = block(pool, "rays" + std::to_string(q), DataKind::RayQueue,
+                               std::uniform_int_distribution<Bytes>(1'000'000, 40'000'000)(rng));
+      s.put_initial(rq, t.ram[std::uniform_int_distribution<std::size_t>(0, t.ram.size() - 1)(rng)]);
+      job(pool, "j" + std::to_string(q), {scene[std::uniform_int_distribution<std::size_t>(0, scene.size() - 1)(rng)], rq});
+    }
+    BudgeScheduler bs;
+    ExactExecutor ex(s);
+    StaticWorkload wl;
+    RuntimeLoop loop(bs, ex, wl, pool, s);
+    ASSERT_FALSE(loop.run().stalled) << seed;
+    for (std::size_t j = 0; j < pool.job_count(); ++j) EXPECT_EQ(pool.state(static_cast<JobId>(j)), JobState::Done);
+    const auto c = rayline::testing::check_schedule(s, pool);
+    for (const auto& e : c.errors) ADD_FAILURE() << "seed " << seed << ": " << e;
+  }
+}
