@@ -133,7 +133,9 @@ TEST_F(PartitionTest, TriangleCountsAreBalanced) {
   // centroids here, so splits are exact quantiles; the slack is for triangles straddling
   // split planes. (Large straddlers, as in the stress soup, add their copies on top.)
   for (std::uint32_t nb : {2u, 8u, 13u, 64u, 65u}) {
-    const auto r = partition_triangles(soup(20000, 7, false), "soup", path("b" + std::to_string(nb)), blocks(nb));
+    std::string name = "b";
+    name += std::to_string(nb);
+    const auto r = partition_triangles(soup(20000, 7, false), "soup", path(name), blocks(nb));
     const double mean = double(r.index.references) / nb;
     for (const BlockInfo& b : r.index.blocks) {
       EXPECT_LT(double(b.triangles), 1.10 * mean) << nb << " blocks, block " << b.id;

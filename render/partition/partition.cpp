@@ -1,0 +1,570 @@
+#include "render/partition/partition.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "render/scene/scene_stream.hpp"
+#include "sched/error.hpp"
+
+namespace rayline::partition {
+namespace fs = std::filesystem;
+using scene::ImportStats;
+using scene::TriangleBatchFn;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::uint64_t splitmix64(std::uint64_t& s) {
+  std::uint64_t z = (s += 0x9e3779b97f4a7c15ull);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+Float3 centroid(const Triangle& t) {
+  return {(t.v0.x + t.v1.x + t.v2.x) * (1.0f / 3), (t.v0.y + t.v1.y + t.v2.y) * (1.0f / 3),
+          (t.v0.z + t.v1.z + t.v2.z) * (1.0f / 3)};
+}
+Bounds tri_bounds(const Triangle& t) {
+  Bounds b;
+  b.lo = {std::min({t.v0.x, t.v1.x, t.v2.x}), std::min({t.v0.y, t.v1.y, t.v2.y}), std::min({t.v0.z, t.v1.z, t.v2.z})};
+  b.hi = {std::max({t.v0.x, t.v1.x, t.v2.x}), std::max({t.v0.y, t.v1.y, t.v2.y}), std::max({t.v0.z, t.v1.z, t.v2.z})};
+  return b;
+}
+bool finite(const Triangle& t) {
+  for (const Float3* v : {&t.v0, &t.v1, &t.v2})
+    if (!std::isfinite(v->x) || !std::isfinite(v->y) || !std::isfinite(v->z)) return false;
+  return true;
+}
+
+// ---- kd-tree construction on the centroid sample --------------------------------------
+
+struct TreeBuilder {
+  std::vector<KdNode> nodes;
+  std::uint32_t next_block = 0;
+
+  std::uint32_t build(const Bounds& cell, Float3* begin, Float3* end, std::uint32_t k) {
+    const auto id = static_cast<std::uint32_t>(nodes.size());
+    nodes.push_back(KdNode{});
+    nodes[id].cell = cell;
+    if (k == 1) {
+      nodes[id].block = next_block++;
+      return id;
+    }
+    const std::size_t n = std::size_t(end - begin);
+    // Axis of largest centroid spread inside this node (cell extent when the sample is
+    // too small or degenerate), split at the floor(k/2)/k quantile.
+    Bounds cb;
+    for (Float3* p = begin; p != end; ++p) cb.extend(*p);
+    const std::uint32_t kl = k / 2;
+    int axis = 0;
+    float split = 0;
+    bool ok = false;
+    if (n >= 2) {
+      const Float3 e = cb.extent();
+      axis = (e.x >= e.y && e.x >= e.z) ? 0 : (e.y >= e.z ? 1 : 2);
+      if (e[axis] > 0) {
+        const std::size_t idx = n * kl / k;
+        std::nth_element(begin, begin + idx, end, [axis](const Float3& a, const Float3& b) { return a[axis] < b[axis]; });
+        split = begin[idx][axis];
+        // Keep the plane strictly inside the cell so both children have volume.
+        ok = split > cell.lo[axis] && split < cell.hi[axis];
+      }
+    }
+    if (!ok) {
+      const Float3 e = cell.extent();
+      axis = (e.x >= e.y && e.x >= e.z) ? 0 : (e.y >= e.z ? 1 : 2);
+      split = cell.lo[axis] + e[axis] * (float(kl) / float(k));
+      if (!(split >= cell.lo[axis] && split <= cell.hi[axis])) split = cell.lo[axis];
+    }
+    const std::size_t left_n =
+        std::size_t(std::partition(begin, end, [axis, split](const Float3& a) { return a[axis] < split; }) - begin);
+    Bounds lc = cell, rc = cell;
+    lc.hi[axis] = split;
+    rc.lo[axis] = split;
+    nodes[id].axis = axis;
+    nodes[id].split = split;
+    const std::uint32_t l = build(lc, begin, begin + left_n, kl);
+    const std::uint32_t r = build(rc, begin + left_n, end, k - kl);
+    nodes[id].left = l;
+    nodes[id].right = r;
+    return id;
+  }
+};
+
+// Leaves whose cell the AABB overlaps (rule in partition.hpp), appended to `out`.
+template <class F>
+void route(const std::vector<KdNode>& nodes, const Bounds& b, F&& leaf) {
+  std::array<std::uint32_t, 128> stack;
+  int sp = 0;
+  stack[sp++] = 0;
+  while (sp > 0) {
+    const KdNode& n = nodes[stack[--sp]];
+    if (n.leaf()) {
+      leaf(n.block);
+      continue;
+    }
+    const float lo = b.lo[n.axis], hi = b.hi[n.axis], s = n.split;
+    const bool in_plane = lo == s && hi == s;
+    if (hi > s || in_plane) stack[sp++] = n.right;
+    if (lo < s || in_plane) stack[sp++] = n.left;
+  }
+}
+
+// ---- block writers ----------------------------------------------------------------------
+
+struct BlockWriter {
+  std::string path;
+  std::vector<unsigned char> buf;
+  std::uint64_t triangles = 0;
+  std::uint32_t crc = 0;
+  Bounds geometry;
+
+  void flush() {
+    if (buf.empty()) return;
+    crc = crc32_update(crc, buf);
+    const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+    if (fd < 0) throw std::runtime_error(path + ": cannot open for appending");
+    write_all(fd, buf.data(), buf.size());
+    ::close(fd);
+    buf.clear();
+  }
+  void write_all(int fd, const unsigned char* p, std::size_t n) const {
+    while (n > 0) {
+      const ssize_t w = ::write(fd, p, n);
+      if (w < 0) {
+        if (errno == EINTR) continue;
+        ::close(fd);
+        throw std::runtime_error(path + ": write failed (disk full?)");
+      }
+      p += w, n -= std::size_t(w);
+    }
+  }
+};
+
+void write_text(const fs::path& p, const std::string& text) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out << text;
+  out.flush();
+  if (!out) throw std::runtime_error(p.string() + ": write failed");
+}
+
+// Neighbours through the tree: for each leaf, the leaves touching its upper faces.
+void find_neighbours(BlockIndex& idx) {
+  const Float3 ext = idx.bounds.extent();
+  std::vector<std::uint32_t> stack;
+  for (const KdNode& leaf : idx.nodes) {
+    if (!leaf.leaf()) continue;
+    const Bounds& c = leaf.cell;
+    for (int a = 0; a < 3; ++a) {
+      if (c.hi[a] >= idx.bounds.hi[a]) continue;  // face on the scene boundary
+      Bounds face = c;
+      face.lo[a] = face.hi[a] = c.hi[a];
+      stack.assign(1, 0);
+      while (!stack.empty()) {
+        const KdNode& n = idx.nodes[stack.back()];
+        stack.pop_back();
+        if (n.leaf()) {
+          if (n.block == leaf.block || n.cell.lo[a] != c.hi[a]) continue;
+          double area = 1;
+          bool touching = true;
+          for (int b = 0; b < 3; ++b) {
+            if (b == a) continue;
+            const double ov = double(std::min(c.hi[b], n.cell.hi[b])) - double(std::max(c.lo[b], n.cell.lo[b]));
+            if (ov < 0 || (ov == 0 && ext[b] > 0)) touching = false;
+            area *= std::max(ov, 0.0);
+          }
+          if (!touching) continue;
+          idx.blocks[leaf.block].neighbours.push_back({n.block, a, area});
+          idx.blocks[n.block].neighbours.push_back({leaf.block, a, area});
+          continue;
+        }
+        if (face.lo[n.axis] <= n.split) stack.push_back(n.left);
+        if (face.hi[n.axis] >= n.split) stack.push_back(n.right);
+      }
+    }
+  }
+  for (auto& b : idx.blocks)
+    std::sort(b.neighbours.begin(), b.neighbours.end(),
+              [](const Neighbour& x, const Neighbour& y) { return x.block < y.block; });
+}
+
+// Moves `partial` to `target`, replacing an earlier partition there (never other data).
+void publish(const fs::path& partial, const fs::path& target) {
+  std::error_code ec;
+  if (fs::exists(target, ec)) {
+    const fs::path old = target.string() + ".old." + std::to_string(::getpid());
+    fs::rename(target, old);
+    fs::rename(partial, target);
+    fs::remove_all(old, ec);
+  } else {
+    fs::rename(partial, target);
+  }
+}
+
+void check_target(const fs::path& target) {
+  std::error_code ec;
+  if (!fs::exists(target, ec)) {
+    const fs::path parent = fs::absolute(target).parent_path();
+    if (!fs::is_directory(parent, ec))
+      throw InputError(target.string(), "--out", "parent folder " + parent.string() + " does not exist");
+    return;
+  }
+  if (!fs::is_directory(target, ec)) throw InputError(target.string(), "--out", "exists and is not a folder");
+  if (fs::exists(target / "blocks.json", ec)) return;  // an earlier partition: replaced
+  if (!fs::is_empty(target, ec))
+    throw InputError(target.string(), "--out", "folder exists, is not empty and holds no blocks.json; not replacing it");
+}
+
+}  // namespace
+
+// ---- BlockIndex queries -----------------------------------------------------------------
+
+std::uint32_t BlockIndex::locate(Float3 p) const {
+  std::uint32_t i = 0;
+  while (!nodes[i].leaf()) i = p[nodes[i].axis] < nodes[i].split ? nodes[i].left : nodes[i].right;
+  return nodes[i].block;
+}
+
+std::vector<std::uint32_t> BlockIndex::cells_along_ray(Float3 o, Float3 d, float tmin, float tmax) const {
+  std::vector<std::uint32_t> out;
+  if (nodes.empty()) return out;
+  // Clip to the root cell (slab test).
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) {
+      if (o[a] < bounds.lo[a] || o[a] > bounds.hi[a]) return out;
+      continue;
+    }
+    float t0 = (bounds.lo[a] - o[a]) / d[a], t1 = (bounds.hi[a] - o[a]) / d[a];
+    if (t0 > t1) std::swap(t0, t1);
+    tmin = std::max(tmin, t0), tmax = std::min(tmax, t1);
+  }
+  if (!(tmin <= tmax)) return out;
+  struct Item { std::uint32_t node; float t0, t1; };
+  std::vector<Item> stack{{0, tmin, tmax}};
+  while (!stack.empty()) {
+    Item it = stack.back();
+    stack.pop_back();
+    const KdNode& n = nodes[it.node];
+    if (n.leaf()) {
+      out.push_back(n.block);
+      continue;
+    }
+    const float oa = o[n.axis], da = d[n.axis];
+    const float entry = oa + da * it.t0;  // position along the axis where the interval starts
+    const bool left_first = entry < n.split || (entry == n.split && da < 0);
+    const std::uint32_t near = left_first ? n.left : n.right, far = left_first ? n.right : n.left;
+    if (da == 0) {
+      stack.push_back({near, it.t0, it.t1});
+      continue;
+    }
+    const float t = (n.split - oa) / da;
+    if (t >= it.t1 || t <= it.t0) {
+      stack.push_back({near, it.t0, it.t1});  // the interval never crosses the plane
+    } else {
+      stack.push_back({far, t, it.t1});
+      stack.push_back({near, it.t0, t});
+    }
+  }
+  return out;
+}
+
+// ---- JSON -------------------------------------------------------------------------------
+
+namespace {
+using json = nlohmann::ordered_json;
+json f3(Float3 v) { return json::array({v.x, v.y, v.z}); }
+json bounds_json(const Bounds& b) {
+  if (b.empty()) return nullptr;
+  return json{{"lo", f3(b.lo)}, {"hi", f3(b.hi)}};
+}
+}  // namespace
+
+std::string block_index_to_json(const BlockIndex& idx) {
+  json j;
+  j["format"] = "rayline-blocks";
+  j["version"] = 1;
+  j["scene"] = idx.scene;
+  j["scene_triangles"] = idx.scene_triangles;
+  j["references"] = idx.references;
+  j["bounds"] = bounds_json(idx.bounds);
+  j["block_file"] = {{"header_bytes", kBlockHeaderBytes}, {"record_bytes", kRecordBytes},
+                     {"vertex_layout", "v0 v1 v2 float32 x9, material uint32, little-endian"},
+                     {"checksum", "crc32 (zlib) of the payload"}};
+  json nodes = json::array();
+  for (const KdNode& n : idx.nodes) {
+    if (n.leaf()) nodes.push_back({{"block", n.block}});
+    else nodes.push_back({{"axis", n.axis}, {"split", n.split}, {"left", n.left}, {"right", n.right}});
+  }
+  j["kdtree"] = {{"root", 0},
+                 {"rule", "inner: coordinate < split goes left; ray order: child on the origin's side first"},
+                 {"nodes", nodes}};
+  json blocks = json::array();
+  for (const BlockInfo& b : idx.blocks) {
+    json nb = json::array();
+    for (const Neighbour& x : b.neighbours) nb.push_back({{"block", x.block}, {"axis", x.axis}, {"area", x.area}});
+    blocks.push_back({{"id", b.id}, {"file", b.file}, {"triangles", b.triangles}, {"bytes", b.file_bytes},
+                      {"payload_crc32", b.payload_crc32}, {"cell", bounds_json(b.cell)},
+                      {"geometry_bounds", bounds_json(b.geometry)}, {"neighbours", nb}});
+  }
+  j["blocks"] = blocks;
+  return j.dump(1) + "\n";
+}
+
+BlockIndex load_block_index(const std::string& dir) {
+  const std::string file = (fs::path(dir) / "blocks.json").string();
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(file, "", "cannot open (not a partitioned scene folder?)");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const std::exception& e) {
+    throw InputError(file, "", std::string("malformed JSON: ") + e.what());
+  }
+  std::string field;
+  try {
+    BlockIndex idx;
+    field = "format";
+    if (j.at("format").get<std::string>() != "rayline-blocks") throw InputError(file, field, "not a block index");
+    field = "version";
+    if (j.at("version").get<int>() != 1) throw InputError(file, field, "unsupported version");
+    auto get_bounds = [&](const json& b) {
+      Bounds r;
+      if (b.is_null()) return r;
+      for (int i = 0; i < 3; ++i) r.lo[i] = b.at("lo").at(i).get<float>(), r.hi[i] = b.at("hi").at(i).get<float>();
+      return r;
+    };
+    field = "scene";
+    idx.scene = j.at("scene").get<std::string>();
+    field = "scene_triangles";
+    idx.scene_triangles = j.at("scene_triangles").get<std::uint64_t>();
+    field = "references";
+    idx.references = j.at("references").get<std::uint64_t>();
+    field = "bounds";
+    idx.bounds = get_bounds(j.at("bounds"));
+    field = "blocks";
+    const json& blocks = j.at("blocks");
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      field = "blocks[" + std::to_string(i) + "]";
+      const json& b = blocks.at(i);
+      BlockInfo bi;
+      bi.id = b.at("id").get<std::uint32_t>();
+      if (bi.id != i) throw InputError(file, field + ".id", "ids must be 0..N-1 in order");
+      bi.file = b.at("file").get<std::string>();
+      if (bi.file.find('/') != std::string::npos || bi.file.empty())
+        throw InputError(file, field + ".file", "must be a plain file name");
+      bi.triangles = b.at("triangles").get<std::uint64_t>();
+      bi.file_bytes = b.at("bytes").get<std::uint64_t>();
+      bi.payload_crc32 = b.at("payload_crc32").get<std::uint32_t>();
+      bi.cell = get_bounds(b.at("cell"));
+      bi.geometry = get_bounds(b.at("geometry_bounds"));
+      for (const json& n : b.at("neighbours")) {
+        Neighbour x{n.at("block").get<std::uint32_t>(), n.at("axis").get<int>(), n.at("area").get<double>()};
+        if (x.block >= blocks.size() || x.axis < 0 || x.axis > 2)
+          throw InputError(file, field + ".neighbours", "out of range");
+        bi.neighbours.push_back(x);
+      }
+      idx.blocks.push_back(std::move(bi));
+    }
+    field = "kdtree.nodes";
+    const json& nodes = j.at("kdtree").at("nodes");
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const json& n = nodes.at(i);
+      KdNode k;
+      if (n.contains("block")) {
+        k.block = n.at("block").get<std::uint32_t>();
+        if (k.block >= idx.blocks.size()) throw InputError(file, field, "leaf block out of range");
+        k.cell = idx.blocks[k.block].cell;
+      } else {
+        k.axis = n.at("axis").get<int>();
+        k.split = n.at("split").get<float>();
+        k.left = n.at("left").get<std::uint32_t>();
+        k.right = n.at("right").get<std::uint32_t>();
+        if (k.axis < 0 || k.axis > 2 || k.left <= i || k.right <= i || k.left >= nodes.size() ||
+            k.right >= nodes.size())
+          throw InputError(file, field + "[" + std::to_string(i) + "]", "bad axis or child index");
+      }
+      idx.nodes.push_back(k);
+    }
+    if (idx.nodes.empty() || idx.nodes.size() != 2 * idx.blocks.size() - 1)
+      throw InputError(file, field, "expected 2N-1 nodes for N blocks");
+    // Inner cells from the root down (children always follow their parent).
+    idx.nodes[0].cell = idx.bounds;
+    for (KdNode& n : idx.nodes) {
+      if (n.leaf()) continue;
+      Bounds l = n.cell, r = n.cell;
+      l.hi[n.axis] = n.split, r.lo[n.axis] = n.split;
+      idx.nodes[n.left].cell = l, idx.nodes[n.right].cell = r;
+    }
+    return idx;
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(file, field, std::string("missing or invalid: ") + e.what());
+  }
+}
+
+// ---- the partitioner ----------------------------------------------------------------------
+
+PartitionResult partition_triangles(const TriangleSource& source, const std::string& name, const std::string& out_dir,
+                                    const PartitionOptions& opt) {
+  if (opt.blocks < 1 || opt.blocks > (1u << 20)) throw InputError(name, "--blocks", "must be in [1, 1048576]");
+  if (opt.memory_limit < (std::uint64_t(16) << 20)) throw InputError(name, "--memory-limit", "must be at least 16MiB");
+  const std::uint64_t min_buffer = 64 * kRecordBytes;
+  const std::uint64_t buffer_budget = opt.memory_limit / 2;
+  if (std::uint64_t(opt.blocks) * min_buffer > buffer_budget)
+    throw InputError(name, "--memory-limit",
+                     "too small for " + std::to_string(opt.blocks) + " blocks (needs " +
+                         std::to_string(2 * opt.blocks * min_buffer) + " bytes)");
+  std::uint64_t per_block = std::min<std::uint64_t>(buffer_budget / opt.blocks, std::uint64_t(1) << 20);
+  per_block -= per_block % kRecordBytes;
+  const std::uint64_t sample_cap =
+      std::max<std::uint64_t>(1024, std::min<std::uint64_t>(opt.sample_limit, opt.memory_limit / 8 / sizeof(Float3)));
+
+  const fs::path target = fs::path(out_dir);
+  check_target(target);
+
+  PartitionResult res;
+  res.buffer_bytes_per_block = per_block;
+  BlockIndex& idx = res.index;
+  idx.scene = name;
+
+  // Pass 1: bounds, count, reservoir sample of centroids.
+  auto t0 = Clock::now();
+  std::vector<Float3> sample;
+  sample.reserve(std::size_t(std::min<std::uint64_t>(sample_cap, 1 << 20)));
+  std::uint64_t seen = 0;
+  std::uint64_t rng = opt.seed;
+  Bounds bounds;
+  PartitionProgress prog{1, 0, 0};
+  source([&](std::span<const Triangle> batch) {
+    for (const Triangle& t : batch) {
+      if (!finite(t))
+        throw InputError(name, "triangles", "triangle #" + std::to_string(seen) + " has a non-finite vertex");
+      bounds.extend(t.v0), bounds.extend(t.v1), bounds.extend(t.v2);
+      const Float3 c = centroid(t);
+      if (sample.size() < sample_cap) {
+        sample.push_back(c);
+      } else {
+        const std::uint64_t j = splitmix64(rng) % (seen + 1);
+        if (j < sample_cap) sample[std::size_t(j)] = c;
+      }
+      ++seen;
+    }
+    prog.triangles_done = seen;
+    if (opt.progress) opt.progress(prog);
+  });
+  if (seen == 0) throw InputError(name, "meshes", "the scene has no triangles");
+  idx.scene_triangles = seen;
+  idx.bounds = bounds;
+  res.sample_size = sample.size();
+
+  TreeBuilder tb;
+  tb.nodes.reserve(2 * opt.blocks - 1);
+  tb.build(bounds, sample.data(), sample.data() + sample.size(), opt.blocks);
+  idx.nodes = std::move(tb.nodes);
+  std::vector<Float3>().swap(sample);
+  res.seconds_pass1 = seconds_since(t0);
+
+  // Pass 2: route into per-block buffers, append to block files.
+  t0 = Clock::now();
+  const fs::path partial = fs::absolute(target).parent_path() /
+                           (fs::absolute(target).filename().string() + ".partial." + std::to_string(::getpid()));
+  std::error_code ec;
+  fs::remove_all(partial, ec);
+  fs::create_directories(partial, ec);
+  if (ec) throw InputError(out_dir, "--out", "cannot create " + partial.string() + ": " + ec.message());
+  try {
+    std::vector<BlockWriter> w(opt.blocks);
+    const std::vector<unsigned char> placeholder(kBlockHeaderBytes, 0);
+    for (std::uint32_t b = 0; b < opt.blocks; ++b) {
+      char fname[32];
+      std::snprintf(fname, sizeof fname, "block_%05u.rlb", b);
+      w[b].path = (partial / fname).string();
+      write_text(w[b].path, std::string(placeholder.begin(), placeholder.end()));
+      w[b].buf.reserve(std::size_t(per_block));
+    }
+    std::uint64_t routed = 0;
+    prog = {2, 0, seen};
+    source([&](std::span<const Triangle> batch) {
+      for (const Triangle& t : batch) {
+        const Bounds tb = tri_bounds(t);
+        route(idx.nodes, tb, [&](std::uint32_t leaf) {
+          BlockWriter& bw = w[leaf];
+          encode_records(std::span<const Triangle>(&t, 1), bw.buf);
+          bw.geometry.extend(tb);
+          ++bw.triangles;
+          if (bw.buf.size() + kRecordBytes > per_block) bw.flush();
+        });
+      }
+      routed += batch.size();
+      prog.triangles_done = routed;
+      if (opt.progress) opt.progress(prog);
+    });
+    if (routed != seen)
+      throw std::runtime_error("the scene delivered " + std::to_string(routed) + " triangles in pass 2 but " +
+                               std::to_string(seen) + " in pass 1");
+    idx.blocks.resize(opt.blocks);
+    for (std::uint32_t b = 0; b < opt.blocks; ++b) {
+      BlockWriter& bw = w[b];
+      bw.flush();
+      std::vector<unsigned char>().swap(bw.buf);
+      BlockInfo& bi = idx.blocks[b];
+      bi.id = b;
+      bi.file = fs::path(bw.path).filename().string();
+      bi.triangles = bw.triangles;
+      bi.geometry = bw.geometry;
+      bi.payload_crc32 = bw.crc;
+      bi.file_bytes = kBlockHeaderBytes + bw.triangles * kRecordBytes;
+      idx.references += bw.triangles;
+    }
+    for (const KdNode& n : idx.nodes)
+      if (n.leaf()) idx.blocks[n.block].cell = n.cell;
+    for (std::uint32_t b = 0; b < opt.blocks; ++b) {
+      const BlockInfo& bi = idx.blocks[b];
+      BlockHeader h;
+      h.triangle_count = bi.triangles;
+      h.block_id = b;
+      h.block_count = opt.blocks;
+      h.cell = bi.cell;
+      h.geometry_bounds = bi.geometry;
+      h.payload_bytes = bi.triangles * kRecordBytes;
+      h.payload_crc32 = bi.payload_crc32;
+      const auto hb = encode_block_header(h);
+      const int fd = ::open(w[b].path.c_str(), O_WRONLY | O_CLOEXEC);
+      if (fd < 0 || ::pwrite(fd, hb.data(), hb.size(), 0) != ssize_t(hb.size())) {
+        if (fd >= 0) ::close(fd);
+        throw std::runtime_error(w[b].path + ": cannot write header");
+      }
+      ::close(fd);
+    }
+    find_neighbours(idx);
+    write_text(partial / "blocks.json", block_index_to_json(idx));
+    publish(partial, target);
+  } catch (...) {
+    fs::remove_all(partial, ec);
+    throw;
+  }
+  res.dir = target.string();
+  res.seconds_pass2 = seconds_since(t0);
+  return res;
+}
+
+PartitionResult partition_scene(const scene::Scene& scene, const std::string& out_dir, const PartitionOptions& opt) {
+  return partition_triangles([&scene](const TriangleBatchFn& fn) { return scene::stream_scene(scene, fn); },
+                             scene.source, out_dir, opt);
+}
+
+}  // namespace rayline::partition
