@@ -22,8 +22,18 @@ int guarded(const std::function<int()>& body) {
   }
 }
 
+void ensure_parent_dir(const std::string& path, const std::string& flag) {
+  namespace fs = std::filesystem;
+  const fs::path parent = fs::absolute(fs::path(path)).parent_path();
+  std::error_code ec;
+  if (fs::is_directory(parent, ec)) return;
+  fs::create_directories(parent, ec);
+  if (ec || !fs::is_directory(parent)) throw InputError(path, flag, "cannot create folder " + parent.string() + ": " + ec.message());
+}
+
 void write_file_atomic(const std::string& path, const std::string& content) {
   namespace fs = std::filesystem;
+  ensure_parent_dir(path, "");
   const fs::path target(path);
   const fs::path tmp = target.parent_path() /
                        (target.filename().string() + ".tmp." + std::to_string(::getpid()));

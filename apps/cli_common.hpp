@@ -13,6 +13,10 @@ inline constexpr int kExitBadInput = 2;  // bad platform/scene/profile/jobs file
 // std::exception into "rayline: error: msg" and exit 1.
 int guarded(const std::function<int()>& body);
 
+// Users expect `--out out/x` to work in a fresh checkout: create the missing parent
+// folders of an output path; InputError(path, flag, ...) when they cannot be created.
+void ensure_parent_dir(const std::string& path, const std::string& flag);
+
 // Write `content` to `path` atomically (temporary name in the same folder, then rename).
 void write_file_atomic(const std::string& path, const std::string& content);
 

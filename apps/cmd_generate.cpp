@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "apps/cli_common.hpp"
 #include "render/scene/generators.hpp"
 #include "sched/error.hpp"
 
@@ -48,9 +49,9 @@ int run_generate(const GenerateOptions& opt) {
   const std::uint64_t n = opt.triangles.empty() ? g->default_triangles : parse_count(opt.triangles, "--triangles");
   if (n < g->min_triangles)
     throw InputError("--triangles", "", opt.name + " needs at least " + std::to_string(g->min_triangles));
-  const auto dir = std::filesystem::absolute(opt.out).parent_path();
+  ensure_parent_dir(opt.out, "--out");
+  if (!opt.scene_out.empty()) ensure_parent_dir(opt.scene_out, "--scene-out");
   std::error_code ec;
-  if (!std::filesystem::is_directory(dir, ec)) throw InputError(opt.out, "--out", "folder does not exist");
 
   const auto t0 = std::chrono::steady_clock::now();
   const GenerateResult r = generate_to_file(opt.name, n, opt.seed, opt.out, opt.scene_out);

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "apps/cli_common.hpp"
 #include "render/partition/partition.hpp"
 #include "render/scene/scene.hpp"
 #include "sched/error.hpp"
@@ -62,6 +63,7 @@ int run_partition(const PartitionOptions& opt) {
       std::fflush(stderr);
     };
   }
+  ensure_parent_dir(opt.out, "--out");  // its parent; the folder itself appears by rename at the end
   const part::PartitionResult r = part::partition_scene(sc, opt.out, po);
   if (progress) std::fprintf(stderr, "\r%60s\r", "");
   const double s = std::chrono::duration<double>(Clock::now() - t0).count();

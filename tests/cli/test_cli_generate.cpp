@@ -40,7 +40,7 @@ TEST(CliGenerate, BadInputExitsTwo) {
   r = rayline_cli("generate cornell --triangles 10Q --out /tmp/x.ply");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.all.find("--triangles"), std::string::npos) << r.all;
-  r = rayline_cli("generate cornell --triangles 10K --out /nonexistent-dir/x.ply");
+  r = rayline_cli("generate cornell --triangles 10K --out /proc/rayline-cannot-create/x.ply");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.all.find("--out"), std::string::npos) << r.all;
   EXPECT_EQ(rayline_cli("generate --help").code, 0);

@@ -51,7 +51,7 @@ TEST_F(CliPartition, BadInputsExit2) {
         std::string("partition --scene ") + path("missing.json") + out,
         std::string("partition --memory-limit 1XB") + out, std::string("partition --memory-limit 1MiB") + out,
         std::string("partition --blocks 1000000 --memory-limit 16MiB") + out,
-        std::string("partition --out ") + path("no/such/dir"), std::string("partition --bogus") + out}) {
+        std::string("partition --out ") + std::string("/proc/rayline-cannot-create/blocks"), std::string("partition --bogus") + out}) {
     const auto r = rayline_cli(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.all;
     EXPECT_FALSE(r.err.empty()) << args;

@@ -74,7 +74,7 @@ TEST(CliPlan, BadInputExitsTwoNamingFileAndField) {
   r = rayline_cli("plan --jobs " + bad.string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.all.find("blocks[0].at"), std::string::npos) << r.all;
-  r = rayline_cli("plan --synthetic-jobs 10 --trace /nonexistent-dir/trace.json");
+  r = rayline_cli("plan --synthetic-jobs 10 --trace /proc/rayline-cannot-create/trace.json");
   EXPECT_EQ(r.code, 2);
   fs::remove(bad);
 }
