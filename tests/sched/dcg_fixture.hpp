@@ -65,6 +65,26 @@ struct DcgBuilder {
   }
 };
 
+// Blocks and jobs for hand-built states.
+inline BlockId add_block(JobPool& pool, const std::string& name, DataKind kind, Bytes bytes) {
+  DataBlock d;
+  d.name = name;
+  d.kind = kind;
+  d.bytes = bytes;
+  d.consumed = is_consumed_by_use(kind);
+  return pool.add_block(d);
+}
+inline JobId add_job(JobPool& pool, const std::string& name, JobTypeId type, std::vector<BlockId> in,
+                     std::vector<BlockId> out = {}, Time created = 0) {
+  Job j;
+  j.name = name;
+  j.type = type;
+  j.inputs = std::move(in);
+  j.outputs = std::move(out);
+  j.created = created;
+  return pool.add_job(std::move(j));
+}
+
 // Independent checks over a schedule, from its activity list and eviction log only.
 struct PlanCheck {
   std::vector<std::string> errors;

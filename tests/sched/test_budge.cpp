@@ -39,22 +39,7 @@ struct Nodes {
   }
 };
 
-BlockId block(JobPool& pool, const std::string& name, DataKind k, Bytes bytes) {
-  DataBlock d;
-  d.name = name;
-  d.kind = k;
-  d.bytes = bytes;
-  d.consumed = is_consumed_by_use(k);
-  return pool.add_block(d);
-}
 
-JobId job(JobPool& pool, const std::string& name, std::vector<BlockId> in) {
-  Job j;
-  j.name = name;
-  j.type = 0;
-  j.inputs = std::move(in);
-  return pool.add_job(std::move(j));
-}
 }  // namespace
 
 TEST(Budge, ResidentDataFirstThenLargestQueue) {
@@ -62,17 +47,17 @@ TEST(Budge, ResidentDataFirstThenLargestQueue) {
     Nodes t(1, false);
     JobPool pool;
     Schedule s(t.g, pool);
-    const BlockId hot = block(pool, "hot", DataKind::SceneData, 100'000'000);
-    const BlockId cold = block(pool, "cold", DataKind::SceneData, 100'000'000);
+    const BlockId hot = rayline::testing::add_block(pool, "hot", DataKind::SceneData, 100'000'000);
+    const BlockId cold = rayline::testing::add_block(pool, "cold", DataKind::SceneData, 100'000'000);
     s.put_initial(hot, t.disk[0]);
     s.put_initial(hot, t.ram[0], 0, false);  // already cached in RAM
     s.put_initial(cold, t.disk[0]);
-    const BlockId small = block(pool, "small", DataKind::RayQueue, 1'000'000);
-    const BlockId large = block(pool, "large", DataKind::RayQueue, 30'000'000);
+    const BlockId small = rayline::testing::add_block(pool, "small", DataKind::RayQueue, 1'000'000);
+    const BlockId large = rayline::testing::add_block(pool, "large", DataKind::RayQueue, 30'000'000);
     s.put_initial(small, t.ram[0]);
     s.put_initial(large, t.ram[0]);
-    const JobId a = job(pool, "resident-small", {hot, small});
-    const JobId b = job(pool, "cold-large", {cold, large});
+    const JobId a = rayline::testing::add_job(pool, "resident-small", 0, {hot, small});
+    const JobId b = rayline::testing::add_job(pool, "cold-large", 0, {cold, large});
     BudgeScheduler bs({.resident_first = resident_first});
     bs.plan(0, pool, s);
     EXPECT_EQ(pool.state(resident_first ? a : b), JobState::Planned);
@@ -84,13 +69,13 @@ TEST(Budge, RaysNeverLeaveTheirNodeAndSceneComesFromTheNodesOwnDisk) {
   Nodes t(2, false);
   JobPool pool;
   Schedule s(t.g, pool);
-  const BlockId sc = block(pool, "scene", DataKind::SceneData, 100'000'000);
+  const BlockId sc = rayline::testing::add_block(pool, "scene", DataKind::SceneData, 100'000'000);
   s.put_initial(sc, t.disk[0]);
   s.put_initial(sc, t.disk[1]);
   for (int q = 0; q < 4; ++q) {
-    const BlockId rq = block(pool, "rays" + std::to_string(q), DataKind::RayQueue, 8'000'000);
+    const BlockId rq = rayline::testing::add_block(pool, "rays" + std::to_string(q), DataKind::RayQueue, 8'000'000);
     s.put_initial(rq, t.ram[1]);  // all rays belong to node 1's image region
-    job(pool, "j" + std::to_string(q), {sc, rq});
+    rayline::testing::add_job(pool, "j" + std::to_string(q), 0, {sc, rq});
   }
   BudgeScheduler bs;
   ExactExecutor ex(s);
@@ -114,11 +99,11 @@ TEST(Budge, IntersectionGoesToTheGpuWhenTheBlockFits) {
   Nodes t(1, true);
   JobPool pool;
   Schedule s(t.g, pool);
-  const BlockId sc = block(pool, "scene", DataKind::SceneData, 200'000'000);
+  const BlockId sc = rayline::testing::add_block(pool, "scene", DataKind::SceneData, 200'000'000);
   s.put_initial(sc, t.disk[0]);
-  const BlockId rq = block(pool, "rays", DataKind::RayQueue, 8'000'000);
+  const BlockId rq = rayline::testing::add_block(pool, "rays", DataKind::RayQueue, 8'000'000);
   s.put_initial(rq, t.ram[0]);
-  const JobId j = job(pool, "j", {sc, rq});
+  const JobId j = rayline::testing::add_job(pool, "j", 0, {sc, rq});
   BudgeScheduler bs;
   bs.plan(0, pool, s);
   ASSERT_EQ(pool.state(j), JobState::Planned);
@@ -126,11 +111,11 @@ TEST(Budge, IntersectionGoesToTheGpuWhenTheBlockFits) {
   // Without the rule the CPU (device 0, first in order) may take it.
   JobPool pool2;
   Schedule s2(t.g, pool2);
-  const BlockId sc2 = block(pool2, "scene", DataKind::SceneData, 200'000'000);
+  const BlockId sc2 = rayline::testing::add_block(pool2, "scene", DataKind::SceneData, 200'000'000);
   s2.put_initial(sc2, t.disk[0]);
-  const BlockId rq2 = block(pool2, "rays", DataKind::RayQueue, 8'000'000);
+  const BlockId rq2 = rayline::testing::add_block(pool2, "rays", DataKind::RayQueue, 8'000'000);
   s2.put_initial(rq2, t.ram[0]);
-  const JobId j2 = job(pool2, "j", {sc2, rq2});
+  const JobId j2 = rayline::testing::add_job(pool2, "j", 0, {sc2, rq2});
   BudgeScheduler bs2({.gpu_preferred = false});
   bs2.plan(0, pool2, s2);
   ASSERT_EQ(pool2.state(j2), JobState::Planned);
@@ -144,15 +129,15 @@ TEST(Budge, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
     Schedule s(t.g, pool);
     std::vector<BlockId> scene;
     for (int b = 0; b < 2 + seed % 5; ++b) {
-      scene.push_back(block(pool, "scene" + std::to_string(b), DataKind::SceneData,
+      scene.push_back(rayline::testing::add_block(pool, "scene" + std::to_string(b), DataKind::SceneData,
                             std::uniform_int_distribution<Bytes>(10'000'000, 400'000'000)(rng)));
       for (MemId d : t.disk) s.put_initial(scene.back(), d);
     }
     for (int q = 0; q < 5 + seed % 15; ++q) {
-      const BlockId rq = block(pool, "rays" + std::to_string(q), DataKind::RayQueue,
+      const BlockId rq = rayline::testing::add_block(pool, "rays" + std::to_string(q), DataKind::RayQueue,
                                std::uniform_int_distribution<Bytes>(1'000'000, 40'000'000)(rng));
       s.put_initial(rq, t.ram[std::uniform_int_distribution<std::size_t>(0, t.ram.size() - 1)(rng)]);
-      job(pool, "j" + std::to_string(q), {scene[std::uniform_int_distribution<std::size_t>(0, scene.size() - 1)(rng)], rq});
+      rayline::testing::add_job(pool, "j" + std::to_string(q), 0, {scene[std::uniform_int_distribution<std::size_t>(0, scene.size() - 1)(rng)], rq});
     }
     BudgeScheduler bs;
     ExactExecutor ex(s);

@@ -45,14 +45,6 @@ struct TwoNodes {
   }
 };
 
-BlockId block(JobPool& pool, const std::string& name, DataKind k, Bytes bytes) {
-  DataBlock d;
-  d.name = name;
-  d.kind = k;
-  d.bytes = bytes;
-  d.consumed = is_consumed_by_use(k);
-  return pool.add_block(d);
-}
 }  // namespace
 
 TEST(LoadAnyOnce, RoundsAreBulkSynchronousAndDomainsAreDrainedByOneRank) {
@@ -61,7 +53,7 @@ TEST(LoadAnyOnce, RoundsAreBulkSynchronousAndDomainsAreDrainedByOneRank) {
   Schedule s(t.g, pool);
   std::vector<BlockId> scene;
   for (int b = 0; b < 3; ++b) {
-    scene.push_back(block(pool, "scene" + std::to_string(b), DataKind::SceneData, 200'000'000));
+    scene.push_back(rayline::testing::add_block(pool, "scene" + std::to_string(b), DataKind::SceneData, 200'000'000));
     s.put_initial(scene.back(), t.disk0);
     s.put_initial(scene.back(), t.disk1);
   }
@@ -69,7 +61,7 @@ TEST(LoadAnyOnce, RoundsAreBulkSynchronousAndDomainsAreDrainedByOneRank) {
   const int per[3] = {3, 2, 1};
   for (int b = 0; b < 3; ++b)
     for (int q = 0; q < per[b]; ++q) {
-      const BlockId rq = block(pool, "rays" + std::to_string(b) + "_" + std::to_string(q), DataKind::RayQueue, 32'000'000);
+      const BlockId rq = rayline::testing::add_block(pool, "rays" + std::to_string(b) + "_" + std::to_string(q), DataKind::RayQueue, 32'000'000);
       s.put_initial(rq, q % 2 ? t.ram1 : t.ram0);
       Job j;
       j.name = "j" + std::to_string(b) + "_" + std::to_string(q);
@@ -97,7 +89,7 @@ TEST(LoadAnyOnce, RoundsAreBulkSynchronousAndDomainsAreDrainedByOneRank) {
     EXPECT_EQ(t.g.memories[c.from].node, t.g.memories[c.to].node) << c.name;
   }
   // A new job while the round runs: nothing is planned until every rank is idle.
-  const BlockId rq = block(pool, "late", DataKind::RayQueue, 32'000'000);
+  const BlockId rq = rayline::testing::add_block(pool, "late", DataKind::RayQueue, 32'000'000);
   s.put_initial(rq, t.ram0);
   Job late;
   late.name = "late";
@@ -118,14 +110,14 @@ TEST(LoadAnyOnce, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
     std::vector<BlockId> scene;
     const int nb = 2 + seed % 6;
     for (int b = 0; b < nb; ++b) {
-      scene.push_back(block(pool, "scene" + std::to_string(b), DataKind::SceneData,
+      scene.push_back(rayline::testing::add_block(pool, "scene" + std::to_string(b), DataKind::SceneData,
                             std::uniform_int_distribution<Bytes>(10'000'000, 300'000'000)(rng)));
       s.put_initial(scene.back(), t.disk0);
       s.put_initial(scene.back(), t.disk1);
     }
     const int nj = 5 + seed % 20;
     for (int q = 0; q < nj; ++q) {
-      const BlockId rq = block(pool, "rays" + std::to_string(q), DataKind::RayQueue,
+      const BlockId rq = rayline::testing::add_block(pool, "rays" + std::to_string(q), DataKind::RayQueue,
                                std::uniform_int_distribution<Bytes>(1'000'000, 64'000'000)(rng));
       s.put_initial(rq, q % 2 ? t.ram1 : t.ram0);
       Job j;

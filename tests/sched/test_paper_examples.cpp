@@ -10,28 +10,11 @@
 
 using namespace rayline;
 using rayline::testing::DcgBuilder;
+using rayline::testing::add_job;
 
 namespace {
 constexpr double MB = 1e6;
 
-BlockId add_block(JobPool& pool, const std::string& name, Bytes bytes, DataKind kind = DataKind::SceneData) {
-  DataBlock b;
-  b.name = name;
-  b.bytes = bytes;
-  b.kind = kind;
-  b.consumed = is_consumed_by_use(kind);
-  return pool.add_block(b);
-}
-JobId add_job(JobPool& pool, const std::string& name, JobTypeId type, std::vector<BlockId> in,
-              std::vector<BlockId> out = {}, Time created = 0) {
-  Job j;
-  j.name = name;
-  j.type = type;
-  j.inputs = std::move(in);
-  j.outputs = std::move(out);
-  j.created = created;
-  return pool.add_job(std::move(j));
-}
 const Activity& exec_of(const Schedule& s, const JobPool& pool, JobId j) { return s.activity(pool.activity(j)); }
 }  // namespace
 
@@ -50,8 +33,8 @@ TEST(PaperExamples, Fig5IndirectPathBeatsSlowDirectOne) {
   DeviceGraph g = b.build();
   // d1 and d3 are busy with long local jobs, so d2 is the least occupied device.
   JobPool pool;
-  const BlockId w11 = add_block(pool, "w11", 100 * MB);
-  const BlockId l1 = add_block(pool, "local1", 50000 * MB), l3 = add_block(pool, "local3", 50000 * MB);
+  const BlockId w11 = rayline::testing::add_block(pool, "w11", DataKind::SceneData, 100 * MB);
+  const BlockId l1 = rayline::testing::add_block(pool, "local1", DataKind::SceneData, 50000 * MB), l3 = rayline::testing::add_block(pool, "local3", DataKind::SceneData, 50000 * MB);
   Schedule s(g, pool);
   s.put_initial(w11, m3);
   s.put_initial(l1, m1);
@@ -93,9 +76,9 @@ TEST(PaperExamples, Fig4ChainedTransfersFeedTheEJob) {
   g.timing.at(d0, 0).supported = g.timing.at(d1, 0).supported = false;
   g.timing.at(d2, 1).supported = false;
   JobPool pool;
-  const BlockId in0 = add_block(pool, "in0", 100 * MB, DataKind::Generic);
-  const BlockId in1 = add_block(pool, "in1", 100 * MB, DataKind::Generic);
-  const BlockId w = add_block(pool, "w", 25 * MB, DataKind::Generic);
+  const BlockId in0 = rayline::testing::add_block(pool, "in0", DataKind::Generic, 100 * MB);
+  const BlockId in1 = rayline::testing::add_block(pool, "in1", DataKind::Generic, 100 * MB);
+  const BlockId w = rayline::testing::add_block(pool, "w", DataKind::Generic, 25 * MB);
   Schedule s(g, pool);
   s.put_initial(in0, m0);
   s.put_initial(in1, m1);
@@ -158,8 +141,8 @@ TEST(PaperExamples, Eq3BusyChannelDelaysHopAndSdcRoutesAround) {
   b.timing(0, DataKind::SceneData, 1000 * MB);
   DeviceGraph g = b.build();
   JobPool pool;
-  const BlockId big = add_block(pool, "big", 500 * MB);  // occupies m0->m1 for 5 s
-  const BlockId w = add_block(pool, "w", 100 * MB);
+  const BlockId big = rayline::testing::add_block(pool, "big", DataKind::SceneData, 500 * MB);  // occupies m0->m1 for 5 s
+  const BlockId w = rayline::testing::add_block(pool, "w", DataKind::SceneData, 100 * MB);
   Schedule s(g, pool);
   s.put_initial(big, m0);
   s.put_initial(w, m0);
@@ -174,7 +157,7 @@ TEST(PaperExamples, Eq3BusyChannelDelaysHopAndSdcRoutesAround) {
   ASSERT_EQ(p.size(), 2u);
   EXPECT_EQ(g.channels[p[0]].to, m2);
   // Make the detour slower than waiting: the direct hop (6 s) wins again.
-  const BlockId big2 = add_block(pool, "big2", 800 * MB);
+  const BlockId big2 = rayline::testing::add_block(pool, "big2", DataKind::SceneData, 800 * MB);
   s.put_initial(big2, m0);
   s.commit_transfer(big2, 1, kNone, 0, s.admission(m2, 800 * MB, {}));  // m0->m2 busy until 8
   f.clear();
@@ -213,8 +196,8 @@ Time run_starvation_case(Time aging, Time* stream_end) {
   b.timing(0, DataKind::SceneData, 200 * MB);
   DeviceGraph g = b.build();
   JobPool pool;
-  const BlockId local = add_block(pool, "local", 10 * MB);    // 0.05 s jobs
-  const BlockId remote = add_block(pool, "remote", 100 * MB);
+  const BlockId local = rayline::testing::add_block(pool, "local", DataKind::SceneData, 10 * MB);    // 0.05 s jobs
+  const BlockId remote = rayline::testing::add_block(pool, "remote", DataKind::SceneData, 100 * MB);
   Schedule s(g, pool);
   s.put_initial(local, m0);
   s.put_initial(remote, m1);
@@ -259,8 +242,8 @@ TEST(PaperExamples, FramebuffersMoveOnlyForAdditiveCompose) {
   DeviceGraph g = b.build();
   g.timing.at(d0, 0).supported = false;  // Accumulate only on d1, far from the framebuffer
   JobPool pool;
-  const BlockId fb = add_block(pool, "fb", 10 * MB, DataKind::Framebuffer);
-  const BlockId fb2 = add_block(pool, "fb2", 10 * MB, DataKind::Framebuffer);
+  const BlockId fb = rayline::testing::add_block(pool, "fb", DataKind::Framebuffer, 10 * MB);
+  const BlockId fb2 = rayline::testing::add_block(pool, "fb2", DataKind::Framebuffer, 10 * MB);
   Schedule s(g, pool);
   s.put_initial(fb, m0);
   s.put_initial(fb2, m0);
@@ -274,7 +257,7 @@ TEST(PaperExamples, FramebuffersMoveOnlyForAdditiveCompose) {
   // Compose could run on d0 (local) or d1; either way it is planned. Force d1 and check
   // the framebuffer does move for it.
   JobPool pool2;
-  const BlockId f3 = add_block(pool2, "fb3", 10 * MB, DataKind::Framebuffer);
+  const BlockId f3 = rayline::testing::add_block(pool2, "fb3", DataKind::Framebuffer, 10 * MB);
   Schedule s2(g, pool2);
   s2.put_initial(f3, m0);
   const JobId c2 = add_job(pool2, "compose2", 1, {f3});
