@@ -10,6 +10,7 @@
 #include <cmath>
 #include <vector>
 
+#include "render/scene/assets.hpp"
 #include "render/scene/builder.hpp"
 #include "render/scene/generators.hpp"
 #include "render/scene/rng.hpp"
@@ -183,7 +184,36 @@ void emit_boeing(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
 
   // Parts until the next one might not fit, then the cargo floor takes the rest.
   const std::uint64_t reserve = 2;
+  // Real CAD parts (assets/occt/*.stl) when present: about one part in six is a posed
+  // copy of a seeded choice among those small enough (≤ max(8·detail, 1 % of the
+  // budget)). Own random stream: without assets the output is unchanged.
+  const auto cad = cad_assets();
+  AssetReport& report = last_asset_report();
+  report = {"boeing-like", 0, 0, {}};
+  std::vector<const AssetMesh*> small;
+  const std::uint64_t cap = std::max<std::uint64_t>(8ull * std::uint64_t(detail), triangles / 100);
+  for (const auto& m : cad) {
+    report.files.push_back("occt/" + m->name);
+    if (m->triangles.size() <= cap) small.push_back(m.get());
+  }
+  Rng arng(seed ^ 0xCAD0'CAD0'0000'0002ull);
   for (;;) {
+    if (!small.empty() && arng.below(6) == 0) {
+      const AssetMesh& m = *small[std::size_t(arng.below(int(small.size())))];
+      const Float3 c = inside_point(arng, 0.75f);
+      const float size = arng.uniform(0.15f, 0.6f);
+      const Affine pose = Affine::translate(c) * Affine::rotate(arng.unit_vector(), arng.uniform(0, 360)) *
+                          Affine::scale({size, size, size}) * Affine::translate({0, -0.5f, 0});
+      for (Float3 v : m.positions) mb.vertex(pose.point(v));
+      for (const Tri& t : m.triangles) mb.tri(t[0], t[1], t[2]);
+      if (sink.emitted + mb.triangle_count() + reserve > triangles) {
+        mb.clear();
+        break;
+      }
+      mb.flush(sink, kBox);
+      ++report.asset_items;
+      continue;
+    }
     const std::uint16_t slot = make_part(mb, rng, detail);
     if (sink.emitted + mb.triangle_count() + reserve > triangles) {
       mb.clear();
@@ -196,6 +226,9 @@ void emit_boeing(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
 }
 
 void describe_boeing(Scene& s, const Bounds&) {
+  const AssetReport& r = last_asset_report();
+  s.description = "boeing-like: fuselage packed with procedural pipes, brackets, cables, boxes; CAD parts: " +
+                  (r.generator == "boeing-like" ? r.summary() : std::string("not generated yet"));
   s.materials = {{"hull", {0.78f, 0.78f, 0.8f}, {}},     {"structure", {0.5f, 0.5f, 0.52f}, {}},
                  {"pipes", {0.7f, 0.62f, 0.3f}, {}},     {"brackets", {0.35f, 0.35f, 0.38f}, {}},
                  {"cables", {0.1f, 0.1f, 0.12f}, {}},    {"boxes", {0.25f, 0.32f, 0.25f}, {}},

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <vector>
 
+#include "render/scene/assets.hpp"
 #include "render/scene/builder.hpp"
 #include "render/scene/generators.hpp"
 #include "render/scene/rng.hpp"
@@ -122,6 +123,49 @@ std::vector<Float3> statue_sites() {
   return s;
 }
 
+// A scan statue: each base triangle of `m` midpoint-subdivided `level` times (4^level
+// triangles; shared-edge midpoints are computed symmetrically, so no cracks), every
+// vertex displaced along its interpolated normal by the noise, then posed by `xf`.
+struct ScanEmitter {
+  const AssetMesh& m;
+  Affine xf;
+  std::uint64_t nseed;
+  float amp;
+  MeshBuilder mb;
+  MeshSink& sink;
+  std::uint64_t emitted = 0;
+
+  struct V {
+    Float3 p, n;
+  };
+  static V mid(const V& a, const V& b) {
+    const Float3 n = a.n + b.n;
+    const float l = length(n);
+    return {(a.p + b.p) * 0.5f, l > 0 ? n * (1.0f / l) : a.n};
+  }
+  std::uint32_t out(const V& v) {
+    const float d = amp * (fbm(v.p * 9.0f, 3, nseed) + 0.4f * fbm(v.p * 31.0f, 2, nseed + 5));
+    return mb.vertex(xf.point(v.p + v.n * d));
+  }
+  void rec(const V& a, const V& b, const V& c, int level) {
+    if (level == 0) {
+      mb.tri(out(a), out(b), out(c));
+      return;
+    }
+    const V ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+    rec(a, ab, ca, level - 1), rec(ab, b, bc, level - 1), rec(ca, bc, c, level - 1), rec(ab, bc, ca, level - 1);
+  }
+  void run(int level) {
+    for (const Tri& t : m.triangles) {
+      rec({m.positions[t[0]], m.normals[t[0]]}, {m.positions[t[1]], m.normals[t[1]]},
+          {m.positions[t[2]], m.normals[t[2]]}, level);
+      if (mb.triangle_count() >= (1u << 16)) emitted += mb.triangle_count(), mb.flush(sink, kMarble);
+    }
+    emitted += mb.triangle_count();
+    mb.flush(sink, kMarble);
+  }
+};
+
 }  // namespace
 
 void emit_museum(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
@@ -132,12 +176,27 @@ void emit_museum(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
   const int q = quadratic_detail_level(count_architecture, 0.15, triangles);
   emit_architecture(sink, q);
 
-  // Statues: as many sites as the budget affords ~20 K triangles each, in a seeded order.
+  // Statues: as many sites as the budget affords ~20 K triangles each (or, with real
+  // scans, the smallest scan), in a seeded order.
   auto sites = statue_sites();
   for (std::size_t i = sites.size(); i > 1; --i) std::swap(sites[i - 1], sites[std::size_t(rng.below(int(i)))]);
   const std::uint64_t left = triangles > sink.emitted + 2000 ? triangles - sink.emitted - 2000 : 0;
-  const std::size_t n = std::clamp<std::size_t>(std::size_t(left / 20000), 1, sites.size());
+  // Real scans (assets/bunny.obj, dragon.ply) when present and the budget affords one per
+  // statue; their choice and pose use their own stream so the procedural output is
+  // unchanged without assets.
+  const auto scans = scan_assets();
+  AssetReport& report = last_asset_report();
+  report = {"museum-like", 0, 0, {}};
+  for (const auto& sc : scans) report.files.push_back(sc->name);
+  std::uint64_t smallest = 0;
+  for (const auto& sc : scans)
+    if (smallest == 0 || sc->triangles.size() < smallest) smallest = sc->triangles.size();
+  const bool use_scans = smallest > 0 && left >= smallest + 12;
+  const std::uint64_t unit = use_scans ? std::max<std::uint64_t>(20000, smallest + 12) : 20000;
+  const std::size_t n = std::clamp<std::size_t>(std::size_t(left / unit), 1, sites.size());
   const std::uint64_t per = left / n > 12 ? left / n - 12 : 0;  // minus the pedestal
+  Rng arng(seed ^ 0x5CA9'5CA9'0000'0001ull);
+  std::uint64_t carry = 0;  // budget a scan statue left unused, offered to the next
   MeshBuilder mb;
   for (std::size_t i = 0; i < n && per >= 12; ++i) {
     const Float3 p = sites[i];
@@ -147,6 +206,27 @@ void emit_museum(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
     const std::uint64_t nseed = rng.next();
     const float turn = rng.uniform(0, 360), lean = rng.uniform(-8, 8);
     const float w = rng.uniform(0.32f, 0.42f), h = rng.uniform(0.75f, 0.95f);
+    if (use_scans) {
+      // The scans that fit this statue's budget; seeded choice; deepest subdivision
+      // level that still fits.
+      const std::uint64_t budget = per + carry;
+      std::vector<const AssetMesh*> fit;
+      for (const auto& sc : scans)
+        if (sc->triangles.size() <= budget) fit.push_back(sc.get());
+      if (!fit.empty()) {
+        const AssetMesh& m = *fit[std::size_t(arng.below(int(fit.size())))];
+        int level = 0;
+        while (level < 8 && (std::uint64_t(m.triangles.size()) << (2 * (level + 1))) <= budget) ++level;
+        const float size = arng.uniform(1.3f, 1.7f), spin = arng.uniform(0, 360);
+        const Affine xf = Affine::translate({p.x, p.y + 1.0f, p.z}) * Affine::rotate({0, 1, 0}, spin) *
+                          Affine::scale({size, size, size});
+        ScanEmitter e{m, xf, nseed, 0.004f, {}, sink};
+        e.run(level);
+        carry = budget - e.emitted;
+        ++report.asset_items;
+        continue;
+      }
+    }
     const Affine xf = Affine::translate({p.x, p.y + 1.0f + h, p.z}) * Affine::rotate({0, 1, 0}, turn) *
                       Affine::rotate({1, 0, 0}, lean) * Affine::scale({w, h, w * 0.85f});
     emit_cube_sphere(sink, per, kMarble, [&](Float3 d) {
@@ -154,6 +234,7 @@ void emit_museum(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
       r += 0.35f * std::max(0.0f, d.y - 0.75f) / 0.25f;  // head
       return xf.point(d * r);
     });
+    ++report.procedural_items;
   }
   // The rest of the budget: the court's tiled floor (exact count).
   mb.exact_patch(triangles - sink.emitted, {-12, 0.002f, -8}, {0, 0, 16}, {24, 0, 0});
@@ -161,6 +242,9 @@ void emit_museum(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
 }
 
 void describe_museum(Scene& s, const Bounds&) {
+  const AssetReport& r = last_asset_report();
+  s.description = "museum-like: two-storey arcaded atrium; statues: " +
+                  (r.generator == "museum-like" ? r.summary() : std::string("not generated yet"));
   s.materials = {{"stone", {0.75f, 0.72f, 0.65f}, {}},
                  {"floor", {0.55f, 0.5f, 0.45f}, {}},
                  {"marble", {0.85f, 0.85f, 0.82f}, {}},

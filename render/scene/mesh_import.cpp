@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "render/scene/ply_reader.hpp"
+#include "render/scene/stl_reader.hpp"
 #include "sched/error.hpp"
 
 namespace rayline::scene {
@@ -99,6 +100,8 @@ ImportStats stream_mesh_file(const std::string& path, const Affine& xf, const Tr
   ImportStats st;
   if (route == ImportPath::automatic && lower_ext(path) == ".ply" && read_ply_header(path).streamable)
     st = stream_ply(path, xf, fn);
+  else if (route == ImportPath::automatic && lower_ext(path) == ".stl" && is_binary_stl(path))
+    st = stream_stl(path, xf, fn);
   else
     st = stream_assimp(path, xf, fn);
   if (st.triangles == 0)

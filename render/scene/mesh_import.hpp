@@ -1,5 +1,5 @@
-// Mesh files → triangle batches. Binary PLY streams through the native reader (bounded
-// memory, any size); everything else (OBJ, ASCII PLY, STL, OFF, glTF 2.0 / GLB, and
+// Mesh files → triangle batches. Binary PLY and binary STL stream through native readers
+// (bounded memory, any size); everything else (OBJ, ASCII PLY, STL, OFF, glTF 2.0 / GLB, and
 // whatever else assimp reads) goes through assimp, with polygons triangulated, points
 // and lines skipped and counted, and the node hierarchy flattened into the vertices.
 #pragma once

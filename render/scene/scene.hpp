@@ -79,6 +79,7 @@ struct RenderSettings {
 
 struct Scene {
   std::string source;  // the file it came from ("<built-in>" for default_scene())
+  std::string description;  // free text (JSON "description"); generators say what they used
   std::vector<Material> materials;
   std::vector<MeshInstance> meshes;
   std::vector<AreaLight> area_lights;

@@ -163,6 +163,7 @@ Scene parse_scene(const std::string& text, const std::string& origin) {
   const fs::path dir = fs::absolute(fs::path(origin)).parent_path();
   Scene s;
   s.source = origin;
+  if (j.contains("description") && j["description"].is_string()) s.description = j["description"].get<std::string>();
 
   // Materials, by name (file order kept).
   if (j.contains("materials")) {
@@ -355,6 +356,7 @@ Scene load_scene(const std::string& path) {
 std::string scene_to_json(const Scene& s, const std::string& relative_to) {
   Json j;
   j["version"] = 1;
+  if (!s.description.empty()) j["description"] = s.description;
   Json ms = Json::object();
   for (const auto& m : s.materials) ms[m.name] = {{"albedo", vec(m.albedo)}, {"emission", vec(m.emission)}};
   j["materials"] = ms;

@@ -2,9 +2,12 @@
 // tiny fixtures written here; malformed and missing files give InputError naming them.
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include "render/scene/mesh_import.hpp"
 #include "render/scene/ply_reader.hpp"
 #include "render/scene/scene.hpp"
+#include "render/scene/stl_reader.hpp"
 #include "scene_fixture.hpp"
 #include "sched/error.hpp"
 
@@ -105,6 +108,54 @@ TEST_F(Import, StlAsciiAndBinary) {
   s = mesh_file_stats(write("b.stl", b));
   EXPECT_EQ(s.triangles, 3u);
   expect_bounds(s.bounds, {0, 0, -1}, {3, 2, 0});
+}
+
+// Binary STL goes through the native streaming reader: counts and bounds in small
+// batches, the same as assimp; truncation and count mismatches name file and field.
+TEST_F(Import, BinaryStlNativeReader) {
+  std::vector<unsigned char> b(80, 's');  // header even starts like "solid"
+  std::memcpy(b.data(), "solid but binary", 16);
+  put<std::uint32_t>(b, 5);
+  for (int t = 0; t < 5; ++t) {
+    for (float c : {0.0f, 0.0f, 1.0f}) put<float>(b, c);
+    const float v[3][3] = {{float(t), 0, 0}, {float(t) + 1, 0, 3}, {float(t), 2, -1}};
+    for (auto& p : v)
+      for (float c : p) put<float>(b, c);
+    put<std::uint16_t>(b, 7);
+  }
+  const auto f = write("n.stl", b);
+  EXPECT_TRUE(is_binary_stl(f));
+  std::size_t batches = 0, tris = 0;
+  ImportStats s = stream_stl(f, {}, [&](std::span<const Triangle> t) { ++batches, tris += t.size(); }, 2);
+  EXPECT_EQ(s.triangles, 5u);
+  EXPECT_EQ(tris, 5u);
+  EXPECT_EQ(batches, 3u);
+  expect_bounds(s.bounds, {0, 0, -1}, {5, 2, 3});
+  const ImportStats viaimport = mesh_file_stats(f);
+  EXPECT_EQ(viaimport.triangles, 5u);
+  expect_bounds(viaimport.bounds, {0, 0, -1}, {5, 2, 3});
+  const ImportStats viaassimp = stream_mesh_file(f, {}, [](std::span<const Triangle>) {}, ImportPath::assimp);
+  EXPECT_EQ(viaassimp.triangles, 5u);
+
+  auto expect_error = [](const std::string& path, const std::string& field) {
+    try {
+      stream_stl(path, {}, [](std::span<const Triangle>) {});
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), path);
+      EXPECT_EQ(e.field(), field) << e.what();
+    }
+  };
+  std::vector<unsigned char> cut(b.begin(), b.end() - 20);
+  const auto truncated = write("cut.stl", cut);
+  expect_error(truncated, "triangle_count");
+  EXPECT_THROW(mesh_file_stats(truncated), InputError);
+  std::vector<unsigned char> longer = b;
+  longer.resize(b.size() + 50);
+  expect_error(write("long.stl", longer), "triangle_count");
+  expect_error(write("short.stl", std::vector<unsigned char>(b.begin(), b.begin() + 40)), "header");
+  // ASCII STL is not taken for binary.
+  EXPECT_FALSE(is_binary_stl(write("a.stl", "solid t\nendsolid t\n")));
 }
 
 TEST_F(Import, Off) {
