@@ -98,6 +98,23 @@ TEST(CliSimulate, ShortRunWritesCompleteResults) {
 
 TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   const fs::path out = scratch("sim-bad");
+  // A platform that fails validation, and a workload file with an error in it.
+  const fs::path bad_platform = scratch("bad-platform.json");
+  std::ofstream(bad_platform) << R"({"name": "x", "node_types": {"N": {"memory": [{"name": "ram", "kind": "host", "capacity": "8GiB"}],
+      "compute": [{"name": "cpu", "kind": "cpu", "memory": "ram"}]}}, "nodes": [{"name": "n", "type": "N"}]})";
+  const fs::path bad_jobs = scratch("bad-jobs.json");
+  std::ofstream(bad_jobs) << R"({"blocks": [{"name": "b", "kind": "SceneData", "size": "1MB", "at": ["A0.disk"]}], "jobs": [{"name": "j", "type": "RayIntersect", "inputs": ["missing"]}]})";
+  const std::vector<std::pair<std::string, fs::path>> cases = {
+      {"--platform " + bad_platform.string(), bad_platform},
+      {"--workload " + bad_jobs.string() + " --platform paper-A", bad_jobs}};
+  for (const auto& [args, file] : cases) {
+    const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
+    EXPECT_EQ(r.code, 2) << args << ": " << r.all;
+    EXPECT_NE(r.err.find(file.string()), std::string::npos) << "the message names the file: " << r.err;
+    EXPECT_FALSE(fs::exists(out)) << args;
+  }
+  fs::remove(bad_platform);
+  fs::remove(bad_jobs);
   for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
                                  "--platform /nonexistent.json", "--exec-noise 2", "--blocks 1"}) {
     const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
