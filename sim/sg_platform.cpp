@@ -285,18 +285,27 @@ void SgPlatform::Impl::stop_all() {
 // ---------------------------------------------------------------------------------------
 // Public API.
 
+namespace {
+// Registers a new pending activity started now (shared by transfers and execs).
+SgPlatform::Impl::Pending& register_pending(SgPlatform::Impl& m, Time now_s, SgCallback done, const char* who) {
+  if (m.stopped) throw std::logic_error(std::string("SgPlatform::") + who + ": the simulation was stopped by a failing callback");
+  const SgActivityId id = m.next_id++;
+  SgPlatform::Impl::Pending& p = m.pending[id];
+  p.id = id;
+  p.start_s = now_s;
+  p.done = std::move(done);
+  return p;
+}
+}  // namespace
+
 SgActivityId SgPlatform::start_transfer(ChannelId c, Bytes bytes, SgCallback done) {
   Impl& m = *impl_;
-  if (m.stopped) throw std::logic_error("SgPlatform::start_transfer: the simulation was stopped by a failing callback");
   if (c < 0 || c >= static_cast<ChannelId>(m.graph.channels.size()))
     throw std::out_of_range("SgPlatform::start_transfer: unknown channel " + std::to_string(c));
   const Time now_s = now();
-  const SgActivityId id = m.next_id++;
-  Impl::Pending& p = m.pending[id];
-  p.id = id;
-  p.start_s = now_s;
+  Impl::Pending& p = register_pending(m, now_s, std::move(done), "start_transfer");
   p.channel = c;
-  p.done = std::move(done);
+  const SgActivityId id = p.id;
 
   const Time latency = m.graph.channels[c].latency;
   if (bytes == 0) {
@@ -311,18 +320,14 @@ SgActivityId SgPlatform::start_transfer(ChannelId c, Bytes bytes, SgCallback don
 
 SgActivityId SgPlatform::start_exec(DeviceId d, Time seconds, SgCallback done) {
   Impl& m = *impl_;
-  if (m.stopped) throw std::logic_error("SgPlatform::start_exec: the simulation was stopped by a failing callback");
   if (d < 0 || d >= static_cast<DeviceId>(m.graph.computes.size()))
     throw std::out_of_range("SgPlatform::start_exec: unknown device " + std::to_string(d));
   if (!(seconds >= 0) || !std::isfinite(seconds))
     throw std::invalid_argument("SgPlatform::start_exec: duration must be finite and >= 0");
   const Time now_s = now();
-  const SgActivityId id = m.next_id++;
-  Impl::Pending& p = m.pending[id];
-  p.id = id;
-  p.start_s = now_s;
+  Impl::Pending& p = register_pending(m, now_s, std::move(done), "start_exec");
   p.device = d;
-  p.done = std::move(done);
+  const SgActivityId id = p.id;
 
   if (seconds == 0) {
     m.set_timer(id, now_s, false, 0);

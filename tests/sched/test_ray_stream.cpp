@@ -47,8 +47,7 @@ struct Outcome {
   std::size_t activities;
 };
 
-Outcome run_stream(std::uint64_t seed, bool check) {
-  const DeviceGraph g = cluster();
+RayStreamOptions stream_options(std::uint64_t seed) {
   RayStreamOptions o;
   o.blocks = 12;
   o.scene_bytes = Bytes(12) * 100'000'000;  // 100 MB blocks
@@ -56,6 +55,12 @@ Outcome run_stream(std::uint64_t seed, bool check) {
   o.rays_max = 2e5;
   o.stop_new_batches = 8.0;
   o.seed = seed;
+  return o;
+}
+
+// Runs the stream to exhaustion under GMB and the exact executor; every job must finish.
+Outcome run_stream(const RayStreamOptions& o, bool check) {
+  const DeviceGraph g = cluster();
   JobPool pool;
   Schedule s(g, pool);
   RayStreamWorkload wl(g, o);
@@ -75,7 +80,7 @@ Outcome run_stream(std::uint64_t seed, bool check) {
 }  // namespace
 
 TEST(RayStream, ConservesRaysMergesQueuesAndKeepsInvariants) {
-  const Outcome o = run_stream(3, true);
+  const Outcome o = run_stream(stream_options(3), true);
   EXPECT_GT(o.primary, 0u);
   EXPECT_GT(o.spawned, 0u);
   EXPECT_GT(o.merges, 0u) << "queues produced where a queued job holds one must merge";
@@ -87,7 +92,8 @@ TEST(RayStream, ConservesRaysMergesQueuesAndKeepsInvariants) {
 }
 
 TEST(RayStream, DeterministicForASeed) {
-  const Outcome a = run_stream(11, false), b = run_stream(11, false), c = run_stream(12, false);
+  const Outcome a = run_stream(stream_options(11), false), b = run_stream(stream_options(11), false),
+                c = run_stream(stream_options(12), false);
   EXPECT_EQ(a.traced, b.traced);
   EXPECT_EQ(a.activities, b.activities);
   EXPECT_DOUBLE_EQ(a.makespan, b.makespan);
@@ -97,19 +103,11 @@ TEST(RayStream, DeterministicForASeed) {
 // Few blocks mean few distinct queues: new batches merge instead of adding jobs, and the
 // stream must still make progress (it used to spin trying to reach its backlog).
 TEST(RayStream, OneBlockSceneMergesInsteadOfSpinning) {
-  const DeviceGraph g = cluster();
-  RayStreamOptions o;
+  RayStreamOptions o = stream_options(1);
   o.blocks = 1;
   o.scene_bytes = 100'000'000;
   o.stop_new_batches = 2.0;
-  JobPool pool;
-  Schedule s(g, pool);
-  RayStreamWorkload wl(g, o);
-  GmbScheduler gmb({.horizon = 2.0});
-  ExactExecutor ex(s);
-  RuntimeLoop loop(gmb, ex, wl, pool, s);
-  const RunStats st = loop.run();
-  EXPECT_FALSE(st.stalled);
-  EXPECT_GT(wl.merges(), 0u);
-  EXPECT_EQ(wl.rays_traced(), wl.primary_rays() + wl.spawned_rays());
+  const Outcome r = run_stream(o, true);
+  EXPECT_GT(r.merges, 0u);
+  EXPECT_EQ(r.traced, r.primary + r.spawned);
 }
