@@ -74,7 +74,9 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
     adm.at = kNever;
     return adm;
   }
-  if (cap - used_[m] >= bytes) return adm;
+  // used_ may exceed the capacity: data put in place by a workload (new ray queues) is
+  // not admitted; the difference must then be freed first (signed arithmetic).
+  if (used_[m] <= cap && cap - used_[m] >= bytes) return adm;
   struct Cand { int value; Time at; Bytes bytes; BlockId block; ActivityId leaving; };
   std::vector<Cand> cands;
   for (const Leaving& l : leaving_)
@@ -99,10 +101,11 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
     if (a.at != b.at) return a.at < b.at;
     return a.block < b.block;
   });
-  Bytes free = cap - used_[m];
+  auto free = static_cast<std::int64_t>(cap) - static_cast<std::int64_t>(used_[m]);
+  const auto want = static_cast<std::int64_t>(bytes);
   for (const Cand& c : cands) {
-    if (free >= bytes) break;
-    free += c.bytes;
+    if (free >= want) break;
+    free += static_cast<std::int64_t>(c.bytes);
     adm.at = std::max(adm.at, c.at);
     if (c.leaving != kNone) {
       adm.wait_for.push_back(c.leaving);
@@ -113,7 +116,7 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
       adm.wait_for.insert(adm.wait_for.end(), cp->users.begin(), cp->users.end());
     }
   }
-  if (free < bytes) adm.at = kNever;
+  if (free < want) adm.at = kNever;
   return adm;
 }
 

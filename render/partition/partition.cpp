@@ -104,9 +104,9 @@ struct TreeBuilder {
   }
 };
 
-// Leaves whose cell the AABB overlaps (rule in partition.hpp), appended to `out`.
+// Leaves whose cell the AABB overlaps or comes within `eps` of (rule in partition.hpp).
 template <class F>
-void route(const std::vector<KdNode>& nodes, const Bounds& b, F&& leaf) {
+void route(const std::vector<KdNode>& nodes, const Bounds& b, float eps, F&& leaf) {
   std::array<std::uint32_t, 128> stack;
   int sp = 0;
   stack[sp++] = 0;
@@ -117,9 +117,8 @@ void route(const std::vector<KdNode>& nodes, const Bounds& b, F&& leaf) {
       continue;
     }
     const float lo = b.lo[n.axis], hi = b.hi[n.axis], s = n.split;
-    const bool in_plane = lo == s && hi == s;
-    if (hi > s || in_plane) stack[sp++] = n.right;
-    if (lo < s || in_plane) stack[sp++] = n.left;
+    if (hi >= s - eps) stack[sp++] = n.right;
+    if (lo <= s + eps) stack[sp++] = n.left;
   }
 }
 
@@ -478,7 +477,14 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
   std::vector<Float3>().swap(sample);
   res.seconds_pass1 = seconds_since(t0);
 
-  // Pass 2: route into per-block buffers, append to block files.
+  // Pass 2: route into per-block buffers, append to block files. A triangle within
+  // route_eps of a split plane goes to both sides: a renderer's hit found at t a few ulps
+  // past the plane (rounding of t versus the plane's t) is then still in the cell whose
+  // interval holds it, so hits never fall between cells (render/trace/cell_walk.hpp).
+  const Float3 ext = bounds.extent();
+  const float route_eps = 1e-5f * std::max({ext.x, ext.y, ext.z, std::fabs(bounds.lo.x), std::fabs(bounds.lo.y),
+                                            std::fabs(bounds.lo.z), std::fabs(bounds.hi.x), std::fabs(bounds.hi.y),
+                                            std::fabs(bounds.hi.z), 1e-30f});
   t0 = Clock::now();
   const fs::path partial = fs::absolute(target).parent_path() /
                            (fs::absolute(target).filename().string() + ".partial." + std::to_string(::getpid()));
@@ -501,7 +507,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
     source([&](std::span<const Triangle> batch) {
       for (const Triangle& t : batch) {
         const Bounds tb = tri_bounds(t);
-        route(idx.nodes, tb, [&](std::uint32_t leaf) {
+        route(idx.nodes, tb, route_eps, [&](std::uint32_t leaf) {
           BlockWriter& bw = w[leaf];
           encode_records(std::span<const Triangle>(&t, 1), bw.buf);
           bw.geometry.extend(tb);

@@ -10,12 +10,12 @@
 //      the leaf cells its axis-aligned bounding box overlaps, through per-block buffers
 //      (together at most half of `memory_limit`, at most 1 MiB each: larger buffers only
 //      cost page faults) appended to the block files.
-// Cells tile the scene bounds and never overlap. A triangle straddling a split plane is
-// referenced by every cell its AABB overlaps (a conservative AABB-vs-cell test, not an
-// exact triangle clip: a triangle may be referenced by a cell it only touches through its
-// AABB). Rule at a split plane s on axis a: left if lo[a] < s, right if hi[a] > s, both if
-// the triangle lies in the plane (lo[a] == hi[a] == s); a triangle only touching the plane
-// from one side goes to that side.
+// Cells tile the scene bounds and never overlap. A triangle is referenced by every cell
+// its axis-aligned bounding box overlaps or comes within eps of, eps = 1e-5 of the scene's
+// largest extent or coordinate (a conservative AABB test, not an exact triangle clip).
+// Rule at a split plane s on axis a: left if lo[a] <= s + eps, right if hi[a] >= s - eps.
+// The band makes rendering exact across partitions: a hit computed a few ulps beyond a
+// plane is still found in the cell whose ray interval holds it.
 //
 // Output folder (written as DIR.partial.<pid>, then renamed to DIR):
 //   block_00000.rlb … one block file per cell (format in block_file.hpp)

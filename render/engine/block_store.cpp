@@ -1,0 +1,108 @@
+#include "render/engine/block_store.hpp"
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+
+#include "sched/error.hpp"
+
+namespace rayline::engine {
+
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+BlockStore::BlockStore(const partition::BlockIndex& index, std::string dir, std::vector<std::uint64_t> footprint,
+                       std::uint32_t material_count, int build_threads)
+    : index_(index), dir_(std::move(dir)), footprint_(std::move(footprint)), materials_(material_count),
+      device_(build_threads), resident_(index.blocks.size()) {}
+
+std::string BlockStore::path(std::uint32_t block) const {
+  return (std::filesystem::path(dir_) / index_.blocks.at(block).file).string();
+}
+
+std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t block) {
+  const std::string p = path(block);
+  auto t0 = std::chrono::steady_clock::now();
+  RawBlock raw = read_block_uncached(p);
+  const double read_s = seconds_since(t0);
+  if (raw.header.block_id != block)
+    throw InputError(p, "block_id", "holds block " + std::to_string(raw.header.block_id) + ", expected " +
+                                        std::to_string(block));
+  const partition::BlockInfo& info = index_.blocks[block];
+  if (raw.header.triangle_count != info.triangles || raw.header.payload_crc32 != info.payload_crc32)
+    throw InputError(p, "payload_crc32", "does not match blocks.json (block file from another partition?)");
+  for (std::uint64_t i = 0; i < raw.header.triangle_count; ++i) {
+    std::uint32_t m = 0;
+    std::memcpy(&m, raw.payload.data() + i * partition::kRecordBytes + 36, 4);
+    if (m >= materials_)
+      throw InputError(p, "material", "triangle " + std::to_string(i) + " uses material " + std::to_string(m) +
+                                          " but the scene has " + std::to_string(materials_));
+  }
+  const std::int64_t embree_before = device_.embree_bytes();
+  t0 = std::chrono::steady_clock::now();
+  auto g = std::make_shared<const trace::BlockGeometry>(device_, block, raw.payload, raw.header.triangle_count);
+  const double build_s = seconds_since(t0);
+  // Single loader thread per channel: the Embree delta is this block's BVH (an estimate
+  // when several loaders build at once).
+  const auto measured = static_cast<double>(g->array_bytes()) +
+                        static_cast<double>(std::max<std::int64_t>(0, device_.embree_bytes() - embree_before));
+  std::lock_guard lk(mu_);
+  ++stats_.loads;
+  stats_.bytes_read += raw.file_bytes;
+  (raw.mode == ReadMode::Direct ? stats_.direct_reads : stats_.buffered_reads) += 1;
+  stats_.read_seconds += read_s;
+  stats_.build_seconds += build_s;
+  if (footprint_[block] > 0)
+    stats_.worst_footprint_ratio = std::max(stats_.worst_footprint_ratio, measured / double(footprint_[block]));
+  return g;
+}
+
+void BlockStore::load(std::uint32_t block) {
+  {
+    std::lock_guard lk(mu_);
+    if (resident_.at(block)) return;
+  }
+  auto g = build(block);
+  std::lock_guard lk(mu_);
+  if (resident_[block]) return;
+  resident_[block] = std::move(g);
+  stats_.resident_bytes += footprint_[block];
+  stats_.peak_resident_bytes = std::max(stats_.peak_resident_bytes, stats_.resident_bytes);
+  stats_.peak_embree_bytes = device_.peak_embree_bytes();
+}
+
+void BlockStore::evict(std::uint32_t block) {
+  std::shared_ptr<const trace::BlockGeometry> g;
+  std::lock_guard lk(mu_);
+  if (!resident_.at(block)) return;
+  g.swap(resident_[block]);
+  stats_.resident_bytes -= footprint_[block];
+  ++stats_.evictions;
+  // `g` is released here, or by the last job still holding it (none, if the plan is kept).
+}
+
+std::shared_ptr<const trace::BlockGeometry> BlockStore::get(std::uint32_t block) {
+  {
+    std::lock_guard lk(mu_);
+    if (resident_.at(block)) return resident_[block];
+    ++stats_.unplanned_loads;
+  }
+  load(block);
+  std::lock_guard lk(mu_);
+  return resident_[block];
+}
+
+bool BlockStore::resident(std::uint32_t block) const {
+  std::lock_guard lk(mu_);
+  return resident_.at(block) != nullptr;
+}
+
+BlockStoreStats BlockStore::stats() const {
+  std::lock_guard lk(mu_);
+  return stats_;
+}
+
+}  // namespace rayline::engine

@@ -1,0 +1,66 @@
+// The RAM side of the disk→RAM channel (issue 6, "Memory devices and channels of this
+// machine"): scene blocks resident in host memory, each as a traceable BlockGeometry.
+// A block enters only through a planned T-job (load) and leaves only through a planned
+// eviction, so what is resident mirrors the Schedule's copies on the RAM memory device,
+// and the bytes held stay within the memory budget the plan respects.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "render/engine/block_reader.hpp"
+#include "render/partition/partition.hpp"
+#include "render/trace/block_geometry.hpp"
+
+namespace rayline::engine {
+
+struct BlockStoreStats {
+  std::uint64_t loads = 0, evictions = 0, unplanned_loads = 0;
+  std::uint64_t bytes_read = 0;
+  std::uint64_t direct_reads = 0, buffered_reads = 0;
+  double read_seconds = 0, build_seconds = 0;
+  std::uint64_t resident_bytes = 0, peak_resident_bytes = 0;  // footprints of resident blocks
+  std::int64_t peak_embree_bytes = 0;
+  double worst_footprint_ratio = 0;  // measured bytes / planned bytes, max over loads
+};
+
+class BlockStore {
+ public:
+  // `footprint[b]`: the bytes the plan charges for block b in RAM (SceneData size).
+  BlockStore(const partition::BlockIndex& index, std::string dir, std::vector<std::uint64_t> footprint,
+             std::uint32_t material_count, int build_threads = 1);
+
+  // The T-job: read (uncached) + verify + build the BVH. Thread-safe. Throws InputError on
+  // a bad block file.
+  void load(std::uint32_t block);
+  void evict(std::uint32_t block);
+  // The resident geometry; when the block is not resident (a plan violation, counted) it
+  // is loaded on the spot so the image stays right.
+  std::shared_ptr<const trace::BlockGeometry> get(std::uint32_t block);
+  bool resident(std::uint32_t block) const;
+
+  BlockStoreStats stats() const;
+  const trace::EmbreeDevice& device() const { return device_; }
+  std::string path(std::uint32_t block) const;
+
+  // Bytes per triangle the plan charges: record payload converted to Embree input
+  // arrays (vertices 36, indices 12, material 4) plus the BVH (measured: see README).
+  static constexpr std::uint64_t kBytesPerTriangle = 52 + 64;
+  static std::uint64_t footprint_of(std::uint64_t triangles) { return 4096 + triangles * kBytesPerTriangle; }
+
+ private:
+  std::shared_ptr<const trace::BlockGeometry> build(std::uint32_t block);
+  const partition::BlockIndex& index_;
+  std::string dir_;
+  std::vector<std::uint64_t> footprint_;
+  std::uint32_t materials_;
+  trace::EmbreeDevice device_;
+  mutable std::mutex mu_;
+  std::vector<std::shared_ptr<const trace::BlockGeometry>> resident_;
+  BlockStoreStats stats_;
+};
+
+}  // namespace rayline::engine

@@ -1,0 +1,102 @@
+#include "render/engine/local_executor.hpp"
+
+#include <xmmintrin.h>
+#include <pmmintrin.h>
+
+namespace rayline::engine {
+
+LocalExecutor::LocalExecutor(const DeviceGraph& g, TaskFactory factory)
+    : g_(g), factory_(std::move(factory)), t0_(std::chrono::steady_clock::now()),
+      lanes_(g.computes.size() + g.resources.size()), busy_(lanes_.size(), 0.0) {
+  for (std::size_t i = 0; i < lanes_.size(); ++i) threads_.emplace_back([this, i] { worker(i); });
+}
+
+LocalExecutor::~LocalExecutor() {
+  {
+    std::lock_guard lk(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  for (auto& t : threads_) t.join();
+}
+
+Time LocalExecutor::now() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+}
+
+void LocalExecutor::dispatch(ActivityId id, const Activity& a) {
+  Item it{id, a.deps, factory_(id, a)};
+  it.wait.insert(it.wait.end(), a.timeline_prev.begin(), a.timeline_prev.end());
+  const std::size_t lane = a.kind == ActivityKind::Exec
+                               ? static_cast<std::size_t>(a.device)
+                               : g_.computes.size() + static_cast<std::size_t>(g_.channels[a.channel].resources.front());
+  {
+    std::lock_guard lk(mu_);
+    if (static_cast<std::size_t>(id) >= done_.size()) done_.resize(static_cast<std::size_t>(id) + 1, 0);
+    lanes_[lane].push_back(std::move(it));
+    ++in_flight_;
+  }
+  cv_.notify_all();
+}
+
+bool LocalExecutor::ready(const Item& it) const {
+  for (ActivityId p : it.wait)
+    if (static_cast<std::size_t>(p) >= done_.size() || !done_[static_cast<std::size_t>(p)]) return false;
+  return true;
+}
+
+void LocalExecutor::worker(std::size_t lane) {
+  // Embree wants flush-to-zero and denormals-are-zero in every tracing thread.
+  _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+  _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  std::unique_lock lk(mu_);
+  for (;;) {
+    cv_.wait(lk, [&] { return stop_ || (!lanes_[lane].empty() && ready(lanes_[lane].front())); });
+    if (stop_) return;
+    Item it = std::move(lanes_[lane].front());
+    lanes_[lane].pop_front();
+    const bool skip = failure_ != nullptr;  // after a failure: finish quickly, run nothing
+    const Time t_start = now();
+    events_.push_back({ExecutorEvent::Type::Started, it.id, t_start});
+    lk.unlock();
+    cv_.notify_all();
+    std::exception_ptr err;
+    if (!skip && it.task) {
+      try {
+        it.task();
+      } catch (...) {
+        err = std::current_exception();
+      }
+    }
+    it.task = nullptr;  // release what it captured before reporting
+    const Time t_end = now();
+    lk.lock();
+    busy_[lane] += t_end - t_start;
+    if (err && !failure_) failure_ = err;
+    done_[static_cast<std::size_t>(it.id)] = 1;
+    --in_flight_;
+    events_.push_back({err || skip ? ExecutorEvent::Type::Failed : ExecutorEvent::Type::Finished, it.id, t_end});
+    cv_.notify_all();
+  }
+}
+
+bool LocalExecutor::advance(std::vector<ExecutorEvent>& out) {
+  std::unique_lock lk(mu_);
+  cv_.wait(lk, [&] { return !events_.empty() || in_flight_ == 0; });
+  if (events_.empty()) return false;
+  out.insert(out.end(), events_.begin(), events_.end());
+  events_.clear();
+  return true;
+}
+
+std::exception_ptr LocalExecutor::failure() const {
+  std::lock_guard lk(mu_);
+  return failure_;
+}
+
+std::vector<double> LocalExecutor::busy_seconds() const {
+  std::lock_guard lk(mu_);
+  return busy_;
+}
+
+}  // namespace rayline::engine

@@ -1,0 +1,109 @@
+#include "render/engine/render_metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "render/engine/renderer.hpp"
+#include "sched/utilisation.hpp"
+
+namespace rayline::engine {
+
+using nlohmann::json;
+
+namespace {
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+}  // namespace
+
+std::string render_metrics_json(const RenderResult& r, const Schedule& s, const std::vector<double>& lane_busy) {
+  const DeviceGraph& g = s.graph();
+  json m;
+  m["scene"] = r.scene_name;
+  m["resolution"] = {r.width, r.height};
+  m["spp"] = r.spp;
+  m["max_depth"] = r.max_depth;
+  m["seed"] = r.seed;
+  m["blocks"] = r.blocks;
+  m["scheduler"] = r.scheduler;
+  m["scheduler_parameters"] = r.scheduler_parameters;
+  m["platform"] = r.platform;
+  m["threads"] = g.computes.size();
+  m["seconds"] = r.seconds;
+  m["partition_seconds"] = r.partition_seconds;
+  const double secs = r.seconds > 0 ? r.seconds : 1e-9;
+  m["rays"] = {{"traced", r.counts.traced},
+               {"camera", r.camera_rays},
+               {"created", r.counts.created},
+               {"escaped", r.counts.escaped},
+               {"terminated", r.counts.terminated},
+               {"occluded", r.counts.occluded},
+               {"unoccluded", r.counts.unoccluded},
+               {"conserved", r.counts.created == r.counts.ended()}};
+  m["rays_per_second"] = double(r.counts.traced) / secs;
+  m["samples_per_second"] = double(r.camera_rays) / secs;
+  m["film_dropped_contributions"] = r.film_dropped;
+  m["memory"] = {{"budget_bytes", r.memory_budget},
+                 {"paths_in_flight_cap", r.path_cap},
+                 {"scene_block_bytes", r.scene_block_bytes},
+                 {"peak_resident_block_bytes", r.store.peak_resident_bytes},
+                 {"peak_embree_bytes", r.store.peak_embree_bytes},
+                 {"worst_footprint_ratio", r.store.worst_footprint_ratio}};
+  // Disk channel: busy share of the run (all resources behind disk→RAM channels).
+  double disk_busy = 0;
+  std::set<ResourceId> disk_res;
+  for (const Channel& c : g.channels)
+    if (g.memories[c.from].kind == MemoryKind::Disk)
+      for (ResourceId x : c.resources) disk_res.insert(x);
+  for (ResourceId x : disk_res) disk_busy = std::max(disk_busy, lane_busy.at(g.computes.size() + std::size_t(x)));
+  m["io"] = {{"loads", r.store.loads},
+             {"evictions", r.store.evictions},
+             {"unplanned_loads", r.store.unplanned_loads},
+             {"bytes_read", r.store.bytes_read},
+             {"read_seconds", r.store.read_seconds},
+             {"bvh_build_seconds", r.store.build_seconds},
+             {"direct_reads", r.store.direct_reads},
+             {"buffered_reads", r.store.buffered_reads},
+             {"mode", r.store.buffered_reads == 0 ? "O_DIRECT" : (r.store.direct_reads == 0 ? "buffered+DONTNEED" : "mixed")},
+             {"disk_busy_fraction", disk_busy / secs}};
+  // Cache hits: E-jobs whose SceneData was already in RAM (no T-job fetched it for them).
+  std::set<JobId> fetched_for;
+  std::uint64_t execs = 0;
+  std::vector<double> err_exec, err_transfer;
+  for (ActivityId a = 0; a < ActivityId(s.activity_count()); ++a) {
+    const Activity& x = s.activity(a);
+    if (x.kind == ActivityKind::Transfer) fetched_for.insert(x.job);
+    else ++execs;
+    if (x.state != ActivityState::Done || x.duration <= 0) continue;
+    const double rel = std::fabs((x.end - x.start) - x.duration) / x.duration;
+    (x.kind == ActivityKind::Exec ? err_exec : err_transfer).push_back(rel);
+  }
+  m["cache"] = {{"exec_jobs", execs},
+                {"hits", execs - std::min<std::uint64_t>(execs, fetched_for.size())},
+                {"hit_ratio", execs ? double(execs - std::min<std::uint64_t>(execs, fetched_for.size())) / double(execs) : 0.0}};
+  m["jobs"] = {{"created", r.jobs}, {"merges", r.merges}, {"plan_calls", r.run.plan_calls},
+               {"scheduler_seconds", r.run.scheduler_wall_seconds}};
+  m["predicted_vs_actual"] = {{"exec_median_rel_error", median(err_exec)},
+                              {"transfer_median_rel_error", median(err_transfer)},
+                              {"exec_samples", err_exec.size()},
+                              {"transfer_samples", err_transfer.size()}};
+  const Utilisation u = compute_utilisation(s, 0, r.seconds);
+  json devs = json::array();
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    const DeviceTime& t = u.devices[d];
+    devs.push_back({{"device", g.computes[d].name},
+                    {"utilisation", t.utilisation(u.span)},
+                    {"busy_s", t.busy},
+                    {"setup_s", t.setup},
+                    {"fetching_idle_s", t.fetching},
+                    {"true_idle_s", t.idle}});
+  }
+  m["devices"] = devs;
+  return m.dump(2) + "\n";
+}
+
+}  // namespace rayline::engine

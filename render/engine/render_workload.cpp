@@ -1,0 +1,141 @@
+#include "render/engine/render_workload.hpp"
+
+#include <algorithm>
+#include <numeric>
+
+namespace rayline::engine {
+
+using trace::RayKind;
+using trace::RayRecord;
+
+RenderWorkload::RenderWorkload(const trace::TraceSettings& ts, const trace::PinholeCamera& camera,
+                               const DeviceGraph& g, MemId ram, std::vector<BlockId> scene_blocks,
+                               RenderWorkloadOptions opt)
+    : ts_(ts), camera_(camera), g_(g), ram_(ram), scene_blocks_(std::move(scene_blocks)), opt_(opt),
+      staging_(scene_blocks_.size()), open_(scene_blocks_.size(), {kNone, kNone}) {
+  type_[0] = g.job_type("RayIntersect");
+  type_[1] = g.job_type("ShadowIntersect");
+  total_camera_ = std::uint64_t(camera.width()) * std::uint64_t(camera.height()) * std::uint64_t(opt_.spp);
+}
+
+void RenderWorkload::start(Time now, JobPool& pool, Schedule& s) {
+  generate(now, pool, s);
+  flush(now, pool, s, false);
+}
+
+bool RenderWorkload::finished() const {
+  return aborted_ || (next_camera_ == total_camera_ && staged_ == 0 && in_jobs_ == 0);
+}
+
+// Camera rays in sample-major scanline order (coherent waves), while paths_alive < cap.
+void RenderWorkload::generate(Time, JobPool&, Schedule&) {
+  if (aborted_) return;
+  const std::uint64_t pixels = std::uint64_t(camera_.width()) * std::uint64_t(camera_.height());
+  std::vector<RayRecord> fresh;
+  while (next_camera_ < total_camera_ && paths_alive_ < opt_.path_cap) {
+    const std::uint64_t n = std::min<std::uint64_t>({total_camera_ - next_camera_, opt_.path_cap - paths_alive_, 8192});
+    fresh.clear();
+    trace::RayCounts c;
+    for (std::uint64_t i = next_camera_; i < next_camera_ + n; ++i) {
+      const auto pixel = static_cast<std::uint32_t>(i % pixels), sample = static_cast<std::uint32_t>(i / pixels);
+      trace::generate_camera_ray(ts_, camera_.position(), camera_.direction(pixel, sample, ts_.seed), pixel, sample,
+                                 fresh, c);
+    }
+    next_camera_ += n;
+    // Camera rays that never meet the scene bounds end at once (escaped).
+    paths_alive_ += n - c.paths_ended;
+    counts_ += c;
+    stage(fresh);
+  }
+}
+
+void RenderWorkload::stage(std::vector<RayRecord>& rays) {
+  for (const RayRecord& r : rays) staging_[r.cell][static_cast<int>(r.kind)].push_back(r);
+  staged_ += rays.size();
+  rays.clear();
+  rays.shrink_to_fit();
+}
+
+void RenderWorkload::make_job(RayKind kind, std::uint32_t cell, std::vector<RayRecord>& rays, std::size_t n, Time now,
+                              JobPool& pool, Schedule& s) {
+  const int k = static_cast<int>(kind);
+  DataBlock q;
+  q.name = std::string(kind == RayKind::Path ? "rays" : "shadow") + std::to_string(cell) + "." +
+           std::to_string(pool.block_count());
+  q.kind = kind == RayKind::Path ? DataKind::RayQueue : DataKind::ShadowRayQueue;
+  q.bytes = n * sizeof(RayRecord);
+  q.consumed = true;
+  q.scene_block = scene_blocks_[cell];
+  const BlockId qb = pool.add_block(q);
+  s.put_initial(qb, ram_, now, false);
+
+  RayJob* target = nullptr;
+  const JobId open = open_[cell][k];
+  if (open != kNone && pool.state(open) == JobState::Queued && job(open).rays.size() + n <= opt_.max_batch) {
+    // Sec. 5.1: the queue merges into the queued job that already holds one for this cell.
+    pool.add_input(open, qb);
+    pool.job(open).work += n;
+    target = &job(open);
+    ++merges_;
+  } else {
+    Job j;
+    j.name = std::string(kind == RayKind::Path ? "ri" : "si") + std::to_string(cell);
+    j.type = type_[k];
+    j.inputs = {scene_blocks_[cell], qb};
+    j.created = now;
+    j.work = n;
+    const JobId id = pool.add_job(std::move(j));
+    if (static_cast<std::size_t>(id) >= jobs_.size()) jobs_.resize(static_cast<std::size_t>(id) + 1);
+    jobs_[static_cast<std::size_t>(id)] = std::make_unique<RayJob>();
+    target = jobs_[static_cast<std::size_t>(id)].get();
+    target->kind = kind;
+    target->cell = cell;
+    open_[cell][k] = id;
+    ++jobs_created_;
+  }
+  // Move the first n staged rays (FIFO keeps the order deterministic; order does not
+  // change the image anyway).
+  target->rays.insert(target->rays.end(), rays.begin(), rays.begin() + static_cast<std::ptrdiff_t>(n));
+  rays.erase(rays.begin(), rays.begin() + static_cast<std::ptrdiff_t>(n));
+  staged_ -= n;
+  in_jobs_ += n;
+}
+
+void RenderWorkload::flush(Time now, JobPool& pool, Schedule& s, bool all) {
+  // Full batches first.
+  for (std::uint32_t c = 0; c < staging_.size(); ++c)
+    for (int k = 0; k < 2; ++k) {
+      auto& v = staging_[c][k];
+      while (v.size() >= opt_.min_batch || (all && !v.empty()))
+        make_job(static_cast<RayKind>(k), c, v, std::min<std::size_t>(v.size(), opt_.max_batch), now, pool, s);
+    }
+  // Keep every compute device fed: the largest remaining queues become jobs.
+  while (pool.queued_count() < g_.computes.size() && staged_ > 0) {
+    std::size_t best = 0;
+    std::uint32_t bc = 0;
+    int bk = 0;
+    for (std::uint32_t c = 0; c < staging_.size(); ++c)
+      for (int k = 0; k < 2; ++k)
+        if (staging_[c][k].size() > best) best = staging_[c][k].size(), bc = c, bk = k;
+    make_job(static_cast<RayKind>(bk), bc, staging_[bc][bk], std::min<std::size_t>(best, opt_.max_batch), now, pool, s);
+  }
+}
+
+void RenderWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedule& s) {
+  if (static_cast<std::size_t>(j) >= jobs_.size() || !jobs_[static_cast<std::size_t>(j)]) return;
+  std::unique_ptr<RayJob> done = std::move(jobs_[static_cast<std::size_t>(j)]);
+  counts_ += done->counts;
+  in_jobs_ -= done->counts.traced;
+  paths_alive_ -= done->counts.paths_ended;
+  stage(done->out);
+  done.reset();
+  generate(now, pool, s);
+  flush(now, pool, s, false);
+}
+
+void RenderWorkload::on_idle(Time now, JobPool& pool, Schedule& s) {
+  generate(now, pool, s);
+  flush(now, pool, s, true);
+}
+
+}  // namespace rayline::engine

@@ -1,0 +1,82 @@
+// The real path tracer as a Workload (DESIGN.md control loop; Fig. 3, Sec. 3.1, 5.1):
+// camera rays are generated in waves (at most `path_cap` paths alive, which bounds ray
+// memory), every ray waits in the queue of the cell it is in, and a queue becomes a
+// RayIntersect / ShadowIntersect E-job on (SceneData_b, RayQueue_b). A job's output rays
+// are staged per cell; staged rays join the still-queued job of their cell (queues merge
+// on arrival, Sec. 5.1) or become a new job once there are `min_batch` of them, or
+// whenever fewer jobs are queued than there are compute devices.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+#include "render/trace/camera.hpp"
+#include "render/trace/path_kernels.hpp"
+#include "sched/workload.hpp"
+
+namespace rayline::engine {
+
+struct RenderWorkloadOptions {
+  int spp = 4;
+  std::uint32_t path_cap = 1u << 17;   // paths alive at once
+  std::uint32_t min_batch = 4096;      // rays per job before a queue is worth a job
+  std::uint32_t max_batch = 1u << 16;  // rays per job at most (load balance)
+};
+
+// The rays of one E-job and what it produced (written by the worker that runs it, read by
+// the loop after the Finished event).
+struct RayJob {
+  trace::RayKind kind = trace::RayKind::Path;
+  std::uint32_t cell = 0;
+  std::vector<trace::RayRecord> rays;
+  std::vector<trace::RayRecord> out;
+  trace::RayCounts counts;
+};
+
+class RenderWorkload final : public Workload {
+ public:
+  // `scene_blocks[c]` is the SceneData block of cell c (already in the pool, on disk).
+  RenderWorkload(const trace::TraceSettings& ts, const trace::PinholeCamera& camera, const DeviceGraph& g,
+                 MemId ram, std::vector<BlockId> scene_blocks, RenderWorkloadOptions opt);
+
+  void start(Time now, JobPool& pool, Schedule& schedule) override;
+  void on_job_finished(JobId job, Time now, JobPool& pool, Schedule& schedule) override;
+  void on_idle(Time now, JobPool& pool, Schedule& schedule) override;
+  bool finished() const override;
+
+  // Stop making work (a job failed): finished() turns true.
+  void abort() { aborted_ = true; }
+  RayJob& job(JobId j) { return *jobs_.at(static_cast<std::size_t>(j)); }
+  const trace::RayCounts& counts() const { return counts_; }
+  std::uint64_t camera_rays() const { return next_camera_; }
+  std::uint64_t total_camera_rays() const { return total_camera_; }
+  std::uint64_t merges() const { return merges_; }
+  std::uint64_t jobs_created() const { return jobs_created_; }
+  std::uint64_t paths_alive() const { return paths_alive_; }
+
+ private:
+  void generate(Time now, JobPool& pool, Schedule& s);
+  void stage(std::vector<trace::RayRecord>& rays);
+  void flush(Time now, JobPool& pool, Schedule& s, bool all);
+  void make_job(trace::RayKind kind, std::uint32_t cell, std::vector<trace::RayRecord>& rays, std::size_t n, Time now,
+                JobPool& pool, Schedule& s);
+
+  trace::TraceSettings ts_;
+  const trace::PinholeCamera& camera_;
+  const DeviceGraph& g_;
+  MemId ram_;
+  std::vector<BlockId> scene_blocks_;
+  RenderWorkloadOptions opt_;
+  JobTypeId type_[2];
+  std::vector<std::array<std::vector<trace::RayRecord>, 2>> staging_;  // per cell, per kind
+  std::vector<std::array<JobId, 2>> open_;                               // queued job per cell, kind
+  std::vector<std::unique_ptr<RayJob>> jobs_;                            // by JobId
+  trace::RayCounts counts_;
+  std::uint64_t next_camera_ = 0, total_camera_ = 0;
+  std::uint64_t paths_alive_ = 0, staged_ = 0, in_jobs_ = 0;
+  std::uint64_t merges_ = 0, jobs_created_ = 0;
+  bool aborted_ = false;
+};
+
+}  // namespace rayline::engine

@@ -1,0 +1,57 @@
+// `rayline render` without the command line (issue 6): scene → blocks on disk → the
+// workstation's DCG → the same Scheduler objects the simulator uses → LocalExecutor →
+// an image, metrics and a timeline. Tests call render() directly.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "render/engine/block_store.hpp"
+#include "render/engine/render_workload.hpp"
+#include "render/trace/path_kernels.hpp"
+#include "sched/runtime_loop.hpp"
+
+namespace rayline::engine {
+
+struct RenderOptions {
+  std::string scene;               // scene JSON or a bare mesh file; "" = the built-in scene
+  std::string blocks_dir;          // a partition to use (made there when absent); "" = temporary
+  std::uint32_t blocks = 0;        // cells when partitioning; 0 = chosen from scene size and budget
+  std::string platform = "auto";   // "auto" or a platform file from `rayline calibrate`
+  std::string scheduler = "gmb";   // gmb | gmb-ca | budge | loadanyonce
+  int spp = 0, width = 0, height = 0, max_depth = 0;  // 0 = the scene's values
+  Bytes memory_budget = 0;         // bytes of scene blocks in RAM; 0 = unlimited (in core)
+  int threads = 0;                 // compute devices; 0 = hardware threads
+  std::uint64_t seed = 1;
+  Time horizon = 2.0;              // k of GMB (Sec. 4.2)
+  RenderWorkloadOptions batching;
+  bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result
+  // Called from the loop at most every 200 ms: fraction of paths done, rays/s so far.
+  std::function<void(double fraction, double rays_per_second)> progress;
+};
+
+struct RenderResult {
+  int width = 0, height = 0, spp = 0, max_depth = 0;
+  std::uint64_t seed = 0;
+  std::uint32_t blocks = 0;
+  std::string scene_name, scheduler, scheduler_parameters, platform;
+  std::vector<float> rgb;                 // linear radiance, top row first
+  std::vector<std::int64_t> sums;         // fixed-point film sums (bit-exact comparisons)
+  std::vector<std::uint32_t> samples;     // camera samples per pixel
+  trace::RayCounts counts;
+  std::uint64_t camera_rays = 0, jobs = 0, merges = 0, film_dropped = 0;
+  BlockStoreStats store;
+  RunStats run;
+  double seconds = 0;                     // wall time of the run (partitioning excluded)
+  double partition_seconds = 0;
+  Bytes scene_block_bytes = 0;            // sum of block footprints
+  Bytes memory_budget = 0;
+  std::uint32_t path_cap = 0;             // paths alive at once (lowered to fit the budget)
+  std::string metrics_json, timeline_json, jobs_csv;
+};
+
+// Throws InputError for bad input (scene, blocks, budget, platform, options).
+RenderResult render(const RenderOptions& opt);
+
+}  // namespace rayline::engine

@@ -1,0 +1,39 @@
+// The device connectivity graph of this machine (Sec. 3.2) for the real renderer: the
+// block store (disk), host RAM with the memory budget as its capacity, one compute device
+// per worker thread (a CPU hardware thread, as in the paper), and the disk→RAM channel
+// whose T-jobs read a block and build its BVH. Timing comes from `rayline calibrate`
+// (a platform file) or from the defaults below, which only seed the first plans: the
+// runtime loop re-projects every plan from measured times.
+#pragma once
+#include <string>
+
+#include "sched/device_graph.hpp"
+
+namespace rayline::engine {
+
+struct WorkstationModel {
+  int threads = 2;
+  Bytes ram_capacity = Bytes(1) << 40;
+  Bytes disk_capacity = Bytes(1) << 50;
+  Time disk_latency = 1e-3;            // s per block: open, first read, BVH build setup
+  double disk_bandwidth = 150e6;       // footprint bytes/s: read + BVH build
+  Time intersect_setup = 20e-6;        // RayIntersect, per job
+  double intersect_rate = 1.0 / 64e6;  // s per RayQueue byte (1 M rays/s per thread, 64 B rays)
+  Time shadow_setup = 20e-6;
+  double shadow_rate = 1.0 / 128e6;    // s per ShadowRayQueue byte
+};
+
+// Names used by the renderer: memories "disk" and "ram", job types "RayIntersect" and
+// "ShadowIntersect".
+DeviceGraph make_workstation(const WorkstationModel& m);
+
+// The same graph read from a platform file (as written by `rayline calibrate`); checks that
+// it describes one machine the renderer can drive: a disk and a host memory device, a
+// disk→RAM channel, CPU compute devices on RAM running both job types. `threads` > 0
+// overrides the CPU count and `ram_capacity` > 0 the RAM capacity.
+DeviceGraph load_workstation(const std::string& path, int threads, Bytes ram_capacity);
+
+// The platform JSON of a model (what `rayline calibrate` writes).
+std::string workstation_json(const WorkstationModel& m, const std::string& description);
+
+}  // namespace rayline::engine

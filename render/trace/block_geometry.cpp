@@ -1,0 +1,83 @@
+#include "render/trace/block_geometry.hpp"
+
+#include <embree3/rtcore.h>
+
+#include <atomic>
+#include <bit>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace rayline::trace {
+
+static_assert(std::endian::native == std::endian::little, "block records are little-endian and copied as is");
+
+struct EmbreeDevice::Counter {
+  std::atomic<std::int64_t> bytes{0}, peak{0};
+};
+
+namespace {
+bool monitor(void* user, ssize_t bytes, bool /*post*/) {
+  auto* c = static_cast<EmbreeDevice::Counter*>(user);
+  const std::int64_t now = c->bytes.fetch_add(bytes) + bytes;
+  std::int64_t p = c->peak.load();
+  while (now > p && !c->peak.compare_exchange_weak(p, now)) {
+  }
+  return true;
+}
+}  // namespace
+
+EmbreeDevice::EmbreeDevice(int build_threads) : counter_(std::make_unique<Counter>()) {
+  const std::string cfg = "threads=" + std::to_string(build_threads < 1 ? 1 : build_threads) + ",set_affinity=0";
+  RTCDevice d = rtcNewDevice(cfg.c_str());
+  if (!d) throw std::runtime_error("Embree: rtcNewDevice failed (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+  rtcSetDeviceMemoryMonitorFunction(d, monitor, counter_.get());
+  device_ = d;
+}
+
+EmbreeDevice::~EmbreeDevice() { rtcReleaseDevice(static_cast<RTCDevice>(device_)); }
+std::int64_t EmbreeDevice::embree_bytes() const { return counter_->bytes.load(); }
+std::int64_t EmbreeDevice::peak_embree_bytes() const { return counter_->peak.load(); }
+
+BlockGeometry::BlockGeometry(const EmbreeDevice& device, std::uint32_t block, std::span<const unsigned char> records,
+                             std::uint64_t n)
+    : block_(block) {
+  if (records.size() < n * 40) throw std::logic_error("block payload shorter than its triangles");
+  vertices_.resize(n * 9 + 3);  // Embree reads 16 bytes at the last float3: pad
+  indices_.resize(n * 3);
+  materials_.resize(n);
+  for (std::uint64_t i = 0; i < n; ++i) {
+    const unsigned char* r = records.data() + i * 40;
+    std::memcpy(&vertices_[i * 9], r, 36);  // little-endian host (static_assert above)
+    std::memcpy(&materials_[i], r + 36, 4);
+    const auto base = static_cast<std::uint32_t>(i * 3);
+    indices_[i * 3] = base, indices_[i * 3 + 1] = base + 1, indices_[i * 3 + 2] = base + 2;
+  }
+  if (n == 0) return;
+  auto dev = static_cast<RTCDevice>(device.handle());
+  RTCScene sc = rtcNewScene(dev);
+  rtcSetSceneFlags(sc, RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(sc, RTC_BUILD_QUALITY_MEDIUM);
+  RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices_.data(), 0, 12, n * 3);
+  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, indices_.data(), 0, 12, n);
+  rtcCommitGeometry(g);
+  rtcAttachGeometry(sc, g);
+  rtcReleaseGeometry(g);
+  rtcCommitScene(sc);
+  if (rtcGetDeviceError(dev) != RTC_ERROR_NONE) {
+    rtcReleaseScene(sc);
+    throw std::runtime_error("Embree: building the BVH of block " + std::to_string(block) + " failed");
+  }
+  scene_ = sc;
+}
+
+BlockGeometry::~BlockGeometry() {
+  if (scene_) rtcReleaseScene(static_cast<RTCScene>(scene_));
+}
+
+std::uint64_t BlockGeometry::array_bytes() const {
+  return vertices_.capacity() * sizeof(float) + indices_.capacity() * 4 + materials_.capacity() * 4;
+}
+
+}  // namespace rayline::trace

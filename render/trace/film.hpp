@@ -1,0 +1,44 @@
+// Order-independent accumulation (issue 6, "Determinism"): every contribution is rounded
+// once to 64-bit fixed point (2^-24 units) and added atomically. Integer addition is
+// associative, so the sum — and the image — is bit-identical whatever the order in which
+// threads, batches and blocks deliver their contributions.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "render/scene/geometry.hpp"
+
+namespace rayline::trace {
+
+class Film {
+ public:
+  static constexpr double kScale = 16777216.0;  // 2^24 units per unit radiance
+  static constexpr float kMaxContribution = 1e6f;
+
+  Film(int width, int height);
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  // Thread-safe. Non-finite or negative channels are dropped (and counted); values above
+  // kMaxContribution are clamped (and counted).
+  void add(std::uint32_t pixel, scene::Float3 radiance);
+  // One more camera sample for `pixel` (conservation: every pixel gets exactly spp).
+  void count_sample(std::uint32_t pixel) { std::atomic_ref<std::uint32_t>(samples_[pixel]).fetch_add(1); }
+
+  std::uint32_t samples(std::uint32_t pixel) const { return samples_[pixel]; }
+  std::uint64_t dropped() const { return dropped_.load(); }
+  std::uint64_t clamped() const { return clamped_.load(); }
+  // Linear RGB: the fixed-point sums divided by `spp`.
+  std::vector<float> resolve(int spp) const;
+  // The raw sums (tests compare these bit for bit).
+  const std::vector<std::int64_t>& sums() const { return sums_; }
+
+ private:
+  int width_, height_;
+  std::vector<std::int64_t> sums_;      // 3 per pixel
+  std::vector<std::uint32_t> samples_;  // per pixel
+  std::atomic<std::uint64_t> dropped_{0}, clamped_{0};
+};
+
+}  // namespace rayline::trace

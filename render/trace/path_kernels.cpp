@@ -1,0 +1,260 @@
+#include "render/trace/path_kernels.hpp"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+
+#include "render/trace/cell_walk.hpp"
+#include "render/trace/sampler.hpp"
+
+namespace rayline::trace {
+
+using scene::cross;
+using scene::dot;
+using scene::Float3;
+using scene::normalize;
+
+namespace {
+
+constexpr float kInvPi = 0.318309886183790671538f;
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+Float3 mul(Float3 a, Float3 b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
+bool is_black(Float3 a) { return a.x <= 0 && a.y <= 0 && a.z <= 0; }
+float max_component(Float3 a) { return std::max(a.x, std::max(a.y, a.z)); }
+
+// Orthonormal basis around a unit normal (Duff et al. 2017, branchless).
+void basis(Float3 n, Float3& t, Float3& b) {
+  const float s = std::copysign(1.0f, n.z);
+  const float a = -1.0f / (s + n.z);
+  const float c = n.x * n.y * a;
+  t = {1.0f + s * n.x * n.x * a, s * c, -s * n.x};
+  b = {c, s + n.y * n.y * a, -n.y};
+}
+
+// The ray ended without a further cell: path rays escape (environment), shadow rays
+// reached their light.
+void finish(const TraceSettings& ts, const RayRecord& r, RayCounts& counts) {
+  if (r.kind == RayKind::Path) {
+    ++counts.escaped;
+    ++counts.paths_ended;
+    const Float3 env = ts.scene->environment.radiance;
+    if (!is_black(env)) ts.film->add(r.pixel, mul(r.weight, env));
+  } else {
+    ++counts.unoccluded;
+    ts.film->add(r.pixel, r.weight);
+  }
+}
+
+constexpr std::uint8_t kFirstCell = 1;  // RayRecord::flags: the ray's first cell (tnear is its own start)
+
+// Continue `r` after its current cell (texit), or finish it. New rays come with texit = 0.
+void advance(const TraceSettings& ts, RayRecord r, std::vector<RayRecord>& out, RayCounts& counts, bool fresh = false) {
+  CellSpan span;
+  if (r.texit < r.tfar && enter_cell(*ts.cells, r.org, r.dir, r.texit, r.tfar, span)) {
+    r.flags = fresh ? kFirstCell : std::uint8_t(0);
+    r.cell = span.cell;
+    r.tnear = span.tenter;
+    r.texit = span.texit;
+    out.push_back(r);
+    return;
+  }
+  finish(ts, r, counts);
+}
+
+// Shading at a hit (Fig. 3's shading/sampling, fused into RayIntersect on the CPU).
+void shade(const TraceSettings& ts, const BlockGeometry& block, const RayRecord& r, float t, std::uint32_t prim,
+           std::vector<RayRecord>& out, RayCounts& counts) {
+  const Float3 v0 = block.vertex(prim, 0), v1 = block.vertex(prim, 1), v2 = block.vertex(prim, 2);
+  Float3 n = normalize(cross(v1 - v0, v2 - v0));
+  if (dot(n, r.dir) > 0) n = n * -1.0f;  // two-sided: face the incoming ray
+  const Float3 p = r.org + r.dir * t;
+  const scene::Material& m = ts.scene->materials[block.material(prim)];
+  if (!is_black(m.emission)) ts.film->add(r.pixel, mul(r.weight, m.emission));
+  const std::uint32_t hit = r.bounce + 1u;  // 1-based surface hit count
+  const Float3 f = m.albedo * kInvPi;       // Lambertian BRDF
+  const Float3 o = offset_ray_origin(p, n);
+
+  // Next-event estimation towards one area light.
+  const auto& lights = ts.scene->area_lights;
+  if (!lights.empty() && !is_black(m.albedo)) {
+    const KeyedRng pick(ts.seed, r.pixel, r.sample, hit, Purpose::LightPick);
+    const auto li = std::min<std::size_t>(std::size_t(pick.uniform(0) * float(lights.size())), lights.size() - 1);
+    const scene::AreaLight& L = lights[li];
+    const KeyedRng pt(ts.seed, r.pixel, r.sample, hit, Purpose::LightPoint);
+    const Float3 q = L.corner + L.edge_u * pt.uniform(0) + L.edge_v * pt.uniform(1);
+    const Float3 ln = cross(L.edge_u, L.edge_v);
+    const float area = scene::length(ln);
+    const Float3 w = q - p;
+    const float d2 = dot(w, w);
+    if (area > 0 && d2 > 0) {
+      const Float3 wi = w * (1.0f / std::sqrt(d2));
+      const float cos_s = dot(n, wi), cos_l = -dot(ln, wi) / area;
+      if (cos_s > 0 && cos_l > 0) {
+        const float g = cos_s * cos_l * area * float(lights.size()) / d2;  // 1 / pdf folded in
+        const Float3 c = mul(mul(r.weight, f), L.emission) * g;
+        if (!is_black(c)) {
+          RayRecord s;
+          const Float3 ws = q - o;
+          const float dist = scene::length(ws);
+          s.org = o;
+          s.dir = ws * (1.0f / dist);
+          s.tfar = dist;
+          s.texit = 0;
+          s.weight = c;
+          s.pixel = r.pixel, s.sample = r.sample, s.bounce = static_cast<std::uint16_t>(hit);
+          s.kind = RayKind::Shadow;
+          ++counts.created;
+          advance(ts, s, out, counts, true);
+        }
+      }
+    }
+  }
+
+  // Continuation: cosine-weighted hemisphere; f·cos/pdf = albedo.
+  if (int(hit) >= ts.max_depth) {
+    ++counts.terminated;
+    ++counts.paths_ended;
+    return;
+  }
+  Float3 weight = mul(r.weight, m.albedo);
+  if (hit >= 3) {
+    const float q = std::min(0.95f, max_component(weight));
+    const KeyedRng rr(ts.seed, r.pixel, r.sample, hit, Purpose::Roulette);
+    if (!(rr.uniform(0) < q)) {
+      ++counts.terminated;
+      ++counts.paths_ended;
+      return;
+    }
+    weight = weight * (1.0f / q);
+  }
+  if (is_black(weight)) {
+    ++counts.terminated;
+    ++counts.paths_ended;
+    return;
+  }
+  const KeyedRng bs(ts.seed, r.pixel, r.sample, hit, Purpose::Bounce);
+  const float u1 = bs.uniform(0), u2 = bs.uniform(1);
+  const float rad = std::sqrt(u1), phi = 6.28318530717958647692f * u2;
+  Float3 tx, ty;
+  basis(n, tx, ty);
+  const Float3 d = normalize(tx * (rad * std::cos(phi)) + ty * (rad * std::sin(phi)) + n * std::sqrt(std::max(0.0f, 1 - u1)));
+  RayRecord c;
+  c.org = o;
+  c.dir = d;
+  c.tfar = kInf;
+  c.texit = 0;
+  c.weight = weight;
+  c.pixel = r.pixel, c.sample = r.sample, c.bounce = static_cast<std::uint16_t>(hit);
+  c.kind = RayKind::Path;
+  ++counts.terminated;  // this ray ends here; its continuation is a new ray
+  ++counts.created;
+  advance(ts, c, out, counts, true);
+}
+
+// The Embree query interval of a ray in its cell: the cell's (tnear, texit] widened by
+// delta(t) on both sides (never before the ray's own start). Embree decides range
+// membership on unnormalised values, so a hit exactly on a split plane could otherwise be
+// rejected by both cells. With the overlap, and triangles within the partitioner's eps
+// band of a plane referenced on both sides, the first cell along the ray that reports a
+// hit reports the globally closest one — the same triangle and t for any partition.
+RTCRay to_rtc(const TraceSettings& ts, const RayRecord& r) {
+  RTCRay x;
+  x.org_x = r.org.x, x.org_y = r.org.y, x.org_z = r.org.z;
+  x.dir_x = r.dir.x, x.dir_y = r.dir.y, x.dir_z = r.dir.z;
+  x.tnear = (r.flags & kFirstCell) ? r.tnear : std::max(0.0f, r.tnear - (ts.overlap_rel * r.tnear + ts.overlap_abs));
+  x.tfar = std::min(r.texit + (ts.overlap_rel * r.texit + ts.overlap_abs), r.tfar);
+  x.time = 0;
+  x.mask = 0xFFFFFFFFu;
+  x.id = 0;
+  x.flags = 0;
+  return x;
+}
+
+}  // namespace
+
+void TraceSettings::set_bounds(const scene::Bounds& b) {
+  const Float3 e = b.extent();
+  overlap_abs = 1e-7f * std::max({e.x, e.y, e.z, 1e-30f});
+}
+
+Float3 offset_ray_origin(Float3 p, Float3 n) {
+  constexpr float kOrigin = 1.0f / 32.0f, kFloatScale = 1.0f / 65536.0f, kIntScale = 256.0f;
+  Float3 out;
+  for (int a = 0; a < 3; ++a) {
+    const auto of = static_cast<std::int32_t>(kIntScale * n[a]);
+    const auto bits = std::bit_cast<std::int32_t>(p[a]);
+    const float pi = std::bit_cast<float>(bits + (p[a] < 0 ? -of : of));
+    out[a] = std::fabs(p[a]) < kOrigin ? p[a] + kFloatScale * n[a] : pi;
+  }
+  return out;
+}
+
+void place_new_ray(const TraceSettings& ts, RayRecord r, std::vector<RayRecord>& out, RayCounts& counts) {
+  ++counts.created;
+  advance(ts, r, out, counts, true);
+}
+
+void generate_camera_ray(const TraceSettings& ts, Float3 origin, Float3 dir, std::uint32_t pixel, std::uint32_t sample,
+                         std::vector<RayRecord>& out, RayCounts& counts) {
+  ts.film->count_sample(pixel);
+  RayRecord r;
+  r.org = origin;
+  r.dir = dir;
+  r.tfar = kInf;
+  r.texit = 0;
+  r.weight = {1, 1, 1};
+  r.pixel = pixel;
+  r.sample = sample;
+  r.bounce = 0;
+  r.kind = RayKind::Path;
+  place_new_ray(ts, r, out, counts);
+}
+
+void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
+                   std::vector<RayRecord>& out, RayCounts& counts) {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  auto scene = static_cast<RTCScene>(block.scene());
+  for (const RayRecord& r : rays) {
+    ++counts.traced;
+    if (scene) {
+      RTCRayHit rh;
+      rh.ray = to_rtc(ts, r);
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+      rtcIntersect1(scene, &ctx, &rh);
+      if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+        shade(ts, block, r, rh.ray.tfar, rh.hit.primID, out, counts);
+        continue;
+      }
+    }
+    advance(ts, r, out, counts);
+  }
+}
+
+void shadow_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
+                      std::vector<RayRecord>& out, RayCounts& counts) {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  auto scene = static_cast<RTCScene>(block.scene());
+  for (const RayRecord& r : rays) {
+    ++counts.traced;
+    if (scene) {
+      RTCRay ray = to_rtc(ts, r);
+      rtcOccluded1(scene, &ctx, &ray);
+      if (ray.tfar < 0) {
+        ++counts.occluded;
+        continue;
+      }
+    }
+    advance(ts, r, out, counts);
+  }
+}
+
+}  // namespace rayline::trace

@@ -1,0 +1,74 @@
+// The E-jobs of ray batching on one resident block (Fig. 3, Sec. 3.1), CPU version:
+//   RayIntersect(SceneData_b, RayQueue_b): closest hit inside cell b; hits are shaded at
+//     once (emission, next-event estimation → a shadow ray, a cosine-sampled continuation
+//     with Russian roulette); misses continue to the next cell along the ray;
+//   ShadowIntersect(SceneData_b, ShadowRayQueue_b): occlusion inside cell b; unoccluded
+//     rays continue to the next cell, or add their radiance once past the last cell.
+// Light transport conventions (the reference tracer in render/reference implements the
+// same ones independently): two-sided Lambertian surfaces; material emission counted at
+// every hit; area lights one-sided, invisible, sampled only by NEE (one light chosen
+// uniformly, a point uniformly on it); constant environment for rays leaving the scene;
+// max_depth = surface hits per path; Russian roulette from the 3rd hit with
+// q = min(0.95, max(throughput)).
+#pragma once
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "render/partition/partition.hpp"
+#include "render/scene/scene.hpp"
+#include "render/trace/block_geometry.hpp"
+#include "render/trace/film.hpp"
+#include "render/trace/ray.hpp"
+
+namespace rayline::trace {
+
+struct TraceSettings {
+  const scene::Scene* scene = nullptr;            // materials, lights, environment
+  const partition::BlockIndex* cells = nullptr;   // the resident top level
+  Film* film = nullptr;
+  std::uint64_t seed = 1;
+  int max_depth = 5;
+  // Overlap of successive cell intervals in the Embree query, delta(t) = rel·t + abs (see
+  // ray_interval in path_kernels.cpp). abs is set from the scene bounds by set_bounds().
+  float overlap_rel = 1e-6f, overlap_abs = 0;
+  void set_bounds(const scene::Bounds& b);
+};
+
+// What happened to the rays of one job; sums over a frame give the conservation law
+// created = ended (DESIGN.md invariant).
+struct RayCounts {
+  std::uint64_t traced = 0;          // rays processed in a cell
+  std::uint64_t created = 0;         // new rays (camera, continuation, shadow)
+  std::uint64_t escaped = 0;         // path rays leaving the scene
+  std::uint64_t terminated = 0;      // path rays ending at a hit (a continuation is a new ray)
+  std::uint64_t occluded = 0;        // shadow rays blocked
+  std::uint64_t unoccluded = 0;      // shadow rays reaching their light
+  std::uint64_t paths_ended = 0;     // paths with no continuation (escaped, depth, roulette)
+  std::uint64_t ended() const { return escaped + terminated + occluded + unoccluded; }
+  RayCounts& operator+=(const RayCounts& o) {
+    traced += o.traced, created += o.created, escaped += o.escaped, terminated += o.terminated;
+    occluded += o.occluded, unoccluded += o.unoccluded;
+    paths_ended += o.paths_ended;
+    return *this;
+  }
+};
+
+// A new ray placed in the cell where it starts (or ended at once: escaped / unoccluded,
+// counted in `counts`, radiance added). Appends to `out` when it has a cell.
+void place_new_ray(const TraceSettings& ts, RayRecord r, std::vector<RayRecord>& out, RayCounts& counts);
+
+// Camera ray of (pixel, sample): counted in the film's sample count, then placed.
+void generate_camera_ray(const TraceSettings& ts, scene::Float3 origin, scene::Float3 dir, std::uint32_t pixel,
+                         std::uint32_t sample, std::vector<RayRecord>& out, RayCounts& counts);
+
+void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
+                   std::vector<RayRecord>& out, RayCounts& counts);
+void shadow_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
+                      std::vector<RayRecord>& out, RayCounts& counts);
+
+// Ray origin offset along the normal (Wächter & Binder, Ray Tracing Gems ch. 6): a few
+// ulps scaled by |p|, so self-intersection is avoided at any scene scale.
+scene::Float3 offset_ray_origin(scene::Float3 p, scene::Float3 n);
+
+}  // namespace rayline::trace
