@@ -3,8 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-
-#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
