@@ -5,6 +5,7 @@
 #include "apps/cli_common.hpp"
 #include "apps/cmd_generate.hpp"
 #include "apps/cmd_partition.hpp"
+#include "apps/cmd_render.hpp"
 #include "apps/cmd_plan.hpp"
 #include "apps/cmd_platform.hpp"
 #include "apps/cmd_simulate.hpp"
@@ -87,6 +88,51 @@ void add_partition(CLI::App& app, std::function<int()>& action) {
   part->callback([opt, &action] { action = [opt] { return run_partition(*opt); }; });
 }
 
+void add_render(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<RenderCliOptions>();
+  auto* r = app.add_subcommand("render", "Render a scene out of core: blocks on disk, a RAM budget, GMB-planned loads and ray jobs");
+  r->add_option("--scene", opt->scene, "Scene JSON or bare mesh file (default: the built-in Cornell-like room)");
+  r->add_option("--blocks-dir", opt->blocks_dir,
+                "Partition folder to use (from `rayline partition`), or to create (default: a temporary one)");
+  r->add_option("--blocks,-n", opt->blocks, "Blocks when partitioning (default: from scene size and budget)")
+      ->check(CLI::Range(1, 1 << 20));
+  r->add_option("--platform", opt->platform, "auto, or a platform file written by `rayline calibrate`")
+      ->default_val(opt->platform);
+  r->add_option("--scheduler", opt->scheduler, "gmb | gmb-ca | budge | loadanyonce")
+      ->default_val(opt->scheduler)
+      ->check(CLI::IsMember({"gmb", "gmb-ca", "budge", "loadanyonce"}));
+  r->add_option("--spp", opt->spp, "Samples per pixel (default: the scene's)")->check(CLI::Range(1, 1 << 20));
+  r->add_option("--max-depth", opt->max_depth, "Surface hits per path (default: the scene's)")->check(CLI::Range(1, 1000));
+  r->add_option("--resolution", opt->resolution, "WIDTHxHEIGHT (default: the scene camera's)");
+  r->add_option("--memory-budget", opt->memory_budget, "RAM for scene blocks and ray queues, e.g. 512MiB (default: unlimited)");
+  r->add_option("--threads,-j", opt->threads, "Worker threads = compute devices (default: all hardware threads)")
+      ->check(CLI::Range(1, 4096));
+  r->add_option("--seed", opt->seed, "Random seed (same seed: same image, bit for bit)")->default_val(opt->seed);
+  r->add_option("--horizon", opt->horizon, "GMB horizon k in seconds (Sec. 4.2)")->default_val(opt->horizon)
+      ->check(CLI::PositiveNumber);
+  r->add_option("--paths", opt->paths, "Paths in flight at most (bounds ray memory)")->default_val(opt->paths)
+      ->check(CLI::Range(64, 1 << 26));
+  r->add_option("--out,-o", opt->out, "OpenEXR image; .png, .metrics.json, .timeline.json, .jobs.csv go next to it")
+      ->default_val(opt->out);
+  r->add_flag("--quiet,-q", opt->quiet, "No progress bar or summary");
+  r->callback([opt, &action] { action = [opt] { return run_render(*opt); }; });
+}
+
+void add_calibrate(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<CalibrateCliOptions>();
+  auto* c = app.add_subcommand("calibrate", "Measure this machine (disk channel, per-thread job times), fit the timing model, write a platform file");
+  c->add_option("--scene", opt->scene, "Scene to measure with (default: the built-in scene)");
+  c->add_option("--blocks,-n", opt->blocks, "Blocks to partition it into")->default_val(opt->blocks)->check(CLI::Range(2, 1 << 20));
+  c->add_option("--threads,-j", opt->threads, "Worker threads (default: all hardware threads)")->check(CLI::Range(1, 4096));
+  c->add_option("--spp", opt->spp, "Samples per pixel of the measuring render")->default_val(opt->spp)->check(CLI::Range(1, 1 << 16));
+  c->add_option("--resolution", opt->resolution, "Resolution of the measuring render")->default_val(opt->resolution);
+  c->add_option("--budget-fraction", opt->budget_fraction, "RAM budget as a share of the scene's block bytes (forces loads)")
+      ->default_val(opt->budget_fraction);
+  c->add_option("--out,-o", opt->out, "Platform file to write")->default_val(opt->out);
+  c->add_flag("--quiet,-q", opt->quiet, "No progress bar");
+  c->callback([opt, &action] { action = [opt] { return run_calibrate(*opt); }; });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -99,6 +145,8 @@ int main(int argc, char** argv) {
   add_simulate(app, action);
   add_generate(app, action);
   add_partition(app, action);
+  add_render(app, action);
+  add_calibrate(app, action);
   // New subcommands: add an add_<name>(app, action) above and call it here.
   try {
     app.parse(argc, argv);

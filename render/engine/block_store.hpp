@@ -48,7 +48,7 @@ class BlockStore {
 
   // Bytes per triangle the plan charges: record payload converted to Embree input
   // arrays (vertices 36, indices 12, material 4) plus the BVH (measured: see README).
-  static constexpr std::uint64_t kBytesPerTriangle = 52 + 64;
+  static constexpr std::uint64_t kBytesPerTriangle = 52 + 88;
   static std::uint64_t footprint_of(std::uint64_t triangles) { return 4096 + triangles * kBytesPerTriangle; }
 
  private:

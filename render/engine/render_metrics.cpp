@@ -52,7 +52,10 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
                  {"scene_block_bytes", r.scene_block_bytes},
                  {"peak_resident_block_bytes", r.store.peak_resident_bytes},
                  {"peak_embree_bytes", r.store.peak_embree_bytes},
-                 {"worst_footprint_ratio", r.store.worst_footprint_ratio}};
+                 {"worst_footprint_ratio", r.store.worst_footprint_ratio},
+                 {"rss_at_start_bytes", r.rss_start_bytes},
+                 {"peak_rss_bytes", r.peak_rss_bytes},
+                 {"overhead_bound_bytes", r.overhead_bound_bytes}};
   // Disk channel: busy share of the run (all resources behind disk→RAM channels).
   double disk_busy = 0;
   std::set<ResourceId> disk_res;

@@ -1,11 +1,13 @@
 #include "render/engine/renderer.hpp"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <thread>
@@ -35,6 +37,21 @@ std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon)
   if (name == "budge") return std::make_unique<BudgeScheduler>();
   if (name == "loadanyonce") return std::make_unique<LoadAnyOnceScheduler>();
   throw InputError("--scheduler", "scheduler", "unknown scheduler '" + name + "' (gmb, gmb-ca, budge, loadanyonce)");
+}
+
+// Resident-set size now (/proc/self/statm) and the process's peak (getrusage).
+Bytes rss_now() {
+  long pages = 0, resident = 0;
+  if (FILE* f = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = 0;
+    std::fclose(f);
+  }
+  return Bytes(resident) * Bytes(::sysconf(_SC_PAGESIZE));
+}
+Bytes rss_peak() {
+  struct rusage ru {};
+  ::getrusage(RUSAGE_SELF, &ru);
+  return Bytes(ru.ru_maxrss) * 1024;
 }
 
 // A temporary partition folder, removed when the render ends.
@@ -71,6 +88,7 @@ RenderResult render(const RenderOptions& opt) {
   if (std::uint64_t(res.width) * std::uint64_t(res.height) * std::uint64_t(res.spp) >= (1ull << 32))
     throw InputError("--spp", "spp", "width x height x spp must stay below 2^32 samples");
   const int threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
+  res.threads = threads;
 
   // ---- blocks on disk ----------------------------------------------------------------
   TempDir tmp;
@@ -208,6 +226,12 @@ RenderResult render(const RenderOptions& opt) {
       if (load) store.load(cell);
     };
   };
+  res.rss_start_bytes = rss_now();
+  // What the run may add beyond the budget (README, "Memory"): the film, ray records in
+  // flight twice over (staged and in jobs), and a fixed allowance for thread stacks,
+  // Embree's and the allocator's own state.
+  res.overhead_bound_bytes = Bytes(res.width) * Bytes(res.height) * 28 + 2 * Bytes(wo.path_cap) * per_path +
+                             (Bytes(64) << 20);
   LocalExecutor executor(g, task_for);
   RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
   auto last = std::chrono::steady_clock::now();
@@ -223,6 +247,7 @@ RenderResult render(const RenderOptions& opt) {
   };
   res.run = loop.run();
   res.seconds = executor.now();
+  res.peak_rss_bytes = rss_peak();
   if (auto err = executor.failure()) std::rethrow_exception(err);
   if (res.run.stalled) throw std::runtime_error("render stalled: queued jobs no device can run (plan bug)");
 
@@ -236,6 +261,20 @@ RenderResult render(const RenderOptions& opt) {
   res.sums = film.sums();
   res.samples.resize(std::size_t(res.width) * std::size_t(res.height));
   for (std::size_t p = 0; p < res.samples.size(); ++p) res.samples[p] = film.samples(static_cast<std::uint32_t>(p));
+  for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
+    const Activity& a = schedule.activity(id);
+    if (a.state != ActivityState::Done) continue;
+    if (a.kind == ActivityKind::Exec) {
+      TimingSample t;
+      t.device = a.device;
+      t.type = pool.job(a.job).type == g.job_type("RayIntersect") ? 0 : 1;
+      for (BlockId b : pool.job(a.job).inputs) t.inputs.push_back({pool.block(b).kind, pool.block(b).bytes});
+      t.duration = a.end - a.start;
+      res.exec_samples.push_back(std::move(t));
+    } else if (cell_of.count(a.block) && g.channels[a.channel].to == ram) {
+      res.load_samples.emplace_back(a.bytes, a.end - a.start);
+    }
+  }
   res.metrics_json = render_metrics_json(res, schedule, executor.busy_seconds());
   if (opt.keep_schedule_outputs) {
     res.timeline_json = chrome_trace_json(schedule, true);

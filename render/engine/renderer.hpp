@@ -11,6 +11,7 @@
 #include "render/engine/render_workload.hpp"
 #include "render/trace/path_kernels.hpp"
 #include "sched/runtime_loop.hpp"
+#include "sched/timing_model.hpp"
 
 namespace rayline::engine {
 
@@ -32,7 +33,7 @@ struct RenderOptions {
 };
 
 struct RenderResult {
-  int width = 0, height = 0, spp = 0, max_depth = 0;
+  int width = 0, height = 0, spp = 0, max_depth = 0, threads = 0;
   std::uint64_t seed = 0;
   std::uint32_t blocks = 0;
   std::string scene_name, scheduler, scheduler_parameters, platform;
@@ -48,7 +49,15 @@ struct RenderResult {
   Bytes scene_block_bytes = 0;            // sum of block footprints
   Bytes memory_budget = 0;
   std::uint32_t path_cap = 0;             // paths alive at once (lowered to fit the budget)
+  Bytes rss_start_bytes = 0;              // process RSS when the run started (scene, index loaded)
+  Bytes peak_rss_bytes = 0;               // process peak RSS at the end (getrusage)
+  Bytes overhead_bound_bytes = 0;         // documented allowance beyond the budget
   std::string metrics_json, timeline_json, jobs_csv;
+  // Measured activities, for `rayline calibrate` (Eq. 1 and Eq. 2 fits): every finished
+  // E-job as a TimingSample (type 0: RayIntersect, 1: ShadowIntersect), every disk→RAM
+  // T-job as (bytes, seconds).
+  std::vector<TimingSample> exec_samples;
+  std::vector<std::pair<Bytes, Time>> load_samples;
 };
 
 // Throws InputError for bad input (scene, blocks, budget, platform, options).

@@ -1,0 +1,146 @@
+// `rayline render` / `rayline calibrate`: options → engine::render / engine::calibrate,
+// outputs written atomically next to the image: IMAGE.exr, IMAGE.png (preview),
+// IMAGE.metrics.json, IMAGE.timeline.json (Chrome trace), IMAGE.jobs.csv.
+#include "apps/cmd_render.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "apps/cli_common.hpp"
+#include "apps/cmd_partition.hpp"
+#include "render/engine/calibrate.hpp"
+#include "render/engine/renderer.hpp"
+#include "render/image/image_io.hpp"
+#include "sched/error.hpp"
+
+namespace rayline::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+void parse_resolution(const std::string& s, int& w, int& h) {
+  if (s.empty()) return;
+  const auto x = s.find('x');
+  try {
+    std::size_t p1 = 0, p2 = 0;
+    if (x == std::string::npos) throw std::invalid_argument("no x");
+    w = std::stoi(s.substr(0, x), &p1);
+    h = std::stoi(s.substr(x + 1), &p2);
+    if (p1 != x || p2 != s.size() - x - 1 || w <= 0 || h <= 0 || w > 16384 || h > 16384)
+      throw std::invalid_argument("range");
+  } catch (const std::exception&) {
+    throw InputError("--resolution", "", "expected WIDTHxHEIGHT with 1..16384 each, e.g. 640x480; got '" + s + "'");
+  }
+}
+
+// Fail before rendering when the output cannot be written (exit 2, nothing rendered).
+void check_writable(const std::string& path, const std::string& flag) {
+  ensure_parent_dir(path, flag);
+  const fs::path probe = fs::absolute(path).parent_path() / (".rayline-probe." + std::to_string(::getpid()));
+  std::ofstream f(probe);
+  if (!f) throw InputError(path, flag, "output folder is not writable");
+  f.close();
+  std::error_code ec;
+  fs::remove(probe, ec);
+  if (fs::is_directory(path)) throw InputError(path, flag, "is a folder; give an image file name such as out/render.exr");
+}
+
+std::string sibling(const std::string& image, const std::string& suffix) {
+  fs::path p(image);
+  return (p.parent_path() / (p.stem().string() + suffix)).string();
+}
+
+void progress_bar(double fraction, double rays_per_s) {
+  const int width = 30, n = static_cast<int>(fraction * width + 0.5);
+  std::fprintf(stderr, "\r[%.*s%*s] %5.1f %%  %.2f Mrays/s   ", n, "##############################", width - n, "",
+               100 * fraction, rays_per_s / 1e6);
+}
+
+}  // namespace
+
+int run_render(const RenderCliOptions& opt) {
+  engine::RenderOptions ro;
+  ro.scene = opt.scene;
+  ro.blocks_dir = opt.blocks_dir;
+  ro.blocks = opt.blocks;
+  ro.platform = opt.platform;
+  ro.scheduler = opt.scheduler;
+  ro.spp = opt.spp;
+  ro.max_depth = opt.max_depth;
+  ro.threads = opt.threads;
+  ro.seed = opt.seed;
+  ro.horizon = opt.horizon;
+  ro.batching.path_cap = opt.paths;
+  parse_resolution(opt.resolution, ro.width, ro.height);
+  if (!opt.memory_budget.empty()) ro.memory_budget = parse_bytes(opt.memory_budget, "--memory-budget");
+  const std::string ext = fs::path(opt.out).extension().string();
+  if (ext != ".exr") throw InputError(opt.out, "--out", "the image is written as OpenEXR: use a name ending in .exr");
+  check_writable(opt.out, "--out");
+  const bool tty = !opt.quiet && ::isatty(2);
+  if (tty) ro.progress = progress_bar;
+
+  const engine::RenderResult r = engine::render(ro);
+  if (tty) std::fprintf(stderr, "\n");
+
+  image::Metadata meta;
+  meta.strings["rayline.scene"] = r.scene_name;
+  meta.strings["rayline.scheduler"] = r.scheduler_parameters;
+  meta.ints["rayline.spp"] = r.spp;
+  meta.ints["rayline.seed"] = static_cast<long long>(r.seed);
+  meta.ints["rayline.blocks"] = static_cast<long long>(r.blocks);
+  meta.ints["rayline.max_depth"] = r.max_depth;
+  meta.doubles["rayline.seconds"] = r.seconds;
+  meta.doubles["rayline.memory_budget_bytes"] = static_cast<double>(r.memory_budget);
+  image::write_exr(opt.out, r.width, r.height, r.rgb.data(), meta);
+  image::write_png_preview(sibling(opt.out, ".png"), r.width, r.height, r.rgb.data(), 1.0f);
+  write_file_atomic(sibling(opt.out, ".metrics.json"), r.metrics_json);
+  write_file_atomic(sibling(opt.out, ".timeline.json"), r.timeline_json);
+  write_file_atomic(sibling(opt.out, ".jobs.csv"), r.jobs_csv);
+  if (!opt.quiet) {
+    std::printf("rendered %dx%d, %d spp, %u blocks, %s, budget %s: %.3f s, %.3f Mrays/s (%llu rays), %llu loads, "
+                "%.1f MB read (%s)\n",
+                r.width, r.height, r.spp, r.blocks, r.scheduler.c_str(),
+                r.memory_budget ? (std::to_string(r.memory_budget / (1 << 20)) + " MiB").c_str() : "in core", r.seconds,
+                double(r.counts.traced) / r.seconds / 1e6, static_cast<unsigned long long>(r.counts.traced),
+                static_cast<unsigned long long>(r.store.loads), double(r.store.bytes_read) / 1e6,
+                r.store.buffered_reads == 0 ? "O_DIRECT" : "buffered, pages dropped");
+    std::printf("wrote %s, %s, %s, %s, %s\n", opt.out.c_str(), sibling(opt.out, ".png").c_str(),
+                sibling(opt.out, ".metrics.json").c_str(), sibling(opt.out, ".timeline.json").c_str(),
+                sibling(opt.out, ".jobs.csv").c_str());
+  }
+  return kExitOk;
+}
+
+int run_calibrate(const CalibrateCliOptions& opt) {
+  engine::RenderOptions ro;
+  ro.scene = opt.scene;
+  ro.blocks = opt.blocks;
+  ro.threads = opt.threads;
+  ro.spp = opt.spp;
+  parse_resolution(opt.resolution, ro.width, ro.height);
+  if (!(opt.budget_fraction > 0 && opt.budget_fraction < 1))
+    throw InputError("--budget-fraction", "", "must be in (0, 1)");
+  check_writable(opt.out, "--out");
+  const bool tty = !opt.quiet && ::isatty(2);
+  if (tty) ro.progress = progress_bar;
+  const engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);
+  if (tty) std::fprintf(stderr, "\n");
+  write_file_atomic(opt.out, c.platform_json);
+  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %.3f ms, bandwidth %.1f MB/s, "
+              "relative RMS error %.1f %%\n",
+              c.load_samples, c.model.disk_latency * 1e3, c.model.disk_bandwidth / 1e6, 100 * c.load_rel_rms);
+  std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %.1f us, %.3f Mrays/s; RMS error %.3f ms, worst %.0f %%\n",
+              c.exec_samples, c.model.intersect_setup * 1e6, 1.0 / (c.model.intersect_rate * 64) / 1e6,
+              c.intersect_rms * 1e3, 100 * c.intersect_max_rel);
+  std::printf("ShadowIntersect per thread: setup %.1f us, %.3f Mrays/s; RMS error %.3f ms, worst %.0f %%\n",
+              c.model.shadow_setup * 1e6, 1.0 / (c.model.shadow_rate * 64) / 1e6, c.shadow_rms * 1e3,
+              100 * c.shadow_max_rel);
+  std::printf("wrote %s (use: rayline render --platform %s)\n", opt.out.c_str(), opt.out.c_str());
+  return kExitOk;
+}
+
+}  // namespace rayline::cli

@@ -1,0 +1,37 @@
+// `rayline render` and `rayline calibrate` (issue 6): the real out-of-core path tracer on
+// this machine, planned by the same Scheduler objects as `rayline simulate`.
+#pragma once
+#include <cstdint>
+#include <string>
+
+namespace rayline::cli {
+
+struct RenderCliOptions {
+  std::string scene;                 // scene JSON or bare mesh; empty: the built-in scene
+  std::string blocks_dir;            // partition to use or create; empty: temporary
+  std::uint32_t blocks = 0;          // 0: chosen from scene size and budget
+  std::string platform = "auto";
+  std::string scheduler = "gmb";
+  int spp = 0, max_depth = 0, threads = 0;
+  std::string resolution;            // "WxH"; empty: the scene camera's
+  std::string memory_budget;         // "512MiB"; empty: unlimited (in core)
+  std::uint64_t seed = 1;
+  double horizon = 2.0;
+  std::uint32_t paths = 1u << 17;    // paths in flight at most
+  std::string out = "out/render.exr";
+  bool quiet = false;
+};
+int run_render(const RenderCliOptions& opt);
+
+struct CalibrateCliOptions {
+  std::string scene;
+  std::uint32_t blocks = 16;
+  int threads = 0, spp = 4;
+  std::string resolution = "256x256";
+  double budget_fraction = 0.3;
+  std::string out = "out/this-machine.json";
+  bool quiet = false;
+};
+int run_calibrate(const CalibrateCliOptions& opt);
+
+}  // namespace rayline::cli

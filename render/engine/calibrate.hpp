@@ -1,0 +1,30 @@
+// `rayline calibrate` (issue 6): measure this machine by rendering a scene under a memory
+// budget that forces block loads, then fit the timing model (Sec. 3.2) by least squares:
+//   Eq. 1 for the disk→RAM channel: T = LAT + bytes / BW over every measured load
+//     (read with O_DIRECT + BVH build);
+//   Eq. 2 per job type for a CPU hardware thread: T = SETUP + RATE·|rays| over every
+//     measured RayIntersect / ShadowIntersect (TimingModel::fit, Eigen).
+// The result is a platform file the renderer reads with --platform.
+#pragma once
+#include <string>
+
+#include "render/engine/renderer.hpp"
+#include "render/engine/workstation.hpp"
+
+namespace rayline::engine {
+
+struct CalibrationResult {
+  WorkstationModel model;
+  int load_samples = 0, exec_samples = 0;
+  double load_rel_rms = 0;           // relative RMS error of the Eq. 1 fit
+  double intersect_max_rel = 0, shadow_max_rel = 0;  // worst relative error of the Eq. 2 fits
+  double intersect_rms = 0, shadow_rms = 0;          // RMS error, seconds
+  std::string platform_json;
+};
+
+// Renders `opt` (its memory budget is set to `budget_fraction` of the scene's block bytes
+// when opt.memory_budget is 0) and fits the model. Throws std::runtime_error when there
+// are too few samples to fit.
+CalibrationResult calibrate(RenderOptions opt, double budget_fraction = 0.3);
+
+}  // namespace rayline::engine

@@ -1,0 +1,168 @@
+// `rayline render` / `rayline calibrate` (issue 6): outputs, metrics, memory bound, and
+// bad inputs (exit 2, a clear message naming file and field, no half-written image).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cli/cli_run.hpp"
+
+namespace fs = std::filesystem;
+using rayline::testing::rayline_cli;
+
+namespace {
+class CliRender : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("rayline-cli-render-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
+            std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& n) const { return (dir_ / n).string(); }
+  nlohmann::json metrics(const std::string& image_stem) const {
+    std::ifstream in(path(image_stem + ".metrics.json"));
+    return nlohmann::json::parse(in);
+  }
+  // A small partition of the built-in scene, and an existing good image to protect.
+  void blocks(int n) {
+    const auto r = rayline_cli("partition -q --blocks " + std::to_string(n) + " --out " + path("blocks"));
+    ASSERT_EQ(r.code, 0) << r.all;
+  }
+  fs::path dir_;
+};
+
+std::string slurp(const std::string& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+}  // namespace
+
+TEST_F(CliRender, SmallRenderWritesEveryOutput) {
+  const auto r = rayline_cli("render --resolution 32x24 --spp 2 --blocks 6 --out " + path("img.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  for (const char* s : {"img.exr", "img.png", "img.metrics.json", "img.timeline.json", "img.jobs.csv"})
+    EXPECT_TRUE(fs::exists(path(s))) << s;
+  const auto m = metrics("img");
+  EXPECT_EQ(m.at("resolution")[0], 32);
+  EXPECT_EQ(m.at("spp"), 2);
+  EXPECT_EQ(m.at("blocks"), 6);
+  EXPECT_TRUE(m.at("rays").at("conserved").get<bool>());
+  EXPECT_GT(m.at("rays_per_second").get<double>(), 0);
+  EXPECT_EQ(m.at("io").at("unplanned_loads"), 0);
+  EXPECT_EQ(m.at("devices").size(), m.at("threads").get<std::size_t>());
+  // The timeline opens in Perfetto: Chrome trace JSON.
+  std::ifstream tl(path("img.timeline.json"));
+  const auto t = nlohmann::json::parse(tl);
+  EXPECT_TRUE(t.contains("traceEvents"));
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_EQ(e.path().string().find(".partial"), std::string::npos) << e.path();
+}
+
+TEST_F(CliRender, MemoryStaysWithinBudgetPlusDocumentedOverhead) {
+  // A 300 k-triangle museum-like scene, rendered with a quarter of its blocks in RAM.
+  auto r = rayline_cli("generate museum-like --triangles 300000 --out " + path("museum.ply"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  r = rayline_cli("partition -q --scene " + path("museum.ply") + " --blocks 16 --out " + path("blocks"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  r = rayline_cli("render -q --scene " + path("museum.ply") + " --blocks-dir " + path("blocks") +
+                  " --resolution 64x64 --spp 1 --out " + path("in.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto in_core = metrics("in");
+  const auto scene_bytes = in_core.at("memory").at("scene_block_bytes").get<std::uint64_t>();
+  const std::uint64_t budget = scene_bytes / 4;
+  r = rayline_cli("render -q --scene " + path("museum.ply") + " --blocks-dir " + path("blocks") +
+                  " --resolution 64x64 --spp 1 --memory-budget " + std::to_string(budget) + " --out " + path("b.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto m = metrics("b").at("memory");
+  EXPECT_LE(m.at("peak_resident_block_bytes").get<std::uint64_t>(), budget);
+  const auto grown = m.at("peak_rss_bytes").get<double>() - m.at("rss_at_start_bytes").get<double>();
+  EXPECT_LE(grown, double(budget + m.at("overhead_bound_bytes").get<std::uint64_t>()))
+      << "RSS grew by " << grown << " bytes; budget " << budget;
+  EXPECT_LE(m.at("worst_footprint_ratio").get<double>(), 1.0) << "a block used more RAM than the plan charged";
+  EXPECT_GT(metrics("b").at("io").at("evictions").get<int>(), 0);
+}
+
+TEST_F(CliRender, BadInputsExitTwoAndKeepTheGoodImage) {
+  blocks(4);
+  auto r = rayline_cli("render -q --resolution 16x16 --spp 1 --blocks-dir " + path("blocks") + " --out " + path("good.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  const std::string good = slurp(path("good.exr"));
+  const std::string args = "render -q --resolution 16x16 --spp 1 --out " + path("good.exr") + " ";
+
+  // Budget smaller than the largest block.
+  r = rayline_cli(args + "--blocks-dir " + path("blocks") + " --memory-budget 1KiB");
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("memory-budget"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("largest block"), std::string::npos) << r.err;
+
+  // Corrupted payload (one flipped byte): found when the block is loaded.
+  fs::copy(path("blocks"), path("corrupt"), fs::copy_options::recursive);
+  {
+    std::fstream f(path("corrupt/block_00001.rlb"), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(200);
+    char c = 0;
+    f.read(&c, 1);
+    c ^= 0x5a;
+    f.seekp(200);
+    f.write(&c, 1);
+  }
+  r = rayline_cli(args + "--blocks-dir " + path("corrupt"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("block_00001.rlb"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("payload_crc32"), std::string::npos) << r.err;
+
+  // Truncated and missing block files: found before anything runs.
+  fs::copy(path("blocks"), path("short"), fs::copy_options::recursive);
+  fs::resize_file(path("short/block_00002.rlb"), fs::file_size(path("short/block_00002.rlb")) - 40);
+  r = rayline_cli(args + "--blocks-dir " + path("short"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("block_00002.rlb"), std::string::npos) << r.err;
+  fs::remove(path("short/block_00003.rlb"));
+  fs::resize_file(path("short/block_00002.rlb"), 0);
+  r = rayline_cli(args + "--blocks-dir " + path("short"));
+  EXPECT_EQ(r.code, 2) << r.all;
+
+  // Unknown scene field.
+  {
+    std::ofstream s(path("bad.json"));
+    s << R"({"version": 1, "materials": {"m": {"albedo": [0.5, 0.5, 0.5]}},
+             "meshes": [{"name": "c", "generator": "cornell", "triangles": 1000, "material": "m"}],
+             "cameras": {"c": {"position": [0, 0, 3], "look_at": [0, 0, 0]}}, "colour": 3})";
+  }
+  r = rayline_cli(args + "--scene " + path("bad.json"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("bad.json"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("colour"), std::string::npos) << r.err;
+
+  // Unwritable output path (a file where a folder should be), bad resolution, bad flags.
+  { std::ofstream f(path("plain")); }
+  r = rayline_cli("render -q --resolution 16x16 --spp 1 --out " + path("plain/x.exr"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  r = rayline_cli(args + "--resolution 16by16");
+  EXPECT_EQ(r.code, 2) << r.all;
+  r = rayline_cli(args + "--scheduler fastest");
+  EXPECT_EQ(r.code, 2) << r.all;
+  r = rayline_cli("render -q --out " + path("img.png"));
+  EXPECT_EQ(r.code, 2) << r.all;
+
+  EXPECT_EQ(slurp(path("good.exr")), good) << "a failed run must leave the good image in place";
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_EQ(e.path().string().find(".partial"), std::string::npos) << e.path();
+}
+
+TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
+  auto r = rayline_cli("calibrate -q --resolution 48x48 --spp 2 --blocks 8 --out " + path("me.json"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.out.find("Eq. 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Eq. 2"), std::string::npos) << r.out;
+  r = rayline_cli("platform check " + path("me.json"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  r = rayline_cli("render -q --resolution 16x16 --spp 1 --platform " + path("me.json") + " --out " + path("p.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(metrics("p").at("platform"), path("me.json"));
+}
