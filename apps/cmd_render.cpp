@@ -105,7 +105,7 @@ int run_render(const RenderCliOptions& opt) {
                 "%.1f MB read (%s)\n",
                 r.width, r.height, r.spp, r.blocks, r.scheduler.c_str(),
                 r.memory_budget ? (std::to_string(r.memory_budget / (1 << 20)) + " MiB").c_str() : "in core", r.seconds,
-                double(r.counts.traced) / r.seconds / 1e6, static_cast<unsigned long long>(r.counts.traced),
+                double(r.counts.created) / r.seconds / 1e6, static_cast<unsigned long long>(r.counts.created),
                 static_cast<unsigned long long>(r.store.loads), double(r.store.bytes_read) / 1e6,
                 r.store.buffered_reads == 0 ? "O_DIRECT" : "buffered, pages dropped");
     std::printf("wrote %s, %s, %s, %s, %s\n", opt.out.c_str(), sibling(opt.out, ".png").c_str(),

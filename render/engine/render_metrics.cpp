@@ -36,7 +36,8 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   m["seconds"] = r.seconds;
   m["partition_seconds"] = r.partition_seconds;
   const double secs = r.seconds > 0 ? r.seconds : 1e-9;
-  m["rays"] = {{"traced", r.counts.traced},
+  // A ray is counted once (created); `cell_visits` counts it once per cell it was tested in.
+  m["rays"] = {{"cell_visits", r.counts.traced},
                {"camera", r.camera_rays},
                {"created", r.counts.created},
                {"escaped", r.counts.escaped},
@@ -44,7 +45,8 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
                {"occluded", r.counts.occluded},
                {"unoccluded", r.counts.unoccluded},
                {"conserved", r.counts.created == r.counts.ended()}};
-  m["rays_per_second"] = double(r.counts.traced) / secs;
+  m["rays_per_second"] = double(r.counts.created) / secs;
+  m["cell_visits_per_ray"] = r.counts.created ? double(r.counts.traced) / double(r.counts.created) : 0.0;
   m["samples_per_second"] = double(r.camera_rays) / secs;
   m["film_dropped_contributions"] = r.film_dropped;
   m["memory"] = {{"budget_bytes", r.memory_budget},

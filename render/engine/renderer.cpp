@@ -243,7 +243,7 @@ RenderResult render(const RenderOptions& opt) {
     last = t;
     const double total = double(workload.total_camera_rays());
     const double done = double(workload.camera_rays()) - double(workload.paths_alive());
-    opt.progress(total > 0 ? done / total : 1.0, now > 0 ? double(workload.counts().traced) / now : 0.0);
+    opt.progress(total > 0 ? done / total : 1.0, now > 0 ? double(workload.counts().created) / now : 0.0);
   };
   res.run = loop.run();
   res.seconds = executor.now();
