@@ -102,21 +102,35 @@ void RenderWorkload::make_job(RayKind kind, std::uint32_t cell, std::vector<RayR
 }
 
 void RenderWorkload::flush(Time now, JobPool& pool, Schedule& s, bool all) {
-  // Full batches first.
+  // Out of core, every job on a block that is not in RAM costs a load (Sec. 5.1: batch rays
+  // to amortise data movement). Queues of resident cells (held or arriving on RAM in the
+  // plan) become jobs at min_batch rays; queues of other cells wait for big_batch rays.
+  auto resident = [&](std::uint32_t c) { return s.copy_at(scene_blocks_[c], ram_) != nullptr; };
+  const std::size_t big_batch = std::min<std::size_t>(opt_.max_batch, std::size_t(opt_.min_batch) * 16);
   for (std::uint32_t c = 0; c < staging_.size(); ++c)
     for (int k = 0; k < 2; ++k) {
       auto& v = staging_[c][k];
-      while (v.size() >= opt_.min_batch || (all && !v.empty()))
+      const std::size_t threshold = resident(c) ? opt_.min_batch : big_batch;
+      while (v.size() >= threshold || (all && !v.empty()))
         make_job(static_cast<RayKind>(k), c, v, std::min<std::size_t>(v.size(), opt_.max_batch), now, pool, s);
     }
-  // Keep every compute device fed: the largest remaining queues become jobs.
+  // Keep every compute device fed: the largest remaining queues become jobs, those of
+  // resident cells first.
   while (pool.queued_count() < g_.computes.size() && staged_ > 0) {
     std::size_t best = 0;
     std::uint32_t bc = 0;
     int bk = 0;
-    for (std::uint32_t c = 0; c < staging_.size(); ++c)
-      for (int k = 0; k < 2; ++k)
-        if (staging_[c][k].size() > best) best = staging_[c][k].size(), bc = c, bk = k;
+    bool best_res = false;
+    for (std::uint32_t c = 0; c < staging_.size(); ++c) {
+      const bool res = resident(c);
+      for (int k = 0; k < 2; ++k) {
+        const std::size_t n = staging_[c][k].size();
+        if (n == 0) continue;
+        if ((res && !best_res) || (res == best_res && n > best)) best = n, bc = c, bk = k, best_res = res;
+      }
+    }
+    // A cell that is not resident is loaded only when nothing is queued at all.
+    if (!best_res && pool.queued_count() > 0) break;
     make_job(static_cast<RayKind>(bk), bc, staging_[bc][bk], std::min<std::size_t>(best, opt_.max_batch), now, pool, s);
   }
 }
