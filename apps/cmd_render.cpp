@@ -75,6 +75,7 @@ int run_render(const RenderCliOptions& opt) {
   ro.seed = opt.seed;
   ro.horizon = opt.horizon;
   ro.batching.path_cap = opt.paths;
+  ro.bvh_quality = opt.bvh_quality;
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!opt.memory_budget.empty()) ro.memory_budget = parse_bytes(opt.memory_budget, "--memory-budget");
   const std::string ext = fs::path(opt.out).extension().string();

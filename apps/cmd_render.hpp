@@ -18,6 +18,7 @@ struct RenderCliOptions {
   std::uint64_t seed = 1;
   double horizon = 2.0;
   std::uint32_t paths = 1u << 17;    // paths in flight at most
+  std::string bvh_quality = "auto";
   std::string out = "out/render.exr";
   bool quiet = false;
 };

@@ -112,6 +112,10 @@ void add_render(CLI::App& app, std::function<int()>& action) {
       ->check(CLI::PositiveNumber);
   r->add_option("--paths", opt->paths, "Paths in flight at most (bounds ray memory)")->default_val(opt->paths)
       ->check(CLI::Range(64, 1 << 26));
+  r->add_option("--bvh-quality", opt->bvh_quality,
+                "auto (low under a budget, else medium) | low (fast Morton build) | medium | high; the image is the same")
+      ->default_val(opt->bvh_quality)
+      ->check(CLI::IsMember({"auto", "low", "medium", "high"}));
   r->add_option("--out,-o", opt->out, "OpenEXR image; .png, .metrics.json, .timeline.json, .jobs.csv go next to it")
       ->default_val(opt->out);
   r->add_flag("--quiet,-q", opt->quiet, "No progress bar or summary");

@@ -15,9 +15,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 BlockStore::BlockStore(const partition::BlockIndex& index, std::string dir, std::vector<std::uint64_t> footprint,
-                       std::uint32_t material_count, int build_threads)
+                       std::uint32_t material_count, trace::BvhQuality quality, int build_threads)
     : index_(index), dir_(std::move(dir)), footprint_(std::move(footprint)), materials_(material_count),
-      device_(build_threads), resident_(index.blocks.size()) {}
+      quality_(quality), device_(build_threads), resident_(index.blocks.size()) {}
 
 std::string BlockStore::path(std::uint32_t block) const {
   return (std::filesystem::path(dir_) / index_.blocks.at(block).file).string();
@@ -43,7 +43,7 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t bloc
   }
   const std::int64_t embree_before = device_.embree_bytes();
   t0 = std::chrono::steady_clock::now();
-  auto g = std::make_shared<const trace::BlockGeometry>(device_, block, raw.payload, raw.header.triangle_count);
+  auto g = std::make_shared<const trace::BlockGeometry>(device_, block, raw.payload, raw.header.triangle_count, quality_);
   const double build_s = seconds_since(t0);
   // Single loader thread per channel: the Embree delta is this block's BVH (an estimate
   // when several loaders build at once).

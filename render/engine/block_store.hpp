@@ -31,7 +31,8 @@ class BlockStore {
  public:
   // `footprint[b]`: the bytes the plan charges for block b in RAM (SceneData size).
   BlockStore(const partition::BlockIndex& index, std::string dir, std::vector<std::uint64_t> footprint,
-             std::uint32_t material_count, int build_threads = 1);
+             std::uint32_t material_count, trace::BvhQuality quality = trace::BvhQuality::Medium,
+             int build_threads = 1);
 
   // The T-job: read (uncached) + verify + build the BVH. Thread-safe. Throws InputError on
   // a bad block file.
@@ -46,10 +47,13 @@ class BlockStore {
   const trace::EmbreeDevice& device() const { return device_; }
   std::string path(std::uint32_t block) const;
 
-  // Bytes per triangle the plan charges: record payload converted to Embree input
-  // arrays (vertices 36, indices 12, material 4) plus the BVH (measured: see README).
-  static constexpr std::uint64_t kBytesPerTriangle = 52 + 88;
-  static std::uint64_t footprint_of(std::uint64_t triangles) { return 4096 + triangles * kBytesPerTriangle; }
+  // Bytes per triangle the plan charges: Embree input arrays (vertices 36, indices 12,
+  // material 4) plus the BVH, measured with margin (README, "Memory"): about 80 B for the
+  // medium/high builders, about 105 B for the Morton (low) builder.
+  static std::uint64_t bytes_per_triangle(trace::BvhQuality q) { return q == trace::BvhQuality::Low ? 52 + 120 : 52 + 88; }
+  static std::uint64_t footprint_of(std::uint64_t triangles, trace::BvhQuality q) {
+    return 4096 + triangles * bytes_per_triangle(q);
+  }
 
  private:
   std::shared_ptr<const trace::BlockGeometry> build(std::uint32_t block);
@@ -57,6 +61,7 @@ class BlockStore {
   std::string dir_;
   std::vector<std::uint64_t> footprint_;
   std::uint32_t materials_;
+  trace::BvhQuality quality_;
   trace::EmbreeDevice device_;
   mutable std::mutex mu_;
   std::vector<std::shared_ptr<const trace::BlockGeometry>> resident_;

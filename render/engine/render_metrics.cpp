@@ -32,6 +32,7 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   m["scheduler"] = r.scheduler;
   m["scheduler_parameters"] = r.scheduler_parameters;
   m["platform"] = r.platform;
+  m["bvh_quality"] = r.bvh_quality;
   m["threads"] = g.computes.size();
   m["seconds"] = r.seconds;
   m["partition_seconds"] = r.partition_seconds;

@@ -64,7 +64,7 @@ struct TempDir {
 };
 
 std::uint32_t auto_blocks(std::uint64_t triangles, Bytes budget) {
-  const double fp = double(BlockStore::footprint_of(triangles));
+  const double fp = double(BlockStore::footprint_of(triangles, trace::BvhQuality::Low));
   if (budget == 0) return std::uint32_t(std::clamp<double>(std::ceil(double(triangles) / 4e6), 1, 64));
   // At least four blocks resident at once, and a few cells to balance the threads.
   return std::uint32_t(std::clamp<double>(std::ceil(4 * fp / double(budget)), 8, 1024));
@@ -87,6 +87,13 @@ RenderResult render(const RenderOptions& opt) {
     throw InputError("--resolution", "resolution", "must be positive and at most 2^28 pixels");
   if (std::uint64_t(res.width) * std::uint64_t(res.height) * std::uint64_t(res.spp) >= (1ull << 32))
     throw InputError("--spp", "spp", "width x height x spp must stay below 2^32 samples");
+  trace::BvhQuality quality = opt.memory_budget > 0 ? trace::BvhQuality::Low : trace::BvhQuality::Medium;
+  if (opt.bvh_quality == "low") quality = trace::BvhQuality::Low;
+  else if (opt.bvh_quality == "medium") quality = trace::BvhQuality::Medium;
+  else if (opt.bvh_quality == "high") quality = trace::BvhQuality::High;
+  else if (opt.bvh_quality != "auto" && !opt.bvh_quality.empty())
+    throw InputError("--bvh-quality", "bvh-quality", "unknown quality '" + opt.bvh_quality + "' (auto, low, medium, high)");
+  res.bvh_quality = quality == trace::BvhQuality::Low ? "low" : (quality == trace::BvhQuality::High ? "high" : "medium");
   const int threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
   res.threads = threads;
 
@@ -120,7 +127,7 @@ RenderResult render(const RenderOptions& opt) {
   for (std::uint32_t b = 0; b < nb; ++b) {
     // Missing or truncated block files are found before anything runs.
     const auto h = partition::read_block_header((fs::path(dir) / index.blocks[b].file).string());
-    footprint[b] = BlockStore::footprint_of(h.triangle_count);
+    footprint[b] = BlockStore::footprint_of(h.triangle_count, quality);
     largest = std::max<Bytes>(largest, footprint[b]);
     res.scene_block_bytes += footprint[b];
   }
@@ -190,7 +197,7 @@ RenderResult render(const RenderOptions& opt) {
   ts.max_depth = res.max_depth;
   const trace::PinholeCamera camera(cam, res.width, res.height);
   RenderWorkload workload(ts, camera, g, ram, scene_blocks, wo);
-  BlockStore store(index, dir, footprint, static_cast<std::uint32_t>(sc.materials.size()));
+  BlockStore store(index, dir, footprint, static_cast<std::uint32_t>(sc.materials.size()), quality);
 
   // Evictions the plan decided, by the activity that needed the space (Schedule::Eviction).
   std::size_t ev_cursor = 0;

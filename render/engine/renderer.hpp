@@ -26,6 +26,9 @@ struct RenderOptions {
   int threads = 0;                 // compute devices; 0 = hardware threads
   std::uint64_t seed = 1;
   Time horizon = 2.0;              // k of GMB (Sec. 4.2)
+  // BVH builder: "auto" = low (fast Morton build) under a memory budget, where blocks are
+  // rebuilt on every load, medium in core. The image does not depend on it.
+  std::string bvh_quality = "auto";
   RenderWorkloadOptions batching;
   bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result
   // Called from the loop at most every 200 ms: fraction of paths done, rays/s so far.
@@ -36,7 +39,7 @@ struct RenderResult {
   int width = 0, height = 0, spp = 0, max_depth = 0, threads = 0;
   std::uint64_t seed = 0;
   std::uint32_t blocks = 0;
-  std::string scene_name, scheduler, scheduler_parameters, platform;
+  std::string scene_name, scheduler, scheduler_parameters, platform, bvh_quality;
   std::vector<float> rgb;                 // linear radiance, top row first
   std::vector<std::int64_t> sums;         // fixed-point film sums (bit-exact comparisons)
   std::vector<std::uint32_t> samples;     // camera samples per pixel

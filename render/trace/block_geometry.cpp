@@ -40,7 +40,7 @@ std::int64_t EmbreeDevice::embree_bytes() const { return counter_->bytes.load();
 std::int64_t EmbreeDevice::peak_embree_bytes() const { return counter_->peak.load(); }
 
 BlockGeometry::BlockGeometry(const EmbreeDevice& device, std::uint32_t block, std::span<const unsigned char> records,
-                             std::uint64_t n)
+                             std::uint64_t n, BvhQuality quality)
     : block_(block) {
   if (records.size() < n * 40) throw std::logic_error("block payload shorter than its triangles");
   vertices_.resize(n * 9 + 3);  // Embree reads 16 bytes at the last float3: pad
@@ -56,11 +56,15 @@ BlockGeometry::BlockGeometry(const EmbreeDevice& device, std::uint32_t block, st
   if (n == 0) return;
   auto dev = static_cast<RTCDevice>(device.handle());
   RTCScene sc = rtcNewScene(dev);
-  rtcSetSceneFlags(sc, RTC_SCENE_FLAG_NONE);
-  rtcSetSceneBuildQuality(sc, RTC_BUILD_QUALITY_MEDIUM);
+  // Low quality: Embree's Morton builder (selected by the dynamic-scene flag), about 4x
+  // faster to build; blocks loaded again and again out of core pay the build each time.
+  const bool low = quality == BvhQuality::Low;
+  rtcSetSceneFlags(sc, low ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(sc, low ? RTC_BUILD_QUALITY_LOW : (quality == BvhQuality::High ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM));
   RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
   rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices_.data(), 0, 12, n * 3);
   rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, indices_.data(), 0, 12, n);
+  if (low) rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_LOW);
   rtcCommitGeometry(g);
   rtcAttachGeometry(sc, g);
   rtcReleaseGeometry(g);

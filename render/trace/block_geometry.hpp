@@ -32,12 +32,16 @@ class EmbreeDevice {
   std::unique_ptr<Counter> counter_;
 };
 
+// BVH build quality. Every quality gives the same hits (the same triangle intersector; the
+// images are identical, tested), only build and trace speed and memory differ.
+enum class BvhQuality : std::uint8_t { Low, Medium, High };
+
 class BlockGeometry {
  public:
   // `records` is the block file payload: triangle_count records of 9 float32 + uint32
   // material (little-endian, block_file.hpp).
   BlockGeometry(const EmbreeDevice& device, std::uint32_t block, std::span<const unsigned char> records,
-                std::uint64_t triangle_count);
+                std::uint64_t triangle_count, BvhQuality quality = BvhQuality::Medium);
   ~BlockGeometry();
   BlockGeometry(const BlockGeometry&) = delete;
   BlockGeometry& operator=(const BlockGeometry&) = delete;

@@ -89,3 +89,14 @@ TEST(RenderDeterminism, SchedulersSameImage) {
     EXPECT_EQ(ra.sums, rb.sums) << name;
   }
 }
+
+TEST(RenderDeterminism, BvhQualitySameImage) {
+  RenderOptions a = base();
+  a.bvh_quality = "medium";
+  RenderOptions b = base();
+  b.bvh_quality = "low";
+  const RenderResult ra = render(a), rb = render(b);
+  expect_sane(ra);
+  expect_sane(rb);
+  EXPECT_EQ(ra.sums, rb.sums);
+}
