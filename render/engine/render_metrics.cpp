@@ -36,6 +36,11 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   m["threads"] = g.computes.size();
   m["seconds"] = r.seconds;
   m["partition_seconds"] = r.partition_seconds;
+  // Tracing throughput without the first load: in core with one block this excludes
+  // reading and building the BVH, as Embree's tutorial timing does.
+  m["first_exec_start_s"] = r.first_exec_start;
+  m["samples_per_second_after_first_exec"] =
+      r.seconds > r.first_exec_start ? double(r.camera_rays) / (r.seconds - r.first_exec_start) : 0.0;
   const double secs = r.seconds > 0 ? r.seconds : 1e-9;
   // A ray is counted once (created); `cell_visits` counts it once per cell it was tested in.
   m["rays"] = {{"cell_visits", r.counts.traced},

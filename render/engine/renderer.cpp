@@ -268,10 +268,12 @@ RenderResult render(const RenderOptions& opt) {
   res.sums = film.sums();
   res.samples.resize(std::size_t(res.width) * std::size_t(res.height));
   for (std::size_t p = 0; p < res.samples.size(); ++p) res.samples[p] = film.samples(static_cast<std::uint32_t>(p));
+  res.first_exec_start = res.seconds;
   for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
     const Activity& a = schedule.activity(id);
     if (a.state != ActivityState::Done) continue;
     if (a.kind == ActivityKind::Exec) {
+      res.first_exec_start = std::min(res.first_exec_start, a.start);
       TimingSample t;
       t.device = a.device;
       t.type = pool.job(a.job).type == g.job_type("RayIntersect") ? 0 : 1;

@@ -49,6 +49,7 @@ struct RenderResult {
   RunStats run;
   double seconds = 0;                     // wall time of the run (partitioning excluded)
   double partition_seconds = 0;
+  double first_exec_start = 0;            // when the first E-job started (after the first load)
   Bytes scene_block_bytes = 0;            // sum of block footprints
   Bytes memory_budget = 0;
   std::uint32_t path_cap = 0;             // paths alive at once (lowered to fit the budget)
