@@ -8,6 +8,9 @@
 #include <fstream>
 #include <vector>
 
+#include "render/scene/gltf_reader.hpp"
+#include "render/scene/obj_reader.hpp"
+#include "render/scene/off_reader.hpp"
 #include "render/scene/ply_reader.hpp"
 #include "render/scene/stl_reader.hpp"
 #include "sched/error.hpp"
@@ -39,6 +42,7 @@ void check_readable(const std::string& path) {
   if (fs::file_size(path, ec) == 0) throw InputError(path, "", "mesh file is empty");
 }
 
+// The in-memory fallback (see mesh_import.hpp for when it is used).
 ImportStats stream_assimp(const std::string& path, const Affine& xf, const TriangleBatchFn& fn) {
   Assimp::Importer importer;
   // Keep points and lines (so they can be counted); triangulate polygons.
@@ -90,6 +94,8 @@ ImportStats stream_assimp(const std::string& path, const Affine& xf, const Trian
 bool is_mesh_file(const std::string& path) {
   const std::string e = lower_ext(path);
   if (e == ".json" || e.empty()) return false;
+  for (const char* native : {".obj", ".off", ".ply", ".stl", ".gltf", ".glb"})
+    if (e == native) return true;
   Assimp::Importer importer;
   return importer.IsExtensionSupported(e);
 }
@@ -98,12 +104,23 @@ ImportStats stream_mesh_file(const std::string& path, const Affine& xf, const Tr
                              ImportPath route) {
   check_readable(path);
   ImportStats st;
-  if (route == ImportPath::automatic && lower_ext(path) == ".ply" && read_ply_header(path).streamable)
-    st = stream_ply(path, xf, fn);
-  else if (route == ImportPath::automatic && lower_ext(path) == ".stl" && is_binary_stl(path))
-    st = stream_stl(path, xf, fn);
-  else
+  const std::string e = lower_ext(path);
+  if (route == ImportPath::assimp) {
     st = stream_assimp(path, xf, fn);
+  } else if (e == ".ply") {
+    st = read_ply_header(path).streamable ? stream_ply(path, xf, fn) : stream_assimp(path, xf, fn);
+  } else if (e == ".stl") {
+    st = is_binary_stl(path) ? stream_stl(path, xf, fn) : stream_ascii_stl(path, xf, fn);
+  } else if (e == ".obj") {
+    st = stream_obj(path, xf, fn);
+  } else if (e == ".off") {
+    st = stream_off(path, xf, fn);
+  } else if (e == ".gltf" || e == ".glb") {
+    auto native = stream_gltf(path, xf, fn);
+    st = native ? *native : stream_assimp(path, xf, fn);
+  } else {
+    st = stream_assimp(path, xf, fn);
+  }
   if (st.triangles == 0)
     throw InputError(path, "", "no triangles found (" + std::to_string(st.skipped_primitives) +
                                    " non-triangle primitives skipped): empty or malformed mesh");

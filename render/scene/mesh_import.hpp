@@ -1,7 +1,13 @@
-// Mesh files → triangle batches. Binary PLY and binary STL stream through native readers
-// (bounded memory, any size); everything else (OBJ, ASCII PLY, STL, OFF, glTF 2.0 / GLB, and
-// whatever else assimp reads) goes through assimp, with polygons triangulated, points
-// and lines skipped and counted, and the node hierarchy flattened into the vertices.
+// Mesh files → triangle batches, in bounded memory whatever the file size. Native
+// streaming readers handle OBJ (obj_reader.hpp), OFF (off_reader.hpp), PLY ASCII and
+// binary (ply_reader.hpp), STL ASCII and binary (stl_reader.hpp) and glTF 2.0 / GLB
+// (gltf_reader.hpp); indexed text formats keep their vertices in a disk-backed spill file
+// (spill_file.hpp), never in RAM. Assimp, which loads whole files into memory, remains
+// only for: ImportPath::assimp; formats without a native reader (3DS, FBX, DAE, ...);
+// PLY layouts the native reader does not take (ply_reader.hpp); glTF 1.0, sparse
+// accessors and Draco/meshopt-compressed glTF (gltf_reader.hpp). Everywhere polygons are
+// triangulated, points and lines skipped and counted, and node hierarchies flattened into
+// the vertices.
 #pragma once
 #include <string>
 
@@ -9,18 +15,22 @@
 
 namespace rayline::scene {
 
+// automatic: the native reader where there is one (else assimp); assimp: always assimp
+// (reference results for tests).
 enum class ImportPath { automatic, assimp };
 
 // Delivers all triangles of `path`, transformed by `transform`, to `fn`. Triangle::material
-// is the mesh-local material slot (PLY material_index, assimp's material index).
-// Throws InputError(path, ...) for missing, unreadable or malformed files.
+// is the mesh-local material slot (PLY material_index, OBJ usemtl order, glTF primitive
+// material, assimp's material index).
+// Throws InputError(path, field, ...) for missing, unreadable or malformed files, and for
+// files without any triangle.
 ImportStats stream_mesh_file(const std::string& path, const Affine& transform, const TriangleBatchFn& fn,
                              ImportPath route = ImportPath::automatic);
 
 // Triangle count, skipped primitives and bounds of a mesh file (one streaming pass).
 ImportStats mesh_file_stats(const std::string& path, const Affine& transform = {});
 
-// Extensions this build can import (lower case, with dot), for messages and --help.
+// Whether `path` has an extension this build can import (native readers or assimp).
 bool is_mesh_file(const std::string& path);
 
 }  // namespace rayline::scene

@@ -1,19 +1,24 @@
 #include "render/scene/ply_reader.hpp"
 
 #include <bit>
+#include <cmath>
 #include <cstring>
-#include <fcntl.h>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
 #include <vector>
 
+#include "render/scene/mapped_file.hpp"
+#include "render/scene/spill_file.hpp"
+#include "render/scene/text_reader.hpp"
+#include "render/scene/triangle_emitter.hpp"
 #include "sched/error.hpp"
 
 namespace rayline::scene {
 namespace {
+
+// Resident pages are dropped after every this many bytes of face data.
+constexpr std::size_t kDropEvery = std::size_t(64) << 20;
 
 enum class Type { i8, u8, i16, u16, i32, u32, f32, f64, invalid };
 
@@ -37,13 +42,26 @@ std::size_t type_size(Type t) {
     default: return 0;
   }
 }
+bool is_integer(Type t) { return t != Type::f32 && t != Type::f64 && t != Type::invalid; }
 
 struct Property {
   std::string name;
   Type type = Type::invalid;
   bool list = false;
   Type count_type = Type::invalid;
+  bool is_index_list() const { return list && (name == "vertex_indices" || name == "vertex_index"); }
+  int axis() const { return list ? -1 : name == "x" ? 0 : name == "y" ? 1 : name == "z" ? 2 : -1; }
 };
+// What a reader does with a property, decided once per file (not per face).
+enum class Role : std::uint8_t { skip, skip_list, x, y, z, indices, material };
+Role role(const Property& p) {
+  if (p.is_index_list()) return Role::indices;
+  if (p.list) return Role::skip_list;
+  if (p.name == "material_index") return Role::material;
+  const int a = p.axis();
+  return a == 0 ? Role::x : a == 1 ? Role::y : a == 2 ? Role::z : Role::skip;
+}
+
 struct Element {
   std::string name;
   std::uint64_t count = 0;
@@ -63,7 +81,9 @@ struct Element {
 struct Header {
   PlyHeaderInfo info;
   std::vector<Element> elements;
-  std::size_t bytes = 0;
+  std::size_t bytes = 0;       // header length, up to and including "end_header\n"
+  std::uint64_t lines = 0;     // header lines
+  int vertex = -1, face = -1;  // element indices
 };
 
 Header parse_header(const std::string& path) {
@@ -72,10 +92,12 @@ Header parse_header(const std::string& path) {
   Header h;
   std::string line;
   if (!std::getline(in, line) || line.substr(0, 3) != "ply") throw InputError(path, "header", "not a PLY file");
-  bool ended = false;
+  bool ended = false, format = false;
   std::size_t bytes = line.size() + 1;
+  std::uint64_t lines = 1;
   while (std::getline(in, line)) {
     bytes += line.size() + 1;
+    ++lines;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream ls(line);
     std::string kw;
@@ -87,6 +109,7 @@ Header parse_header(const std::string& path) {
       h.info.big_endian = f == "binary_big_endian";
       if (f != "ascii" && f != "binary_little_endian" && f != "binary_big_endian")
         throw InputError(path, "header.format", "unknown PLY format '" + f + "'");
+      format = true;
     } else if (kw == "element") {
       Element e;
       ls >> e.name >> e.count;
@@ -114,40 +137,36 @@ Header parse_header(const std::string& path) {
     }
   }
   if (!ended) throw InputError(path, "header", "no end_header (truncated or not a PLY file)");
+  if (!format) throw InputError(path, "header.format", "no format line");
   h.bytes = bytes;
-  for (auto& e : h.elements) {
-    if (e.name == "vertex") h.info.vertices = e.count;
-    if (e.name == "face") h.info.faces = e.count;
+  h.lines = lines;
+  for (std::size_t k = 0; k < h.elements.size(); ++k) {
+    const Element& e = h.elements[k];
+    if (e.name == "vertex" && h.vertex < 0) h.vertex = int(k), h.info.vertices = e.count;
+    if (e.name == "face" && h.face < 0) h.face = int(k), h.info.faces = e.count;
   }
-  // Streamable: binary; every element before `face` has fixed size; vertex has x, y, z;
-  // face has exactly one list (vertex_indices / vertex_index) of integer type.
-  bool ok = h.info.binary;
-  bool seen_face = false, seen_vertex = false;
-  for (auto& e : h.elements) {
-    if (seen_face) break;
-    if (e.name == "face") {
-      seen_face = true;
-      int lists = 0;
-      for (auto& p : e.props) {
-        if (!p.list) continue;
-        ++lists;
-        ok = ok && (p.name == "vertex_indices" || p.name == "vertex_index") && p.type != Type::f32 &&
-             p.type != Type::f64;
-      }
-      ok = ok && lists == 1;
-    } else {
-      ok = ok && e.fixed();
-      if (e.name == "vertex") {
-        seen_vertex = true;
-        int xyz = 0;
-        for (auto& p : e.props) xyz += p.name == "x" || p.name == "y" || p.name == "z";
-        ok = ok && xyz == 3;
-      }
-    }
+  // Native: vertex has scalar x, y, z (binary: and no lists); face has exactly one
+  // integer vertex index list.
+  bool ok = h.vertex >= 0 && h.face >= 0;
+  if (ok) {
+    const Element& v = h.elements[std::size_t(h.vertex)];
+    int xyz[3] = {0, 0, 0};
+    for (auto& p : v.props)
+      if (p.axis() >= 0) ++xyz[p.axis()];
+    ok = xyz[0] == 1 && xyz[1] == 1 && xyz[2] == 1 && (!h.info.binary || v.fixed());
+    int lists = 0;
+    for (auto& p : h.elements[std::size_t(h.face)].props)
+      if (p.is_index_list()) ++lists, ok = ok && is_integer(p.type);
+    ok = ok && lists == 1;
+    for (auto& e : h.elements)  // list lengths must be integers to be walked
+      for (auto& p : e.props) ok = ok && (!p.list || is_integer(p.count_type));
   }
-  h.info.streamable = ok && seen_face && seen_vertex;
+  h.info.streamable = ok;
   return h;
 }
+
+// ---------------------------------------------------------------------------------------
+// Binary
 
 template <class T>
 T load(const unsigned char* p, bool swap) {
@@ -174,29 +193,273 @@ double scalar(const unsigned char* p, Type t, bool swap) {
   }
 }
 
-struct Mapping {
-  const unsigned char* data = nullptr;
-  std::size_t size = 0;
-  Mapping(const std::string& path) {
-    const int fd = ::open(path.c_str(), O_RDONLY);
-    if (fd < 0) throw InputError(path, "", "cannot open mesh file");
-    struct stat st{};
-    ::fstat(fd, &st);
-    size = static_cast<std::size_t>(st.st_size);
-    if (size > 0) {
-      void* m = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
-      if (m == MAP_FAILED) {
-        ::close(fd);
-        throw InputError(path, "", "cannot map mesh file");
+// The end of element `e`'s data starting at `p` (walking its lists when it has any).
+const unsigned char* skip_element(const std::string& path, const Element& e, const unsigned char* p,
+                                  const unsigned char* end, bool swap) {
+  auto truncated = [&]() { return InputError(path, e.name, "file truncated inside the " + e.name + " data"); };
+  if (e.fixed()) {
+    const std::size_t stride = e.stride();
+    if (stride > 0 && e.count > std::uint64_t(end - p) / stride) throw truncated();
+    return p + stride * e.count;
+  }
+  for (std::uint64_t i = 0; i < e.count; ++i)
+    for (auto& prop : e.props) {
+      if (prop.list) {
+        const std::size_t cs = type_size(prop.count_type);
+        if (std::size_t(end - p) < cs) throw truncated();
+        const double n = scalar(p, prop.count_type, swap);
+        p += cs;
+        if (n < 0 || n * double(type_size(prop.type)) > double(end - p)) throw truncated();
+        p += std::size_t(n) * type_size(prop.type);
+      } else {
+        if (std::size_t(end - p) < type_size(prop.type)) throw truncated();
+        p += type_size(prop.type);
       }
-      data = static_cast<const unsigned char*>(m);
     }
-    ::close(fd);
+  return p;
+}
+
+ImportStats stream_binary(const std::string& path, const Header& h, const Affine& xf, const TriangleBatchFn& fn,
+                          std::size_t batch) {
+  const bool swap = h.info.big_endian != (std::endian::native == std::endian::big);
+  const MappedFile map(path);
+  const unsigned char* end = map.data() + map.size();
+  const Element& vertex = h.elements[std::size_t(h.vertex)];
+  const Element& face = h.elements[std::size_t(h.face)];
+
+  // Where the vertex and face elements start: walk the elements before the later one.
+  const unsigned char* vbase = nullptr;
+  const unsigned char* fbase = nullptr;
+  const unsigned char* p = map.data() + std::min(h.bytes, map.size());
+  for (int k = 0; k <= std::max(h.vertex, h.face); ++k) {
+    if (k == h.vertex) vbase = p;
+    if (k == h.face) fbase = p;
+    if (k < std::max(h.vertex, h.face)) p = skip_element(path, h.elements[std::size_t(k)], p, end, swap);
   }
-  ~Mapping() {
-    if (data) ::munmap(const_cast<unsigned char*>(data), size);
+  const std::size_t vstride = vertex.stride();
+  if (vstride > 0 && vertex.count > std::uint64_t(end - vbase) / vstride)
+    throw InputError(path, "vertex", "file truncated inside the vertex data");
+  std::size_t xyz_off[3] = {0, 0, 0};
+  Type xyz_type[3] = {Type::f32, Type::f32, Type::f32};
+  {
+    std::size_t o = 0;
+    for (auto& prop : vertex.props) {
+      if (prop.axis() >= 0) xyz_off[prop.axis()] = o, xyz_type[prop.axis()] = prop.type;
+      o += type_size(prop.type);
+    }
   }
-};
+  const bool fast_xyz = !swap && xyz_type[0] == Type::f32 && xyz_type[1] == Type::f32 && xyz_type[2] == Type::f32;
+  const std::uint64_t nv = vertex.count;
+  auto position = [&](std::int64_t i) -> Float3 {
+    if (i < 0 || std::uint64_t(i) >= nv)
+      throw InputError(path, "face.vertex_indices", "index " + std::to_string(i) + " out of range (" +
+                                                        std::to_string(nv) + " vertices)");
+    const unsigned char* q = vbase + std::size_t(i) * vstride;
+    Float3 v;
+    if (fast_xyz) {
+      std::memcpy(&v.x, q + xyz_off[0], 4), std::memcpy(&v.y, q + xyz_off[1], 4), std::memcpy(&v.z, q + xyz_off[2], 4);
+    } else {
+      v = {float(scalar(q + xyz_off[0], xyz_type[0], swap)), float(scalar(q + xyz_off[1], xyz_type[1], swap)),
+           float(scalar(q + xyz_off[2], xyz_type[2], swap))};
+    }
+    return v;
+  };
+
+  ImportStats st;
+  TriangleEmitter out(xf, fn, st, batch);
+  if (face.count > std::uint64_t(end - fbase)) throw InputError(path, "face", "file truncated inside the face data");
+  map.advise_sequential();
+  p = fbase;
+  std::vector<std::int64_t> idx;
+  std::vector<Role> roles;
+  for (auto& prop : face.props) roles.push_back(role(prop));
+  // Keep the resident set bounded on files larger than memory: every 64 MiB of faces,
+  // drop the mapped pages read so far (faces and vertices; vertices fault back in when
+  // referenced again, which for generated meshes is rare since pieces are local).
+  const unsigned char* dropped = fbase;
+  auto truncated = [&]() { return InputError(path, "face", "file truncated inside the face data"); };
+  for (std::uint64_t f = 0; f < face.count; ++f) {
+    if (std::size_t(p - dropped) > kDropEvery) {
+      map.release(dropped, p);
+      map.release(vbase, vbase + nv * vstride);
+      dropped = p;
+    }
+    std::uint32_t material = 0;
+    idx.clear();
+    for (std::size_t k = 0; k < face.props.size(); ++k) {
+      const Property& prop = face.props[k];
+      if (prop.list) {
+        if (std::size_t(end - p) < type_size(prop.count_type)) throw truncated();
+        const auto n = static_cast<std::int64_t>(scalar(p, prop.count_type, swap));
+        p += type_size(prop.count_type);
+        const std::size_t is = type_size(prop.type);
+        if (n < 0 || std::size_t(n) * is > std::size_t(end - p)) throw truncated();
+        if (roles[k] != Role::indices) {
+          p += std::size_t(n) * is;
+          continue;
+        }
+        for (std::int64_t i = 0; i < n; ++i, p += is) idx.push_back(static_cast<std::int64_t>(scalar(p, prop.type, swap)));
+      } else {
+        if (std::size_t(end - p) < type_size(prop.type)) throw truncated();
+        if (roles[k] == Role::material) material = static_cast<std::uint32_t>(scalar(p, prop.type, swap));
+        p += type_size(prop.type);
+      }
+    }
+    if (idx.size() < 3) {
+      out.skip();
+      continue;
+    }
+    const Float3 a = position(idx[0]);
+    Float3 b = position(idx[1]);
+    for (std::size_t k = 2; k < idx.size(); ++k) {
+      const Float3 c = position(idx[k]);
+      out.emit(a, b, c, material);
+      b = c;
+    }
+  }
+  out.flush();
+  return st;
+}
+
+// ---------------------------------------------------------------------------------------
+// ASCII
+
+ImportStats stream_ascii(const std::string& path, const Header& h, const Affine& xf, const TriangleBatchFn& fn,
+                         std::size_t batch) {
+  const Element& vertex = h.elements[std::size_t(h.vertex)];
+  const Element& face = h.elements[std::size_t(h.face)];
+  const std::uint64_t nv = vertex.count;
+  SpillArray<Float3> verts;
+  ImportStats st;
+  TriangleEmitter out(xf, fn, st, batch);
+  std::vector<std::uint64_t> idx;
+
+  std::vector<Role> vroles, froles;
+  for (auto& prop : vertex.props) vroles.push_back(role(prop));
+  for (auto& prop : face.props) froles.push_back(role(prop));
+  auto bad = [&](LineReader& r, std::string_view line, const char* what, std::uint64_t i, const Property& prop) {
+    return InputError(path, r.where(), std::string(what) + " " + std::to_string(i) + ": bad or missing value for property '" +
+                                           prop.name + "' in " + quote_token(line));
+  };
+  auto skip_list = [](Tokens& t) {
+    std::int64_t n = 0;
+    bool ok = t.integer(n) && n >= 0;
+    for (std::int64_t k = 0; ok && k < n; ++k) ok = !t.word().empty();
+    return ok;
+  };
+
+  auto read_vertex = [&](LineReader& r, std::string_view line, std::uint64_t i) {
+    Tokens t(line);
+    Float3 v;
+    for (std::size_t k = 0; k < vroles.size(); ++k) {
+      bool ok;
+      switch (vroles[k]) {
+        case Role::x: ok = t.number(v.x); break;
+        case Role::y: ok = t.number(v.y); break;
+        case Role::z: ok = t.number(v.z); break;
+        case Role::skip_list: ok = skip_list(t); break;
+        default: ok = !t.word().empty(); break;
+      }
+      if (!ok) throw bad(r, line, "vertex", i, vertex.props[k]);
+    }
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+      throw InputError(path, r.where(), "vertex " + std::to_string(i) + ": non-finite coordinate");
+    verts.push_back(v);
+  };
+
+  auto read_face = [&](LineReader& r, std::string_view line, std::uint64_t f) {
+    Tokens t(line);
+    std::uint32_t material = 0;
+    idx.clear();
+    for (std::size_t k = 0; k < froles.size(); ++k) {
+      bool ok = true;
+      switch (froles[k]) {
+        case Role::indices: {
+          std::int64_t n = 0;
+          ok = t.integer(n) && n >= 0;
+          for (std::int64_t j = 0; ok && j < n; ++j) {
+            std::int64_t i;
+            ok = t.integer(i);
+            if (ok && (i < 0 || std::uint64_t(i) >= nv))
+              throw InputError(path, r.where(), "face " + std::to_string(f) + ": vertex index " + std::to_string(i) +
+                                                    " out of range (" + std::to_string(nv) + " vertices)");
+            if (ok) idx.push_back(std::uint64_t(i));
+          }
+          break;
+        }
+        case Role::material: {
+          float m = 0;
+          ok = t.number(m) && m >= 0;
+          material = static_cast<std::uint32_t>(m);
+          break;
+        }
+        case Role::skip_list: ok = skip_list(t); break;
+        default: ok = !t.word().empty(); break;
+      }
+      if (!ok) throw bad(r, line, "face", f, face.props[k]);
+    }
+    if (idx.size() < 3) {
+      out.skip();
+      return;
+    }
+    const Float3 a = verts[idx[0]];
+    Float3 b = verts[idx[1]];
+    for (std::size_t k = 2; k < idx.size(); ++k) {
+      const Float3 c = verts[idx[k]];
+      out.emit(a, b, c, material);
+      b = c;
+    }
+  };
+
+  // One pass reads the elements in file order up to `last`, parsing vertices and/or
+  // faces and stepping over every other line.
+  auto pass = [&](bool vertices, bool faces) {
+    LineReader r(path, h.bytes, h.lines + 1);
+    const int last = vertices && faces ? std::max(h.vertex, h.face) : vertices ? h.vertex : h.face;
+    std::string_view line;
+    std::uint64_t bytes = 0;
+    for (int k = 0; k <= last; ++k) {
+      const Element& e = h.elements[std::size_t(k)];
+      const bool v = vertices && k == h.vertex, fc = faces && k == h.face;
+      for (std::uint64_t i = 0; i < e.count; ++i) {
+        if (!r.next(line))
+          throw InputError(path, e.name, "the header says " + std::to_string(e.count) + " " + e.name +
+                                             " elements but the file ends after " + std::to_string(i) + " (truncated)");
+        if (v) read_vertex(r, line, i);
+        if (fc) {
+          read_face(r, line, i);
+          bytes += line.size() + 1;
+          if (bytes > kDropEvery) verts.drop_resident(), bytes = 0;
+        }
+      }
+    }
+  };
+  // A count no file of this size could hold is an error now, before any spill space is
+  // reserved for it ("0 0 0\n": each value takes at least two bytes).
+  {
+    std::error_code ec;
+    const std::uint64_t size = std::filesystem::file_size(path, ec);
+    std::uint64_t least = 0;
+    for (auto& e : h.elements) {
+      const std::uint64_t per = 2 * std::max<std::uint64_t>(e.props.size(), 1);
+      if (e.count > (size + 1) / per) least = std::uint64_t(-1);
+      else least += e.count * per;
+      if (!ec && least > size + 1)
+        throw InputError(path, "header.element", "'" + e.name + "' count " + std::to_string(e.count) +
+                                                     " is more than a file of " + std::to_string(size) +
+                                                     " bytes can hold (bad count or truncated)");
+    }
+  }
+  verts.reserve(std::size_t(nv));
+  if (h.vertex < h.face) {
+    pass(true, true);
+  } else {
+    pass(true, false);
+    pass(false, true);
+  }
+  out.flush();
+  return st;
+}
 
 }  // namespace
 
@@ -205,116 +468,8 @@ PlyHeaderInfo read_ply_header(const std::string& path) { return parse_header(pat
 ImportStats stream_ply(const std::string& path, const Affine& xf, const TriangleBatchFn& fn, std::size_t batch) {
   const Header h = parse_header(path);
   if (!h.info.streamable)
-    throw InputError(path, "header", "not a binary PLY with vertex x,y,z and one face index list");
-  const bool swap = h.info.big_endian != (std::endian::native == std::endian::big);
-  const Mapping map(path);
-  const unsigned char* end = map.data + map.size;
-
-  // Locate the vertex and face sections (fixed-size elements before the face element).
-  std::size_t offset = h.bytes;
-  const Element* vertex = nullptr;
-  const Element* face = nullptr;
-  std::size_t vertex_offset = 0, face_offset = 0;
-  for (auto& e : h.elements) {
-    if (e.name == "face") {
-      face = &e, face_offset = offset;
-      break;
-    }
-    if (e.name == "vertex") vertex = &e, vertex_offset = offset;
-    offset += e.stride() * e.count;
-  }
-  if (offset > map.size) throw InputError(path, "vertex", "file truncated inside the vertex data");
-  const std::size_t vstride = vertex->stride();
-  std::size_t xyz_off[3] = {0, 0, 0};
-  Type xyz_type[3] = {Type::f32, Type::f32, Type::f32};
-  {
-    std::size_t o = 0;
-    for (auto& p : vertex->props) {
-      const int axis = p.name == "x" ? 0 : p.name == "y" ? 1 : p.name == "z" ? 2 : -1;
-      if (axis >= 0) xyz_off[axis] = o, xyz_type[axis] = p.type;
-      o += type_size(p.type);
-    }
-  }
-  const bool fast_xyz = !swap && xyz_type[0] == Type::f32 && xyz_type[1] == Type::f32 && xyz_type[2] == Type::f32;
-  const unsigned char* vbase = map.data + vertex_offset;
-  const std::uint64_t nv = vertex->count;
-  auto position = [&](std::int64_t i) -> Float3 {
-    if (i < 0 || std::uint64_t(i) >= nv)
-      throw InputError(path, "face.vertex_indices", "index " + std::to_string(i) + " out of range (" +
-                                                        std::to_string(nv) + " vertices)");
-    const unsigned char* p = vbase + std::size_t(i) * vstride;
-    Float3 v;
-    if (fast_xyz) {
-      std::memcpy(&v.x, p + xyz_off[0], 4), std::memcpy(&v.y, p + xyz_off[1], 4), std::memcpy(&v.z, p + xyz_off[2], 4);
-    } else {
-      v = {float(scalar(p + xyz_off[0], xyz_type[0], swap)), float(scalar(p + xyz_off[1], xyz_type[1], swap)),
-           float(scalar(p + xyz_off[2], xyz_type[2], swap))};
-    }
-    return v;
-  };
-
-  ImportStats st;
-  const bool identity = xf.is_identity();
-  std::vector<Triangle> buf;
-  buf.reserve(batch);
-  auto emit = [&](Float3 a, Float3 b, Float3 c, std::uint32_t m) {
-    if (!identity) a = xf.point(a), b = xf.point(b), c = xf.point(c);
-    st.bounds.extend(a), st.bounds.extend(b), st.bounds.extend(c);
-    buf.push_back({a, b, c, m});
-    ++st.triangles;
-    if (buf.size() == batch) fn(std::span<const Triangle>(buf)), buf.clear();
-  };
-  if (face_offset + face->count > map.size && face->count > 0)
-    throw InputError(path, "face", "file truncated inside the face data");
-  ::madvise(const_cast<unsigned char*>(map.data), map.size, MADV_SEQUENTIAL);
-  const unsigned char* p = map.data + face_offset;
-  std::vector<std::int64_t> idx;
-  // Keep the resident set bounded on files larger than memory: every 64 MiB of faces,
-  // drop the mapped pages read so far (faces and vertices; vertices fault back in when
-  // referenced again, which for generated meshes is rare since pieces are local).
-  const std::size_t page = std::size_t(::sysconf(_SC_PAGESIZE));
-  auto page_down = [&](const unsigned char* q) {
-    return const_cast<unsigned char*>(map.data) + (std::size_t(q - map.data) / page) * page;
-  };
-  const unsigned char* dropped = page_down(map.data + face_offset);
-  for (std::uint64_t f = 0; f < face->count; ++f) {
-    if (std::size_t(p - dropped) > (64u << 20)) {
-      unsigned char* to = page_down(p);
-      ::madvise(const_cast<unsigned char*>(dropped), std::size_t(to - dropped), MADV_DONTNEED);
-      unsigned char* v0 = page_down(vbase);
-      ::madvise(v0, std::size_t(page_down(vbase + nv * vstride) - v0), MADV_DONTNEED);
-      dropped = to;
-    }
-    std::uint32_t material = 0;
-    idx.clear();
-    for (auto& prop : face->props) {
-      if (prop.list) {
-        if (p + type_size(prop.count_type) > end) throw InputError(path, "face", "file truncated inside the face data");
-        const auto n = static_cast<std::int64_t>(scalar(p, prop.count_type, swap));
-        p += type_size(prop.count_type);
-        const std::size_t is = type_size(prop.type);
-        if (n < 0 || p + std::size_t(n) * is > end) throw InputError(path, "face", "file truncated inside the face data");
-        for (std::int64_t k = 0; k < n; ++k, p += is) idx.push_back(static_cast<std::int64_t>(scalar(p, prop.type, swap)));
-      } else {
-        if (p + type_size(prop.type) > end) throw InputError(path, "face", "file truncated inside the face data");
-        if (prop.name == "material_index") material = static_cast<std::uint32_t>(scalar(p, prop.type, swap));
-        p += type_size(prop.type);
-      }
-    }
-    if (idx.size() < 3) {
-      ++st.skipped_primitives;
-      continue;
-    }
-    const Float3 a = position(idx[0]);
-    Float3 b = position(idx[1]);
-    for (std::size_t k = 2; k < idx.size(); ++k) {
-      const Float3 c = position(idx[k]);
-      emit(a, b, c, material);
-      b = c;
-    }
-  }
-  if (!buf.empty()) fn(std::span<const Triangle>(buf));
-  return st;
+    throw InputError(path, "header", "not a PLY with vertex x,y,z and one integer face index list");
+  return h.info.binary ? stream_binary(path, h, xf, fn, batch) : stream_ascii(path, h, xf, fn, batch);
 }
 
 }  // namespace rayline::scene

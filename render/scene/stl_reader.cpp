@@ -6,6 +6,8 @@
 #include <fstream>
 #include <vector>
 
+#include "render/scene/text_reader.hpp"
+#include "render/scene/triangle_emitter.hpp"
 #include "sched/error.hpp"
 
 namespace rayline::scene {
@@ -23,7 +25,7 @@ float lef(const unsigned char* p) {
 
 struct Head {
   std::uint64_t size = 0;
-  bool has_header = false, starts_solid = false;
+  bool has_header = false, starts_solid = false, has_nul = false;
   std::uint32_t count = 0;
 };
 
@@ -34,11 +36,12 @@ Head read_head(const std::string& path) {
   if (ec) throw InputError(path, "", "cannot read STL file: " + ec.message());
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open STL file");
-  unsigned char b[84] = {};
-  in.read(reinterpret_cast<char*>(b), 84);
+  unsigned char b[512] = {};
+  in.read(reinterpret_cast<char*>(b), sizeof b);
   const auto got = std::size_t(in.gcount());
   h.starts_solid = got >= 5 && std::memcmp(b, "solid", 5) == 0;
-  h.has_header = got == 84;
+  h.has_nul = std::memchr(b, 0, got) != nullptr;
+  h.has_header = got >= 84;
   if (h.has_header) h.count = le32(b + 80);
   return h;
 }
@@ -48,7 +51,7 @@ Head read_head(const std::string& path) {
 bool is_binary_stl(const std::string& path) {
   const Head h = read_head(path);
   if (h.has_header && h.size == 84 + 50ull * h.count) return true;
-  return !h.starts_solid;
+  return !h.starts_solid || h.has_nul;
 }
 
 ImportStats stream_stl(const std::string& path, const Affine& xf, const TriangleBatchFn& fn, std::size_t batch) {
@@ -96,6 +99,68 @@ ImportStats stream_stl(const std::string& path, const Affine& xf, const Triangle
     done += n;
     fn(std::span<const Triangle>(buf));
   }
+  return st;
+}
+
+ImportStats stream_ascii_stl(const std::string& path, const Affine& xf, const TriangleBatchFn& fn, std::size_t batch) {
+  enum class In { nothing, solid, facet, loop } in = In::nothing;
+  LineReader r(path);
+  ImportStats st;
+  TriangleEmitter out(xf, fn, st, batch);
+  std::vector<Float3> loop;
+  bool any_solid = false;
+  std::string_view line;
+  auto fail = [&](const std::string& msg) { throw InputError(path, r.where(), msg); };
+  auto expect = [&](In state, std::string_view kw) {
+    if (in != state) fail("unexpected " + quote_token(kw) + (in == In::nothing ? " outside a solid" : ""));
+  };
+  while (r.next(line)) {
+    Tokens t(line);
+    const std::string_view kw = t.word();
+    if (kw.empty()) continue;
+    if (iequals(kw, "vertex")) {
+      expect(In::loop, kw);
+      Float3 v;
+      if (!t.number(v.x) || !t.number(v.y) || !t.number(v.z))
+        fail("vertex: expected 3 numbers, got " + quote_token(std::string_view(t.p, std::size_t(t.e - t.p))));
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) fail("non-finite vertex coordinate");
+      loop.push_back(v);
+    } else if (iequals(kw, "facet")) {
+      expect(In::solid, kw);
+      in = In::facet;
+    } else if (iequals(kw, "outer")) {
+      expect(In::facet, kw);
+      in = In::loop;
+      loop.clear();
+    } else if (iequals(kw, "endloop")) {
+      expect(In::loop, kw);
+      in = In::facet;
+    } else if (iequals(kw, "endfacet")) {
+      expect(In::facet, kw);
+      if (loop.size() < 3) {
+        out.skip();
+      } else {
+        for (std::size_t k = 2; k < loop.size(); ++k) out.emit(loop[0], loop[k - 1], loop[k], 0);
+      }
+      loop.clear();
+      in = In::solid;
+    } else if (iequals(kw, "endsolid")) {
+      expect(In::solid, kw);
+      in = In::nothing;
+    } else if (iequals(kw, "solid")) {
+      if (in != In::nothing) fail("'solid' inside a solid");
+      in = In::solid;
+      any_solid = true;
+    } else if (!any_solid) {
+      throw InputError(path, "header", "not an ASCII STL: starts with " + quote_token(kw) + ", not 'solid'");
+    } else {
+      fail("unexpected " + quote_token(kw));
+    }
+  }
+  if (!any_solid) throw InputError(path, "header", "not an ASCII STL: no 'solid' line");
+  if (in == In::facet || in == In::loop) fail("file ends inside a facet (truncated)");
+  if (in == In::solid) fail("file ends without 'endsolid' (truncated)");
+  out.flush();
   return st;
 }
 

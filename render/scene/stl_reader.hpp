@@ -1,6 +1,7 @@
-// Native streaming reader for binary STL: a triangle soup (80-byte header, uint32
-// count, 50 bytes per triangle), read in fixed-size chunks, so any size streams in
-// bounded memory. ASCII STL stays on assimp (mesh_import.cpp picks the route).
+// Native streaming readers for STL, binary and ASCII; both are triangle soups, so any
+// size streams in bounded memory. Binary (80-byte header, uint32 count, 50 bytes per
+// triangle) is read in fixed-size chunks; ASCII facet by facet, line by line
+// (mesh_import.cpp picks the route with is_binary_stl).
 #pragma once
 #include <string>
 
@@ -9,7 +10,8 @@
 namespace rayline::scene {
 
 // True when `path` is a binary STL: its size is exactly 84 + 50·count, or it does not
-// start with "solid" (then a size mismatch is an error reported by stream_stl).
+// start with "solid", or its first 512 bytes hold a NUL byte, which no ASCII STL has
+// (then a size mismatch is an error reported by stream_stl).
 bool is_binary_stl(const std::string& path);
 
 // Streams every facet as a world-space triangle (the facet's attribute word is ignored,
@@ -18,5 +20,14 @@ bool is_binary_stl(const std::string& path);
 // truncated read or non-finite vertex ("triangle[i]").
 ImportStats stream_stl(const std::string& path, const Affine& transform, const TriangleBatchFn& fn,
                        std::size_t batch = 1 << 16);
+
+// Streams an ASCII STL ("solid", then "facet normal .. / outer loop / vertex x y z ... /
+// endloop / endfacet", "endsolid"; several solids may follow each other; keywords in
+// any case). Loops of more than 3 vertices are fanned, of fewer skipped and counted.
+// Throws InputError(path, "line N", ...) for unexpected keywords, malformed vertices and
+// a file that ends inside a solid (truncated), InputError(path, "header", ...) when it
+// does not start with "solid".
+ImportStats stream_ascii_stl(const std::string& path, const Affine& transform, const TriangleBatchFn& fn,
+                             std::size_t batch = 1 << 16);
 
 }  // namespace rayline::scene

@@ -1,5 +1,7 @@
-// Import of every supported format: triangle counts, skipped primitives and bounds on
-// tiny fixtures written here; malformed and missing files give InputError naming them.
+// Import of every supported format through mesh_import: triangle counts, skipped
+// primitives and bounds on tiny fixtures written here; malformed and missing files give
+// InputError naming them. Format details: test_mesh_text_formats.cpp, test_mesh_gltf.cpp;
+// memory bounds and agreement with assimp: test_mesh_streaming.cpp.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -71,10 +73,13 @@ TEST_F(Import, AsciiPly) {
                        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
                        "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
                        "0 0 0\n2 0 0\n2 3 0\n0 3 0\n4 0 1 2 3\n");
-  EXPECT_FALSE(read_ply_header(p).streamable);
-  const ImportStats s = mesh_file_stats(p);
-  EXPECT_EQ(s.triangles, 2u);
-  expect_bounds(s.bounds, {0, 0, 0}, {2, 3, 0});
+  EXPECT_TRUE(read_ply_header(p).streamable);  // native since the text readers stream too
+  EXPECT_FALSE(read_ply_header(p).binary);
+  for (auto route : {ImportPath::automatic, ImportPath::assimp}) {
+    const ImportStats s = stream_mesh_file(p, {}, [](std::span<const Triangle>) {}, route);
+    EXPECT_EQ(s.triangles, 2u);
+    expect_bounds(s.bounds, {0, 0, 0}, {2, 3, 0});
+  }
 }
 
 TEST_F(Import, ObjTriangulatesPolygonsAndSkipsLines) {
