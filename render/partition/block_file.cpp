@@ -8,6 +8,7 @@
 #include <cstring>
 #include <memory>
 
+#include "render/scene/little_endian.hpp"
 #include "sched/error.hpp"
 
 namespace rayline::partition {
@@ -15,25 +16,8 @@ namespace {
 
 constexpr std::size_t kChecksumOffset = 120;
 
-template <class T>
-void put_le(unsigned char* p, T v) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  if constexpr (std::endian::native == std::endian::big)
-    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
-  std::memcpy(p, b, sizeof(T));
-}
-template <class T>
-T get_le(const unsigned char* p) {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, p, sizeof(T));
-  if constexpr (std::endian::native == std::endian::big)
-    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
-  T v;
-  std::memcpy(&v, b, sizeof(T));
-  return v;
-}
+using scene::get_le;
+using scene::put_le;
 void put_bounds(unsigned char* p, const Bounds& b) {
   for (int i = 0; i < 3; ++i) put_le<float>(p + 4 * i, b.lo[i]), put_le<float>(p + 12 + 4 * i, b.hi[i]);
 }

@@ -1,5 +1,7 @@
 #include "render/scene/gltf_reader.hpp"
 
+#include "render/scene/little_endian.hpp"
+
 #include <array>
 #include <bit>
 #include <cctype>
@@ -25,13 +27,7 @@ constexpr std::uint64_t kDropEveryTriangles = 1u << 20;
 
 template <class T>
 T le(const unsigned char* p) {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, p, sizeof(T));
-  if constexpr (std::endian::native == std::endian::big)
-    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
-  T v;
-  std::memcpy(&v, b, sizeof(T));
-  return v;
+  return get_le<T>(p);
 }
 
 std::string at(const std::string& base, std::size_t i) { return base + "[" + std::to_string(i) + "]"; }

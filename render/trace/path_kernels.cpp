@@ -174,6 +174,14 @@ RTCRay to_rtc(const TraceSettings& ts, const RayRecord& r) {
   return x;
 }
 
+// Rays of one queue go in all directions (secondary and shadow rays).
+RTCIntersectContext incoherent_context() {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  return ctx;
+}
+
 }  // namespace
 
 void TraceSettings::set_bounds(const scene::Bounds& b) {
@@ -216,9 +224,7 @@ void generate_camera_ray(const TraceSettings& ts, Float3 origin, Float3 dir, std
 
 void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
                    std::vector<RayRecord>& out, RayCounts& counts) {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  RTCIntersectContext ctx = incoherent_context();
   auto scene = static_cast<RTCScene>(block.scene());
   for (const RayRecord& r : rays) {
     ++counts.traced;
@@ -239,9 +245,7 @@ void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::spa
 
 void shadow_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
                       std::vector<RayRecord>& out, RayCounts& counts) {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  RTCIntersectContext ctx = incoherent_context();
   auto scene = static_cast<RTCScene>(block.scene());
   for (const RayRecord& r : rays) {
     ++counts.traced;
