@@ -1,6 +1,8 @@
 // GMB planning speed (issue 2): placements per second and wall time to plan a full 2 s
 // horizon on the paper cluster with 129 scene blocks and 1 000 queued RayIntersect jobs.
 // A placement is one committed E-job or T-job. Run: build/bench/bench_sched_gmb
+// The *_reference cases plan the same instances with GmbOptions::reference_selection (the
+// straightforward pruned scan, same choices: test_gmb_equivalence) for a side-by-side.
 #include <benchmark/benchmark.h>
 
 #include "sched/gmb_scheduler.hpp"
@@ -11,7 +13,8 @@ using namespace rayline;
 
 namespace {
 
-void plan_horizon(benchmark::State& state, const char* platform, int blocks, int jobs, Time horizon) {
+void plan_horizon(benchmark::State& state, const char* platform, int blocks, int jobs, Time horizon,
+                  bool reference = false) {
   const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/" + platform);
   const JobSet base = synthetic_ray_batching(g, blocks, jobs, 42);
   double placements = 0, execs = 0, searches = 0, hits = 0, plan_seconds = 0;
@@ -20,7 +23,7 @@ void plan_horizon(benchmark::State& state, const char* platform, int blocks, int
     JobSet set = base;
     auto s = std::make_unique<Schedule>(g, set.pool);
     for (auto [b, m] : set.initial) s->put_initial(b, m);
-    GmbScheduler gmb({.horizon = horizon});
+    GmbScheduler gmb({.horizon = horizon, .reference_selection = reference});
     state.ResumeTiming();
     const PlanStats st = gmb.plan(0, set.pool, *s);
     benchmark::DoNotOptimize(st);
@@ -45,6 +48,9 @@ void BM_GmbPaperCluster_2s(benchmark::State& s) { plan_horizon(s, "paper-cluster
 void BM_GmbPaperCluster_10s(benchmark::State& s) { plan_horizon(s, "paper-cluster.json", 129, 1000, 10.0); }
 void BM_GmbPaperCluster_all(benchmark::State& s) { plan_horizon(s, "paper-cluster.json", 129, 1000, 1e9); }
 void BM_GmbSingleNodeA_2s(benchmark::State& s) { plan_horizon(s, "paper-A.json", 129, 1000, 2.0); }
+void BM_GmbPaperCluster_2s_reference(benchmark::State& s) { plan_horizon(s, "paper-cluster.json", 129, 1000, 2.0, true); }
+void BM_GmbPaperCluster_10s_reference(benchmark::State& s) { plan_horizon(s, "paper-cluster.json", 129, 1000, 10.0, true); }
+void BM_GmbPaperCluster_all_reference(benchmark::State& s) { plan_horizon(s, "paper-cluster.json", 129, 1000, 1e9, true); }
 
 }  // namespace
 
@@ -52,4 +58,7 @@ BENCHMARK(BM_GmbPaperCluster_2s)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_GmbPaperCluster_10s)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_GmbPaperCluster_all)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_GmbSingleNodeA_2s)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GmbPaperCluster_2s_reference)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GmbPaperCluster_10s_reference)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GmbPaperCluster_all_reference)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_MAIN();

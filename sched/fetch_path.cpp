@@ -4,17 +4,25 @@
 
 namespace rayline {
 
-FetchPathFinder::FetchPathFinder(const Schedule& schedule)
-    : schedule_(&schedule), users_of_resource_(schedule.graph().resources.size()) {}
+FetchPathFinder::FetchPathFinder(const Schedule& schedule) : schedule_(&schedule) {}
 
 void FetchPathFinder::clear() {
   for (Tree& t : trees_) t.valid = false;
-  for (auto& u : users_of_resource_) u.clear();
 }
 
-void FetchPathFinder::resource_changed(ResourceId r) {
-  for (auto [b, m] : users_of_resource_[r]) trees_[b].dest_valid[m] = 0;
-  users_of_resource_[r].clear();
+std::uint64_t FetchPathFinder::channel_stamp(ChannelId c) const {
+  std::uint64_t v = 0;
+  for (ResourceId r : schedule_->graph().channels[c].resources) v += schedule_->resource_version(r);
+  return v;
+}
+
+// Sum of the current versions of the resources on m's tree path (equal to the stamp taken
+// at search time iff none of them was booked since: versions only grow).
+std::uint64_t FetchPathFinder::path_stamp(const Tree& t, MemId m) const {
+  const DeviceGraph& g = schedule_->graph();
+  std::uint64_t v = 0;
+  for (MemId q = m; t.via[q] != kNone; q = g.channels[t.via[q]].from) v += channel_stamp(t.via[q]);
+  return v;
 }
 
 FetchPathFinder::Tree& FetchPathFinder::tree(BlockId b, MemId m) {
@@ -22,7 +30,8 @@ FetchPathFinder::Tree& FetchPathFinder::tree(BlockId b, MemId m) {
   Tree& t = trees_[b];
   const bool restricted = scene_local_ && schedule_->pool().block(b).kind == DataKind::SceneData;
   restrict_node_ = restricted ? schedule_->graph().memories[m].node : kNone;
-  if (t.valid && t.dest_valid[m] && t.holders_version == schedule_->holders_version(b) && t.node == restrict_node_) {
+  if (t.valid && t.holders_version == schedule_->holders_version(b) && t.node == restrict_node_ &&
+      t.stamp[m] == path_stamp(t, m)) {
     ++hits_;
     return t;
   }
@@ -37,6 +46,7 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
   const std::size_t nm = g.memories.size();
   t.arrival.assign(nm, kNever);
   t.via.assign(nm, kNone);
+  t.stamp.assign(nm, 0);
   done_.assign(nm, 0);
   heap_.clear();
   auto cmp = [](const auto& a, const auto& c) { return a.first > c.first; };
@@ -68,6 +78,8 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
       heap_.pop_back();
       if (done_[p]) continue;
       done_[p] = 1;
+      // p's tree path is final now, and its parent's stamp was taken before.
+      if (t.via[p] != kNone) t.stamp[p] = t.stamp[g.channels[t.via[p]].from] + channel_stamp(t.via[p]);
       for (ChannelId c : g.out_channels(p)) {
         const MemId q = g.channels[c].to;
         // A holder never receives a second copy (its own copy may still be in flight).
@@ -82,10 +94,6 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
       }
     }
   }
-  t.dest_valid.assign(nm, 1);
-  for (std::size_t m = 0; m < nm; ++m)
-    for (MemId q = static_cast<MemId>(m); t.via[q] != kNone; q = g.channels[t.via[q]].from)
-      for (ResourceId r : g.channels[t.via[q]].resources) users_of_resource_[r].emplace_back(b, static_cast<MemId>(m));
   t.valid = true;
   t.holders_version = schedule_->holders_version(b);
 }

@@ -5,10 +5,12 @@
 //     l_{S->q} = max(l_{S->p}, FinishTime(c_pq)) + T_TRANS(c_pq, |w|)        (Eq. 3)
 // One run yields a shortest-path tree to every memory device, so results are cached per
 // block and invalidated only by what a commit changes: the block's holders (versioned by
-// the Schedule), or the busy-until of a resource on the path to a destination (pushed by
-// the scheduler; only the destinations whose path crosses that resource are invalidated).
-// Within one planning pass costs never decrease, so a path none of whose edges changed
-// stays optimal.
+// the Schedule), or the busy-until of a resource on the path to a destination. Each
+// destination keeps the sum of the Schedule's resource versions along its path at search
+// time; versions only grow, so the destination is still valid iff the sum is unchanged
+// (no reverse index, nothing to push: a commit invalidates exactly the destinations whose
+// path crosses a resource it booked). Within one planning pass costs never decrease, so a
+// path none of whose edges changed stays optimal.
 //
 // Capacity is not part of the search (it would invalidate every tree reaching the
 // memory device that just received data); the scheduler applies admission delays when it
@@ -29,7 +31,9 @@ class FetchPathFinder {
   // Channels of the best path to m, source first (empty if b is already on m).
   void path(BlockId b, MemId m, std::vector<ChannelId>& out);
 
-  void resource_changed(ResourceId r);  // after a T-job was appended on r
+  // After a T-job was appended on r. Kept for callers; validity is read from the
+  // Schedule's resource versions, so this has nothing left to do.
+  void resource_changed(ResourceId) {}
   void clear();                         // after reproject(): everything may have moved
   // Transfers cannot start in the past: a holder's edge from S weighs max(ready, now).
   void set_now(Time now) { if (now != now_) { now_ = now; clear(); } }
@@ -39,6 +43,7 @@ class FetchPathFinder {
   void set_scene_from_origin_or_local(bool on) {
     if (on != scene_local_) { scene_local_ = on; clear(); }
   }
+  bool scene_from_origin_or_local() const { return scene_local_; }
 
   std::uint64_t searches() const { return searches_; }
   std::uint64_t hits() const { return hits_; }
@@ -47,18 +52,19 @@ class FetchPathFinder {
   struct Tree {
     bool valid = false;
     std::uint64_t holders_version = 0;
-    std::vector<Time> arrival;     // per memory device
-    std::vector<ChannelId> via;    // incoming tree channel per memory device (kNone at roots)
-    std::vector<char> dest_valid;  // per memory device: no resource on its path changed
-    NodeId node = kNone;           // scene_local_: the node the roots were restricted to
+    std::vector<Time> arrival;         // per memory device
+    std::vector<ChannelId> via;        // incoming tree channel per memory device (kNone at roots)
+    std::vector<std::uint64_t> stamp;  // per memory device: sum of resource versions on its path
+    NodeId node = kNone;               // scene_local_: the node the roots were restricted to
   };
   Tree& tree(BlockId b, MemId m);
   NodeId restrict_node_ = kNone;  // with scene_local_: the destination's node
   void search(BlockId b, Tree& t);
+  std::uint64_t path_stamp(const Tree& t, MemId m) const;
+  std::uint64_t channel_stamp(ChannelId c) const;
 
   const Schedule* schedule_;
   std::vector<Tree> trees_;
-  std::vector<std::vector<std::pair<BlockId, MemId>>> users_of_resource_;  // reverse index for invalidation
   std::vector<std::pair<Time, MemId>> heap_;
   std::vector<char> done_, holder_;
   std::uint64_t searches_ = 0, hits_ = 0;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <queue>
 #include <set>
 
@@ -72,7 +73,10 @@ bool GmbScheduler::prefer(const Choice& c, const Choice& best) const {
 
 GmbScheduler::Choice GmbScheduler::select(DeviceId d, Time ready, Time now, const JobPool& pool,
                                           const Schedule& s) {
-  if (!any_aged_) return select_pruned(d, ready, now, pool, s);
+  if (!any_aged_) {
+    if (opt_.reference_selection) return select_pruned(d, ready, now, pool, s);
+    return select_indexed(d, ready, now, pool, s);
+  }
   Choice best;
   for (JobId j : pool.queued()) {
     if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
@@ -85,6 +89,7 @@ GmbScheduler::Choice GmbScheduler::select(DeviceId d, Time ready, Time now, cons
 void GmbScheduler::build_index(Time now, const JobPool& pool) {
   buckets_.clear();
   bucket_of_block_.assign(pool.block_count(), -1);
+  bucket_of_job_.assign(pool.job_count(), -1);
   const Time aging = aging_threshold();
   any_aged_ = false;
   for (JobId j : pool.queued()) {
@@ -97,9 +102,12 @@ void GmbScheduler::build_index(Time now, const JobPool& pool) {
     if (static_cast<std::size_t>(key) >= bucket_of_block_.size()) bucket_of_block_.resize(static_cast<std::size_t>(key) + 1, -1);
     if (bucket_of_block_[key] < 0) {
       bucket_of_block_[key] = static_cast<std::int32_t>(buckets_.size());
-      buckets_.push_back({key, {}});
+      buckets_.push_back({key, {}, 0});
     }
-    buckets_[static_cast<std::size_t>(bucket_of_block_[key])].jobs.push_back(j);
+    Bucket& bk = buckets_[static_cast<std::size_t>(bucket_of_block_[key])];
+    bk.jobs.push_back(j);
+    ++bk.queued;
+    bucket_of_job_[j] = bucket_of_block_[key];
   }
 }
 
@@ -181,6 +189,277 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
   return best;
 }
 
+// ---- incremental selection -------------------------------------------------------------
+// Chooses exactly what select_pruned() chooses. Both fold the same per-job start times
+// (identical arithmetic: the key block's arrival with the same one/two-hop shortcut, the
+// same per-input tests) with prefer(); they differ only in which buckets and jobs they
+// look at, and skip only what cannot win. Under nearly_equal()'s tolerance the fold is
+// order-independent unless two compared values are within 1e-12 but different; that is
+// detected (near_tie_) and the selection is then redone by select_pruned().
+
+bool GmbScheduler::prefer_checked(const Choice& c, const Choice& best) {
+  if (best.job != kNone && c.aged == best.aged) {
+    if (nearly_equal(c.start, best.start)) {
+      if (c.start != best.start) near_tie_ = true;
+      else if (nearly_equal(c.granularity, best.granularity) && c.granularity != best.granularity) near_tie_ = true;
+    }
+  }
+  return prefer(c, best);
+}
+
+void GmbScheduler::build_classes(const Schedule& s) {
+  const DeviceGraph& g = s.graph();
+  const auto same = [&](DeviceId a, DeviceId b) {
+    for (int t = 0; t < g.timing.job_types(); ++t) {
+      const ExecCoefficients& x = g.timing.at(a, static_cast<JobTypeId>(t));
+      const ExecCoefficients& y = g.timing.at(b, static_cast<JobTypeId>(t));
+      if (x.supported != y.supported || x.setup != y.setup || x.rate != y.rate) return false;
+    }
+    return true;
+  };
+  std::vector<DeviceId> reps;
+  class_of_device_.assign(g.computes.size(), -1);
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    const auto dd = static_cast<DeviceId>(d);
+    for (std::size_t k = 0; k < reps.size() && class_of_device_[d] < 0; ++k)
+      if (same(dd, reps[k])) class_of_device_[d] = static_cast<std::int32_t>(k);
+    if (class_of_device_[d] < 0) {
+      class_of_device_[d] = static_cast<std::int32_t>(reps.size());
+      reps.push_back(dd);
+    }
+  }
+  classes_ = static_cast<std::int32_t>(reps.size());
+}
+
+double GmbScheduler::granularity(JobId j, DeviceId d, const JobPool& pool, const Schedule& s) {
+  if (!opt_.granularity_tiebreak) return 0;
+  const Time exec = exec_estimate(j, d, pool, s);
+  return exec > 0 ? s.graph().timing.setup_time(d, pool.job(j).type) / exec : 0;
+}
+
+// Bucket i's jobs in (T_SETUP/T_EXEC on d, id) order: among jobs that start at the same
+// time the first one wins (Sec. 4.3 tie-break), so a scan in this order can stop at the
+// first job that starts as early as the key block allows.
+const GmbScheduler::Sorted& GmbScheduler::sorted_jobs(std::int32_t i, DeviceId d, const JobPool& pool,
+                                                      const Schedule& s) {
+  Sorted& so = sorted_[static_cast<std::size_t>(i) * static_cast<std::size_t>(classes_) +
+                       static_cast<std::size_t>(class_of_device_[d])];
+  if (so.built) {
+    // Planned jobs leave lazily; compact once they are the majority.
+    const Bucket& bk = buckets_[static_cast<std::size_t>(i)];
+    if (so.jobs.size() > 8 && static_cast<std::size_t>(bk.queued) * 2 < so.jobs.size())
+      std::erase_if(so.jobs, [&](const auto& e) { return pool.state(e.second) != JobState::Queued; });
+    return so;
+  }
+  so.built = true;
+  so.jobs.clear();
+  for (JobId j : buckets_[static_cast<std::size_t>(i)].jobs)
+    if (pool.state(j) == JobState::Queued) so.jobs.emplace_back(granularity(j, d, pool, s), j);
+  std::sort(so.jobs.begin(), so.jobs.end());
+  for (std::size_t k = 1; k < so.jobs.size(); ++k)
+    if (so.jobs[k].first != so.jobs[k - 1].first && nearly_equal(so.jobs[k].first, so.jobs[k - 1].first)) so.monotone = false;
+  return so;
+}
+
+// Lower bound on when any job of group g can start on m: the exact SDC arrival of the
+// group's smallest block (arrivals are monotone in size within a group).
+Time GmbScheduler::group_key(std::int32_t g, MemId m, Time now, const Schedule& s) {
+  const BlockId ref = arrival_bound_->smallest(s, g);
+  if (ref == kNone) return kNever;
+  if (const Copy* c = s.copy_at(ref, m)) return std::max(now, s.copy_ready(*c));
+  const Time at = placer_->finder().arrival(ref, m);
+  arrival_bound_->record(s, ref, m, at);
+  return std::max(bound_time_->lower_bound(s, ref, m, now), at);
+}
+
+// The group's buckets, smallest key block first, until the key block's bound loses: every
+// larger block of the group arrives no earlier. False when no bucket has queued jobs.
+bool GmbScheduler::visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
+                               const Schedule& s, Choice& best) {
+  auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
+  bool any = false;
+  for (const auto& [bytes, b] : arrival_bound_->members(g)) {
+    if (arrival_bound_->group(s, b) != g) continue;  // left the group
+    const std::int32_t i = bucket_of_block_[b];
+    if (i < 0 || open(i, m) == 0) continue;  // every job planned, or infeasible on m
+    any = true;
+    const Time lb = std::max(bound_time_->lower_bound(s, b, m, now), arrival_bound_->bound(s, b, m));
+    if (loses(std::max(ready, lb))) break;
+    evaluate_bucket(i, d, m, ready, now, pool, s, best);
+  }
+  return any;
+}
+
+// The body of select_pruned()'s bucket loop, for one bucket.
+void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
+                                   const Schedule& s, Choice& best) {
+  const DeviceGraph& g = s.graph();
+  const Bucket& bk = buckets_[static_cast<std::size_t>(i)];
+  auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
+  const bool has_key = static_cast<std::size_t>(bk.key) < pool.block_count();
+  Time blb = ready;
+  if (has_key) blb = std::max(blb, bound_time_->lower_bound(s, bk.key, m, now));
+  if (blb == kNever || loses(blb)) return;
+  Time key_at = ready;
+  const Copy* key_copy = has_key ? s.copy_at(bk.key, m) : nullptr;
+  if (has_key) {
+    if (key_copy) {
+      key_at = std::max(ready, s.copy_ready(*key_copy));
+    } else {
+      const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now);
+      Time at = ub;
+      if (!(ub <= blb * (1 + 1e-12))) {
+        at = placer_->finder().arrival(bk.key, m);
+        arrival_bound_->record(s, bk.key, m, at);
+      } else {
+        arrival_bound_->record(s, bk.key, m, bound_time_->lower_bound(s, bk.key, m, now));
+      }
+      key_at = std::max(ready, at);
+    }
+  }
+  if (key_at == kNever || loses(key_at)) return;
+  const Time aging = aging_threshold();
+  const Sorted& so = sorted_jobs(i, d, pool, s);
+  const bool in_order = so.monotone;  // else: every job, no early stop
+  const std::size_t n = in_order ? so.jobs.size() : bk.jobs.size();
+  auto job_at = [&](std::size_t k) { return in_order ? so.jobs[k].second : bk.jobs[k]; };
+  // Can j run on d at all, its key block being fetchable?
+  auto eligible = [&](JobId j) {
+    if (pool.state(j) != JobState::Queued) return false;
+    if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) return false;
+    const Job& job = pool.job(j);
+    if (!g.timing.supports(d, job.type)) return false;
+    if (std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) return false;
+    return !(has_key && !key_copy && !Placer::may_fetch(job, bk.key, s));
+  };
+  // select_pruned()'s per-job step: the exact start (searching only where the bounds
+  // leave it open), folded into `best`. Returns the start (kNever: out).
+  auto evaluate = [&](std::size_t k) -> Time {
+    const JobId j = job_at(k);
+    if (!eligible(j)) return kNever;
+    const Job& job = pool.job(j);
+    Time start = std::max(key_at, s.after_deps_ready(j));
+    for (BlockId b : job.inputs) {
+      if (start == kNever || loses(start)) break;
+      if (has_key && b == bk.key) continue;
+      const Copy* c = s.copy_at(b, m);
+      if (!c && !Placer::may_fetch(job, b, s)) {
+        start = kNever;
+        break;
+      }
+      if (bound_time_->direct_upper_bound(s, b, m, now) <= start) continue;
+      if (loses(bound_time_->lower_bound_once(s, b, m, now))) {
+        start = kNever;
+        break;
+      }
+      start = std::max(start, c ? s.copy_ready(*c) : placer_->finder().arrival(b, m));
+    }
+    if (start == kNever || loses(start)) return kNever;
+    Choice c;
+    c.job = j;
+    c.start = start;
+    c.created = job.created;
+    c.aged = aging != kNever && now - job.created >= aging;
+    c.granularity = in_order ? so.jobs[k].first : granularity(j, d, pool, s);
+    if (prefer_checked(c, best)) best = c;
+    return start;
+  };
+  if (!in_order) {
+    for (std::size_t k = 0; k < n; ++k) evaluate(k);
+    return;
+  }
+  // Granularity order. The first job whose inputs provably arrive by key_at (upper
+  // bounds, no search) starts at key_at, the earliest any job here can; jobs after it
+  // have no smaller granularity and cannot win, jobs before it only if they also start
+  // at key_at. Folding it first lets their bounds prune them.
+  std::size_t first = n;
+  for (std::size_t k = 0; k < n && first == n; ++k) {
+    const JobId j = job_at(k);
+    if (!eligible(j) || s.after_deps_ready(j) > key_at) continue;
+    bool sure = true;
+    for (BlockId b : pool.job(j).inputs) {
+      if (has_key && b == bk.key) continue;
+      if ((!s.copy_at(b, m) && !Placer::may_fetch(pool.job(j), b, s)) || !(bound_time_->direct_upper_bound(s, b, m, now) <= key_at)) {
+        sure = false;
+        break;
+      }
+    }
+    if (sure) first = k;
+  }
+  if (first < n) evaluate(first);
+  for (std::size_t k = 0; k < first; ++k)
+    // Later jobs have no smaller granularity (then a larger id) and start no earlier.
+    if (evaluate(k) == key_at) break;
+}
+
+GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time now, const JobPool& pool,
+                                                  const Schedule& s) {
+  const MemId m = s.graph().computes[d].memory;
+  MemIndex& mi = mem_index_[static_cast<std::size_t>(m)];
+  if (!mi.built) {
+    mi.built = true;
+    mi.heap.reset(arrival_bound_->group_count());
+    for (std::size_t g = 0; g < arrival_bound_->group_count(); ++g)
+      mi.heap.push(static_cast<std::int32_t>(g), -std::numeric_limits<Time>::infinity());
+  }
+  Choice best;
+  near_tie_ = false;
+  if (no_key_bucket_ >= 0 && open(no_key_bucket_, m) > 0)
+    evaluate_bucket(no_key_bucket_, d, m, ready, now, pool, s, best);
+  auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
+  mi.visited.clear();
+  while (!mi.heap.empty()) {
+    const BucketHeap::Entry e = mi.heap.top();
+    if (!mi.heap.current(e)) {
+      mi.heap.pop();
+      continue;
+    }
+    const Time lb = group_key(e.bucket, m, now, s);
+    if (lb > e.key) {  // stale from below: raise it and look again
+      mi.heap.pop();
+      mi.heap.push(e.bucket, lb);
+      continue;
+    }
+    if (loses(std::max(ready, e.key))) break;  // every group left starts later
+    mi.heap.pop();
+    // A group with no queued job left is dropped (a block joining it re-inserts it).
+    if (visit_group(e.bucket, d, m, ready, now, pool, s, best)) mi.visited.push_back(e);
+  }
+  for (const BucketHeap::Entry& e : mi.visited) mi.heap.restore(e);
+  if (near_tie_) return select_pruned(d, ready, now, pool, s);
+  return best;
+}
+
+void GmbScheduler::after_commit(std::size_t activities_before, std::size_t evictions_before, const JobPool& pool,
+                                const Schedule& s) {
+  // Blocks whose holders changed may have joined another holder group, which may now
+  // start earlier anywhere: that group re-enters every heap.
+  auto changed = [&](BlockId b) {
+    if (static_cast<std::size_t>(b) >= bucket_of_block_.size() || bucket_of_block_[b] < 0) return;
+    if (arrival_bound_->group(s, b) != kNone) return;  // holders as before (or seen already)
+    const std::int32_t g = arrival_bound_->assign(s, b);
+    for (MemIndex& mi : mem_index_)
+      if (mi.built) mi.heap.push(g, -std::numeric_limits<Time>::infinity());
+  };
+  for (std::size_t a = activities_before; a < s.activity_count(); ++a) {
+    const Activity& act = s.activity(static_cast<ActivityId>(a));
+    if (act.kind == ActivityKind::Transfer) {
+      changed(act.block);
+    } else {
+      if (static_cast<std::size_t>(act.job) < bucket_of_job_.size() && bucket_of_job_[act.job] >= 0) {
+        const std::int32_t i = bucket_of_job_[act.job];
+        --buckets_[static_cast<std::size_t>(i)].queued;
+        for (std::size_t m = 0; m < mem_index_.size(); ++m)
+          if (!std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(act.job, static_cast<MemId>(m))))
+            --open_[static_cast<std::size_t>(i) * mem_index_.size() + m];
+      }
+      for (BlockId b : pool.job(act.job).inputs) changed(b);
+      for (BlockId o : pool.job(act.job).outputs) changed(o);
+    }
+  }
+  for (std::size_t e = evictions_before; e < s.evictions().size(); ++e) changed(s.evictions()[e].block);
+}
+
 // completion_aware: would another device finish this job earlier than d, given when it
 // is free and when the inputs could reach it?
 bool GmbScheduler::better_elsewhere(const Choice& c, DeviceId d, const JobPool& pool, const Schedule& s) {
@@ -208,6 +487,8 @@ bool GmbScheduler::commit(const Choice& c, DeviceId d, Time ready, Time now, Job
   if (placer_->place(c.job, d, ready, now, pool, s, st)) return true;
   const auto key = std::make_pair(c.job, s.graph().computes[d].memory);
   blocked_pairs_.insert(std::upper_bound(blocked_pairs_.begin(), blocked_pairs_.end(), key), key);
+  if (static_cast<std::size_t>(c.job) < bucket_of_job_.size() && bucket_of_job_[c.job] >= 0 && !open_.empty())
+    --open_[static_cast<std::size_t>(bucket_of_job_[c.job]) * mem_index_.size() + static_cast<std::size_t>(key.second)];
   return false;
 }
 
@@ -217,17 +498,32 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   if (bound_ != &s || !placer_) {
     placer_ = std::make_unique<Placer>(s);
     bound_time_ = std::make_unique<FetchBound>(s.graph());
+    arrival_bound_ = std::make_unique<ArrivalBound>(s.graph());
     bound_ = &s;
   }
   s.reproject(now);
+  const DeviceGraph& g = s.graph();
   placer_->finder().clear();
   placer_->finder().set_now(now);
   blocked_pairs_.clear();
   build_index(now, pool);
+  bound_time_->reset();
+  mem_index_.resize(g.memories.size());
+  for (MemIndex& mi : mem_index_) mi.built = false;
+  arrival_bound_->reset(now);
+  open_.assign(buckets_.size() * g.memories.size(), 0);
+  for (std::size_t i = 0; i < buckets_.size(); ++i)
+    std::fill_n(open_.begin() + static_cast<std::ptrdiff_t>(i * g.memories.size()), g.memories.size(), buckets_[i].queued);
+  no_key_bucket_ = -1;
+  for (std::size_t i = 0; i < buckets_.size(); ++i) {
+    if (static_cast<std::size_t>(buckets_[i].key) < pool.block_count()) arrival_bound_->assign(s, buckets_[i].key);
+    else no_key_bucket_ = static_cast<std::int32_t>(i);
+  }
+  build_classes(s);
+  sorted_.assign(buckets_.size() * static_cast<std::size_t>(classes_), Sorted{});
   const std::uint64_t searches0 = placer_->finder().searches(), hits0 = placer_->finder().hits();
   now_ = now;
   const Time end = now + opt_.horizon;
-  const DeviceGraph& g = s.graph();
   using Item = std::pair<Time, DeviceId>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> devices;
   for (std::size_t d = 0; d < g.computes.size(); ++d)
@@ -245,7 +541,10 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
         deferred_.push_back(c.job);
         continue;
       }
-      if (commit(c, d, ready, now, pool, s, st)) {
+      const std::size_t activities_before = s.activity_count(), evictions_before = s.evictions().size();
+      const bool placed = commit(c, d, ready, now, pool, s, st);
+      after_commit(activities_before, evictions_before, pool, s);
+      if (placed) {
         devices.emplace(std::max(now, s.device_timeline(d).busy_until), d);
         break;
       }

@@ -13,6 +13,8 @@
 #include <memory>
 #include <vector>
 
+#include "arrival_bound.hpp"
+#include "bucket_heap.hpp"
 #include "fetch_bound.hpp"
 #include "placer.hpp"
 #include "scheduler.hpp"
@@ -28,6 +30,10 @@ struct GmbOptions {
   // (earliest completion, as in HEFT/min-min), so a slow or data-less device stops
   // grabbing work. Measured against the exhaustive optimum in test_gmb_properties.
   bool completion_aware = false;
+  // Tests and benchmarks only: select with the straightforward pruned scan (bounds of every
+  // bucket recomputed and sorted at every step) instead of the incremental per-memory-device
+  // index; both choose identically (test_gmb_equivalence).
+  bool reference_selection = false;
 };
 
 class GmbScheduler final : public Scheduler {
@@ -57,23 +63,67 @@ class GmbScheduler final : public Scheduler {
   const Schedule* bound_ = nullptr;
   std::unique_ptr<Placer> placer_;
   std::unique_ptr<FetchBound> bound_time_;
-  std::vector<std::pair<JobId, MemId>> blocked_pairs_;
+  std::vector<std::pair<JobId, MemId>> blocked_pairs_;  // sorted: infeasible this round (capacity)
   std::vector<JobId> deferred_;  // completion_aware: jobs left to other devices this placement
   // Selection index (rebuilt each plan call): queued jobs grouped by their largest input
   // ("key" block). A job cannot start before its key block is on the device's memory, so
   // a bucket whose lower bound already loses to the best candidate is skipped whole.
   struct Bucket {
     BlockId key;
-    std::vector<JobId> jobs;
+    std::vector<JobId> jobs;  // queue order
+    int queued = 0;           // of them still queued
   };
   std::vector<Bucket> buckets_;
-  std::vector<std::int32_t> bucket_of_block_;
+  std::vector<std::int32_t> bucket_of_block_, bucket_of_job_;
   std::vector<std::pair<Time, std::int32_t>> order_;
   bool any_aged_ = false;
   void build_index(Time now, const JobPool& pool);
+  // Reference selection: every bucket's bound recomputed and sorted at every step.
   Choice select_pruned(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
+  // Incremental selection (same choice): per memory device, a persistent heap of holder
+  // groups of buckets (arrival_bound.hpp) keyed by lower bounds that commits can only make
+  // stale from below (bucket_heap.hpp); within a group, buckets smallest key block first;
+  // within a bucket, jobs in granularity order per device timing class, stopping at the
+  // first that starts as early as the key block allows.
+  Choice select_indexed(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
+  void evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
+                       const Schedule& s, Choice& best);
+  Time group_key(std::int32_t g, MemId m, Time now, const Schedule& s);
+  bool visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
+                   const Schedule& s, Choice& best);
+  // After a commit (or a failed one that left hops): re-group the blocks it moved.
+  void after_commit(std::size_t activities_before, std::size_t evictions_before, const JobPool& pool,
+                    const Schedule& s);
+  std::int32_t no_key_bucket_ = -1;  // jobs without inputs
+  // Per bucket and memory device: queued jobs not blocked there (blocked is for the plan).
+  std::vector<std::int32_t> open_;
+  std::int32_t open(std::int32_t i, MemId m) const {
+    return open_[static_cast<std::size_t>(i) * mem_index_.size() + static_cast<std::size_t>(m)];
+  }
   bool prefer(const Choice& c, const Choice& best) const;
-  Time now_ = 0;  // sorted: infeasible this round (capacity)
+  bool prefer_checked(const Choice& c, const Choice& best);  // prefer(), flagging near-ties
+  struct MemIndex {
+    bool built = false;
+    BucketHeap heap;
+    std::vector<BucketHeap::Entry> visited;
+  };
+  std::vector<MemIndex> mem_index_;
+  std::unique_ptr<ArrivalBound> arrival_bound_;  // bounds from exact arrivals seen so far
+  // Device timing classes (identical coefficients for every job type) and, per bucket and
+  // class, the bucket's jobs sorted by (T_SETUP/T_EXEC, id) -- built on first use.
+  std::vector<std::int32_t> class_of_device_;
+  std::int32_t classes_ = 0;
+  struct Sorted {
+    bool built = false;
+    bool monotone = true;  // no two granularities within nearly_equal but different
+    std::vector<std::pair<double, JobId>> jobs;
+  };
+  std::vector<Sorted> sorted_;  // bucket x class
+  void build_classes(const Schedule& s);
+  const Sorted& sorted_jobs(std::int32_t i, DeviceId d, const JobPool& pool, const Schedule& s);
+  double granularity(JobId j, DeviceId d, const JobPool& pool, const Schedule& s);
+  bool near_tie_ = false;
+  Time now_ = 0;
 };
 
 }  // namespace rayline

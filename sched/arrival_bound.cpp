@@ -1,0 +1,112 @@
+#include "sched/arrival_bound.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace rayline {
+
+ArrivalBound::ArrivalBound(const DeviceGraph& g) : n_(g.memories.size()), min_inv_bw_in_(g.memories.size(), kNever) {
+  for (const Channel& c : g.channels) {
+    double& v = min_inv_bw_in_[static_cast<std::size_t>(c.to)];
+    v = std::min(v, 1.0 / c.bandwidth);
+  }
+}
+
+void ArrivalBound::reset(Time now) {
+  ++epoch_;
+  now_ = now;
+  group_ids_.clear();
+  groups_.clear();
+}
+
+// The class of blocks with exactly b's SDC sources: movability, and every holder with its
+// root weight max(now, ready) (fetch_path.cpp).
+std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b) {
+  if (static_cast<std::size_t>(b) >= blocks_.size()) blocks_.resize(s.pool().block_count());
+  BlockState& bs = blocks_[static_cast<std::size_t>(b)];
+  const std::uint64_t hv = s.holders_version(b);
+  if (bs.epoch == epoch_ && bs.holders == hv) return bs.group;
+  sig_.clear();
+  sig_.emplace_back(-1, s.pool().block(b).movable ? 1.0 : 0.0);
+  for (const Copy& c : s.copies(b)) sig_.emplace_back(c.mem, std::max(now_, s.copy_ready(c)));
+  std::sort(sig_.begin() + 1, sig_.end());
+  const auto [it, fresh] = group_ids_.try_emplace(sig_, static_cast<std::int32_t>(groups_.size()));
+  if (fresh) {
+    groups_.emplace_back();
+    groups_.back().largest.resize(n_);
+  }
+  auto& mem = groups_[static_cast<std::size_t>(it->second)].members;
+  const std::pair<Bytes, BlockId> me{s.pool().block(b).bytes, b};
+  const auto pos = std::lower_bound(mem.begin(), mem.end(), me);
+  if (pos == mem.end() || *pos != me) mem.insert(pos, me);
+  bs.group = it->second;
+  bs.holders = hv;
+  bs.epoch = epoch_;
+  return bs.group;
+}
+
+std::int32_t ArrivalBound::group(const Schedule& s, BlockId b) const {
+  if (static_cast<std::size_t>(b) >= blocks_.size()) return kNone;
+  const BlockState& bs = blocks_[static_cast<std::size_t>(b)];
+  return bs.epoch == epoch_ && bs.holders == s.holders_version(b) ? bs.group : kNone;
+}
+
+BlockId ArrivalBound::smallest(const Schedule& s, std::int32_t g) const {
+  for (const auto& [bytes, b] : groups_[static_cast<std::size_t>(g)].members)
+    if (group(s, b) == g) return b;
+  return kNone;
+}
+
+void ArrivalBound::record(const Schedule& s, BlockId b, MemId m, Time lb) {
+  if (static_cast<std::size_t>(b) >= blocks_.size()) blocks_.resize(s.pool().block_count());
+  BlockState& bs = blocks_[static_cast<std::size_t>(b)];
+  if (bs.slot < 0) {
+    bs.slot = static_cast<std::int32_t>(own_.size() / n_);
+    own_.resize(own_.size() + n_);
+  }
+  const Rec r{lb, b, s.pool().block(b).bytes, s.holders_version(b), epoch_};
+  own_[static_cast<std::size_t>(bs.slot) * n_ + static_cast<std::size_t>(m)] = r;
+  const std::int32_t g = group(s, b);
+  if (g == kNone) return;
+  Rec& big = groups_[static_cast<std::size_t>(g)].largest[static_cast<std::size_t>(m)];
+  if (!valid(s, big) || group(s, big.block) != g || big.bytes < r.bytes || big.block == b) big = r;
+}
+
+Time ArrivalBound::from(const Rec& r, Bytes bytes, MemId m) const {
+  if (r.at == kNever) return kNever;  // a larger block fits through no more memory devices
+  if (bytes == r.bytes) return r.at;
+  Time inc = static_cast<double>(bytes - r.bytes) * min_inv_bw_in_[static_cast<std::size_t>(m)] * (1 - 1e-9);
+  if (!(inc >= 0 && inc < kNever)) inc = 0;
+  // Real-arithmetic bound, less a margin for the rounding of both searches (far below
+  // 1e-14 relative on paths of a few hops) and of the increment itself.
+  return r.at + inc - 2e-14 * std::max(1.0, std::abs(r.at));
+}
+
+Time ArrivalBound::bound(const Schedule& s, BlockId b, MemId m) const {
+  Time lb = -std::numeric_limits<Time>::infinity();
+  if (static_cast<std::size_t>(b) >= blocks_.size()) return lb;
+  const BlockState& bs = blocks_[static_cast<std::size_t>(b)];
+  if (bs.slot >= 0) {
+    const Rec& own = own_[static_cast<std::size_t>(bs.slot) * n_ + static_cast<std::size_t>(m)];
+    if (valid(s, own)) lb = own.at;
+  }
+  const std::int32_t g = group(s, b);
+  if (g == kNone) return lb;
+  // A holder's arrival is its copy's ready time: the same for every member.
+  if (s.copy_at(b, m)) return lb;
+  const Bytes bytes = s.pool().block(b).bytes;
+  const Rec& big = groups_[static_cast<std::size_t>(g)].largest[static_cast<std::size_t>(m)];
+  if (valid(s, big) && group(s, big.block) == g && big.bytes <= bytes) lb = std::max(lb, from(big, bytes, m));
+  const BlockId first = smallest(s, g);
+  if (first != kNone && first != b) {
+    const BlockState& fs = blocks_[static_cast<std::size_t>(first)];
+    if (fs.slot >= 0) {
+      const Rec& r = own_[static_cast<std::size_t>(fs.slot) * n_ + static_cast<std::size_t>(m)];
+      if (valid(s, r)) lb = std::max(lb, from(r, bytes, m));
+    }
+  }
+  return lb;
+}
+
+}  // namespace rayline

@@ -1,0 +1,75 @@
+// Lower bounds on SDC arrivals (Sec. 4.4, Eq. 3) from arrivals already computed, for
+// ordering and pruning GMB's job selection (gmb_scheduler.cpp; issue 2 planning speed):
+//   * the block's own last exact arrival at m: within a planning pass channels only get
+//     busier, so while the block's holders are unchanged its arrival can only grow;
+//   * holder groups: blocks with the same sources (same memory devices, same ready
+//     times, same movability; e.g. scene blocks still only on the disks) have arrivals
+//     monotone in |w|. Along any path Eq. 3 is monotone in |w|, the last hop c into m
+//     adds |w|/T_BW(c), and a larger block fits through no more memory devices, so
+//         arrival(b, m) >= arrival(b', m) + (|b| - |b'|) / max_c T_BW(c)    for |b'| <= |b|.
+//     Scanning a group smallest first, the first block whose arrival loses to the best
+//     job found rules out every larger one without a search.
+// Groups are assigned eagerly: the scheduler reports every block whose holders change
+// (assign()). Every bound is checked against the Schedule's holders versions, so a block
+// not reported is merely bounded less tightly. The bounds only order and prune; a job's
+// start is always computed exactly (fetch_path.hpp) before it can be chosen.
+#pragma once
+#include <map>
+#include <vector>
+
+#include "schedule.hpp"
+
+namespace rayline {
+
+class ArrivalBound {
+ public:
+  explicit ArrivalBound(const DeviceGraph& g);
+  void reset(Time now);  // a new planning pass (after reproject())
+  // b's holders changed, or b is new: (re)compute its group; returns it.
+  std::int32_t assign(const Schedule& s, BlockId b);
+  // b's group if it is still current (kNone otherwise).
+  std::int32_t group(const Schedule& s, BlockId b) const;
+  std::size_t group_count() const { return groups_.size(); }
+  // Members of g, smallest first; may list blocks that left since (group(b) != g).
+  const std::vector<std::pair<Bytes, BlockId>>& members(std::int32_t g) const { return groups_[static_cast<std::size_t>(g)].members; }
+  BlockId smallest(const Schedule& s, std::int32_t g) const;  // kNone if none is current
+  // `lb` is at most the SDC arrival of b at m at this point of the plan.
+  void record(const Schedule& s, BlockId b, MemId m, Time lb);
+  // A lower bound on the SDC arrival of b at m from the records; -inf if none applies.
+  Time bound(const Schedule& s, BlockId b, MemId m) const;
+
+ private:
+  struct Rec {
+    Time at = 0;
+    BlockId block = kNone;
+    Bytes bytes = 0;
+    std::uint64_t holders = 0;  // holders_version(block) when recorded
+    std::uint64_t epoch = 0;
+  };
+  struct BlockState {
+    std::int32_t slot = -1;     // into own_ (n_ entries), once recorded
+    std::int32_t group = -1;
+    std::uint64_t holders = 0;  // holders_version(b) the group was computed for
+    std::uint64_t epoch = 0;    // reset() count of `group`
+  };
+  struct Group {
+    std::vector<std::pair<Bytes, BlockId>> members;
+    std::vector<Rec> largest;  // per memory device: the largest member with a record
+  };
+  bool valid(const Schedule& s, const Rec& r) const {
+    return r.epoch == epoch_ && r.block != kNone && r.holders == s.holders_version(r.block);
+  }
+  Time from(const Rec& r, Bytes bytes, MemId m) const;  // r's bound carried to a block of `bytes`
+
+  std::size_t n_;
+  std::vector<double> min_inv_bw_in_;  // per memory device: 1 / the fastest incoming channel
+  std::uint64_t epoch_ = 1;
+  Time now_ = 0;
+  std::vector<BlockState> blocks_;
+  std::vector<Rec> own_;
+  std::map<std::vector<std::pair<std::int64_t, Time>>, std::int32_t> group_ids_;
+  std::vector<Group> groups_;
+  std::vector<std::pair<std::int64_t, Time>> sig_;
+};
+
+}  // namespace rayline

@@ -1,0 +1,29 @@
+#include "sched/bucket_heap.hpp"
+
+#include <algorithm>
+
+namespace rayline {
+
+void BucketHeap::reset(std::size_t buckets) {
+  heap_.clear();
+  gen_.assign(buckets, 0);
+}
+
+void BucketHeap::pop() {
+  std::pop_heap(heap_.begin(), heap_.end(), later);
+  heap_.pop_back();
+}
+
+void BucketHeap::push(std::int32_t bucket, Time key) {
+  if (static_cast<std::size_t>(bucket) >= gen_.size()) gen_.resize(static_cast<std::size_t>(bucket) + 1, 0);
+  const std::uint32_t g = ++gen_[static_cast<std::size_t>(bucket)];
+  heap_.push_back({key, bucket, g});
+  std::push_heap(heap_.begin(), heap_.end(), later);
+}
+
+void BucketHeap::restore(const Entry& e) {
+  heap_.push_back(e);
+  std::push_heap(heap_.begin(), heap_.end(), later);
+}
+
+}  // namespace rayline
