@@ -74,6 +74,8 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
     adm.at = kNever;
     return adm;
   }
+  // Nothing to place: nothing to evict (even on an overfull device).
+  if (bytes == 0) return adm;
   // used_ may exceed the capacity: data put in place by a workload (new ray queues) is
   // not admitted; the difference must then be freed first (signed arithmetic).
   if (used_[m] <= cap && cap - used_[m] >= bytes) return adm;

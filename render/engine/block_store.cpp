@@ -17,7 +17,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 BlockStore::BlockStore(const partition::BlockIndex& index, std::string dir, std::vector<std::uint64_t> footprint,
                        std::uint32_t material_count, trace::BvhQuality quality, int build_threads)
     : index_(index), dir_(std::move(dir)), footprint_(std::move(footprint)), materials_(material_count),
-      quality_(quality), device_(build_threads), resident_(index.blocks.size()) {}
+      quality_(quality), device_(build_threads), resident_(index.blocks.size()), copies_(index.blocks.size(), 0) {}
 
 std::string BlockStore::path(std::uint32_t block) const {
   return (std::filesystem::path(dir_) / index_.blocks.at(block).file).string();
@@ -63,7 +63,8 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t bloc
 void BlockStore::load(std::uint32_t block) {
   {
     std::lock_guard lk(mu_);
-    if (resident_.at(block)) return;
+    ++copies_.at(block);
+    if (resident_[block]) return;
   }
   auto g = build(block);
   std::lock_guard lk(mu_);
@@ -77,7 +78,8 @@ void BlockStore::load(std::uint32_t block) {
 void BlockStore::evict(std::uint32_t block) {
   std::shared_ptr<const trace::BlockGeometry> g;
   std::lock_guard lk(mu_);
-  if (!resident_.at(block)) return;
+  if (copies_.at(block) > 0) --copies_[block];
+  if (copies_[block] > 0 || !resident_[block]) return;
   g.swap(resident_[block]);
   stats_.resident_bytes -= footprint_[block];
   ++stats_.evictions;
@@ -92,6 +94,7 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::get(std::uint32_t block)
   }
   load(block);
   std::lock_guard lk(mu_);
+  --copies_[block];  // not a plan copy: the next planned eviction may free it
   return resident_[block];
 }
 

@@ -2,7 +2,10 @@
 // machine"): scene blocks resident in host memory, each as a traceable BlockGeometry.
 // A block enters only through a planned T-job (load) and leaves only through a planned
 // eviction, so what is resident mirrors the Schedule's copies on the RAM memory device,
-// and the bytes held stay within the memory budget the plan respects.
+// and the bytes held stay within the memory budget the plan respects. The plan may hold
+// two copies of one block in sequence (evicted at the start of some activity, fetched
+// again by a T-job that can run before it): the store keeps one physical copy and counts
+// the plan's copies, freeing it when the last one is evicted.
 #pragma once
 #include <atomic>
 #include <cstdint>
@@ -65,6 +68,7 @@ class BlockStore {
   trace::EmbreeDevice device_;
   mutable std::mutex mu_;
   std::vector<std::shared_ptr<const trace::BlockGeometry>> resident_;
+  std::vector<int> copies_;  // plan copies loaded and not yet evicted, per block
   BlockStoreStats stats_;
 };
 
