@@ -1,7 +1,11 @@
 #include "apps/cmd_simulate.hpp"
 
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <sys/wait.h>
 #include <unistd.h>
+#include <vector>
 
 #include "apps/cli_common.hpp"
 #include "apps/platform_path.hpp"
@@ -19,12 +23,54 @@ double duration_flag(const std::string& flag, const std::string& text) {
     throw InputError(flag, "", e.what());
   }
 }
+
+// "boeing" / "museum": the scene profiles in scenes/ (RAYLINE_SCENES overrides the folder).
+std::string resolve_workload(const std::string& w) {
+  namespace fs = std::filesystem;
+  if (w != "boeing" && w != "museum") return w;
+  const char* env = std::getenv("RAYLINE_SCENES");
+  const fs::path dir = env ? fs::path(env) : fs::path(RAYLINE_PLATFORM_DIR) / ".." / "scenes";
+  return (dir / (w + ".profile.json")).lexically_normal().string();
+}
+
+std::vector<int> client_counts(const std::string& text) {
+  std::vector<int> out;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t comma = text.find(',', pos);
+    const std::string item = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    char* end = nullptr;
+    const long v = std::strtol(item.c_str(), &end, 10);
+    if (item.empty() || *end != '\0' || v < 1 || v > 1023)
+      throw InputError("--clients", "", "expected N or a list N1,N2,... of integers in [1, 1023], got '" + text + "'");
+    out.push_back(static_cast<int>(v));
+    if (comma == std::string::npos) break;
+    pos = comma + 1;
+  }
+  return out;
+}
+
+void print_summary(const sim::SimulationSummary& s, const std::string& out) {
+  std::printf("simulated %.3f s in %.3f s wall (%.0fx), %.4g rays/s, %llu activities, scheduler %.3f s (%.2f%% of simulated time)\n",
+              s.simulated, s.wall_seconds, s.wall_seconds > 0 ? s.simulated / s.wall_seconds : 0.0, s.rays_per_second,
+              static_cast<unsigned long long>(s.activities), s.scheduler_seconds,
+              s.simulated > 0 ? 100 * s.scheduler_seconds / s.simulated : 0.0);
+  if (s.path_trace) {
+    std::printf("steady state: %.4g rays/s; frames delivered %llu; devices busy %.1f%%, setup %.1f%%, fetching %.1f%%, true idle %.1f%%\n",
+                s.steady_rays_per_second, static_cast<unsigned long long>(s.frames_delivered), 100 * s.busy, 100 * s.setup,
+                100 * s.fetching, 100 * s.idle);
+    if (s.prediction_accuracy >= 0)
+      std::printf("prediction accuracy %.1f%% (jobs), %.1f%% (rays)\n", 100 * s.prediction_accuracy,
+                  100 * s.prediction_ray_accuracy);
+  }
+  std::printf("results: %s/metrics.json, jobs.csv, timeline.json\n", out.c_str());
+}
 }  // namespace
 
 int run_simulate(const SimulateOptions& opt) {
   sim::SimulationConfig cfg;
   cfg.platform_file = resolve_platform(opt.platform);
-  cfg.workload = opt.workload;
+  cfg.workload = resolve_workload(opt.workload);
   cfg.scheduler = opt.scheduler;
   cfg.horizon = duration_flag("--horizon", opt.horizon);
   cfg.duration = duration_flag("--duration", opt.duration);
@@ -34,17 +80,82 @@ int run_simulate(const SimulateOptions& opt) {
   cfg.out_dir = opt.out;
   cfg.paje = opt.paje;
   cfg.progress = !opt.no_progress && ::isatty(2);
-  const sim::SimulationSummary s = sim::run_simulation(cfg);
-  std::printf("simulated %.3f s in %.3f s wall (%.0fx), %.4g rays/s, %llu activities, scheduler %.3f s (%.2f%% of simulated time)\n",
-              s.simulated, s.wall_seconds, s.wall_seconds > 0 ? s.simulated / s.wall_seconds : 0.0, s.rays_per_second,
-              static_cast<unsigned long long>(s.activities), s.scheduler_seconds,
-              s.simulated > 0 ? 100 * s.scheduler_seconds / s.simulated : 0.0);
-  std::printf("results: %s/metrics.json, jobs.csv, timeline.json\n", opt.out.c_str());
-  if (s.stalled) {
-    std::fprintf(stderr, "rayline: %zu queued job(s) could not be placed on any device (capacity or no path)\n",
-                 s.queued_at_end);
-    return kExitFailure;
+  cfg.prediction_depth = opt.prediction_depth;
+  cfg.fidelity = opt.fidelity;
+  cfg.replay_file = opt.replay;
+  cfg.record_replay = opt.record_replay;
+  if (!opt.warmup.empty()) cfg.warmup = duration_flag("--warmup", opt.warmup);
+  const std::vector<int> counts = client_counts(opt.clients);
+  const bool path_trace = cfg.workload.ends_with(".profile.json");
+  if (!path_trace && (counts.size() > 1 || counts[0] != 1 || opt.prediction_depth != 0 || opt.fidelity != "markov" ||
+                      !opt.replay.empty() || opt.record_replay))
+    throw InputError("--workload", "", "--clients, --prediction-depth, --fidelity, --replay and --record-replay need a "
+                                       "path-tracing workload (boeing, museum or FILE.profile.json)");
+  if (counts.size() == 1) {
+    cfg.clients = counts[0];
+    const sim::SimulationSummary s = sim::run_simulation(cfg);
+    print_summary(s, opt.out);
+    if (s.stalled) {
+      std::fprintf(stderr, "rayline: %zu queued job(s) could not be placed on any device (capacity or no path)\n",
+                   s.queued_at_end);
+      return kExitFailure;
+    }
+    return kExitOk;
   }
+  // A sweep (Sec. 6: "we increase the number of clients until each method reaches its peak
+  // performance"): one process per point (SimGrid's engine is a process-wide singleton),
+  // results in OUT/clients-N/; the summary line of each and the peak.
+  double peak = 0;
+  int peak_n = 0;
+  std::printf("clients,steady_rays_per_second,prediction_accuracy,busy,setup,fetching,idle,frames\n");
+  std::fflush(stdout);
+  for (int n : counts) {
+    int fds[2];
+    if (::pipe(fds) != 0) throw std::runtime_error("pipe failed");
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      ::close(fds[0]);
+      int rc = kExitFailure;
+      try {
+        sim::SimulationConfig c = cfg;
+        c.clients = n;
+        c.out_dir = opt.out + "/clients-" + std::to_string(n);
+        c.progress = false;
+        const sim::SimulationSummary s = sim::run_simulation(c);
+        char line[512];
+        const int len = std::snprintf(line, sizeof line, "%d,%.6g,%.4f,%.4f,%.4f,%.4f,%.4f,%llu\n", n,
+                                      s.steady_rays_per_second, s.prediction_accuracy, s.busy, s.setup, s.fetching, s.idle,
+                                      static_cast<unsigned long long>(s.frames_delivered));
+        if (::write(fds[1], line, static_cast<std::size_t>(len)) != len) rc = kExitFailure;
+        else rc = s.stalled ? kExitFailure : kExitOk;
+      } catch (const InputError& e) {
+        std::fprintf(stderr, "rayline: %s\n", e.what());
+        rc = kExitBadInput;
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "rayline: %s\n", e.what());
+      }
+      ::close(fds[1]);
+      std::fflush(nullptr);
+      ::_exit(rc);
+    }
+    ::close(fds[1]);
+    std::string line;
+    char buf[512];
+    for (ssize_t k; (k = ::read(fds[0], buf, sizeof buf)) > 0;) line.append(buf, static_cast<std::size_t>(k));
+    ::close(fds[0]);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    const int rc = WIFEXITED(status) ? WEXITSTATUS(status) : kExitFailure;
+    if (rc != kExitOk) return rc;
+    std::printf("%s", line.c_str());
+    std::fflush(stdout);
+    const double r = std::strtod(line.c_str() + line.find(',') + 1, nullptr);
+    if (r > peak) {
+      peak = r;
+      peak_n = n;
+    }
+  }
+  std::printf("peak: %.4g rays/s with %d client(s); results in %s/clients-N/\n", peak, peak_n, opt.out.c_str());
   return kExitOk;
 }
 

@@ -17,6 +17,13 @@ struct SimulateOptions {
   std::string out = "out/simulate";
   bool paje = false;
   bool no_progress = false;
+  // Path-tracing workload (--workload boeing|museum|FILE.profile.json).
+  std::string clients = "1";        // N, or a list "1,2,4,8": one run per value, peak reported
+  int prediction_depth = 0;
+  std::string fidelity = "markov";
+  std::string replay;
+  bool record_replay = false;
+  std::string warmup;               // default: a third of --duration
 };
 int run_simulate(const SimulateOptions& opt);
 

@@ -48,7 +48,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<SimulateOptions>();
   auto* sim = app.add_subcommand("simulate", "Run a schedule on the SimGrid virtual platform and measure it");
   sim->add_option("--platform", opt->platform, "Platform JSON or built-in name (default: paper-cluster)");
-  sim->add_option("--workload", opt->workload, "'ray-stream' or a job-set JSON file")->default_val(opt->workload);
+  sim->add_option("--workload", opt->workload, "'ray-stream', a job-set JSON file, or path tracing on a scene profile: boeing, museum or FILE.profile.json")->default_val(opt->workload);
   sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014) or budge (Budge 2009)")->default_val(opt->scheduler);
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->default_val(opt->duration);
@@ -58,6 +58,12 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--out", opt->out, "Output directory (metrics.json, jobs.csv, timeline.json)")->default_val(opt->out);
   sim->add_flag("--paje", opt->paje, "Also write SimGrid's Paje trace (simgrid.trace)");
   sim->add_flag("--no-progress", opt->no_progress, "No progress line");
+  sim->add_option("--clients", opt->clients, "Path tracing: clients requesting frames (N, or N1,N2,... for a sweep reporting the peak)")->default_val(opt->clients);
+  sim->add_option("--prediction-depth", opt->prediction_depth, "Path tracing: job prediction depth (Sec. 5.2; 0 = off)")->default_val(opt->prediction_depth)->check(CLI::Range(0, 16));
+  sim->add_option("--fidelity", opt->fidelity, "Path tracing: ray-flow model analytic, markov or replay")->default_val(opt->fidelity);
+  sim->add_option("--replay", opt->replay, "Path tracing: replay log for --fidelity replay");
+  sim->add_flag("--record-replay", opt->record_replay, "Path tracing: also write OUT/replay.log (this run's ray outcomes)");
+  sim->add_option("--warmup", opt->warmup, "Path tracing: steady state starts here (default: a third of --duration)");
   sim->callback([opt, &action] { action = [opt] { return run_simulate(*opt); }; });
 }
 

@@ -16,6 +16,7 @@
 #include "sched/budge.hpp"
 #include "sched/job_set.hpp"
 #include "sched/load_any_once.hpp"
+#include "sched/path_trace_workload.hpp"
 #include "sched/platform_loader.hpp"
 #include "sched/ray_stream.hpp"
 #include "sched/runtime_loop.hpp"
@@ -39,6 +40,67 @@ double percentile(std::vector<double> v, double q) {
   return v[static_cast<std::size_t>(std::min<double>(static_cast<double>(v.size() - 1), q * static_cast<double>(v.size())))];
 }
 
+std::uint64_t work_of(const PathTraceWorkload& pt) {
+  std::uint64_t w = 0;
+  for (const auto& [t, n] : pt.traced()) w += n;
+  return w;
+}
+
+// metrics.json "path_trace": rays created/ended, frames, steady-state throughput (after
+// the warm-up), prediction accuracy (Sec. 5.2; definitions in docs/scene-profiles.md).
+void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const SceneProfile& prof,
+                        const SimulationConfig& cfg, Time end, SimulationSummary& sum) {
+  const Time warm = cfg.warmup >= 0 ? cfg.warmup : end / 3;
+  double traced = 0, ended = 0;
+  for (const auto& [t, n] : pt.traced())
+    if (t >= warm) traced += static_cast<double>(n);
+  for (const auto& [t, n] : pt.ended_series())
+    if (t >= warm) ended += static_cast<double>(n);
+  const double span = std::max(1e-9, end - warm);
+  const RayTally& r = pt.tally();
+  std::uint64_t exact = 0;
+  double latency = 0;
+  for (const FrameReport& f : pt.frames()) {
+    exact += f.exact ? 1 : 0;
+    latency += f.delivered - f.requested;
+  }
+  nlohmann::json j;
+  j["scene"] = prof.name;
+  j["profile"] = cfg.workload;
+  j["fidelity"] = to_string(pt.model().fidelity());
+  j["clients"] = cfg.clients;
+  j["prediction_depth"] = cfg.prediction_depth;
+  j["image"] = {{"width", prof.width}, {"height", prof.height}, {"spp", prof.spp}};
+  j["warmup_s"] = warm;
+  j["steady_rays_per_second"] = traced / span;
+  j["steady_rays_ended_per_second"] = ended / span;
+  j["rays"] = {{"primary", r.primary}, {"secondary", r.secondary}, {"shadow", r.shadow}, {"created", r.created()},
+               {"hit", r.hit}, {"escaped", r.escaped}, {"occluded", r.occluded}, {"lit", r.lit}, {"ended", r.ended()},
+               {"alive_at_end", pt.rays_alive()}};
+  j["frames"] = {{"delivered", pt.frames().size()}, {"exact", exact},
+                 {"mean_latency_s", pt.frames().empty() ? 0.0 : latency / static_cast<double>(pt.frames().size())}};
+  nlohmann::json jobs;
+  for (int k = 0; k < kPtJobCount; ++k)
+    jobs[std::string(kPtJobTypeNames[static_cast<std::size_t>(k)])] = pt.jobs_of(static_cast<PtJob>(k));
+  j["jobs"] = jobs;
+  j["queue_merges"] = pt.merges();
+  j["queue_merges_into_planned"] = pt.merges_into_planned();
+  if (const PredictionStats* p = pt.prediction()) {
+    j["prediction"] = {{"created", p->created}, {"confirmed", p->confirmed}, {"confirmed_planned", p->confirmed_planned},
+                       {"failed", p->failed}, {"superseded", p->superseded}, {"accuracy", p->accuracy()},
+                       {"ray_accuracy", p->ray_accuracy()}};
+    sum.prediction_accuracy = p->accuracy();
+    sum.prediction_ray_accuracy = p->ray_accuracy();
+  }
+  if (pt.model().fidelity() == Fidelity::Replay)
+    j["replay"] = {{"replayed_rays", pt.model().replayed_rays()}, {"fallback_rays", pt.model().fallback_rays()},
+                   {"exact_pieces", pt.model().exact_pieces()}};
+  m["path_trace"] = j;
+  sum.path_trace = true;
+  sum.steady_rays_per_second = traced / span;
+  sum.frames_delivered = pt.frames().size();
+}
+
 }  // namespace
 
 SimulationSummary run_simulation(const SimulationConfig& cfg) {
@@ -51,9 +113,29 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
   if (cfg.exec_noise < 0 || cfg.exec_noise >= 1) throw InputError("--exec-noise", "", "must be in [0, 1)");
   const DeviceGraph g = load_platform(cfg.platform_file);
-  const bool stream = cfg.workload == "ray-stream";
+  const bool path_trace = cfg.workload.ends_with(".profile.json");
+  const bool stream = cfg.workload == "ray-stream" || path_trace;  // runs for --duration
   std::unique_ptr<JobSet> set;
   if (!stream) set = std::make_unique<JobSet>(load_job_set(cfg.workload, g));  // validate before any output
+  // Path tracing: the scene profile, fidelity and replay log, all validated before any output.
+  std::unique_ptr<SceneProfile> profile;
+  PathTraceOptions pto;
+  if (path_trace) {
+    profile = std::make_unique<SceneProfile>(load_scene_profile(cfg.workload));
+    if (!parse_fidelity(cfg.fidelity, pto.fidelity))
+      throw InputError("--fidelity", "", "unknown fidelity '" + cfg.fidelity + "' (known: analytic, markov, replay)");
+    if (pto.fidelity == Fidelity::Replay) {
+      if (cfg.replay_file.empty()) throw InputError("--replay", "", "--fidelity replay needs --replay FILE (a replay log)");
+      pto.replay = std::make_shared<ReplayLog>(ReplayLog::load(cfg.replay_file));
+    }
+    if (cfg.warmup >= cfg.duration) throw InputError("--warmup", "", "must be shorter than --duration");
+    pto.clients = cfg.clients;
+    pto.prediction_depth = cfg.prediction_depth;
+    pto.seed = cfg.seed;
+  }
+  ReplayLog recording;
+  if (cfg.record_replay && !path_trace) throw InputError("--record-replay", "", "only for a path-tracing workload");
+  if (cfg.record_replay) pto.record = &recording;
 
   const fs::path out(cfg.out_dir);
   const fs::path partial = out.string() + ".partial." + std::to_string(::getpid());
@@ -80,7 +162,12 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   Schedule s(g, pool);
   std::unique_ptr<Workload> wl;
   RayStreamWorkload* rs = nullptr;
-  if (stream) {
+  PathTraceWorkload* pt = nullptr;
+  if (path_trace) {
+    auto w = std::make_unique<PathTraceWorkload>(g, *profile, pto);
+    pt = w.get();
+    wl = std::move(w);
+  } else if (stream) {
     RayStreamOptions ro;
     ro.blocks = cfg.blocks;
     ro.seed = cfg.seed;
@@ -106,6 +193,12 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
       return 1 - n + 2 * n * (static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0));
     };
   }
+  if (pt) {  // predicted jobs planned before their real rays were known run for their real size
+    auto noise = xo.exec_factor;
+    xo.exec_factor = [pt, noise](ActivityId id, const Activity& a) {
+      return pt->exec_scale(a.job, a.device, a) * (noise ? noise(id, a) : 1.0);
+    };
+  }
   SimExecutor ex(platform, s, xo);
   RuntimeLoop loop(*scheduler, ex, *wl, pool, s);
   auto last_print = std::chrono::steady_clock::now();
@@ -115,7 +208,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
       if (t - last_print < std::chrono::milliseconds(500)) return;
       last_print = t;
       std::fprintf(stderr, "\r[simulate] t=%7.2f / %.0f s  rays %.3g  activities %zu   ", now, cfg.duration,
-                   rs ? static_cast<double>(rs->rays_traced()) : 0.0, s.activity_count());
+                   rs ? static_cast<double>(rs->rays_traced()) : pt ? static_cast<double>(work_of(*pt)) : 0.0,
+                   s.activity_count());
     };
   }
   const auto run0 = std::chrono::steady_clock::now();
@@ -174,6 +268,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
                      {"committed", s.activity_count()}, {"evictions", s.evictions().size()},
                      {"queued_at_end", pool.queued_count()}};
   if (rs) m["activities"]["queue_merges"] = rs->merges();
+  SimulationSummary sum;
+  if (pt) path_trace_metrics(m, *pt, *profile, cfg, end, sum);
   auto mean = [](const std::vector<double>& v) {
     double t = 0;
     for (double x : v) t += x;
@@ -238,12 +334,14 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   write_text(partial / "metrics.json", m.dump(2) + "\n");
   write_text(partial / "jobs.csv", jobs_csv(s));
   write_text(partial / "timeline.json", chrome_trace_json(s, true));
+  if (cfg.record_replay)
+    recording.save((partial / "replay.log").string(), "scene=" + profile->name + " fidelity=" + cfg.fidelity + " seed=" +
+                                                          std::to_string(cfg.seed) + " clients=" + std::to_string(cfg.clients));
   fs::remove_all(out, ec);
   fs::rename(partial, out, ec);
   if (ec) throw InputError(cfg.out_dir, "", "cannot move results into place: " + ec.message());
   cleanup.keep = true;
 
-  SimulationSummary sum;
   sum.simulated = end;
   sum.wall_seconds = wall;
   sum.scheduler_seconds = st.scheduler_wall_seconds;
@@ -251,6 +349,14 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   sum.activities = done_exec + done_transfer;
   sum.stalled = st.stalled;
   sum.queued_at_end = pool.queued_count();
+  double tot = 0;
+  for (const auto& [k, t] : by_kind) tot += t.busy + t.setup + t.fetching + t.idle;
+  for (const auto& [k, t] : by_kind) {
+    sum.busy += t.busy / std::max(tot, 1e-300);
+    sum.setup += t.setup / std::max(tot, 1e-300);
+    sum.fetching += t.fetching / std::max(tot, 1e-300);
+    sum.idle += t.idle / std::max(tot, 1e-300);
+  }
   return sum;
 }
 

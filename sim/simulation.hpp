@@ -11,7 +11,7 @@ namespace rayline::sim {
 
 struct SimulationConfig {
   std::string platform_file;
-  std::string workload = "ray-stream";  // "ray-stream" or a job-set JSON file
+  std::string workload = "ray-stream";  // "ray-stream", a job-set JSON file, or a scene profile (*.profile.json)
   std::string scheduler = "gmb";        // gmb | gmb-ca (completion-aware)
   Time horizon = 2.0;
   Time duration = 60.0;                 // simulated seconds (ray-stream); static sets run to the end
@@ -21,6 +21,13 @@ struct SimulationConfig {
   std::string out_dir = "out/simulate";
   bool paje = false;                    // SimGrid's own trace as OUT/simgrid.trace
   bool progress = false;                // a progress line on stderr
+  // Path-tracing workload (a scene profile; docs/scene-profiles.md).
+  int clients = 1;
+  int prediction_depth = 0;             // Sec. 5.2; 0: off
+  std::string fidelity = "markov";      // analytic | markov | replay
+  std::string replay_file;              // replay fidelity: the log to replay
+  bool record_replay = false;           // write OUT/replay.log (every split of this run)
+  Time warmup = -1;                     // steady state from here (<0: a third of the duration)
 };
 
 struct SimulationSummary {
@@ -31,6 +38,12 @@ struct SimulationSummary {
   std::uint64_t activities = 0;
   bool stalled = false;        // queued jobs that no device could ever take
   std::size_t queued_at_end = 0;
+  // Path-tracing workload only.
+  bool path_trace = false;
+  double steady_rays_per_second = 0;    // rays intersected per second after the warm-up
+  double prediction_accuracy = -1, prediction_ray_accuracy = -1;  // <0: prediction off
+  std::uint64_t frames_delivered = 0;
+  double busy = 0, setup = 0, fetching = 0, idle = 0;  // shares of compute-device time
 };
 
 SimulationSummary run_simulation(const SimulationConfig& cfg);

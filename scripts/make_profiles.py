@@ -1,0 +1,457 @@
+#!/usr/bin/env python3
+"""Scene profiles for the simulator's path-tracing workload (docs/scene-profiles.md).
+
+    scripts/make_profiles.py [--rayline build/apps/rayline] [--work out/profiles] [--paths 20000]
+        writes scenes/boeing.profile.json and scenes/museum.profile.json
+    scripts/make_profiles.py fidelity [--rayline ...] [--duration 30s] [--out out/fidelity]
+        writes OUT/fidelity.csv: simulator wall time vs throughput error of the three fidelity
+        levels on both scenes, error measured against replay
+
+How a profile is made (standard library only, deterministic for --seed):
+ 1. `rayline generate boeing-like|museum-like` at --triangles, then `rayline partition` into
+    129 / 65 blocks (the paper's block counts): cell bounds, geometry bounds, triangle
+    counts, block file sizes, face neighbours with shared areas (blocks.json).
+ 2. Sizes are scaled to the paper's footprints (Table 1: 26.5 GiB / 12.3 GiB): block b gets
+    file_bytes(b) * target / sum(file_bytes), so the blocks keep the generated scene's
+    proportions.
+ 3. A SYNTHETIC tracer (not the renderer's kernels: they were not available to this script
+    when it was written) traces --paths camera paths through the partition's cells. Geometry
+    is modelled as a homogeneous medium inside each block's geometry bounds (cell clipped),
+    of optical density sigma_b = kappa * (triangles_b / volume_b)^(1/3): a segment of length
+    l through it is hit with probability 1 - exp(-sigma_b l); kappa is set per scene so the
+    mean hit ratio per cell visit is the target below. Hits scatter in a uniformly random
+    direction (the generated meshes carry no usable per-block materials); survival at a hit
+    is the scene's beta; each hit sends one shadow ray to a point light above the scene,
+    occluded by the same media. Counting per cell: visits, hits, escapes, exits to each
+    neighbour, shadow visits / occlusions / exits gives alpha_b, escape_b, p(b -> n),
+    shadow_occlusion_b, shadow_exit_b (with a small area-weighted prior, so every face
+    neighbour has p > 0). Primary rays give each camera keyframe's entry distribution.
+ 4. The analytic section holds the scene means of the same counts (the paper's global
+    alpha/beta; neighbours weighted by area).
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import random
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+GIB = 1024 ** 3
+
+SCENES = {
+    "boeing": dict(generator="boeing-like", blocks=129, bytes=26.5 * GIB, width=512, height=512, spp=4,
+                   tiles=[8, 8], wave_rays=262144, inflight_rays=4000000, max_bounces=5, alpha=0.55, beta=0.5,
+                   camera="orbit", description="Boeing 777-like CAD model (rayline generate boeing-like), "
+                   "partitioned into the paper's 129 blocks, scaled to 26.5 GiB; 512^2, 4 spp (Table 1)"),
+    "museum": dict(generator="museum-like", blocks=65, bytes=12.3 * GIB, width=2048, height=2048, spp=128,
+                   tiles=[8, 8], wave_rays=1048576, inflight_rays=8000000, max_bounces=8, alpha=0.7, beta=0.8,
+                   camera="walk", description="SponzaMuseum-like interior (rayline generate museum-like), "
+                   "partitioned into the paper's 65 blocks, scaled to 12.3 GiB; 2048^2, 128 spp, many diffuse "
+                   "bounces (Table 1)"),
+}
+
+
+def run(cmd):
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+
+
+class Partition:
+    def __init__(self, index):
+        self.nodes = index["kdtree"]["nodes"]
+        self.root = index["kdtree"]["root"]
+        self.lo = index["bounds"]["lo"]
+        self.hi = index["bounds"]["hi"]
+        self.blocks = index["blocks"]
+
+    def inside(self, p):
+        return all(self.lo[a] <= p[a] <= self.hi[a] for a in range(3))
+
+    def locate(self, p):
+        n = self.nodes[self.root]
+        while "block" not in n:
+            n = self.nodes[n["left"] if p[n["axis"]] < n["split"] else n["right"]]
+        return n["block"]
+
+
+def box_interval(o, d, lo, hi):
+    t0, t1 = 0.0, math.inf
+    for a in range(3):
+        if abs(d[a]) < 1e-12:
+            if o[a] < lo[a] or o[a] > hi[a]:
+                return None
+            continue
+        inv = 1.0 / d[a]
+        ta, tb = (lo[a] - o[a]) * inv, (hi[a] - o[a]) * inv
+        if ta > tb:
+            ta, tb = tb, ta
+        t0, t1 = max(t0, ta), min(t1, tb)
+        if t0 > t1:
+            return None
+    return t0, t1
+
+
+def unit(v):
+    n = math.sqrt(sum(x * x for x in v)) or 1.0
+    return [x / n for x in v]
+
+
+def random_dir(rng):
+    z = 2 * rng.random() - 1
+    phi = 2 * math.pi * rng.random()
+    r = math.sqrt(max(0.0, 1 - z * z))
+    return [r * math.cos(phi), r * math.sin(phi), z]
+
+
+class Tracer:
+    def __init__(self, part, kappa, beta, max_bounces, rng):
+        self.part, self.kappa, self.beta, self.max_bounces, self.rng = part, kappa, beta, max_bounces, rng
+        nb = len(part.blocks)
+        self.media = []
+        for b in part.blocks:
+            c, g = b["cell"], b.get("geometry_bounds")
+            if not g or b["triangles"] == 0:
+                self.media.append(None)
+                continue
+            lo = [max(c["lo"][a], g["lo"][a]) for a in range(3)]
+            hi = [min(c["hi"][a], g["hi"][a]) for a in range(3)]
+            ext = max(hi[a] - lo[a] for a in range(3))
+            if ext <= 0:
+                self.media.append(None)
+                continue
+            vol = 1.0
+            for a in range(3):
+                vol *= max(hi[a] - lo[a], 1e-3 * ext)
+            self.media.append((lo, hi, (b["triangles"] / vol) ** (1 / 3)))
+        self.visits = [0] * nb
+        self.hits = [0] * nb
+        self.escapes = [0] * nb
+        self.trans = [dict() for _ in range(nb)]
+        self.s_visits = [0] * nb
+        self.s_occ = [0] * nb
+        self.s_exit = [0] * nb
+        self.s_trans = [dict() for _ in range(nb)]
+        span = [part.hi[a] - part.lo[a] for a in range(3)]
+        self.eps = 1e-6 * max(span)
+        self.light = [(part.lo[0] + part.hi[0]) / 2, part.hi[1] + 2 * span[1], (part.lo[2] + part.hi[2]) / 2]
+
+    def medium_hit(self, b, o, d, t0, t1):
+        """Distance of a hit inside cell b's medium within [t0, t1], or None."""
+        m = self.media[b]
+        if m is None:
+            return None
+        iv = box_interval(o, d, m[0], m[1])
+        if iv is None:
+            return None
+        a, z = max(iv[0], t0), min(iv[1], t1)
+        if a >= z:
+            return None
+        t = a - math.log(1 - self.rng.random()) / (self.kappa * m[2])
+        return t if t < z else None
+
+    def walk(self, o, d, shadow, max_t=math.inf):
+        """Walks cells from o (inside the scene) along d. Returns ('hit', point, block) or
+        ('escape', None, block) / shadow: ('occluded'|'lit', ...)."""
+        b = self.part.locate(o)
+        t = 0.0
+        while True:
+            c = self.part.blocks[b]["cell"]
+            iv = box_interval(o, d, c["lo"], c["hi"])
+            t_exit = iv[1] if iv else t
+            if shadow:
+                self.s_visits[b] += 1
+            else:
+                self.visits[b] += 1
+            th = self.medium_hit(b, o, d, t, min(t_exit, max_t))
+            if th is not None:
+                if shadow:
+                    self.s_occ[b] += 1
+                    return "occluded", None, b
+                self.hits[b] += 1
+                return "hit", [o[a] + th * d[a] for a in range(3)], b
+            if t_exit >= max_t:
+                return "lit", None, b
+            p = [o[a] + (t_exit + self.eps) * d[a] for a in range(3)]
+            if not self.part.inside(p):
+                if shadow:
+                    return "lit", None, b
+                self.escapes[b] += 1
+                return "escape", None, b
+            n = self.part.locate(p)
+            if n == b:  # numerically stuck on a face: nudge
+                t = t_exit + 10 * self.eps
+                continue
+            tr = self.s_trans if shadow else self.trans
+            tr[b][n] = tr[b].get(n, 0) + 1
+            if shadow:
+                self.s_exit[b] += 1
+            b, t = n, t_exit + self.eps
+
+    def path(self, o, d):
+        for bounce in range(self.max_bounces):
+            kind, p, b = self.walk(o, d, False)
+            if kind == "escape":
+                return
+            # next-event estimation: one shadow ray to the light
+            to_l = [self.light[a] - p[a] for a in range(3)]
+            dist = math.sqrt(sum(x * x for x in to_l))
+            self.walk(p, unit(to_l), True, max_t=dist)
+            if bounce + 1 >= self.max_bounces or self.rng.random() >= self.beta:
+                return
+            o, d = p, random_dir(self.rng)
+
+
+def cameras(part, mode, keys):
+    lo, hi = part.lo, part.hi
+    c = [(lo[a] + hi[a]) / 2 for a in range(3)]
+    span = [hi[a] - lo[a] for a in range(3)]
+    cams = []
+    for k in range(keys):
+        if mode == "orbit":  # outside, around the model, looking at its centre
+            ang = 2 * math.pi * k / keys
+            r = 0.9 * max(span)
+            eye = [c[0] + r * math.cos(ang), c[1] + 0.3 * span[1] + 0.2 * max(span), c[2] + r * math.sin(ang)]
+            look = c
+        else:  # a walk through the interior along its longest axis
+            ax = max(range(3), key=lambda a: span[a])
+            f = 0.15 + 0.7 * k / max(1, keys - 1)
+            eye = [c[0], lo[1] + 0.3 * span[1], c[2]]
+            eye[ax] = lo[ax] + f * span[ax]
+            look = list(eye)
+            look[ax] += span[ax]
+            look[(ax + 2) % 3 if ax != 1 else 0] += 0.3 * span[ax] * math.sin(k)
+        cams.append((eye, unit([look[a] - eye[a] for a in range(3)])))
+    return cams
+
+
+def primary(eye, fwd, rng, fov=math.radians(50)):
+    up = [0.0, 1.0, 0.0]
+    right = unit([fwd[1] * up[2] - fwd[2] * up[1], fwd[2] * up[0] - fwd[0] * up[2], fwd[0] * up[1] - fwd[1] * up[0]])
+    upv = [right[1] * fwd[2] - right[2] * fwd[1], right[2] * fwd[0] - right[0] * fwd[2], right[0] * fwd[1] - right[1] * fwd[0]]
+    s = math.tan(fov / 2)
+    x, y = (2 * rng.random() - 1) * s, (2 * rng.random() - 1) * s
+    return unit([fwd[a] + x * right[a] + y * upv[a] for a in range(3)])
+
+
+def enter(part, eye, d):
+    """First point of the ray inside the scene bounds, or None (background)."""
+    if part.inside(eye):
+        return eye
+    iv = box_interval(eye, d, part.lo, part.hi)
+    if iv is None:
+        return None
+    span = max(part.hi[a] - part.lo[a] for a in range(3))
+    return [eye[a] + (iv[0] + 1e-6 * span) * d[a] for a in range(3)]
+
+
+def trace_scene(part, cfg, paths, seed, keys=8):
+    rng = random.Random(seed)
+    cams = cameras(part, cfg["camera"], keys)
+    # kappa: hit ratio per cell visit ~ target (a few secant steps on a small sample).
+    kappa = 1.0
+    for _ in range(6):
+        t = Tracer(part, kappa, cfg["beta"], 1, random.Random(seed + 1))
+        for i in range(1500):
+            eye, fwd = cams[i % keys]
+            d = primary(eye, fwd, t.rng)
+            o = enter(part, eye, d)
+            if o is not None:
+                t.path(o, d)
+        a = sum(t.hits) / max(1, sum(t.visits))
+        a = min(max(a, 1e-3), 0.999)
+        # hit prob per visit ~ 1 - exp(-kappa x): scale kappa by the ratio of -log(1 - alpha)
+        kappa *= min(4.0, max(0.25, math.log(1 - cfg["alpha"]) / math.log(1 - a)))
+    tr = Tracer(part, kappa, cfg["beta"], cfg["max_bounces"], rng)
+    entry = [[0] * len(part.blocks) for _ in range(keys)]
+    background = [0] * keys
+    for i in range(paths):
+        k = i % keys
+        eye, fwd = cams[k]
+        d = primary(eye, fwd, rng)
+        o = enter(part, eye, d)
+        if o is None:
+            background[k] += 1
+            continue
+        entry[k][part.locate(o)] += 1
+        tr.path(o, d)
+    return tr, entry, background, kappa
+
+
+def build_profile(name, index, cfg, tr, entry, background, kappa, paths, triangles):
+    part = Partition(index)
+    blocks = index["blocks"]
+    nb = len(blocks)
+    total_file = sum(b["bytes"] for b in blocks)
+    lo, hi = part.lo, part.hi
+    out_blocks = []
+    vis, hit = sum(tr.visits), sum(tr.hits)
+    g_alpha = hit / max(1, vis)
+    s_vis, s_occ = sum(tr.s_visits), sum(tr.s_occ)
+    g_occ = s_occ / max(1, s_vis)
+    g_exit = sum(tr.s_exit) / max(1, s_vis - s_occ)
+    prior = 20.0  # pseudo-visits at the scene mean / area weights
+    for i, b in enumerate(blocks):
+        c = b["cell"]
+        boundary = 0.0
+        for a in range(3):
+            face = 1.0
+            for o in range(3):
+                if o != a:
+                    face *= c["hi"][o] - c["lo"][o]
+            boundary += face * ((c["lo"][a] <= lo[a]) + (c["hi"][a] >= hi[a]))
+        nbrs = b["neighbours"]
+        area = sum(n["area"] for n in nbrs)
+        area_all = area + boundary
+        alpha = (tr.hits[i] + prior * g_alpha) / (tr.visits[i] + prior)
+        miss = tr.visits[i] - tr.hits[i]
+        esc_prior = boundary / area_all if area_all > 0 else 1.0
+        escape = (tr.escapes[i] + prior * esc_prior) / (miss + prior) if nbrs else 1.0
+        weights = []
+        for n in nbrs:
+            w = area / len(nbrs) if area <= 0 else n["area"]
+            weights.append(tr.trans[i].get(n["block"], 0) + prior * w / max(area, 1e-300))
+        wsum = sum(weights) or 1.0
+        ps = [round(w / wsum, 9) for w in weights]
+        if ps:
+            ps[-1] = round(1.0 - sum(ps[:-1]), 9)
+        occ = (tr.s_occ[i] + prior * g_occ) / (tr.s_visits[i] + prior)
+        ex = (tr.s_exit[i] + prior * g_exit) / (tr.s_visits[i] - tr.s_occ[i] + prior)
+        out_blocks.append({
+            "id": i,
+            "bytes": int(round(b["bytes"] * cfg["bytes"] / total_file)),
+            "triangles": b["triangles"],
+            "lo": [round(x, 5) for x in c["lo"]], "hi": [round(x, 5) for x in c["hi"]],
+            "boundary_area": round(boundary, 5),
+            "alpha": round(alpha, 5), "beta": cfg["beta"], "escape": round(min(1.0, escape), 5),
+            "shadow_occlusion": round(occ, 5), "shadow_exit": round(min(1.0, ex), 5),
+            "neighbours": [[n["block"], round(n["area"], 5), p] for n, p in zip(nbrs, ps)],
+        })
+    # Integer bytes summing exactly to the target.
+    diff = int(round(cfg["bytes"])) - sum(b["bytes"] for b in out_blocks)
+    out_blocks[max(range(nb), key=lambda i: out_blocks[i]["bytes"])]["bytes"] += diff
+    cams = []
+    for k in range(len(entry)):
+        n = sum(entry[k]) + background[k]
+        e = [[b, round(entry[k][b] / n, 9)] for b in range(nb) if entry[k][b]]
+        bg = round(1.0 - sum(p for _, p in e), 9)
+        cams.append({"background": max(0.0, bg), "entry": e})
+    return {
+        "format": "rayline-scene-profile", "version": 1, "name": name,
+        "description": cfg["description"],
+        "provenance": (f"scripts/make_profiles.py: rayline generate {cfg['generator']} --triangles {triangles}, "
+                       f"rayline partition --blocks {cfg['blocks']}; block bytes scaled to {cfg['bytes'] / GIB:.1f} GiB; "
+                       f"statistics from a SYNTHETIC tracer ({paths} camera paths through the cells, homogeneous "
+                       f"media of density kappa*(tri/vol)^(1/3), kappa={kappa:.4g}), not the renderer's kernels"),
+        "image": {"width": cfg["width"], "height": cfg["height"], "spp": cfg["spp"], "tiles": cfg["tiles"]},
+        "batching": {"wave_rays": cfg["wave_rays"], "inflight_rays": cfg["inflight_rays"], "max_bounces": cfg["max_bounces"]},
+        "records": {"ray_bytes": 64, "shadow_ray_bytes": 64, "hit_bytes": 64, "sample_bytes": 16,
+                    "framebuffer_bytes_per_pixel": 16, "request_bytes": 4096},
+        "analytic": {"alpha": round(g_alpha, 5), "beta": cfg["beta"], "shadow_occlusion": round(g_occ, 5),
+                     "shadow_exit": round(g_exit, 5)},
+        "block_count": nb, "blocks": out_blocks, "camera_path": cams,
+    }
+
+
+def write_compact(path, prof):
+    """One block / keyframe per line: small, diffable files."""
+    head = {k: v for k, v in prof.items() if k not in ("blocks", "camera_path")}
+    lines = ["{"]
+    for k, v in head.items():
+        lines.append(f"  {json.dumps(k)}: {json.dumps(v)},")
+    lines.append('  "blocks": [')
+    lines += ["    " + json.dumps(b, separators=(",", ":")) + ("," if i + 1 < len(prof["blocks"]) else "")
+              for i, b in enumerate(prof["blocks"])]
+    lines.append("  ],")
+    lines.append('  "camera_path": [')
+    lines += ["    " + json.dumps(c, separators=(",", ":")) + ("," if i + 1 < len(prof["camera_path"]) else "")
+              for i, c in enumerate(prof["camera_path"])]
+    lines.append("  ]")
+    lines.append("}")
+    tmp = path + ".partial"
+    with open(tmp, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    os.replace(tmp, path)
+
+
+def make(args):
+    os.makedirs(args.work, exist_ok=True)
+    for name, cfg in SCENES.items():
+        ply = os.path.join(args.work, name + ".ply")
+        scene = os.path.join(args.work, name + ".json")
+        blocks_dir = os.path.join(args.work, name + "-blocks")
+        run([args.rayline, "generate", cfg["generator"], "--triangles", args.triangles, "--out", ply,
+             "--seed", str(args.seed), "-q"])
+        run([args.rayline, "partition", "--scene", scene, "--blocks", str(cfg["blocks"]), "--out", blocks_dir, "-q"])
+        with open(os.path.join(blocks_dir, "blocks.json")) as f:
+            index = json.load(f)
+        part = Partition(index)
+        tr, entry, bg, kappa = trace_scene(part, cfg, args.paths, args.seed)
+        prof = build_profile(name, index, cfg, tr, entry, bg, kappa, args.paths, args.triangles)
+        out = os.path.join(ROOT, "scenes", name + ".profile.json")
+        write_compact(out, prof)
+        print(f"{out}: {len(prof['blocks'])} blocks, {sum(b['bytes'] for b in prof['blocks']) / GIB:.2f} GiB, "
+              f"alpha {prof['analytic']['alpha']:.3f}, shadow occlusion {prof['analytic']['shadow_occlusion']:.3f}, "
+              f"kappa {kappa:.3g}")
+
+
+def fidelity(args):
+    """Simulator wall time vs throughput error of analytic / markov against replay. The
+    replay log is recorded from a Markov run standing in for an actual render (the renderer
+    cannot write replay logs yet): record once, replay it, run each fidelity level."""
+    os.makedirs(args.out, exist_ok=True)
+    rows = []
+    for scene in ("boeing", "museum"):
+        base = [args.rayline, "simulate", "--workload", scene, "--duration", args.duration, "--clients", str(args.clients),
+                "--prediction-depth", str(args.depth), "--platform", args.platform, "--no-progress"]
+        rec = os.path.join(args.out, scene + "-record")
+        run(base + ["--fidelity", "markov", "--seed", "101", "--record-replay", "--out", rec])
+        results = {}
+        for fid in ("replay", "markov", "analytic"):
+            out = os.path.join(args.out, f"{scene}-{fid}")
+            extra = ["--replay", os.path.join(rec, "replay.log")] if fid == "replay" else []
+            run(base + ["--fidelity", fid, "--seed", "1", "--out", out] + extra)
+            with open(os.path.join(out, "metrics.json")) as f:
+                m = json.load(f)
+            results[fid] = m
+        ref = results["replay"]["path_trace"]["steady_rays_per_second"]
+        for fid in ("analytic", "markov", "replay"):
+            m = results[fid]
+            r = m["path_trace"]["steady_rays_per_second"]
+            rows.append({"scene": scene, "fidelity": fid, "simulated_s": m["simulated_s"],
+                         "wall_s": round(m["simulator"]["wall_s"], 3),
+                         "workload_and_loop_s": round(m["simulator"]["bookkeeping_s"], 3),
+                         "steady_rays_per_second": round(r), "replay_rays_per_second": round(ref),
+                         "throughput_error": round((r - ref) / ref, 5) if ref else "",
+                         "abs_throughput_error": round(abs(r - ref) / ref, 5) if ref else ""})
+    path = os.path.join(args.out, "fidelity.csv")
+    with open(path + ".partial", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    os.replace(path + ".partial", path)
+    print(path)
+    for r in rows:
+        print(r)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("command", nargs="?", default="make", choices=["make", "fidelity"])
+    ap.add_argument("--rayline", default=os.path.join(ROOT, "build", "apps", "rayline"))
+    ap.add_argument("--work", default=os.path.join(ROOT, "out", "profiles"))
+    ap.add_argument("--triangles", default="2M")
+    ap.add_argument("--paths", type=int, default=20000)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--duration", default="30s")
+    ap.add_argument("--clients", type=int, default=4)
+    ap.add_argument("--depth", type=int, default=0)
+    ap.add_argument("--platform", default="paper-cluster")
+    ap.add_argument("--out", default=os.path.join(ROOT, "out", "fidelity"))
+    args = ap.parse_args()
+    (fidelity if args.command == "fidelity" else make)(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
