@@ -197,7 +197,10 @@ RenderResult render(const RenderOptions& opt) {
   ts.max_depth = res.max_depth;
   const trace::PinholeCamera camera(cam, res.width, res.height);
   RenderWorkload workload(ts, camera, g, ram, scene_blocks, wo);
-  BlockStore store(index, dir, footprint, static_cast<std::uint32_t>(sc.materials.size()), quality);
+  // BVH builds may use every core: out of core the compute threads mostly wait for them
+  // (fetching idle), so the disk->RAM channel's T-jobs get done sooner.
+  BlockStore store(index, dir, footprint, static_cast<std::uint32_t>(sc.materials.size()), quality,
+                   opt.build_threads > 0 ? opt.build_threads : threads);
 
   // Evictions the plan decided, by the activity that needed the space (Schedule::Eviction).
   std::size_t ev_cursor = 0;

@@ -24,6 +24,7 @@ struct RenderOptions {
   int spp = 0, width = 0, height = 0, max_depth = 0;  // 0 = the scene's values
   Bytes memory_budget = 0;         // bytes of scene blocks in RAM; 0 = unlimited (in core)
   int threads = 0;                 // compute devices; 0 = hardware threads
+  int build_threads = 0;           // threads of one BVH build (the disk->RAM channel); 0 = `threads`
   std::uint64_t seed = 1;
   Time horizon = 2.0;              // k of GMB (Sec. 4.2)
   // BVH builder: "auto" = low (fast Morton build) under a memory budget, where blocks are
