@@ -96,6 +96,7 @@ void RenderWorkload::make_job(RayKind kind, std::uint32_t cell, std::vector<RayR
   // Move the first n staged rays (FIFO keeps the order deterministic; order does not
   // change the image anyway).
   target->rays.insert(target->rays.end(), rays.begin(), rays.begin() + static_cast<std::ptrdiff_t>(n));
+  target->input += n;
   rays.erase(rays.begin(), rays.begin() + static_cast<std::ptrdiff_t>(n));
   staged_ -= n;
   in_jobs_ += n;
@@ -139,7 +140,7 @@ void RenderWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedule&
   if (static_cast<std::size_t>(j) >= jobs_.size() || !jobs_[static_cast<std::size_t>(j)]) return;
   std::unique_ptr<RayJob> done = std::move(jobs_[static_cast<std::size_t>(j)]);
   counts_ += done->counts;
-  in_jobs_ -= done->counts.traced;
+  in_jobs_ -= done->input;
   paths_alive_ -= done->counts.paths_ended;
   stage(done->out);
   done.reset();

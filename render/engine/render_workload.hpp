@@ -30,6 +30,7 @@ struct RayJob {
   trace::RayKind kind = trace::RayKind::Path;
   std::uint32_t cell = 0;
   std::vector<trace::RayRecord> rays;
+  std::uint64_t input = 0;  // rays handed to the job (the kernel may trace more: trace_while_resident)
   std::vector<trace::RayRecord> out;
   trace::RayCounts counts;
 };
