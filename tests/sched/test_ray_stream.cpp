@@ -12,34 +12,6 @@
 using namespace rayline;
 
 namespace {
-DeviceGraph cluster() {
-  rayline::testing::DcgBuilder b;
-  std::vector<MemId> rams;
-  for (int i = 0; i < 3; ++i) {
-    const std::string p = "n" + std::to_string(i);
-    const NodeId n = b.node(p);
-    const MemId disk = b.mem(p + ".disk", Bytes(1) << 40, MemoryKind::Disk, n);
-    const MemId ram = b.mem(p + ".ram", Bytes(2) << 30, MemoryKind::Host, n);
-    const MemId gpu = b.mem(p + ".gpumem", Bytes(1) << 30, MemoryKind::Gpu, n);
-    b.half_duplex(disk, ram, 150e6, 0.01);
-    b.full_duplex(ram, gpu, 12e9, 1e-5);
-    for (int c = 0; c < 2; ++c) b.dev(p + ".cpu" + std::to_string(c), ram);
-    b.dev(p + ".gpu", gpu, ComputeKind::Gpu);
-    rams.push_back(ram);
-  }
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (i != j) b.channel(rams[static_cast<std::size_t>(i)], rams[static_cast<std::size_t>(j)], 125e6, 1e-4);
-  b.g.finalize();
-  for (std::size_t d = 0; d < b.g.computes.size(); ++d) {
-    auto& c = b.g.timing.at(static_cast<DeviceId>(d), 0);
-    c.supported = true;
-    const bool gpu = b.g.computes[d].kind == ComputeKind::Gpu;
-    c.setup = gpu ? 5e-5 : 5e-6;
-    c.rate[static_cast<int>(DataKind::RayQueue)] = 1.0 / (64 * (gpu ? 10e6 : 0.5e6));
-  }
-  return b.build();
-}
 
 struct Outcome {
   std::uint64_t traced, primary, spawned, merges;
@@ -60,7 +32,7 @@ RayStreamOptions stream_options(std::uint64_t seed) {
 
 // Runs the stream to exhaustion under GMB and the exact executor; every job must finish.
 Outcome run_stream(const RayStreamOptions& o, bool check) {
-  const DeviceGraph g = cluster();
+  const DeviceGraph g = rayline::testing::three_node_stream_cluster();
   JobPool pool;
   Schedule s(g, pool);
   RayStreamWorkload wl(g, o);
