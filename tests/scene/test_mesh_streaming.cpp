@@ -146,32 +146,6 @@ class Streaming : public testing::TempDir {
 TEST_F(Streaming, ObjOfTwoMillionTrianglesInBoundedMemory) { check_bounded("grid.obj", false); }
 TEST_F(Streaming, AsciiPlyOfTwoMillionTrianglesInBoundedMemory) { check_bounded("grid.ply", true); }
 
-// Not run by default: import throughput of the files in $RAYLINE_IMPORT_FILES
-// (colon-separated), through assimp when RAYLINE_IMPORT_ROUTE=assimp. Peak RSS: run it
-// under /usr/bin/time -v, one file per run. Numbers in scenes/README.md.
-TEST(ImportBenchmark, DISABLED_Throughput) {
-  const char* files = std::getenv("RAYLINE_IMPORT_FILES");
-  if (!files) GTEST_SKIP() << "set RAYLINE_IMPORT_FILES";
-  const char* route = std::getenv("RAYLINE_IMPORT_ROUTE");
-  const bool assimp = route && std::string(route) == "assimp";
-  std::string list = files;
-  for (std::size_t at = 0; at <= list.size();) {
-    const std::size_t end = std::min(list.find(':', at), list.size());
-    const std::string f = list.substr(at, end - at);
-    at = end + 1;
-    if (f.empty()) continue;
-    std::uint64_t n = 0;
-    const auto t0 = std::chrono::steady_clock::now();
-    const ImportStats st = stream_mesh_file(f, {}, [&](std::span<const Triangle> b) { n += b.size(); },
-                                            assimp ? ImportPath::assimp : ImportPath::automatic);
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    EXPECT_EQ(n, st.triangles);
-    std::printf("%s (%s): %llu triangles in %.2f s = %.2f MTriangles/s, %.1f MB/s of text; max RSS %.0f MiB\n",
-                f.c_str(), assimp ? "assimp" : "native", static_cast<unsigned long long>(n), s, double(n) / s / 1e6,
-                double(std::filesystem::file_size(f)) / s / 1e6, double(max_rss_bytes()) / 1048576.0);
-  }
-}
-
 // ---- the same triangles as assimp ------------------------------------------------------
 
 // Triangles as a sorted multiset; each rotated to start at its smallest vertex (winding
