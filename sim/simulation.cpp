@@ -12,14 +12,12 @@
 #include <unistd.h>
 
 #include "sched/error.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/budge.hpp"
 #include "sched/job_set.hpp"
-#include "sched/load_any_once.hpp"
 #include "sched/path_trace_workload.hpp"
 #include "sched/platform_loader.hpp"
 #include "sched/ray_stream.hpp"
 #include "sched/runtime_loop.hpp"
+#include "sched/scheduler_factory.hpp"
 #include "sched/trace_output.hpp"
 #include "sched/utilisation.hpp"
 #include "sim/sim_executor.hpp"
@@ -178,10 +176,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     for (auto [b, m] : set->initial) s.put_initial(b, m);
     wl = std::make_unique<StaticWorkload>();
   }
-  std::unique_ptr<Scheduler> scheduler;
-  if (cfg.scheduler == "loadanyonce") scheduler = std::make_unique<LoadAnyOnceScheduler>();
-  else if (cfg.scheduler == "budge") scheduler = std::make_unique<BudgeScheduler>();
-  else scheduler = std::make_unique<GmbScheduler>(GmbOptions{.horizon = cfg.horizon, .completion_aware = cfg.scheduler == "gmb-ca"});
+  std::unique_ptr<Scheduler> scheduler = make_scheduler(cfg.scheduler, cfg.horizon);
   SimExecutorOptions xo;
   if (cfg.exec_noise > 0) {
     const double n = cfg.exec_noise;

@@ -19,7 +19,7 @@ RenderWorkload::RenderWorkload(const trace::TraceSettings& ts, const trace::Pinh
 }
 
 void RenderWorkload::start(Time now, JobPool& pool, Schedule& s) {
-  generate(now, pool, s);
+  generate();
   flush(now, pool, s, false);
 }
 
@@ -28,7 +28,7 @@ bool RenderWorkload::finished() const {
 }
 
 // Camera rays in sample-major scanline order (coherent waves), while paths_alive < cap.
-void RenderWorkload::generate(Time, JobPool&, Schedule&) {
+void RenderWorkload::generate() {
   if (aborted_) return;
   const std::uint64_t pixels = std::uint64_t(camera_.width()) * std::uint64_t(camera_.height());
   std::vector<RayRecord> fresh;
@@ -144,12 +144,12 @@ void RenderWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedule&
   paths_alive_ -= done->counts.paths_ended;
   stage(done->out);
   done.reset();
-  generate(now, pool, s);
+  generate();
   flush(now, pool, s, false);
 }
 
 void RenderWorkload::on_idle(Time now, JobPool& pool, Schedule& s) {
-  generate(now, pool, s);
+  generate();
   flush(now, pool, s, true);
 }
 

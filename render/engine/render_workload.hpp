@@ -57,7 +57,7 @@ class RenderWorkload final : public Workload {
   std::uint64_t paths_alive() const { return paths_alive_; }
 
  private:
-  void generate(Time now, JobPool& pool, Schedule& s);
+  void generate();  // camera rays into staging
   void stage(std::vector<trace::RayRecord>& rays);
   void flush(Time now, JobPool& pool, Schedule& s, bool all);
   void make_job(trace::RayKind kind, std::uint32_t cell, std::vector<trace::RayRecord>& rays, std::size_t n, Time now,

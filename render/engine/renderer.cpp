@@ -19,10 +19,8 @@
 #include "render/scene/scene.hpp"
 #include "render/scene/scene_stream.hpp"
 #include "render/trace/camera.hpp"
-#include "sched/budge.hpp"
 #include "sched/error.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/load_any_once.hpp"
+#include "sched/scheduler_factory.hpp"
 #include "sched/trace_output.hpp"
 
 namespace rayline::engine {
@@ -30,14 +28,6 @@ namespace rayline::engine {
 namespace fs = std::filesystem;
 
 namespace {
-
-std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon) {
-  if (name == "gmb" || name == "gmb-ca")
-    return std::make_unique<GmbScheduler>(GmbOptions{.horizon = horizon, .completion_aware = name == "gmb-ca"});
-  if (name == "budge") return std::make_unique<BudgeScheduler>();
-  if (name == "loadanyonce") return std::make_unique<LoadAnyOnceScheduler>();
-  throw InputError("--scheduler", "scheduler", "unknown scheduler '" + name + "' (gmb, gmb-ca, budge, loadanyonce)");
-}
 
 // Resident-set size now (/proc/self/statm) and the process's peak (getrusage).
 Bytes rss_now() {

@@ -1,0 +1,18 @@
+#include "sched/scheduler_factory.hpp"
+
+#include "sched/budge.hpp"
+#include "sched/error.hpp"
+#include "sched/gmb_scheduler.hpp"
+#include "sched/load_any_once.hpp"
+
+namespace rayline {
+
+std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon) {
+  if (name == "gmb" || name == "gmb-ca")
+    return std::make_unique<GmbScheduler>(GmbOptions{.horizon = horizon, .completion_aware = name == "gmb-ca"});
+  if (name == "budge") return std::make_unique<BudgeScheduler>();
+  if (name == "loadanyonce") return std::make_unique<LoadAnyOnceScheduler>();
+  throw InputError("--scheduler", "scheduler", "unknown scheduler '" + name + "' (gmb, gmb-ca, budge, loadanyonce)");
+}
+
+}  // namespace rayline

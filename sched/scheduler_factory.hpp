@@ -1,0 +1,14 @@
+// The schedulers by name, for every engine (sim and render) and the command line:
+// "gmb" (the paper, Sec. 4.2-4.3), "gmb-ca" (completion-aware GMB), "budge" (Budge 2009),
+// "loadanyonce" (Navrátil 2014). Unknown names are an InputError naming the flag.
+#pragma once
+#include <memory>
+#include <string>
+
+#include "scheduler.hpp"
+
+namespace rayline {
+
+std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon);
+
+}  // namespace rayline
