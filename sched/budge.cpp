@@ -2,21 +2,66 @@
 
 #include <algorithm>
 #include <chrono>
+#include <unordered_map>
 
 namespace rayline {
 
 std::string BudgeScheduler::describe() const {
   return std::string("budge2009{image-space nodes; greedy per idle device; resident_first=") +
          (opt_.resident_first ? "1" : "0") + "; largest_queue=" + (opt_.largest_queue ? "1" : "0") +
-         "; gpu_preferred=" + (opt_.gpu_preferred ? "1" : "0") + "; cache=" + (opt_.lru ? "LRU" : "queue-aware") + "}";
+         "; gpu_preferred=" + (opt_.gpu_preferred ? "1" : "0") + "; cache=" + (opt_.lru ? "LRU" : "queue-aware") +
+         "; image_split=" + (opt_.split_by_throughput ? "by-throughput" : "equal") + "}";
+}
+
+NodeId budge_image_node(JobId j, const DeviceGraph& g, bool split_by_throughput) {
+  // Weight of a node: its devices' peak RayIntersect throughput on ray queues (bytes/s,
+  // 1 / rate), or 1 for an equal split; nodes without compute devices get nothing.
+  const JobTypeId ri = g.job_type("RayIntersect");
+  std::vector<double> w(g.nodes.size(), 0.0);
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    const NodeId n = g.computes[d].node;
+    if (n < 0 || static_cast<std::size_t>(n) >= w.size()) continue;
+    if (!split_by_throughput || ri == kNone) {
+      w[static_cast<std::size_t>(n)] = 1.0;
+      continue;
+    }
+    if (!g.timing.supports(static_cast<DeviceId>(d), ri)) continue;
+    const double rate = g.timing.at(static_cast<DeviceId>(d), ri).rate[static_cast<std::size_t>(DataKind::RayQueue)];
+    if (rate > 0) w[static_cast<std::size_t>(n)] += 1.0 / rate;
+  }
+  double total = 0;
+  for (double x : w) total += x;
+  if (total <= 0) return kNone;
+  // A fixed, well-mixed point in [0, 1) per job id (like a tile's place in the image).
+  std::uint64_t h = static_cast<std::uint64_t>(j) + 0x9e3779b97f4a7c15ull;
+  h = (h ^ (h >> 30)) * 0xbf58476d1ce4e5b9ull;
+  h = (h ^ (h >> 27)) * 0x94d049bb133111ebull;
+  h ^= h >> 31;
+  const double u = static_cast<double>(h >> 11) * 0x1.0p-53 * total;
+  double acc = 0;
+  NodeId last = kNone;
+  for (std::size_t n = 0; n < w.size(); ++n) {
+    if (w[n] <= 0) continue;
+    acc += w[n];
+    last = static_cast<NodeId>(n);
+    if (u < acc) return last;
+  }
+  return last;
 }
 
 namespace {
-// The node a job belongs to (image-space decomposition): where its non-scene inputs are.
-NodeId home_node(const Job& job, const JobPool& pool, const Schedule& s) {
+// The node a job belongs to (image-space decomposition): where its non-scene inputs are;
+// a GenerateRays job on a client's request (only Generic inputs) belongs to the node its
+// part of the image is assigned to.
+NodeId home_node(JobId j, const Job& job, const JobPool& pool, const Schedule& s, bool by_throughput) {
+  const DeviceGraph& g = s.graph();
+  bool generic_only = !job.inputs.empty();
+  for (BlockId b : job.inputs) generic_only = generic_only && pool.block(b).kind == DataKind::Generic;
+  if (generic_only && g.job_types[static_cast<std::size_t>(job.type)] == "GenerateRays")
+    return budge_image_node(j, g, by_throughput);
   for (BlockId b : job.inputs) {
     if (pool.block(b).kind == DataKind::SceneData) continue;
-    for (const Copy& c : s.copies(b)) return s.graph().memories[c.mem].node;
+    for (const Copy& c : s.copies(b)) return g.memories[c.mem].node;
   }
   return kNone;  // scene-only job: any node
 }
@@ -42,6 +87,19 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   std::stable_sort(idle.begin(), idle.end(), [&](DeviceId a, DeviceId b) {
     return g.computes[a].kind == ComputeKind::Gpu && g.computes[b].kind != ComputeKind::Gpu;
   });
+  struct Cand {
+    JobId job;
+    bool resident;
+    Bytes rays;
+    std::size_t pos;
+  };
+  std::vector<Cand> cand;
+  std::unordered_map<JobId, NodeId> homes;  // per plan call: a job's home does not change within it
+  auto home_of = [&](JobId j) {
+    auto [it, fresh] = homes.try_emplace(j, kNone);
+    if (fresh) it->second = home_node(j, pool.job(j), pool, s, opt_.split_by_throughput);
+    return it->second;
+  };
   for (DeviceId d : idle) {
     const MemId m = g.computes[d].memory;
     const NodeId node = g.computes[d].node;
@@ -50,13 +108,16 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     if (opt_.gpu_preferred && g.computes[d].kind == ComputeKind::Cpu)
       for (DeviceId o : g.nodes[static_cast<std::size_t>(node)].computes)
         if (g.computes[o].kind == ComputeKind::Gpu && s.unfinished_on_device(o) == 0) idle_gpu_mem = g.computes[o].memory;
-    JobId best = kNone;
-    bool best_resident = false;
-    Bytes best_rays = 0;
+    // Candidates of this device with their keys; feasibility (a fetch-path search) is
+    // checked only in priority order, so the first feasible one is the same pick as the
+    // best feasible one: resident first, then the largest queue, then queue order.
+    cand.clear();
+    std::size_t pos = 0;
     for (JobId j : pool.queued()) {
+      ++pos;
       const Job& job = pool.job(j);
       if (!g.timing.supports(d, job.type)) continue;
-      const NodeId home = home_node(job, pool, s);
+      const NodeId home = home_of(j);
       if (home != kNone && home != node) continue;  // image-space decomposition
       bool resident = true;
       Bytes rays = 0, scene = 0;
@@ -69,18 +130,19 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
         }
       }
       if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
-      if (placer_->earliest_start(j, d, now, s) == kNever) continue;
-      bool better;
-      if (best == kNone) better = true;
-      else if (opt_.resident_first && resident != best_resident) better = resident;
-      else if (opt_.largest_queue && rays != best_rays) better = rays > best_rays;
-      else better = false;  // FIFO among equals
-      if (better) {
-        best = j;
-        best_resident = resident;
-        best_rays = rays;
-      }
+      cand.push_back({j, opt_.resident_first && resident, opt_.largest_queue ? rays : 0, pos});
     }
+    std::sort(cand.begin(), cand.end(), [](const Cand& a, const Cand& b) {
+      if (a.resident != b.resident) return a.resident;
+      if (a.rays != b.rays) return a.rays > b.rays;
+      return a.pos < b.pos;
+    });
+    JobId best = kNone;
+    for (const Cand& c : cand)
+      if (placer_->earliest_start(c.job, d, now, s) != kNever) {
+        best = c.job;
+        break;
+      }
     if (best != kNone) placer_->place(best, d, std::max(now, s.device_timeline(d).busy_until), now, pool, s, st);
   }
   st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

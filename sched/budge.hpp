@@ -9,7 +9,12 @@
 //     then the largest queue (most rays); ties to the older job;
 //   * GPU preference: a CPU leaves an intersection job whose block fits in a GPU memory
 //     of its node to that GPU while the GPU is idle or about to be;
-//   * caches: LRU eviction on every memory device.
+//   * caches: LRU eviction on every memory device;
+//   * image split: a GenerateRays job on a client's request (only Generic inputs)
+//     belongs to a node fixed by its id, like a tile of the image: by default in proportion to each node's peak RayIntersect throughput (the split a
+//     careful user of a heterogeneous cluster would choose; kinder to the baseline than
+//     an equal split, which is the other setting). Without this rule every ray would
+//     start, and stay, on the client's node.
 #pragma once
 #include <memory>
 #include <string>
@@ -24,7 +29,14 @@ struct BudgeOptions {
   bool largest_queue = true;    // rule 2: then the largest queue (else FIFO)
   bool gpu_preferred = true;    // rule 3: intersection on the GPU when the block fits
   bool lru = true;              // caches: LRU
+  bool split_by_throughput = true;  // image split over nodes: by peak ray throughput (else equal)
 };
+
+// The image-space decomposition: the node (index into g.nodes) that owns ray-starting job
+// `j`, a pure function of the job id and the platform (weights: a node's summed peak
+// RayIntersect throughput, or 1 per node with a compute device). Exposed for unit tests.
+NodeId budge_image_node(JobId j, const DeviceGraph& g, bool split_by_throughput);
+
 
 class BudgeScheduler final : public Scheduler {
  public:

@@ -43,6 +43,12 @@ PlanStats LoadAnyOnceScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   std::vector<std::vector<JobId>> jobs;
   for (JobId j : pool.queued()) {
     const Job& job = pool.job(j);
+    // Only rays that exist count (GraviT counts queued rays): a job that must follow one
+    // not yet planned, or whose input is not produced yet, waits for a later round.
+    if (s.after_deps_ready(j) == kNever) continue;
+    bool produced = true;
+    for (BlockId b : job.inputs) produced = produced && !s.copies(b).empty();
+    if (!produced) continue;
     BlockId key = kNone;
     std::uint64_t rays = 0;
     for (BlockId b : job.inputs) {
@@ -75,6 +81,7 @@ PlanStats LoadAnyOnceScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       const BlockId key = domain[static_cast<std::size_t>(map[r])];
       const bool resident = key == kNone || s.copy_at(key, m) != nullptr;
       const Time ready = std::max(now, s.device_timeline(d).busy_until);
+      if (placer_->earliest_start(j, d, ready, s) == kNever) continue;  // e.g. input unreachable
       if (placer_->place(j, d, ready, now, pool, s, st) && !resident && !loaded) {
         loaded = true;
         ++domain_loads_;

@@ -1,7 +1,9 @@
 // LoadAnyOnce (Navratil et al. 2014), the paper's second baseline (Sec. 6), faithful to
 // GraviT's LoadAnyOnceSchedule as read in ../shared/notes/baselines.md (Sec. 2.3):
 //   * bulk-synchronous rounds: a round is planned only when every rank is idle;
-//   * per-domain demand = queued rays summed over all ranks;
+//   * per-domain demand = queued rays summed over all ranks (rays that exist: a job whose
+//     `after` predecessors are not all planned, or whose input is not produced yet, waits
+//     for a later round instead of being committed before what it follows);
 //   * domains sorted by demand (ties: higher domain id first, as GraviT's
 //     (count << 7) + id key popped from the back), the i-th goes to rank i, each domain
 //     to at most one rank ("Once"); ranks beyond the demanded domains stay idle;

@@ -149,3 +149,52 @@ TEST(Budge, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
     for (const auto& e : c.errors) ADD_FAILURE() << "seed " << seed << ": " << e;
   }
 }
+
+// Image-space decomposition over nodes: GenerateRays jobs on a client's request (only
+// Generic inputs, all on node 0's RAM) are spread over nodes in proportion to their peak
+// ray throughput (default) or equally, each job to a fixed node; the rays they make then
+// stay there.
+TEST(Budge, ImageSplitSpreadsRayGenerationOverNodesByThroughput) {
+  rayline::testing::DcgBuilder b;
+  std::vector<MemId> ram;
+  for (int i = 0; i < 2; ++i) {
+    const NodeId nd = b.node("n" + std::to_string(i));
+    ram.push_back(b.mem("n" + std::to_string(i) + ".ram", Bytes(8) << 30, MemoryKind::Host, nd));
+    for (int c = 0; c < (i == 0 ? 1 : 3); ++c) b.dev("n" + std::to_string(i) + ".cpu" + std::to_string(c), ram.back());
+  }
+  b.full_duplex(ram[0], ram[1], 125e6, 1e-4);
+  const JobTypeId gen = b.g.add_job_type("GenerateRays");
+  b.timing(0, DataKind::RayQueue, 32e6, 5e-6);  // RayIntersect: node 1 has 3x node 0's throughput
+  b.timing(gen, DataKind::Generic, 1e9, 5e-6);
+  const DeviceGraph g = b.build();
+  int by_tp[2] = {0, 0}, equal[2] = {0, 0};
+  for (JobId j = 0; j < 4000; ++j) {
+    const NodeId a = budge_image_node(j, g, true), e = budge_image_node(j, g, false);
+    ASSERT_TRUE(a == 0 || a == 1) << a;
+    ASSERT_TRUE(e == 0 || e == 1);
+    ++by_tp[a];
+    ++equal[e];
+    EXPECT_EQ(a, budge_image_node(j, g, true)) << "a job's node is fixed";
+  }
+  EXPECT_NEAR(by_tp[1] / 4000.0, 0.75, 0.03);
+  EXPECT_NEAR(equal[1] / 4000.0, 0.5, 0.03);
+
+  // The scheduler follows it: each GenerateRays job runs on the node its id maps to, the
+  // request crossing the LAN once.
+  JobPool pool;
+  Schedule s(g, pool);
+  std::vector<JobId> jobs;
+  for (int q = 0; q < 8; ++q) {
+    const BlockId req = rayline::testing::add_block(pool, "request" + std::to_string(q), DataKind::Generic, 1000);
+    s.put_initial(req, ram[0]);
+    jobs.push_back(rayline::testing::add_job(pool, "gen" + std::to_string(q), gen, {req}));
+  }
+  BudgeScheduler bs;
+  ExactExecutor ex(s);
+  StaticWorkload wl;
+  RuntimeLoop loop(bs, ex, wl, pool, s);
+  ASSERT_FALSE(loop.run().stalled);
+  for (JobId j : jobs)
+    EXPECT_EQ(g.computes[s.activity(pool.activity(j)).device].node, budge_image_node(j, g, true)) << j;
+  EXPECT_NE(bs.describe().find("image_split=by-throughput"), std::string::npos);
+}
