@@ -1,0 +1,424 @@
+// A block's BVH for the GPU: Embree's BVH builder (rtcNewBVH + rtcBuildBVH, the idea of
+// Embree's "bvh_builder" tutorial) with our own node and leaf callbacks, then one
+// depth-first pass into the flat layout of gpu_bvh.hpp. Embree's builders are a well-kept,
+// parallel (TBB) SAH/Morton/SBVH implementation: we only supply the memory layout.
+#include "render/gpu/gpu_bvh.hpp"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <new>
+#include <string>
+
+namespace rayline::gpu::bvh {
+
+static_assert(std::endian::native == std::endian::little, "block records are little-endian and copied as is");
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// One Embree device per build-thread count, for the whole process (devices are
+// thread-safe; builds on them may run concurrently).
+RTCDevice embree_device(int threads) {
+  static std::mutex m;
+  static std::map<int, RTCDevice> devices;
+  std::lock_guard lk(m);
+  auto it = devices.find(threads);
+  if (it != devices.end()) return it->second;
+  const std::string cfg = "threads=" + std::to_string(std::max(threads, 0)) + ",set_affinity=0";
+  RTCDevice d = rtcNewDevice(cfg.c_str());
+  if (!d)
+    throw GpuError(GpuErrorKind::Failed,
+                   "Embree: rtcNewDevice failed (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+  devices.emplace(threads, d);
+  return d;
+}
+
+// The builder's tree, in Embree's thread-local build memory (freed with the RTCBVH).
+struct BNode {
+  bool leaf;
+};
+struct BInner : BNode {
+  RTCBounds bounds[2];
+  BNode* child[2];
+};
+struct BLeaf : BNode {
+  std::uint32_t count;
+  std::uint32_t prim[kMaxLeafTriangles];
+};
+
+struct Build {
+  const unsigned char* records;
+};
+
+void* create_node(RTCThreadLocalAllocator alloc, unsigned int /*child_count*/, void* /*user*/) {
+  auto* n = new (rtcThreadLocalAlloc(alloc, sizeof(BInner), 16)) BInner;
+  n->leaf = false;
+  n->child[0] = n->child[1] = nullptr;
+  n->bounds[0] = n->bounds[1] = RTCBounds{};
+  return n;
+}
+
+void set_children(void* node, void** children, unsigned int count, void* /*user*/) {
+  auto* n = static_cast<BInner*>(node);
+  for (unsigned i = 0; i < count && i < 2; ++i) n->child[i] = static_cast<BNode*>(children[i]);
+}
+
+void set_bounds(void* node, const RTCBounds** bounds, unsigned int count, void* /*user*/) {
+  auto* n = static_cast<BInner*>(node);
+  for (unsigned i = 0; i < count && i < 2; ++i) n->bounds[i] = *bounds[i];
+}
+
+void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count, void* /*user*/) {
+  auto* l = new (rtcThreadLocalAlloc(alloc, sizeof(BLeaf), 16)) BLeaf;
+  l->leaf = true;
+  // maxLeafSize = kMaxLeafTriangles; Embree splits larger sets itself (large-leaf handling).
+  l->count = static_cast<std::uint32_t>(std::min<size_t>(count, kMaxLeafTriangles));
+  for (std::uint32_t i = 0; i < l->count; ++i) l->prim[i] = prims[i].primID;
+  return l;
+}
+
+void load_vertices(const unsigned char* records, std::uint32_t prim, float v[9]) {
+  std::memcpy(v, records + std::size_t(prim) * 40, 36);
+}
+
+// Spatial split (High quality): the bounds of the parts of triangle `prim->primID` on
+// either side of the plane x[dim] = pos, clipped to the reference's current bounds.
+void split_primitive(const RTCBuildPrimitive* prim, unsigned int dim, float pos, RTCBounds* lb, RTCBounds* rb,
+                     void* user) {
+  float v[9];
+  load_vertices(static_cast<Build*>(user)->records, prim->primID, v);
+  float llo[3] = {INFINITY, INFINITY, INFINITY}, lhi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  float rlo[3] = {INFINITY, INFINITY, INFINITY}, rhi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  auto add = [](float* lo, float* hi, const float* p) {
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+  };
+  for (int e = 0; e < 3; ++e) {
+    const float* a = v + 3 * e;
+    const float* b = v + 3 * ((e + 1) % 3);
+    if (a[dim] <= pos) add(llo, lhi, a);
+    if (a[dim] >= pos) add(rlo, rhi, a);
+    if ((a[dim] < pos && b[dim] > pos) || (a[dim] > pos && b[dim] < pos)) {
+      const float f = (pos - a[dim]) / (b[dim] - a[dim]);
+      float p[3];
+      for (int k = 0; k < 3; ++k) p[k] = a[k] + f * (b[k] - a[k]);
+      p[dim] = pos;
+      add(llo, lhi, p);
+      add(rlo, rhi, p);
+    }
+  }
+  const float plo[3] = {prim->lower_x, prim->lower_y, prim->lower_z};
+  const float phi[3] = {prim->upper_x, prim->upper_y, prim->upper_z};
+  float o[12];
+  for (int k = 0; k < 3; ++k) {
+    o[k] = std::max(llo[k], plo[k]), o[3 + k] = std::min(lhi[k], phi[k]);
+    o[6 + k] = std::max(rlo[k], plo[k]), o[9 + k] = std::min(rhi[k], phi[k]);
+  }
+  o[3 + dim] = std::min(o[3 + dim], pos);  // left ends at the plane, right starts there
+  o[6 + dim] = std::max(o[6 + dim], pos);
+  *lb = RTCBounds{o[0], o[1], o[2], 0, o[3], o[4], o[5], 0};
+  *rb = RTCBounds{o[6], o[7], o[8], 0, o[9], o[10], o[11], 0};
+}
+
+// Widens [lo, hi] by about 8 ulps of its largest coordinate (plus a tiny absolute pad), so
+// rounding in the box test and in the split clipping never culls a hit triangle.
+void set_box(Child& c, const float lo[3], const float hi[3]) {
+  for (int k = 0; k < 3; ++k) {
+    const float m = std::max(std::fabs(lo[k]), std::fabs(hi[k]));
+    const float pad = m * 0x1p-20f + 1e-30f;
+    c.lo[k] = lo[k] - pad;
+    c.hi[k] = hi[k] + pad;
+  }
+}
+
+class Flattener {
+ public:
+  Flattener(const unsigned char* records, FlatBvh& out) : records_(records), out_(out) {}
+
+  void leaf(const BLeaf& l, Child& c) {
+    const auto first = static_cast<std::uint32_t>(out_.tris.size());
+    if (first > kMaxBlockTriangles)
+      throw GpuError(GpuErrorKind::OutOfMemory, "GPU: block BVH has more triangle references than a leaf word holds");
+    for (std::uint32_t i = 0; i < l.count; ++i) {
+      Tri t{};
+      const unsigned char* r = records_ + std::size_t(l.prim[i]) * 40;
+      std::memcpy(t.v0, r, 12);
+      std::memcpy(t.v1, r + 12, 12);
+      std::memcpy(t.v2, r + 24, 12);
+      std::memcpy(&t.material, r + 36, 4);
+      t.prim = l.prim[i];
+      out_.tris.push_back(t);
+    }
+    c.word = leaf_word(first, l.count);
+    c.count = l.count;
+  }
+
+  // Appends `n` and its subtree in depth-first order (the near part of a subtree sits
+  // next to its parent); returns its index.
+  std::uint32_t inner(const BInner& n, int depth) {
+    out_.depth = std::max(out_.depth, depth + 1);
+    if (depth + 1 > kStackSize - 1)
+      throw GpuError(GpuErrorKind::Failed, "GPU: block BVH deeper than the kernels' traversal stack");
+    const auto idx = static_cast<std::uint32_t>(out_.nodes.size());
+    out_.nodes.emplace_back();
+    Node node{};
+    for (int k = 0; k < 2; ++k) {
+      const int src = n.child[k] ? k : 1 - k;  // a missing child: an empty leaf, sibling's box
+      const RTCBounds& b = n.bounds[src];
+      const float lo[3] = {b.lower_x, b.lower_y, b.lower_z}, hi[3] = {b.upper_x, b.upper_y, b.upper_z};
+      set_box(node.c[k], lo, hi);
+      const BNode* ch = n.child[k];
+      if (!ch) {
+        node.c[k].word = leaf_word(0, 0);
+        node.c[k].count = 0;
+      } else if (ch->leaf) {
+        leaf(static_cast<const BLeaf&>(*ch), node.c[k]);
+      } else {
+        node.c[k].word = inner(static_cast<const BInner&>(*ch), depth + 1);
+        node.c[k].count = 0;
+      }
+    }
+    out_.nodes[idx] = node;
+    return idx;
+  }
+
+  // A root that is a leaf (a few triangles): an inner root with the leaf and an empty leaf.
+  void root_leaf(const BLeaf& l) {
+    out_.depth = 1;
+    out_.nodes.emplace_back();
+    Node node{};
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (std::uint32_t i = 0; i < l.count; ++i) {
+      float v[9];
+      load_vertices(records_, l.prim[i], v);
+      for (int j = 0; j < 9; ++j) lo[j % 3] = std::min(lo[j % 3], v[j]), hi[j % 3] = std::max(hi[j % 3], v[j]);
+    }
+    set_box(node.c[0], lo, hi);
+    set_box(node.c[1], lo, hi);
+    leaf(l, node.c[0]);
+    node.c[1].word = leaf_word(0, 0);
+    node.c[1].count = 0;
+    out_.nodes[0] = node;
+  }
+
+ private:
+  const unsigned char* records_;
+  FlatBvh& out_;
+};
+
+}  // namespace
+
+FlatBvh build(std::span<const unsigned char> records, std::uint64_t n, const GpuBuildOptions& opt) {
+  const auto t0 = Clock::now();
+  FlatBvh out;
+  if (records.size() < n * 40) throw std::logic_error("block payload shorter than its triangles");
+  if (n > kMaxBlockTriangles)
+    throw GpuError(GpuErrorKind::OutOfMemory, "GPU: a block of " + std::to_string(n) + " triangles exceeds the " +
+                                                  std::to_string(kMaxBlockTriangles) + " a GPU block can hold");
+  // Build primitives: one per triangle with finite vertices (Embree drops the others too).
+  const bool high = opt.quality == GpuBvhQuality::High;
+  std::vector<RTCBuildPrimitive> prims;
+  prims.resize(high ? n + n / 2 + 16 : n);  // spatial splits need room for new references
+  std::size_t count = 0;
+  for (std::uint64_t i = 0; i < n; ++i) {
+    float v[9];
+    load_vertices(records.data(), static_cast<std::uint32_t>(i), v);
+    bool finite = true;
+    for (float x : v) finite = finite && std::isfinite(x);
+    if (!finite) continue;
+    RTCBuildPrimitive& p = prims[count++];
+    p.lower_x = std::min({v[0], v[3], v[6]}), p.upper_x = std::max({v[0], v[3], v[6]});
+    p.lower_y = std::min({v[1], v[4], v[7]}), p.upper_y = std::max({v[1], v[4], v[7]});
+    p.lower_z = std::min({v[2], v[5], v[8]}), p.upper_z = std::max({v[2], v[5], v[8]});
+    p.geomID = 0;
+    p.primID = static_cast<unsigned>(i);
+  }
+  if (count == 0) {
+    out.seconds = since(t0);
+    return out;
+  }
+
+  RTCDevice dev = embree_device(opt.threads);
+  RTCBVH bvh = rtcNewBVH(dev);
+  if (!bvh) throw GpuError(GpuErrorKind::Failed, "Embree: rtcNewBVH failed");
+  Build ctx{records.data()};
+  RTCBuildArguments a = rtcDefaultBuildArguments();
+  a.byteSize = sizeof(a);
+  a.buildQuality = opt.quality == GpuBvhQuality::Low    ? RTC_BUILD_QUALITY_LOW
+                   : opt.quality == GpuBvhQuality::High ? RTC_BUILD_QUALITY_HIGH
+                                                        : RTC_BUILD_QUALITY_MEDIUM;
+  a.buildFlags = RTC_BUILD_FLAG_NONE;
+  a.maxBranchingFactor = 2;
+  a.maxDepth = kMaxDepth;
+  a.sahBlockSize = 1;
+  a.minLeafSize = 1;
+  a.maxLeafSize = kMaxLeafTriangles;
+  a.traversalCost = 1.0f;  // a 64-byte node fetch ~ a 48-byte triangle fetch on the GPU
+  a.intersectionCost = 1.0f;
+  a.bvh = bvh;
+  a.primitives = prims.data();
+  a.primitiveCount = count;
+  a.primitiveArrayCapacity = prims.size();
+  a.createNode = create_node;
+  a.setNodeChildren = set_children;
+  a.setNodeBounds = set_bounds;
+  a.createLeaf = create_leaf;
+  a.splitPrimitive = high ? split_primitive : nullptr;
+  a.buildProgress = nullptr;
+  a.userPtr = &ctx;
+  const auto te = Clock::now();
+  auto* root = static_cast<BNode*>(rtcBuildBVH(&a));
+  out.embree_seconds = since(te);
+  const RTCError err = rtcGetDeviceError(dev);
+  if (!root || err != RTC_ERROR_NONE) {
+    rtcReleaseBVH(bvh);
+    if (err == RTC_ERROR_OUT_OF_MEMORY)
+      throw GpuError(GpuErrorKind::OutOfMemory, "Embree: rtcBuildBVH ran out of host memory");
+    throw GpuError(GpuErrorKind::Failed, "Embree: rtcBuildBVH failed (error " + std::to_string(int(err)) + ")");
+  }
+  try {
+    out.nodes.reserve(count);
+    out.tris.reserve(high ? prims.size() : count);
+    Flattener f(records.data(), out);
+    if (root->leaf)
+      f.root_leaf(static_cast<const BLeaf&>(*root));
+    else
+      f.inner(static_cast<const BInner&>(*root), 0);
+  } catch (...) {
+    rtcReleaseBVH(bvh);
+    throw;
+  }
+  rtcReleaseBVH(bvh);
+  out.nodes.shrink_to_fit();
+  out.seconds = since(t0);
+  return out;
+}
+
+// ---- CPU mirror of shaders/traverse.comp: keep the two in step ----
+
+namespace {
+
+constexpr float kTinyDir = 1e-30f;   // |d| below this is replaced by +-kTinyDir for 1/d
+constexpr float kBoxEps = 1.0e-6f;   // widening of a box's exit distance (~8 ulps)
+
+struct RayState {
+  float o[3], d[3], inv[3], tmin, tmax;
+};
+
+RayState setup(const GpuRay& r) {
+  RayState s{};
+  for (int k = 0; k < 3; ++k) {
+    s.o[k] = r.org[k], s.d[k] = r.dir[k];
+    const float ds = std::fabs(r.dir[k]) < kTinyDir ? std::copysign(kTinyDir, r.dir[k]) : r.dir[k];
+    s.inv[k] = 1.0f / ds;
+  }
+  s.tmin = r.tmin, s.tmax = r.tmax;
+  return s;
+}
+
+bool box(const RayState& s, const Child& c, float tmax, float& tnear) {
+  float tn[3], tf[3];
+  for (int k = 0; k < 3; ++k) {
+    const float t0 = (c.lo[k] - s.o[k]) * s.inv[k], t1 = (c.hi[k] - s.o[k]) * s.inv[k];
+    tn[k] = std::min(t0, t1), tf[k] = std::max(t0, t1);
+  }
+  const float n = std::max(std::max(tn[0], tn[1]), std::max(tn[2], s.tmin));
+  float f = std::min(std::min(tf[0], tf[1]), std::min(tf[2], tmax));
+  f = f + std::fabs(f) * kBoxEps;
+  tnear = n;
+  return n <= f;
+}
+
+float flip(float x, std::uint32_t sgn) { return std::bit_cast<float>(std::bit_cast<std::uint32_t>(x) ^ sgn); }
+
+// Möller-Trumbore in Embree's factoring (e1 = v0 - v1, e2 = v2 - v0, Ng = e2 x e1): t or NaN.
+float triangle(const RayState& s, const Tri& t) {
+  float e1[3], e2[3], c[3];
+  for (int k = 0; k < 3; ++k) e1[k] = t.v0[k] - t.v1[k], e2[k] = t.v2[k] - t.v0[k], c[k] = t.v0[k] - s.o[k];
+  const float ng[3] = {e2[1] * e1[2] - e2[2] * e1[1], e2[2] * e1[0] - e2[0] * e1[2], e2[0] * e1[1] - e2[1] * e1[0]};
+  const float r[3] = {c[1] * s.d[2] - c[2] * s.d[1], c[2] * s.d[0] - c[0] * s.d[2], c[0] * s.d[1] - c[1] * s.d[0]};
+  const float den = ng[0] * s.d[0] + ng[1] * s.d[1] + ng[2] * s.d[2];
+  const float absden = std::fabs(den);
+  const std::uint32_t sgn = std::bit_cast<std::uint32_t>(den) & 0x80000000u;
+  const float u = flip(r[0] * e2[0] + r[1] * e2[1] + r[2] * e2[2], sgn);
+  const float v = flip(r[0] * e1[0] + r[1] * e1[1] + r[2] * e1[2], sgn);
+  if (!(den != 0.0f && u >= 0.0f && v >= 0.0f && u + v <= absden)) return NAN;
+  const float T = flip(ng[0] * c[0] + ng[1] * c[1] + ng[2] * c[2], sgn);
+  return T / absden;
+}
+
+template <bool Any>
+GpuHit traverse(const FlatBvh& b, const GpuRay& r) {
+  GpuHit h{};
+  h.t = INFINITY, h.prim = kNoHit, h.material = kNoHit;
+  if (b.nodes.empty()) return h;
+  const RayState s = setup(r);
+  float tmax = s.tmax;
+  std::uint32_t best = kNoHit, best_prim = kNoHit;
+  std::uint32_t stack[kStackSize];
+  int sp = 0;
+  std::uint32_t cur = 0;
+  for (;;) {
+    if (!is_leaf(cur)) {
+      const Node& n = b.nodes[cur];
+      float na = 0, nb = 0;
+      const bool ha = box(s, n.c[0], tmax, na), hb = box(s, n.c[1], tmax, nb);
+      std::uint32_t ca = n.c[0].word, cb = n.c[1].word;
+      if (ha && hb) {
+        if (nb < na) std::swap(ca, cb);
+        stack[sp++] = cb;
+        cur = ca;
+      } else if (ha) {
+        cur = ca;
+      } else if (hb) {
+        cur = cb;
+      } else {
+        if (sp == 0) break;
+        cur = stack[--sp];
+      }
+      continue;
+    }
+    const std::uint32_t first = leaf_first(cur), cnt = leaf_count(cur);
+    bool done = false;
+    for (std::uint32_t k = 0; k < cnt; ++k) {
+      const Tri& tri = b.tris[first + k];
+      const float t = triangle(s, tri);
+      if (!(t >= s.tmin && t <= tmax)) continue;
+      if (Any) {
+        done = true;
+        break;
+      }
+      if (t < tmax || tri.prim < best_prim) tmax = t, best = first + k, best_prim = tri.prim;
+    }
+    if (done) {
+      h.prim = 0;  // "occluded"
+      return h;
+    }
+    if (sp == 0) break;
+    cur = stack[--sp];
+  }
+  if (!Any && best != kNoHit) {
+    const Tri& tri = b.tris[best];
+    h.t = tmax, h.prim = tri.prim, h.material = tri.material;
+    std::memcpy(h.v, tri.v0, 12);
+    std::memcpy(h.v + 3, tri.v1, 12);
+    std::memcpy(h.v + 6, tri.v2, 12);
+  }
+  return h;
+}
+
+}  // namespace
+
+GpuHit closest(const FlatBvh& b, const GpuRay& r) { return traverse<false>(b, r); }
+float triangle_t(const Tri& t, const GpuRay& r) { return triangle(setup(r), t); }
+bool any(const FlatBvh& b, const GpuRay& r) { return traverse<true>(b, r).prim != kNoHit; }
+
+}  // namespace rayline::gpu::bvh
