@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <unordered_map>
 
 namespace rayline {
 
@@ -73,17 +72,24 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   if (bound_ != &s || !placer_) {
     placer_ = std::make_unique<Placer>(s);
     bound_ = &s;
+    homes_.clear();
   }
   s.set_eviction_policy(opt_.lru ? Schedule::EvictionPolicy::Lru : Schedule::EvictionPolicy::QueueAware);
+  const DeviceGraph& g = s.graph();
+  // Greedy: each idle device takes one job, GPUs first (they are preferred for intersection).
+  // Nothing idle or nothing queued: nothing to decide (most events of a busy run).
+  std::vector<DeviceId> idle;
+  if (pool.queued_count() > 0)
+    for (std::size_t d = 0; d < g.computes.size(); ++d)
+      if (s.unfinished_on_device(static_cast<DeviceId>(d)) == 0) idle.push_back(static_cast<DeviceId>(d));
+  if (idle.empty()) {
+    st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return st;
+  }
   s.reproject(now);
   placer_->finder().clear();
   placer_->finder().set_now(now);
   placer_->finder().set_scene_from_origin_or_local(true);  // no scene data between nodes
-  const DeviceGraph& g = s.graph();
-  // Greedy: each idle device takes one job, GPUs first (they are preferred for intersection).
-  std::vector<DeviceId> idle;
-  for (std::size_t d = 0; d < g.computes.size(); ++d)
-    if (s.unfinished_on_device(static_cast<DeviceId>(d)) == 0) idle.push_back(static_cast<DeviceId>(d));
   std::stable_sort(idle.begin(), idle.end(), [&](DeviceId a, DeviceId b) {
     return g.computes[a].kind == ComputeKind::Gpu && g.computes[b].kind != ComputeKind::Gpu;
   });
@@ -94,12 +100,33 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     std::size_t pos;
   };
   std::vector<Cand> cand;
-  std::unordered_map<JobId, NodeId> homes;  // per plan call: a job's home does not change within it
+  // A job's home node never changes once known (its rays never leave their node), so it is
+  // remembered across calls; "any node" (kNone) is recomputed.
+  if (homes_.size() < pool.job_count()) homes_.resize(pool.job_count(), kNone);
   auto home_of = [&](JobId j) {
-    auto [it, fresh] = homes.try_emplace(j, kNone);
-    if (fresh) it->second = home_node(j, pool.job(j), pool, s, opt_.split_by_throughput);
-    return it->second;
+    NodeId& h = homes_[static_cast<std::size_t>(j)];
+    if (h == kNone) h = home_node(j, pool.job(j), pool, s, opt_.split_by_throughput);
+    return h;
   };
+  // Queued jobs bucketed by home node (the last bucket: any node), in queue order, so each
+  // device scans only its own node's part of the image.
+  struct Queued {
+    JobId job;
+    Bytes rays;
+    std::size_t pos;
+  };
+  std::vector<std::vector<Queued>> by_node(g.nodes.size() + 1);
+  {
+    std::size_t pos = 0;
+    for (JobId j : pool.queued()) {
+      ++pos;
+      const NodeId home = home_of(j);
+      Bytes rays = 0;
+      for (BlockId b : pool.job(j).inputs)
+        if (pool.block(b).kind != DataKind::SceneData) rays += pool.block(b).bytes;
+      by_node[home == kNone ? g.nodes.size() : static_cast<std::size_t>(home)].push_back({j, rays, pos});
+    }
+  }
   for (DeviceId d : idle) {
     const MemId m = g.computes[d].memory;
     const NodeId node = g.computes[d].node;
@@ -112,26 +139,21 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     // checked only in priority order, so the first feasible one is the same pick as the
     // best feasible one: resident first, then the largest queue, then queue order.
     cand.clear();
-    std::size_t pos = 0;
-    for (JobId j : pool.queued()) {
-      ++pos;
-      const Job& job = pool.job(j);
-      if (!g.timing.supports(d, job.type)) continue;
-      const NodeId home = home_of(j);
-      if (home != kNone && home != node) continue;  // image-space decomposition
-      bool resident = true;
-      Bytes rays = 0, scene = 0;
-      for (BlockId b : job.inputs) {
-        if (pool.block(b).kind == DataKind::SceneData) {
-          resident = resident && s.copy_at(b, m) != nullptr;
-          scene += pool.block(b).bytes;
-        } else {
-          rays += pool.block(b).bytes;
-        }
+    for (const auto* bucket : {&by_node[static_cast<std::size_t>(node)], &by_node.back()})
+      for (const Queued& q : *bucket) {
+        if (pool.state(q.job) != JobState::Queued) continue;  // taken by an earlier device
+        const Job& job = pool.job(q.job);
+        if (!g.timing.supports(d, job.type)) continue;
+        bool resident = true;
+        Bytes scene = 0;
+        for (BlockId b : job.inputs)
+          if (pool.block(b).kind == DataKind::SceneData) {
+            resident = resident && s.copy_at(b, m) != nullptr;
+            scene += pool.block(b).bytes;
+          }
+        if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
+        cand.push_back({q.job, opt_.resident_first && resident, opt_.largest_queue ? q.rays : 0, q.pos});
       }
-      if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
-      cand.push_back({j, opt_.resident_first && resident, opt_.largest_queue ? rays : 0, pos});
-    }
     std::sort(cand.begin(), cand.end(), [](const Cand& a, const Cand& b) {
       if (a.resident != b.resident) return a.resident;
       if (a.rays != b.rays) return a.rays > b.rays;

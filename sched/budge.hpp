@@ -18,6 +18,7 @@
 #pragma once
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "placer.hpp"
 #include "scheduler.hpp"
@@ -49,6 +50,7 @@ class BudgeScheduler final : public Scheduler {
   BudgeOptions opt_;
   const Schedule* bound_ = nullptr;
   std::unique_ptr<Placer> placer_;
+  std::vector<NodeId> homes_;  // per job: its node under the image-space decomposition
 };
 
 }  // namespace rayline
