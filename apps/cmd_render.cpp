@@ -78,6 +78,9 @@ int run_render(const RenderCliOptions& opt) {
   ro.bvh_quality = opt.bvh_quality;
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!opt.memory_budget.empty()) ro.memory_budget = parse_bytes(opt.memory_budget, "--memory-budget");
+  ro.gpu = opt.gpu;
+  if (!opt.gpu_memory_budget.empty())
+    ro.gpu_memory_budget = parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget");
   const std::string ext = fs::path(opt.out).extension().string();
   if (ext != ".exr") throw InputError(opt.out, "--out", "the image is written as OpenEXR: use a name ending in .exr");
   check_writable(opt.out, "--out");
@@ -109,6 +112,12 @@ int run_render(const RenderCliOptions& opt) {
                 double(r.counts.created) / r.seconds / 1e6, static_cast<unsigned long long>(r.counts.created),
                 static_cast<unsigned long long>(r.store.loads), double(r.store.bytes_read) / 1e6,
                 r.store.buffered_reads == 0 ? "O_DIRECT" : "buffered, pages dropped");
+    if (!r.gpu_device.empty())
+      std::printf("gpu '%s'%s: %llu jobs, %llu rays (%llu rays on the CPU path), %llu block uploads; %s\n",
+                  r.gpu_device.c_str(), r.gpu_cpu_backed ? " (CPU-backed)" : "",
+                  static_cast<unsigned long long>(r.gpu.gpu_jobs), static_cast<unsigned long long>(r.gpu.gpu_rays),
+                  static_cast<unsigned long long>(r.gpu.fallback_rays),
+                  static_cast<unsigned long long>(r.gpu.block_uploads), r.gpu_status.c_str());
     std::printf("wrote %s, %s, %s, %s, %s\n", opt.out.c_str(), sibling(opt.out, ".png").c_str(),
                 sibling(opt.out, ".metrics.json").c_str(), sibling(opt.out, ".timeline.json").c_str(),
                 sibling(opt.out, ".jobs.csv").c_str());
@@ -122,6 +131,7 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   ro.blocks = opt.blocks;
   ro.threads = opt.threads;
   ro.spp = opt.spp;
+  ro.gpu = opt.gpu;
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!(opt.budget_fraction > 0 && opt.budget_fraction < 1))
     throw InputError("--budget-fraction", "", "must be in (0, 1)");
@@ -140,6 +150,16 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   std::printf("ShadowIntersect per thread: setup %.1f us, %.3f Mrays/s; RMS error %.3f ms, worst %.0f %%\n",
               c.model.shadow_setup * 1e6, 1.0 / (c.model.shadow_rate * 64) / 1e6, c.shadow_rms * 1e3,
               100 * c.shadow_max_rel);
+  if (!c.model.gpus.empty()) {
+    const engine::GpuModel& gm = c.model.gpus[0];
+    std::printf("GPU '%s' over %d jobs: RayIntersect setup %.1f us, %.3f Mrays/s%s; ShadowIntersect setup %.1f us, "
+                "%.3f Mrays/s%s\n",
+                c.gpu_device.c_str(), c.gpu_exec_samples, gm.intersect_setup * 1e6, 1.0 / (gm.intersect_rate * 64) / 1e6,
+                c.gpu_intersect_fitted ? "" : " (default: too few jobs)", gm.shadow_setup * 1e6,
+                1.0 / (gm.shadow_rate * 64) / 1e6, c.gpu_shadow_fitted ? "" : " (default: too few jobs)");
+    std::printf("RAM->GPU channel, Eq. 1 over %d uploads: latency %.1f us, bandwidth %.1f MB/s, relative RMS error %.1f %%\n",
+                c.pcie_samples, gm.pcie_latency * 1e6, gm.pcie_bandwidth / 1e6, 100 * c.pcie_rel_rms);
+  }
   std::printf("wrote %s (use: rayline render --platform %s)\n", opt.out.c_str(), opt.out.c_str());
   return kExitOk;
 }

@@ -19,6 +19,8 @@ struct RenderCliOptions {
   double horizon = 2.0;
   std::uint32_t paths = 1u << 17;    // paths in flight at most
   std::string bvh_quality = "auto";
+  std::string gpu = "auto";          // none | auto | index | name (issue 7)
+  std::string gpu_memory_budget;     // "4GiB"; empty: half of the device's memory
   std::string out = "out/render.exr";
   bool quiet = false;
 };
@@ -30,6 +32,7 @@ struct CalibrateCliOptions {
   int threads = 0, spp = 4;
   std::string resolution = "256x256";
   double budget_fraction = 0.3;
+  std::string gpu = "auto";
   std::string out = "out/this-machine.json";
   bool quiet = false;
 };

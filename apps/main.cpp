@@ -5,6 +5,7 @@
 #include "apps/cli_common.hpp"
 #include "apps/cmd_generate.hpp"
 #include "apps/cmd_partition.hpp"
+#include "apps/cmd_devices.hpp"
 #include "apps/cmd_render.hpp"
 #include "apps/cmd_plan.hpp"
 #include "apps/cmd_platform.hpp"
@@ -122,6 +123,11 @@ void add_render(CLI::App& app, std::function<int()>& action) {
                 "auto (low under a budget, else medium) | low (fast Morton build) | medium | high; the image is the same")
       ->default_val(opt->bvh_quality)
       ->check(CLI::IsMember({"auto", "low", "medium", "high"}));
+  r->add_option("--gpu", opt->gpu,
+                "Vulkan device: none | auto (first non-CPU device, else none) | index | name substring (see `rayline devices`)")
+      ->default_val(opt->gpu);
+  r->add_option("--gpu-memory-budget", opt->gpu_memory_budget,
+                "GPU memory for scene blocks and ray queues, e.g. 4GiB (default: half of the device's)");
   r->add_option("--out,-o", opt->out, "OpenEXR image; .png, .metrics.json, .timeline.json, .jobs.csv go next to it")
       ->default_val(opt->out);
   r->add_flag("--quiet,-q", opt->quiet, "No progress bar or summary");
@@ -138,9 +144,23 @@ void add_calibrate(CLI::App& app, std::function<int()>& action) {
   c->add_option("--resolution", opt->resolution, "Resolution of the measuring render")->default_val(opt->resolution);
   c->add_option("--budget-fraction", opt->budget_fraction, "RAM budget as a share of the scene's block bytes (forces loads)")
       ->default_val(opt->budget_fraction);
+  c->add_option("--gpu", opt->gpu, "Vulkan device to measure too: none | auto | index | name substring")
+      ->default_val(opt->gpu);
   c->add_option("--out,-o", opt->out, "Platform file to write")->default_val(opt->out);
   c->add_flag("--quiet,-q", opt->quiet, "No progress bar");
   c->callback([opt, &action] { action = [opt] { return run_calibrate(*opt); }; });
+}
+
+void add_devices(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<DevicesCliOptions>();
+  auto* d = app.add_subcommand("devices", "List the Vulkan devices and the compute/memory devices, channels and timing model the renderer would use");
+  d->add_option("--platform", opt->platform, "auto, or a platform file written by `rayline calibrate`")->default_val(opt->platform);
+  d->add_option("--threads,-j", opt->threads, "CPU compute devices (default: all hardware threads)")->check(CLI::Range(1, 4096));
+  d->add_option("--gpu", opt->gpu, "none | auto | index | name substring")->default_val(opt->gpu);
+  d->add_option("--memory-budget", opt->memory_budget, "RAM capacity to show (default: this machine's RAM)");
+  d->add_option("--gpu-memory-budget", opt->gpu_memory_budget, "GPU memory capacity (default: half of the device's)");
+  d->add_flag("--json", opt->json, "Print JSON instead of text");
+  d->callback([opt, &action] { action = [opt] { return run_devices(*opt); }; });
 }
 
 }  // namespace
@@ -157,6 +177,7 @@ int main(int argc, char** argv) {
   add_partition(app, action);
   add_render(app, action);
   add_calibrate(app, action);
+  add_devices(app, action);
   // New subcommands: add an add_<name>(app, action) above and call it here.
   try {
     app.parse(argc, argv);

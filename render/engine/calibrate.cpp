@@ -11,7 +11,7 @@ namespace rayline::engine {
 namespace {
 
 // Least squares of t = lat + bytes / bw (closed form for one regressor).
-void fit_channel(const std::vector<std::pair<Bytes, Time>>& s, WorkstationModel& m, double& rel_rms) {
+void fit_channel(const std::vector<std::pair<Bytes, Time>>& s, Time& latency, double& bandwidth, double& rel_rms) {
   const double n = double(s.size());
   double sx = 0, sy = 0, sxx = 0, sxy = 0;
   for (auto [b, t] : s) sx += double(b), sy += t, sxx += double(b) * double(b), sxy += double(b) * t;
@@ -25,8 +25,8 @@ void fit_channel(const std::vector<std::pair<Bytes, Time>>& s, WorkstationModel&
     slope = sxx > 0 ? sxy / sxx : slope;
     icpt = 0;
   }
-  m.disk_latency = icpt;
-  m.disk_bandwidth = 1.0 / slope;
+  latency = icpt;
+  bandwidth = 1.0 / slope;
   double e2 = 0;
   for (auto [b, t] : s) {
     const double pred = icpt + slope * double(b);
@@ -53,14 +53,15 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction) {
   c.model.threads = r.threads;
   if (r.load_samples.size() < 2) throw std::runtime_error("calibrate: fewer than 2 block loads were measured; use more blocks");
   c.load_samples = static_cast<int>(r.load_samples.size());
-  fit_channel(r.load_samples, c.model, c.load_rel_rms);
+  fit_channel(r.load_samples, c.model.disk_latency, c.model.disk_bandwidth, c.load_rel_rms);
 
-  // All CPU hardware threads are identical: fit them as one device.
+  // All CPU hardware threads are identical: fit them as one device (0); the GPU is device 1.
   TimingModel tm;
-  tm.resize(1, 2);
+  tm.resize(2, 2);
   std::vector<TimingSample> samples;
   for (TimingSample s : r.exec_samples) {
-    s.device = 0;
+    s.device = s.device == r.gpu_device_id ? 1 : 0;
+    (s.device == 1 ? c.gpu_exec_samples : c.exec_samples) += 1;
     // Eq. 2 with the ray queue as the only sized input (SceneData's cost is in SETUP).
     std::vector<InputSize> in;
     for (const InputSize& x : s.inputs)
@@ -68,10 +69,9 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction) {
     s.inputs = std::move(in);
     samples.push_back(std::move(s));
   }
-  c.exec_samples = static_cast<int>(samples.size());
   // RenderResult's sample types: RayIntersect 0, ShadowIntersect 1.
   for (auto& e : tm.fit(samples).entries) {
-    if (!e.ok) continue;
+    if (!e.ok || e.device != 0) continue;
     (e.type == 0 ? c.intersect_max_rel : c.shadow_max_rel) = e.max_rel_error;
     (e.type == 0 ? c.intersect_rms : c.shadow_rms) = e.rms_error;
   }
@@ -84,6 +84,28 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction) {
   if (b.supported && b.rate[int(DataKind::ShadowRayQueue)] > 0) {
     c.model.shadow_setup = b.setup;
     c.model.shadow_rate = b.rate[int(DataKind::ShadowRayQueue)];
+  }
+  // The GPU (issue 7): its Eq. 2 per job type (dispatch + hit download + host shading) and
+  // the RAM->GPU channel's Eq. 1 over every upload (blocks with their BVH build, ray queues).
+  if (r.gpu_device_id >= 0) {
+    GpuModel gm;
+    gm.memory = r.gpu_memory_budget;
+    const ExecCoefficients& ga = tm.at(1, 0);
+    const ExecCoefficients& gb = tm.at(1, 1);
+    if (ga.supported && ga.rate[int(DataKind::RayQueue)] > 0) {
+      gm.intersect_setup = ga.setup;
+      gm.intersect_rate = ga.rate[int(DataKind::RayQueue)];
+      c.gpu_intersect_fitted = true;
+    }
+    if (gb.supported && gb.rate[int(DataKind::ShadowRayQueue)] > 0) {
+      gm.shadow_setup = gb.setup;
+      gm.shadow_rate = gb.rate[int(DataKind::ShadowRayQueue)];
+      c.gpu_shadow_fitted = true;
+    }
+    c.pcie_samples = static_cast<int>(r.pcie_samples.size());
+    if (r.pcie_samples.size() >= 2) fit_channel(r.pcie_samples, gm.pcie_latency, gm.pcie_bandwidth, c.pcie_rel_rms);
+    c.gpu_device = r.gpu_device;
+    c.model.gpus.push_back(gm);
   }
   c.platform_json = workstation_json(c.model, "calibrated by rayline calibrate on this machine");
   return c;

@@ -3,7 +3,9 @@
 //   Eq. 1 for the disk→RAM channel: T = LAT + bytes / BW over every measured load
 //     (read with O_DIRECT + BVH build);
 //   Eq. 2 per job type for a CPU hardware thread: T = SETUP + RATE·|rays| over every
-//     measured RayIntersect / ShadowIntersect (TimingModel::fit, Eigen).
+//     measured RayIntersect / ShadowIntersect (TimingModel::fit, Eigen);
+//   with a Vulkan device (--gpu): Eq. 2 for the GPU's jobs and Eq. 1 for the RAM->GPU
+//     channel over every upload.
 // The result is a platform file the renderer reads with --platform.
 #pragma once
 #include <string>
@@ -19,6 +21,11 @@ struct CalibrationResult {
   double load_rel_rms = 0;           // relative RMS error of the Eq. 1 fit
   double intersect_max_rel = 0, shadow_max_rel = 0;  // worst relative error of the Eq. 2 fits
   double intersect_rms = 0, shadow_rms = 0;          // RMS error, seconds
+  // The GPU, when one was used (issue 7): samples and whether each fit replaced the defaults.
+  std::string gpu_device;
+  int gpu_exec_samples = 0, pcie_samples = 0;
+  bool gpu_intersect_fitted = false, gpu_shadow_fitted = false;
+  double pcie_rel_rms = 0;
   std::string platform_json;
 };
 

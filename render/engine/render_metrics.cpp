@@ -33,7 +33,7 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   m["scheduler_parameters"] = r.scheduler_parameters;
   m["platform"] = r.platform;
   m["bvh_quality"] = r.bvh_quality;
-  m["threads"] = g.computes.size();
+  m["threads"] = r.threads;
   m["seconds"] = r.seconds;
   m["partition_seconds"] = r.partition_seconds;
   // Tracing throughput without the first load: in core with one block this excludes
@@ -114,6 +114,26 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
                     {"true_idle_s", t.idle}});
   }
   m["devices"] = devs;
+  // The Vulkan device (issue 7): what ran there, what fell back to the CPU path and why.
+  m["gpu"] = {{"device", r.gpu_device},
+              {"cpu_backed", r.gpu_cpu_backed},
+              {"status", r.gpu_status},
+              {"memory_budget_bytes", r.gpu_memory_budget},
+              {"jobs", r.gpu.gpu_jobs},
+              {"fallback_jobs", r.gpu.fallback_jobs},
+              {"rays", r.gpu.gpu_rays},
+              {"fallback_rays", r.gpu.fallback_rays},
+              {"kernel_seconds", r.gpu.kernel_seconds},
+              {"block_uploads", r.gpu.block_uploads},
+              {"block_evictions", r.gpu.block_evictions},
+              {"upload_failures", r.gpu.upload_failures},
+              {"ray_uploads", r.gpu.ray_uploads},
+              {"unplanned_ray_uploads", r.gpu.unplanned_ray_uploads},
+              {"block_bytes_uploaded", r.gpu.block_bytes},
+              {"ray_bytes_uploaded", r.gpu.ray_bytes},
+              {"bvh_build_seconds", r.gpu.build_seconds},
+              {"upload_seconds", r.gpu.upload_seconds},
+              {"peak_device_bytes", r.gpu.peak_device_bytes}};
   return m.dump(2) + "\n";
 }
 

@@ -15,6 +15,8 @@ RenderWorkload::RenderWorkload(const trace::TraceSettings& ts, const trace::Pinh
       staging_(scene_blocks_.size()), open_(scene_blocks_.size(), {kNone, kNone}) {
   type_[0] = g.job_type("RayIntersect");
   type_[1] = g.job_type("ShadowIntersect");
+  for (std::size_t m = 0; m < g.memories.size(); ++m)
+    if (!g.computes_on(MemId(m)).empty()) near_.push_back(MemId(m));
   total_camera_ = std::uint64_t(camera.width()) * std::uint64_t(camera.height()) * std::uint64_t(opt_.spp);
 }
 
@@ -76,6 +78,7 @@ void RenderWorkload::make_job(RayKind kind, std::uint32_t cell, std::vector<RayR
     pool.add_input(open, qb);
     pool.job(open).work += n;
     target = &job(open);
+    consumer_[qb] = open;
     ++merges_;
   } else {
     Job j;
@@ -90,6 +93,7 @@ void RenderWorkload::make_job(RayKind kind, std::uint32_t cell, std::vector<RayR
     target = jobs_[static_cast<std::size_t>(id)].get();
     target->kind = kind;
     target->cell = cell;
+    consumer_[qb] = id;
     open_[cell][k] = id;
     ++jobs_created_;
   }
@@ -97,6 +101,7 @@ void RenderWorkload::make_job(RayKind kind, std::uint32_t cell, std::vector<RayR
   // change the image anyway).
   target->rays.insert(target->rays.end(), rays.begin(), rays.begin() + static_cast<std::ptrdiff_t>(n));
   target->input += n;
+  target->parts.emplace_back(qb, static_cast<std::uint32_t>(n));
   rays.erase(rays.begin(), rays.begin() + static_cast<std::ptrdiff_t>(n));
   staged_ -= n;
   in_jobs_ += n;
@@ -106,7 +111,11 @@ void RenderWorkload::flush(Time now, JobPool& pool, Schedule& s, bool all) {
   // Out of core, every job on a block that is not in RAM costs a load (Sec. 5.1: batch rays
   // to amortise data movement). Queues of resident cells (held or arriving on RAM in the
   // plan) become jobs at min_batch rays; queues of other cells wait for big_batch rays.
-  auto resident = [&](std::uint32_t c) { return s.copy_at(scene_blocks_[c], ram_) != nullptr; };
+  auto resident = [&](std::uint32_t c) {
+    for (MemId m : near_)
+      if (s.copy_at(scene_blocks_[c], m) != nullptr) return true;
+    return false;
+  };
   const std::size_t big_batch = std::min<std::size_t>(opt_.max_batch, std::size_t(opt_.min_batch) * 16);
   for (std::uint32_t c = 0; c < staging_.size(); ++c)
     for (int k = 0; k < 2; ++k) {
@@ -140,6 +149,7 @@ void RenderWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedule&
   if (static_cast<std::size_t>(j) >= jobs_.size() || !jobs_[static_cast<std::size_t>(j)]) return;
   std::unique_ptr<RayJob> done = std::move(jobs_[static_cast<std::size_t>(j)]);
   counts_ += done->counts;
+  for (const auto& part : done->parts) consumer_.erase(part.first);
   in_jobs_ -= done->input;
   paths_alive_ -= done->counts.paths_ended;
   stage(done->out);

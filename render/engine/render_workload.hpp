@@ -9,6 +9,8 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "render/trace/camera.hpp"
@@ -31,6 +33,9 @@ struct RayJob {
   std::uint32_t cell = 0;
   std::vector<trace::RayRecord> rays;
   std::uint64_t input = 0;  // rays handed to the job (the kernel may trace more: trace_while_resident)
+  // The job's ray queues (RayQueue/ShadowRayQueue blocks merged into it, Sec. 5.1) and
+  // their ray counts, in the order of `rays`: a queue moves RAM->GPU as its own T-job.
+  std::vector<std::pair<BlockId, std::uint32_t>> parts;
   std::vector<trace::RayRecord> out;
   trace::RayCounts counts;
 };
@@ -49,6 +54,11 @@ class RenderWorkload final : public Workload {
   // Stop making work (a job failed): finished() turns true.
   void abort() { aborted_ = true; }
   RayJob& job(JobId j) { return *jobs_.at(static_cast<std::size_t>(j)); }
+  // The job a ray queue block was merged into (kNone for other blocks).
+  JobId consumer(BlockId queue) const {
+    auto it = consumer_.find(queue);
+    return it == consumer_.end() ? kNone : it->second;
+  }
   const trace::RayCounts& counts() const { return counts_; }
   std::uint64_t camera_rays() const { return next_camera_; }
   std::uint64_t total_camera_rays() const { return total_camera_; }
@@ -67,12 +77,14 @@ class RenderWorkload final : public Workload {
   const trace::PinholeCamera& camera_;
   const DeviceGraph& g_;
   MemId ram_;
+  std::vector<MemId> near_;  // memories compute devices work from (RAM, GPU memories)
   std::vector<BlockId> scene_blocks_;
   RenderWorkloadOptions opt_;
   JobTypeId type_[2];
   std::vector<std::array<std::vector<trace::RayRecord>, 2>> staging_;  // per cell, per kind
   std::vector<std::array<JobId, 2>> open_;                               // queued job per cell, kind
   std::vector<std::unique_ptr<RayJob>> jobs_;                            // by JobId
+  std::unordered_map<BlockId, JobId> consumer_;                          // ray queue -> its job
   trace::RayCounts counts_;
   std::uint64_t next_camera_ = 0, total_camera_ = 0;
   std::uint64_t paths_alive_ = 0, staged_ = 0, in_jobs_ = 0;

@@ -12,6 +12,7 @@
 #include <map>
 #include <thread>
 
+#include "render/engine/gpu_select.hpp"
 #include "render/engine/local_executor.hpp"
 #include "render/engine/render_metrics.hpp"
 #include "render/engine/workstation.hpp"
@@ -20,6 +21,7 @@
 #include "render/scene/scene_stream.hpp"
 #include "render/trace/camera.hpp"
 #include "sched/error.hpp"
+#include "sched/platform_loader.hpp"
 #include "sched/scheduler_factory.hpp"
 #include "sched/trace_output.hpp"
 
@@ -58,6 +60,18 @@ std::uint32_t auto_blocks(std::uint64_t triangles, Bytes budget) {
   if (budget == 0) return std::uint32_t(std::clamp<double>(std::ceil(double(triangles) / 4e6), 1, 64));
   // At least four blocks resident at once, and a few cells to balance the threads.
   return std::uint32_t(std::clamp<double>(std::ceil(4 * fp / double(budget)), 8, 1024));
+}
+
+// The Vulkan device of --gpu (issue 7), with the test hook of RenderOptions.
+std::unique_ptr<gpu::GpuContext> open_gpu(const RenderOptions& opt, RenderResult& res) {
+  auto ctx = select_gpu(opt.gpu, res.gpu_status);
+  if (!ctx) return nullptr;
+  res.gpu_device = ctx->info().name;
+  res.gpu_cpu_backed = ctx->info().cpu_backed;
+  if (opt.gpu_fault_after > 0)
+    ctx->inject_fault(opt.gpu_fault_after,
+                      opt.gpu_fault == "oom" ? gpu::GpuErrorKind::OutOfMemory : gpu::GpuErrorKind::DeviceLost);
+  return ctx;
 }
 
 }  // namespace
@@ -143,21 +157,41 @@ RenderResult render(const RenderOptions& opt) {
     ram_capacity = res.scene_block_bytes + Bytes(wo.path_cap) * per_path;
   }
   res.path_cap = wo.path_cap;
-  DeviceGraph g;
-  if (opt.platform.empty() || opt.platform == "auto") {
-    WorkstationModel m;
-    m.threads = threads;
-    m.ram_capacity = ram_capacity;
-    g = make_workstation(m);
+  std::unique_ptr<gpu::GpuContext> gpu_ctx = open_gpu(opt, res);
+  WorkstationModel wm;
+  if (!opt.platform.empty() && opt.platform != "auto") wm = load_workstation_model(opt.platform);
+  wm.threads = threads;
+  wm.ram_capacity = ram_capacity;
+  if (!gpu_ctx) {
+    wm.gpus.clear();
   } else {
-    g = load_workstation(opt.platform, threads, ram_capacity);
+    if (wm.gpus.empty()) wm.gpus.emplace_back();  // uncalibrated: the defaults seed the plan
+    wm.gpus.resize(1);
+    const Bytes budget = gpu_memory_budget(gpu_ctx->info(), opt.gpu_memory_budget);
+    // The largest block and one full ray queue must fit, or a GPU job could never be placed.
+    const Bytes need = largest + Bytes(wo.max_batch) * sizeof(trace::RayRecord);
+    if (budget < need)
+      throw InputError("--gpu-memory-budget", "gpu-memory-budget",
+                       "budget of " + std::to_string(budget) + " bytes is smaller than the largest block plus one ray queue (" +
+                           std::to_string(need) + " bytes); use more blocks or a larger budget");
+    wm.gpus[0].memory = budget;
+    res.gpu_memory_budget = budget;
   }
+  DeviceGraph g = parse_platform(workstation_json(wm, opt.platform.empty() || opt.platform == "auto"
+                                                          ? std::string("this machine (defaults)")
+                                                          : "from " + opt.platform),
+                                 opt.platform.empty() ? std::string("<auto platform>") : opt.platform);
   res.platform = opt.platform.empty() ? "auto" : opt.platform;
-  MemId disk = kNone, ram = kNone;
+  MemId disk = kNone, ram = kNone, gmem = kNone;
   for (std::size_t i = 0; i < g.memories.size(); ++i) {
     if (g.memories[i].kind == MemoryKind::Disk && disk == kNone) disk = MemId(i);
     if (g.memories[i].kind == MemoryKind::Host && ram == kNone) ram = MemId(i);
+    if (g.memories[i].kind == MemoryKind::Gpu && gmem == kNone) gmem = MemId(i);
   }
+  DeviceId gpu_dev = kNone;
+  for (std::size_t d = 0; d < g.computes.size(); ++d)
+    if (g.computes[d].kind == ComputeKind::Gpu) gpu_dev = DeviceId(d);
+  res.gpu_device_id = gpu_dev == kNone ? -1 : int(gpu_dev);
 
   // ---- the run -------------------------------------------------------------------------
   JobPool pool;
@@ -192,25 +226,51 @@ RenderResult render(const RenderOptions& opt) {
   BlockStore store(index, dir, footprint, static_cast<std::uint32_t>(sc.materials.size()), quality,
                    opt.build_threads > 0 ? opt.build_threads : threads);
 
-  // Evictions the plan decided, by the activity that needed the space (Schedule::Eviction).
+  std::unique_ptr<GpuStore> gpu_store;
+  if (gpu_ctx) gpu_store = std::make_unique<GpuStore>(*gpu_ctx, store);
+
+  // Evictions the plan decided, by the activity that needed the space (Schedule::Eviction):
+  // scene blocks leave RAM or GPU memory, ray queues leave GPU memory.
+  struct Victims {
+    std::vector<std::uint32_t> ram_cells, gpu_cells;
+    std::vector<BlockId> gpu_queues;
+  };
   std::size_t ev_cursor = 0;
-  std::map<ActivityId, std::vector<std::uint32_t>> victims;
+  std::map<ActivityId, Victims> victims;
+  std::map<BlockId, std::pair<RayJob*, std::pair<std::size_t, std::uint32_t>>> queue_rays;  // RAM->GPU uploads
   auto task_for = [&](ActivityId id, const Activity& a) -> LocalExecutor::Task {
     const auto& evs = schedule.evictions();
     for (; ev_cursor < evs.size(); ++ev_cursor) {
       const Eviction& e = evs[ev_cursor];
       auto it = cell_of.find(e.block);
-      if (e.mem == ram && it != cell_of.end()) victims[e.for_activity].push_back(it->second);
+      if (e.mem == ram && it != cell_of.end()) victims[e.for_activity].ram_cells.push_back(it->second);
+      if (e.mem == gmem && it != cell_of.end()) victims[e.for_activity].gpu_cells.push_back(it->second);
+      if (e.mem == gmem && it == cell_of.end()) victims[e.for_activity].gpu_queues.push_back(e.block);
     }
-    std::vector<std::uint32_t> evict;
+    Victims evict;
     if (auto v = victims.find(id); v != victims.end()) {
       evict = std::move(v->second);
       victims.erase(v);
     }
+    GpuStore* gs = gpu_store.get();
+    auto do_evict = [&store, gs](const Victims& v) {
+      for (std::uint32_t c : v.ram_cells) store.evict(c);
+      if (!gs) return;
+      for (std::uint32_t c : v.gpu_cells) gs->evict(c);
+      for (BlockId q : v.gpu_queues) gs->drop_rays(q);
+    };
     if (a.kind == ActivityKind::Exec) {
       RayJob* job = &workload.job(a.job);
-      return [&ts, &store, job, evict = std::move(evict)] {
-        for (std::uint32_t c : evict) store.evict(c);
+      if (gs && a.device == gpu_dev) {
+        // The job's queues will be uploaded by T-jobs dispatched later; record where their rays are.
+        return [&ts, gs, job, evict = std::move(evict), do_evict] {
+          do_evict(evict);
+          gs->run_job(ts, job->cell, job->kind, job->rays, job->parts, job->out, job->counts);
+          std::vector<trace::RayRecord>().swap(job->rays);
+        };
+      }
+      return [&ts, &store, job, evict = std::move(evict), do_evict] {
+        do_evict(evict);
         const auto geo = store.get(job->cell);
         if (job->kind == trace::RayKind::Path) trace::ray_intersect(ts, *geo, job->rays, job->out, job->counts);
         else trace::shadow_intersect(ts, *geo, job->rays, job->out, job->counts);
@@ -218,11 +278,34 @@ RenderResult render(const RenderOptions& opt) {
       };
     }
     auto it = cell_of.find(a.block);
-    const bool load = it != cell_of.end() && g.channels[a.channel].to == ram;
-    const std::uint32_t cell = load ? it->second : 0;
-    // Ray queues live in host memory shared by every compute device here: nothing moves.
-    return [&store, load, cell, evict = std::move(evict)] {
-      for (std::uint32_t c : evict) store.evict(c);
+    const MemId to = g.channels[a.channel].to;
+    const bool scene_block = it != cell_of.end();
+    const std::uint32_t cell = scene_block ? it->second : 0;
+    if (gs && to == gmem) {
+      if (scene_block)
+        return [gs, cell, evict = std::move(evict), do_evict] {
+          do_evict(evict);
+          gs->load(cell);
+        };
+      // A ray queue RAM->GPU: the rays of that queue inside the job that consumes it.
+      std::span<const trace::RayRecord> rays;
+      if (const JobId j = workload.consumer(a.block); j != kNone) {
+        RayJob& rj = workload.job(j);
+        std::size_t off = 0;
+        for (const auto& [q, n] : rj.parts) {
+          if (q == a.block) rays = std::span<const trace::RayRecord>(rj.rays).subspan(off, n);
+          off += n;
+        }
+      }
+      return [&ts, gs, q = a.block, rays, evict = std::move(evict), do_evict] {
+        do_evict(evict);
+        if (!rays.empty()) gs->load_rays(q, rays, ts);
+      };
+    }
+    // Disk -> RAM loads a block; ray queues live in host memory shared by every CPU device.
+    const bool load = scene_block && to == ram;
+    return [&store, load, cell, evict = std::move(evict), do_evict] {
+      do_evict(evict);
       if (load) store.load(cell);
     };
   };
@@ -235,8 +318,15 @@ RenderResult render(const RenderOptions& opt) {
   LocalExecutor executor(g, task_for);
   RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
   auto last = std::chrono::steady_clock::now();
+  bool gpu_disabled = false;
   loop.on_progress = [&](Time now, const RunStats&) {
     if (executor.failure()) workload.abort();
+    if (gpu_store && !gpu_disabled && gpu_store->lost()) {
+      // The device is gone: plan no more work for it (jobs already planned there run on
+      // the CPU path inside GpuStore::run_job, so nothing is lost).
+      for (JobTypeId t = 0; t < JobTypeId(g.job_types.size()); ++t) g.timing.at(gpu_dev, t).supported = false;
+      gpu_disabled = true;
+    }
     if (!opt.progress) return;
     const auto t = std::chrono::steady_clock::now();
     if (t - last < std::chrono::milliseconds(200)) return;
@@ -275,7 +365,14 @@ RenderResult render(const RenderOptions& opt) {
       res.exec_samples.push_back(std::move(t));
     } else if (cell_of.count(a.block) && g.channels[a.channel].to == ram) {
       res.load_samples.emplace_back(a.bytes, a.end - a.start);
+    } else if (g.channels[a.channel].to == gmem) {
+      res.pcie_samples.emplace_back(a.bytes, a.end - a.start);
     }
+  }
+  if (gpu_store) {
+    res.gpu = gpu_store->stats();
+    if (!gpu_store->failure().empty())
+      res.gpu_status = std::string(gpu_store->lost() ? "lost: " : "used, with failures: ") + gpu_store->failure();
   }
   res.metrics_json = render_metrics_json(res, schedule, executor.busy_seconds());
   if (opt.keep_schedule_outputs) {

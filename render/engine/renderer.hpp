@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "render/engine/block_store.hpp"
+#include "render/engine/gpu_store.hpp"
 #include "render/engine/render_workload.hpp"
 #include "render/trace/path_kernels.hpp"
 #include "sched/runtime_loop.hpp"
@@ -31,6 +32,14 @@ struct RenderOptions {
   // rebuilt on every load, medium in core. The image does not depend on it.
   std::string bvh_quality = "auto";
   RenderWorkloadOptions batching;
+  // Vulkan compute device (issue 7): "none", "auto" (the first non-CPU-backed device, none
+  // when there is no such device), an index, or a substring of the device name (an error
+  // when it is not found). Its memory budget: 0 = half of the device's local memory.
+  std::string gpu = "auto";
+  Bytes gpu_memory_budget = 0;
+  // Test hook (GpuContext::inject_fault): the n-th GPU operation fails with "oom" or "lost".
+  int gpu_fault_after = 0;
+  std::string gpu_fault = "lost";
   bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result
   // Called from the loop at most every 200 ms: fraction of paths done, rays/s so far.
   std::function<void(double fraction, double rays_per_second)> progress;
@@ -63,6 +72,13 @@ struct RenderResult {
   // T-job as (bytes, seconds).
   std::vector<TimingSample> exec_samples;
   std::vector<std::pair<Bytes, Time>> load_samples;
+  // The GPU (issue 7): the device used ("" when none), why none or what failed.
+  std::string gpu_device, gpu_status = "none";
+  int gpu_device_id = -1;                 // its compute device in the DCG (TimingSample::device)
+  bool gpu_cpu_backed = false;
+  Bytes gpu_memory_budget = 0;
+  GpuStoreStats gpu;
+  std::vector<std::pair<Bytes, Time>> pcie_samples;  // RAM->GPU T-jobs (bytes, seconds)
 };
 
 // Throws InputError for bad input (scene, blocks, budget, platform, options).

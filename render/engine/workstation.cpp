@@ -17,23 +17,38 @@ std::string num(double v) {
 std::string us(double seconds) { return "\"" + num(seconds * 1e6) + "us\""; }
 std::string bps(double bytes_per_s) { return "\"" + num(bytes_per_s) + "B/s\""; }
 std::string bytes(Bytes b) { return "\"" + std::to_string(b) + "B\""; }
+std::string timing(Time ri_setup, double ri_rate, Time si_setup, double si_rate) {
+  return "\"timing\": {\n          \"RayIntersect\": {\"setup\": " + us(ri_setup) + ", \"rate\": {\"RayQueue\": " +
+         bps(1.0 / ri_rate) + "}},\n          \"ShadowIntersect\": {\"setup\": " + us(si_setup) +
+         ", \"rate\": {\"ShadowRayQueue\": " + bps(1.0 / si_rate) + "}}\n        }}";
+}
 }  // namespace
 
 std::string workstation_json(const WorkstationModel& m, const std::string& description) {
   std::string s = "{\n  \"name\": \"workstation\",\n  \"description\": \"" + description + "\",\n";
   s += "  \"node_types\": {\n    \"W\": {\n      \"memory\": [\n";
   s += "        {\"name\": \"disk\", \"kind\": \"disk\", \"capacity\": " + bytes(m.disk_capacity) + "},\n";
-  s += "        {\"name\": \"ram\", \"kind\": \"host\", \"capacity\": " + bytes(m.ram_capacity) + "}\n      ],\n";
-  s += "      \"compute\": [\n        {\"name\": \"cpu\", \"kind\": \"cpu\", \"count\": " + std::to_string(m.threads) +
-       ", \"memory\": \"ram\", \"timing\": {\n";
-  s += "          \"RayIntersect\": {\"setup\": " + us(m.intersect_setup) + ", \"rate\": {\"RayQueue\": " +
-       bps(1.0 / m.intersect_rate) + "}},\n";
-  s += "          \"ShadowIntersect\": {\"setup\": " + us(m.shadow_setup) + ", \"rate\": {\"ShadowRayQueue\": " +
-       bps(1.0 / m.shadow_rate) + "}}\n        }}\n      ],\n";
+  s += "        {\"name\": \"ram\", \"kind\": \"host\", \"capacity\": " + bytes(m.ram_capacity) + "}";
+  for (std::size_t i = 0; i < m.gpus.size(); ++i)
+    s += ",\n        {\"name\": \"gpu" + std::to_string(i) + "mem\", \"kind\": \"gpu\", \"capacity\": " +
+         bytes(m.gpus[i].memory) + "}";
+  s += "\n      ],\n      \"compute\": [\n        {\"name\": \"cpu\", \"kind\": \"cpu\", \"count\": " +
+       std::to_string(m.threads) + ", \"memory\": \"ram\", " +
+       timing(m.intersect_setup, m.intersect_rate, m.shadow_setup, m.shadow_rate);
+  for (std::size_t i = 0; i < m.gpus.size(); ++i) {
+    const GpuModel& gm = m.gpus[i];
+    s += ",\n        {\"name\": \"gpu" + std::to_string(i) + "\", \"kind\": \"gpu\", \"memory\": \"gpu" +
+         std::to_string(i) + "mem\", " + timing(gm.intersect_setup, gm.intersect_rate, gm.shadow_setup, gm.shadow_rate);
+  }
+  s += "\n      ],\n";
   s += "      \"channels\": [\n        {\"name\": \"disk\", \"kind\": \"disk\", \"between\": [\"disk\", \"ram\"], "
        "\"duplex\": \"half\", \"latency\": " +
-       us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) + "}\n      ]\n";
-  s += "    }\n  },\n  \"nodes\": [{\"name\": \"W\", \"type\": \"W\"}]\n}\n";
+       us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) + "}";
+  for (std::size_t i = 0; i < m.gpus.size(); ++i)
+    s += ",\n        {\"name\": \"pcie" + std::to_string(i) + "\", \"kind\": \"pcie\", \"between\": [\"ram\", \"gpu" +
+         std::to_string(i) + "mem\"], \"duplex\": \"full\", \"latency\": " + us(m.gpus[i].pcie_latency) +
+         ", \"bandwidth\": " + bps(m.gpus[i].pcie_bandwidth) + "}";
+  s += "\n      ]\n    }\n  },\n  \"nodes\": [{\"name\": \"W\", \"type\": \"W\"}]\n}\n";
   return s;
 }
 
@@ -41,7 +56,7 @@ DeviceGraph make_workstation(const WorkstationModel& m) {
   return parse_platform(workstation_json(m, "this machine (defaults)"), "<auto platform>");
 }
 
-DeviceGraph load_workstation(const std::string& path, int threads, Bytes ram_capacity) {
+WorkstationModel load_workstation_model(const std::string& path) {
   DeviceGraph g = load_platform(path);
   MemId disk = kNone, ram = kNone;
   for (std::size_t i = 0; i < g.memories.size(); ++i) {
@@ -50,40 +65,68 @@ DeviceGraph load_workstation(const std::string& path, int threads, Bytes ram_cap
   }
   if (disk == kNone) throw InputError(path, "memory", "the renderer needs a memory device of kind disk");
   if (ram == kNone) throw InputError(path, "memory", "the renderer needs a memory device of kind host");
-  bool channel = false;
-  for (const Channel& c : g.channels) channel = channel || (c.from == disk && c.to == ram);
-  if (!channel) throw InputError(path, "channels", "no channel from the disk to host memory");
-  const JobTypeId ri = g.job_type("RayIntersect"), si = g.job_type("ShadowIntersect");
-  const ComputeDevice* cpu = nullptr;
-  DeviceId cpu_id = kNone;
-  for (std::size_t d = 0; d < g.computes.size(); ++d)
-    if (g.computes[d].kind == ComputeKind::Cpu && g.computes[d].memory == ram) {
-      cpu = &g.computes[d];
-      cpu_id = static_cast<DeviceId>(d);
-      break;
-    }
-  if (!cpu) throw InputError(path, "compute", "no CPU compute device on host memory");
-  if (ri == kNone || si == kNone || !g.timing.supports(cpu_id, ri) || !g.timing.supports(cpu_id, si))
-    throw InputError(path, "compute." + cpu->model + ".timing", "needs RayIntersect and ShadowIntersect");
-  if (threads <= 0 && ram_capacity == 0) return g;
-  // Rebuild from the calibrated numbers with the requested thread count / capacity.
-  WorkstationModel m;
+  if (g.nodes.size() != 1) throw InputError(path, "nodes", "the renderer drives one machine: exactly one node");
   const Channel* dc = nullptr;
   for (const Channel& c : g.channels)
     if (c.from == disk && c.to == ram) dc = &c;
-  m.threads = threads > 0 ? threads : static_cast<int>(g.computes_on(ram).size());
-  m.ram_capacity = ram_capacity > 0 ? ram_capacity : g.memories[ram].capacity;
+  if (!dc) throw InputError(path, "channels", "no channel from the disk to host memory");
+  const JobTypeId ri = g.job_type("RayIntersect"), si = g.job_type("ShadowIntersect");
+  WorkstationModel m;
+  m.threads = 0;
+  m.ram_capacity = g.memories[ram].capacity;
   m.disk_capacity = g.memories[disk].capacity;
   m.disk_latency = dc->latency;
   m.disk_bandwidth = dc->bandwidth;
-  const ExecCoefficients& a = g.timing.at(cpu_id, ri);
-  const ExecCoefficients& b = g.timing.at(cpu_id, si);
-  m.intersect_setup = a.setup;
-  m.intersect_rate = a.rate[static_cast<int>(DataKind::RayQueue)];
-  m.shadow_setup = b.setup;
-  m.shadow_rate = b.rate[static_cast<int>(DataKind::ShadowRayQueue)];
-  if (!(m.intersect_rate > 0) || !(m.shadow_rate > 0))
-    throw InputError(path, "compute." + cpu->model + ".timing", "needs a RayQueue / ShadowRayQueue rate");
+  // Both job types with a rate on their ray queue, per compute device model.
+  auto coefficients = [&](DeviceId d, Time& ri_setup, double& ri_rate, Time& si_setup, double& si_rate) {
+    const ComputeDevice& c = g.computes[d];
+    if (ri == kNone || si == kNone || !g.timing.supports(d, ri) || !g.timing.supports(d, si))
+      throw InputError(path, "compute." + c.model + ".timing", "needs RayIntersect and ShadowIntersect");
+    const ExecCoefficients& a = g.timing.at(d, ri);
+    const ExecCoefficients& b = g.timing.at(d, si);
+    ri_setup = a.setup;
+    ri_rate = a.rate[static_cast<int>(DataKind::RayQueue)];
+    si_setup = b.setup;
+    si_rate = b.rate[static_cast<int>(DataKind::ShadowRayQueue)];
+    if (!(ri_rate > 0) || !(si_rate > 0))
+      throw InputError(path, "compute." + c.model + ".timing", "needs a RayQueue / ShadowRayQueue rate");
+  };
+  bool cpu = false;
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    const ComputeDevice& c = g.computes[d];
+    if (c.kind == ComputeKind::Cpu) {
+      if (c.memory != ram) throw InputError(path, "compute." + c.model + ".memory", "CPU devices work from host memory");
+      if (!cpu) coefficients(DeviceId(d), m.intersect_setup, m.intersect_rate, m.shadow_setup, m.shadow_rate);
+      cpu = true;
+      ++m.threads;
+      continue;
+    }
+    // A GPU: its own memory device, linked to RAM both ways.
+    GpuModel gm;
+    coefficients(DeviceId(d), gm.intersect_setup, gm.intersect_rate, gm.shadow_setup, gm.shadow_rate);
+    const MemId mem = c.memory;
+    if (g.memories[mem].kind != MemoryKind::Gpu)
+      throw InputError(path, "compute." + c.model + ".memory", "a GPU works from a memory device of kind gpu");
+    gm.memory = g.memories[mem].capacity;
+    const Channel* up = nullptr;
+    for (const Channel& ch : g.channels)
+      if (ch.from == ram && ch.to == mem) up = &ch;
+    bool down = false;
+    for (const Channel& ch : g.channels) down = down || (ch.from == mem && ch.to == ram);
+    if (!up || !down)
+      throw InputError(path, "channels", "GPU memory '" + g.memories[mem].name + "' needs channels to and from host memory");
+    gm.pcie_latency = up->latency;
+    gm.pcie_bandwidth = up->bandwidth;
+    m.gpus.push_back(gm);
+  }
+  if (!cpu) throw InputError(path, "compute", "no CPU compute device on host memory");
+  return m;
+}
+
+DeviceGraph load_workstation(const std::string& path, int threads, Bytes ram_capacity) {
+  WorkstationModel m = load_workstation_model(path);
+  if (threads > 0) m.threads = threads;
+  if (ram_capacity > 0) m.ram_capacity = ram_capacity;
   return parse_platform(workstation_json(m, "from " + path), path);
 }
 

@@ -1,15 +1,30 @@
 // The device connectivity graph of this machine (Sec. 3.2) for the real renderer: the
 // block store (disk), host RAM with the memory budget as its capacity, one compute device
 // per worker thread (a CPU hardware thread, as in the paper), and the disk→RAM channel
-// whose T-jobs read a block and build its BVH. Timing comes from `rayline calibrate`
+// whose T-jobs read a block and build its BVH. With a Vulkan device (issue 7) the graph
+// gains, as in the paper's Fig. 2, a GPU compute device on its own memory device (capacity
+// = the GPU memory budget) and a full-duplex PCIe channel RAM<->GPU whose T-jobs upload
+// blocks (+ their GPU BVH) and ray queues. Timing comes from `rayline calibrate`
 // (a platform file) or from the defaults below, which only seed the first plans: the
 // runtime loop re-projects every plan from measured times.
 #pragma once
 #include <string>
+#include <vector>
 
 #include "sched/device_graph.hpp"
 
 namespace rayline::engine {
+
+// One GPU of the workstation (names: compute "gpu0", memory "gpu0mem", channel "pcie0").
+struct GpuModel {
+  Bytes memory = Bytes(1) << 30;       // the GPU memory budget
+  Time pcie_latency = 50e-6;           // per T-job: submit + fence
+  double pcie_bandwidth = 4e9;         // bytes/s (block upload includes the CPU BVH build)
+  Time intersect_setup = 200e-6;       // RayIntersect: dispatch + hit download + host shading
+  double intersect_rate = 1.0 / 256e6; // s per RayQueue byte (4 M rays/s, host shading bound)
+  Time shadow_setup = 200e-6;
+  double shadow_rate = 1.0 / 512e6;
+};
 
 struct WorkstationModel {
   int threads = 2;
@@ -21,16 +36,20 @@ struct WorkstationModel {
   double intersect_rate = 1.0 / 64e6;  // s per RayQueue byte (1 M rays/s per thread, 64 B rays)
   Time shadow_setup = 20e-6;
   double shadow_rate = 1.0 / 128e6;    // s per ShadowRayQueue byte
+  std::vector<GpuModel> gpus;          // Vulkan compute devices (0 or more)
 };
 
-// Names used by the renderer: memories "disk" and "ram", job types "RayIntersect" and
-// "ShadowIntersect".
+// Names used by the renderer: memories "disk" and "ram" (+ "gpu<i>mem"), job types
+// "RayIntersect" and "ShadowIntersect".
 DeviceGraph make_workstation(const WorkstationModel& m);
 
 // The same graph read from a platform file (as written by `rayline calibrate`); checks that
 // it describes one machine the renderer can drive: a disk and a host memory device, a
-// disk→RAM channel, CPU compute devices on RAM running both job types. `threads` > 0
-// overrides the CPU count and `ram_capacity` > 0 the RAM capacity.
+// disk→RAM channel, CPU compute devices on RAM running both job types, and optionally GPU
+// compute devices on GPU memory linked to RAM both ways. The file is read back into a
+// WorkstationModel; the caller applies its overrides (threads, capacities, GPUs) and
+// builds the graph with make_workstation.
+WorkstationModel load_workstation_model(const std::string& path);
 DeviceGraph load_workstation(const std::string& path, int threads, Bytes ram_capacity);
 
 // The platform JSON of a model (what `rayline calibrate` writes).

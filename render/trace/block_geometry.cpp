@@ -84,4 +84,13 @@ std::uint64_t BlockGeometry::array_bytes() const {
   return vertices_.capacity() * sizeof(float) + indices_.capacity() * 4 + materials_.capacity() * 4;
 }
 
+std::vector<unsigned char> BlockGeometry::records() const {
+  std::vector<unsigned char> out(materials_.size() * 40);
+  for (std::size_t i = 0; i < materials_.size(); ++i) {
+    std::memcpy(&out[i * 40], &vertices_[i * 9], 36);
+    std::memcpy(&out[i * 40 + 36], &materials_[i], 4);
+  }
+  return out;
+}
+
 }  // namespace rayline::trace

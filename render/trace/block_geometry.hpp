@@ -54,6 +54,9 @@ class BlockGeometry {
     return {v[0], v[1], v[2]};
   }
   std::uint32_t material(std::uint32_t prim) const { return materials_[prim]; }
+  // The block file records (9 float32 + uint32 material per triangle, little-endian host
+  // assumed as in block_file.hpp) rebuilt from RAM: what the RAM->GPU T-job uploads.
+  std::vector<unsigned char> records() const;
   // Bytes held outside Embree (vertices, indices, materials).
   std::uint64_t array_bytes() const;
 

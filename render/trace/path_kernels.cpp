@@ -66,13 +66,12 @@ void advance(const TraceSettings& ts, RayRecord r, std::vector<RayRecord>& out, 
 }
 
 // Shading at a hit (Fig. 3's shading/sampling, fused into RayIntersect on the CPU).
-void shade(const TraceSettings& ts, const BlockGeometry& block, const RayRecord& r, float t, std::uint32_t prim,
-           std::vector<RayRecord>& out, RayCounts& counts) {
-  const Float3 v0 = block.vertex(prim, 0), v1 = block.vertex(prim, 1), v2 = block.vertex(prim, 2);
-  Float3 n = normalize(cross(v1 - v0, v2 - v0));
+void shade(const TraceSettings& ts, const HitTriangle& h, const RayRecord& r, float t, std::vector<RayRecord>& out,
+           RayCounts& counts) {
+  Float3 n = normalize(cross(h.v1 - h.v0, h.v2 - h.v0));
   if (dot(n, r.dir) > 0) n = n * -1.0f;  // two-sided: face the incoming ray
   const Float3 p = r.org + r.dir * t;
-  const scene::Material& m = ts.scene->materials[block.material(prim)];
+  const scene::Material& m = ts.scene->materials[h.material];
   if (!is_black(m.emission)) ts.film->add(r.pixel, mul(r.weight, m.emission));
   const std::uint32_t hit = r.bounce + 1u;  // 1-based surface hit count
   const Float3 f = m.albedo * kInvPi;       // Lambertian BRDF
@@ -165,8 +164,7 @@ RTCRay to_rtc(const TraceSettings& ts, const RayRecord& r) {
   RTCRay x;
   x.org_x = r.org.x, x.org_y = r.org.y, x.org_z = r.org.z;
   x.dir_x = r.dir.x, x.dir_y = r.dir.y, x.dir_z = r.dir.z;
-  x.tnear = (r.flags & kFirstCell) ? r.tnear : std::max(0.0f, r.tnear - (ts.overlap_rel * r.tnear + ts.overlap_abs));
-  x.tfar = std::min(r.texit + (ts.overlap_rel * r.texit + ts.overlap_abs), r.tfar);
+  query_interval(ts, r, x.tnear, x.tfar);
   x.time = 0;
   x.mask = 0xFFFFFFFFu;
   x.id = 0;
@@ -183,6 +181,36 @@ RTCIntersectContext incoherent_context() {
 }
 
 }  // namespace
+
+void query_interval(const TraceSettings& ts, const RayRecord& r, float& tmin, float& tmax) {
+  tmin = (r.flags & kFirstCell) ? r.tnear : std::max(0.0f, r.tnear - (ts.overlap_rel * r.tnear + ts.overlap_abs));
+  tmax = std::min(r.texit + (ts.overlap_rel * r.texit + ts.overlap_abs), r.tfar);
+}
+
+float canonical_hit_distance(const RayRecord& r, const HitTriangle& h, float engine_t) {
+  // Moller & Trumbore 1997, t only, in double: e1 = v1 - v0, e2 = v2 - v0,
+  // t = (e2 . ((o - v0) x e1)) / (e1 . (d x e2)).
+  const double e1[3] = {double(h.v1.x) - h.v0.x, double(h.v1.y) - h.v0.y, double(h.v1.z) - h.v0.z};
+  const double e2[3] = {double(h.v2.x) - h.v0.x, double(h.v2.y) - h.v0.y, double(h.v2.z) - h.v0.z};
+  const double d[3] = {r.dir.x, r.dir.y, r.dir.z};
+  const double s[3] = {double(r.org.x) - h.v0.x, double(r.org.y) - h.v0.y, double(r.org.z) - h.v0.z};
+  const double p[3] = {d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2], d[0] * e2[1] - d[1] * e2[0]};
+  const double q[3] = {s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]};
+  const double det = e1[0] * p[0] + e1[1] * p[1] + e1[2] * p[2];
+  const double t = (e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) / det;
+  // A hit the engine found is never parallel in practice; keep its t if it were.
+  if (!(std::fabs(det) > 0) || !std::isfinite(t)) return engine_t;
+  return static_cast<float>(t);
+}
+
+void shade_hit(const TraceSettings& ts, const RayRecord& r, const HitTriangle& h, float engine_t,
+               std::vector<RayRecord>& out, RayCounts& counts) {
+  shade(ts, h, r, canonical_hit_distance(r, h, engine_t), out, counts);
+}
+
+void continue_ray(const TraceSettings& ts, const RayRecord& r, std::vector<RayRecord>& out, RayCounts& counts) {
+  advance(ts, r, out, counts);
+}
 
 void TraceSettings::set_bounds(const scene::Bounds& b) {
   const Float3 e = b.extent();
@@ -235,7 +263,9 @@ void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::spa
       rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
       rtcIntersect1(scene, &ctx, &rh);
       if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
-        shade(ts, block, r, rh.ray.tfar, rh.hit.primID, out, counts);
+        const std::uint32_t prim = rh.hit.primID;
+        const HitTriangle h{block.vertex(prim, 0), block.vertex(prim, 1), block.vertex(prim, 2), block.material(prim)};
+        shade_hit(ts, r, h, rh.ray.tfar, out, counts);
         continue;
       }
     }

@@ -64,6 +64,36 @@ void generate_camera_ray(const TraceSettings& ts, scene::Float3 origin, scene::F
 
 void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
                    std::vector<RayRecord>& out, RayCounts& counts);
+
+// ---- The pieces of RayIntersect / ShadowIntersect any traversal engine shares ----------
+// (Embree here; the Vulkan kernels of render/gpu, which find hits on the GPU and leave the
+// shading to these functions on the host.)
+
+// The ray's query interval in its cell: (tnear, texit] widened by delta(t) on both sides
+// (never before the ray's own start), clipped to the ray's tfar. Every engine tests the
+// same interval, so every engine finds the same triangle.
+void query_interval(const TraceSettings& ts, const RayRecord& r, float& tmin, float& tmax);
+
+// The triangle a ray hit, as shading needs it.
+struct HitTriangle {
+  scene::Float3 v0, v1, v2;
+  std::uint32_t material = 0;
+};
+
+// The canonical hit distance: t of the ray against the triangle's plane, computed in double
+// precision from the stored vertices (Moller-Trumbore) and rounded once. Shading uses it
+// instead of the engine's own t, so Embree and the GPU kernels (whose float arithmetic
+// differs in the last bits) give bit-identical images whenever they pick the same
+// triangle. `engine_t` is returned where the ray is parallel to the plane.
+float canonical_hit_distance(const RayRecord& r, const HitTriangle& h, float engine_t);
+
+// A path ray hit `h` in its cell: shade (emission, NEE shadow ray, continuation) into `out`.
+void shade_hit(const TraceSettings& ts, const RayRecord& r, const HitTriangle& h, float engine_t,
+               std::vector<RayRecord>& out, RayCounts& counts);
+
+// No hit in the current cell (or an unoccluded shadow ray): continue in the next cell
+// along the ray, or end (escape / reach the light).
+void continue_ray(const TraceSettings& ts, const RayRecord& r, std::vector<RayRecord>& out, RayCounts& counts);
 void shadow_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
                       std::vector<RayRecord>& out, RayCounts& counts);
 
