@@ -7,6 +7,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -42,48 +43,103 @@ RTCDevice embree_device(int threads) {
   return d;
 }
 
-// The builder's tree, in Embree's thread-local build memory (freed with the RTCBVH).
-struct BNode {
-  bool leaf;
-};
-struct BInner : BNode {
-  RTCBounds bounds[2];
-  BNode* child[2];
-};
-struct BLeaf : BNode {
-  std::uint32_t count;
-  std::uint32_t prim[kMaxLeafTriangles];
-};
+// Widens [lo, hi] by about 8 ulps of its largest coordinate (plus a tiny absolute pad), so
+// rounding in the box test and in the split clipping never culls a hit triangle.
+void set_box(Child& c, const float lo[3], const float hi[3]) {
+  for (int k = 0; k < 3; ++k) {
+    const float m = std::max(std::fabs(lo[k]), std::fabs(hi[k]));
+    const float pad = m * 0x1p-20f + 1e-30f;
+    c.lo[k] = lo[k] - pad;
+    c.hi[k] = hi[k] + pad;
+  }
+}
 
+void copy_tri(const unsigned char* records, std::uint32_t prim, Tri& t) {
+  const unsigned char* r = records + std::size_t(prim) * 40;
+  std::memcpy(t.v0, r, 12);
+  std::memcpy(t.v1, r + 12, 12);
+  std::memcpy(t.v2, r + 24, 12);
+  std::memcpy(&t.material, r + 36, 4);
+  t.prim = prim;
+  t.pad = 0;
+}
+
+// The callbacks write the final layout directly, in parallel on Embree's build threads:
+// createNode takes the next node index, createLeaf the next run of triangle slots (and
+// copies the triangles there), setNodeChildren / setNodeBounds fill the node's two child
+// slots. No tree of pointers and no flattening pass (it cost more than the build itself).
+// Embree treats the returned node pointers as opaque; ours are tagged integers:
+// ((index + 1) << 1) for an inner node, (leaf word << 1) | 1 for a leaf.
 struct Build {
-  const unsigned char* records;
+  const unsigned char* records = nullptr;
+  Node* nodes = nullptr;
+  Tri* tris = nullptr;
+  std::uint8_t* height = nullptr;  // per inner node: levels of inner nodes below and itself
+  std::size_t node_capacity = 0, tri_capacity = 0;
+  std::atomic<std::uint32_t> next_node{0}, next_tri{0};
+  std::atomic<bool> overflow{false};
 };
 
-void* create_node(RTCThreadLocalAllocator alloc, unsigned int /*child_count*/, void* /*user*/) {
-  auto* n = new (rtcThreadLocalAlloc(alloc, sizeof(BInner), 16)) BInner;
-  n->leaf = false;
-  n->child[0] = n->child[1] = nullptr;
-  n->bounds[0] = n->bounds[1] = RTCBounds{};
-  return n;
+void* inner_ptr(std::uint32_t idx) { return reinterpret_cast<void*>((std::uintptr_t(idx) + 1) << 1); }
+void* leaf_ptr(std::uint32_t word) { return reinterpret_cast<void*>((std::uintptr_t(word) << 1) | 1); }
+bool ptr_is_leaf(const void* p) { return reinterpret_cast<std::uintptr_t>(p) & 1; }
+std::uint32_t ptr_word(const void* p) {  // a child word: node index or leaf word
+  const auto v = reinterpret_cast<std::uintptr_t>(p);
+  return static_cast<std::uint32_t>(v & 1 ? v >> 1 : (v >> 1) - 1);
 }
 
-void set_children(void* node, void** children, unsigned int count, void* /*user*/) {
-  auto* n = static_cast<BInner*>(node);
-  for (unsigned i = 0; i < count && i < 2; ++i) n->child[i] = static_cast<BNode*>(children[i]);
+void* create_node(RTCThreadLocalAllocator /*alloc*/, unsigned int /*child_count*/, void* user) {
+  auto* b = static_cast<Build*>(user);
+  std::uint32_t idx = b->next_node.fetch_add(1, std::memory_order_relaxed);
+  if (idx >= b->node_capacity) {  // cannot happen (a binary tree has fewer inner nodes than leaves)
+    b->overflow = true;
+    idx = 0;
+  }
+  b->nodes[idx] = Node{};
+  b->height[idx] = 1;
+  return inner_ptr(idx);
 }
 
-void set_bounds(void* node, const RTCBounds** bounds, unsigned int count, void* /*user*/) {
-  auto* n = static_cast<BInner*>(node);
-  for (unsigned i = 0; i < count && i < 2; ++i) n->bounds[i] = *bounds[i];
+void set_children(void* node, void** children, unsigned int count, void* user) {
+  auto* b = static_cast<Build*>(user);
+  const std::uint32_t idx = ptr_word(node);
+  Node& n = b->nodes[idx];
+  std::uint8_t h = 0;
+  for (unsigned k = 0; k < 2; ++k) {
+    Child& c = n.c[k];
+    if (k >= count || !children[k]) {  // a missing child: an empty leaf
+      c.word = leaf_word(0, 0), c.count = 0;
+    } else if (ptr_is_leaf(children[k])) {
+      c.word = ptr_word(children[k]), c.count = leaf_count(c.word);
+    } else {
+      c.word = ptr_word(children[k]), c.count = 0;
+      h = std::max(h, b->height[c.word]);  // children are complete before their parent
+    }
+  }
+  b->height[idx] = static_cast<std::uint8_t>(h + 1);
 }
 
-void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count, void* /*user*/) {
-  auto* l = new (rtcThreadLocalAlloc(alloc, sizeof(BLeaf), 16)) BLeaf;
-  l->leaf = true;
+void set_bounds(void* node, const RTCBounds** bounds, unsigned int count, void* user) {
+  auto* b = static_cast<Build*>(user);
+  Node& n = b->nodes[ptr_word(node)];
+  for (unsigned k = 0; k < 2; ++k) {
+    const RTCBounds& r = *bounds[k < count ? k : 0];  // a missing child gets its sibling's box
+    const float lo[3] = {r.lower_x, r.lower_y, r.lower_z}, hi[3] = {r.upper_x, r.upper_y, r.upper_z};
+    set_box(n.c[k], lo, hi);
+  }
+}
+
+void* create_leaf(RTCThreadLocalAllocator /*alloc*/, const RTCBuildPrimitive* prims, size_t count, void* user) {
+  auto* b = static_cast<Build*>(user);
   // maxLeafSize = kMaxLeafTriangles; Embree splits larger sets itself (large-leaf handling).
-  l->count = static_cast<std::uint32_t>(std::min<size_t>(count, kMaxLeafTriangles));
-  for (std::uint32_t i = 0; i < l->count; ++i) l->prim[i] = prims[i].primID;
-  return l;
+  const auto n = static_cast<std::uint32_t>(std::min<size_t>(count, kMaxLeafTriangles));
+  std::uint32_t first = b->next_tri.fetch_add(n, std::memory_order_relaxed);
+  if (first + n > b->tri_capacity) {
+    b->overflow = true;
+    first = 0;
+  }
+  for (std::uint32_t i = 0; i < n; ++i) copy_tri(b->records, prims[i].primID, b->tris[first + i]);
+  return leaf_ptr(leaf_word(first, n));
 }
 
 void load_vertices(const unsigned char* records, std::uint32_t prim, float v[9]) {
@@ -128,104 +184,41 @@ void split_primitive(const RTCBuildPrimitive* prim, unsigned int dim, float pos,
   *rb = RTCBounds{o[6], o[7], o[8], 0, o[9], o[10], o[11], 0};
 }
 
-// Widens [lo, hi] by about 8 ulps of its largest coordinate (plus a tiny absolute pad), so
-// rounding in the box test and in the split clipping never culls a hit triangle.
-void set_box(Child& c, const float lo[3], const float hi[3]) {
-  for (int k = 0; k < 3; ++k) {
-    const float m = std::max(std::fabs(lo[k]), std::fabs(hi[k]));
-    const float pad = m * 0x1p-20f + 1e-30f;
-    c.lo[k] = lo[k] - pad;
-    c.hi[k] = hi[k] + pad;
-  }
-}
-
-class Flattener {
- public:
-  Flattener(const unsigned char* records, FlatBvh& out) : records_(records), out_(out) {}
-
-  void leaf(const BLeaf& l, Child& c) {
-    const auto first = static_cast<std::uint32_t>(out_.tris.size());
-    if (first > kMaxBlockTriangles)
-      throw GpuError(GpuErrorKind::OutOfMemory, "GPU: block BVH has more triangle references than a leaf word holds");
-    for (std::uint32_t i = 0; i < l.count; ++i) {
-      Tri t{};
-      const unsigned char* r = records_ + std::size_t(l.prim[i]) * 40;
-      std::memcpy(t.v0, r, 12);
-      std::memcpy(t.v1, r + 12, 12);
-      std::memcpy(t.v2, r + 24, 12);
-      std::memcpy(&t.material, r + 36, 4);
-      t.prim = l.prim[i];
-      out_.tris.push_back(t);
-    }
-    c.word = leaf_word(first, l.count);
-    c.count = l.count;
-  }
-
-  // Appends `n` and its subtree in depth-first order (the near part of a subtree sits
-  // next to its parent); returns its index.
-  std::uint32_t inner(const BInner& n, int depth) {
-    out_.depth = std::max(out_.depth, depth + 1);
-    if (depth + 1 > kStackSize - 1)
-      throw GpuError(GpuErrorKind::Failed, "GPU: block BVH deeper than the kernels' traversal stack");
-    const auto idx = static_cast<std::uint32_t>(out_.nodes.size());
-    out_.nodes.emplace_back();
-    Node node{};
-    for (int k = 0; k < 2; ++k) {
-      const int src = n.child[k] ? k : 1 - k;  // a missing child: an empty leaf, sibling's box
-      const RTCBounds& b = n.bounds[src];
-      const float lo[3] = {b.lower_x, b.lower_y, b.lower_z}, hi[3] = {b.upper_x, b.upper_y, b.upper_z};
-      set_box(node.c[k], lo, hi);
-      const BNode* ch = n.child[k];
-      if (!ch) {
-        node.c[k].word = leaf_word(0, 0);
-        node.c[k].count = 0;
-      } else if (ch->leaf) {
-        leaf(static_cast<const BLeaf&>(*ch), node.c[k]);
-      } else {
-        node.c[k].word = inner(static_cast<const BInner&>(*ch), depth + 1);
-        node.c[k].count = 0;
-      }
-    }
-    out_.nodes[idx] = node;
-    return idx;
-  }
-
-  // A root that is a leaf (a few triangles): an inner root with the leaf and an empty leaf.
-  void root_leaf(const BLeaf& l) {
-    out_.depth = 1;
-    out_.nodes.emplace_back();
-    Node node{};
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (std::uint32_t i = 0; i < l.count; ++i) {
-      float v[9];
-      load_vertices(records_, l.prim[i], v);
-      for (int j = 0; j < 9; ++j) lo[j % 3] = std::min(lo[j % 3], v[j]), hi[j % 3] = std::max(hi[j % 3], v[j]);
-    }
-    set_box(node.c[0], lo, hi);
-    set_box(node.c[1], lo, hi);
-    leaf(l, node.c[0]);
-    node.c[1].word = leaf_word(0, 0);
-    node.c[1].count = 0;
-    out_.nodes[0] = node;
-  }
-
- private:
-  const unsigned char* records_;
-  FlatBvh& out_;
-};
-
 }  // namespace
 
+struct BuildScratch::Impl {
+  std::vector<RTCBuildPrimitive> prims;
+  std::vector<std::uint8_t> height;
+};
+BuildScratch::BuildScratch() : impl(std::make_unique<Impl>()) {}
+BuildScratch::~BuildScratch() = default;
+std::uint64_t BuildScratch::bytes() const {
+  return impl->prims.capacity() * sizeof(RTCBuildPrimitive) + impl->height.capacity();
+}
+std::uint64_t capacity_bytes(const FlatBvh& b) {
+  return b.nodes.capacity() * sizeof(Node) + b.tris.capacity() * sizeof(Tri);
+}
+
 FlatBvh build(std::span<const unsigned char> records, std::uint64_t n, const GpuBuildOptions& opt) {
-  const auto t0 = Clock::now();
   FlatBvh out;
+  BuildScratch scratch;
+  build(records, n, opt, out, scratch);
+  return out;
+}
+
+void build(std::span<const unsigned char> records, std::uint64_t n, const GpuBuildOptions& opt, FlatBvh& out,
+           BuildScratch& scratch) {
+  const auto t0 = Clock::now();
+  out.nodes.clear();
+  out.tris.clear();
+  out.root = 0, out.depth = 0, out.seconds = 0, out.embree_seconds = 0;
   if (records.size() < n * 40) throw std::logic_error("block payload shorter than its triangles");
   if (n > kMaxBlockTriangles)
     throw GpuError(GpuErrorKind::OutOfMemory, "GPU: a block of " + std::to_string(n) + " triangles exceeds the " +
                                                   std::to_string(kMaxBlockTriangles) + " a GPU block can hold");
   // Build primitives: one per triangle with finite vertices (Embree drops the others too).
   const bool high = opt.quality == GpuBvhQuality::High;
-  std::vector<RTCBuildPrimitive> prims;
+  std::vector<RTCBuildPrimitive>& prims = scratch.impl->prims;
   prims.resize(high ? n + n / 2 + 16 : n);  // spatial splits need room for new references
   std::size_t count = 0;
   for (std::uint64_t i = 0; i < n; ++i) {
@@ -243,13 +236,27 @@ FlatBvh build(std::span<const unsigned char> records, std::uint64_t n, const Gpu
   }
   if (count == 0) {
     out.seconds = since(t0);
-    return out;
+    return;
   }
+
+  // Final arrays, sized for the worst case (a binary tree over r references has r - 1
+  // inner nodes, + 1 for a root that is a leaf), then trimmed.
+  const std::size_t refs = prims.size();
+  out.nodes.resize(refs);
+  out.tris.resize(refs);
+  std::vector<std::uint8_t>& height = scratch.impl->height;
+  height.resize(refs);
+  Build ctx;
+  ctx.records = records.data();
+  ctx.nodes = out.nodes.data();
+  ctx.tris = out.tris.data();
+  ctx.height = height.data();
+  ctx.node_capacity = refs;
+  ctx.tri_capacity = refs;
 
   RTCDevice dev = embree_device(opt.threads);
   RTCBVH bvh = rtcNewBVH(dev);
   if (!bvh) throw GpuError(GpuErrorKind::Failed, "Embree: rtcNewBVH failed");
-  Build ctx{records.data()};
   RTCBuildArguments a = rtcDefaultBuildArguments();
   a.byteSize = sizeof(a);
   a.buildQuality = opt.quality == GpuBvhQuality::Low    ? RTC_BUILD_QUALITY_LOW
@@ -257,7 +264,7 @@ FlatBvh build(std::span<const unsigned char> records, std::uint64_t n, const Gpu
                                                         : RTC_BUILD_QUALITY_MEDIUM;
   a.buildFlags = RTC_BUILD_FLAG_NONE;
   a.maxBranchingFactor = 2;
-  a.maxDepth = kMaxDepth;
+  a.maxDepth = kMaxDepth;  // Embree fails the build rather than exceed it: the stack holds it
   a.sahBlockSize = 1;
   a.minLeafSize = 1;
   a.maxLeafSize = kMaxLeafTriangles;
@@ -275,31 +282,42 @@ FlatBvh build(std::span<const unsigned char> records, std::uint64_t n, const Gpu
   a.buildProgress = nullptr;
   a.userPtr = &ctx;
   const auto te = Clock::now();
-  auto* root = static_cast<BNode*>(rtcBuildBVH(&a));
+  void* root = rtcBuildBVH(&a);
   out.embree_seconds = since(te);
   const RTCError err = rtcGetDeviceError(dev);
-  if (!root || err != RTC_ERROR_NONE) {
-    rtcReleaseBVH(bvh);
+  rtcReleaseBVH(bvh);
+  if (!root || err != RTC_ERROR_NONE || ctx.overflow) {
     if (err == RTC_ERROR_OUT_OF_MEMORY)
       throw GpuError(GpuErrorKind::OutOfMemory, "Embree: rtcBuildBVH ran out of host memory");
-    throw GpuError(GpuErrorKind::Failed, "Embree: rtcBuildBVH failed (error " + std::to_string(int(err)) + ")");
+    throw GpuError(GpuErrorKind::Failed, "Embree: rtcBuildBVH failed (error " + std::to_string(int(err)) +
+                                             (ctx.overflow ? ", node or triangle capacity exceeded)" : ")"));
   }
-  try {
-    out.nodes.reserve(count);
-    out.tris.reserve(high ? prims.size() : count);
-    Flattener f(records.data(), out);
-    if (root->leaf)
-      f.root_leaf(static_cast<const BLeaf&>(*root));
-    else
-      f.inner(static_cast<const BInner&>(*root), 0);
-  } catch (...) {
-    rtcReleaseBVH(bvh);
-    throw;
+  std::uint32_t nodes = ctx.next_node.load();
+  if (ptr_is_leaf(root)) {
+    // A few triangles: an inner root holding the leaf and an empty leaf.
+    const std::uint32_t word = ptr_word(root);
+    Node& n = out.nodes[nodes];
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (std::uint32_t i = 0; i < leaf_count(word); ++i) {
+      const Tri& t = out.tris[leaf_first(word) + i];
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min({lo[k], t.v0[k], t.v1[k], t.v2[k]});
+        hi[k] = std::max({hi[k], t.v0[k], t.v1[k], t.v2[k]});
+      }
+    }
+    set_box(n.c[0], lo, hi);
+    set_box(n.c[1], lo, hi);
+    n.c[0].word = word, n.c[0].count = leaf_count(word);
+    n.c[1].word = leaf_word(0, 0), n.c[1].count = 0;
+    out.root = nodes++;
+    out.depth = 1;
+  } else {
+    out.root = ptr_word(root);
+    out.depth = height[out.root];
   }
-  rtcReleaseBVH(bvh);
-  out.nodes.shrink_to_fit();
+  out.nodes.resize(nodes);
+  out.tris.resize(ctx.next_tri.load());
   out.seconds = since(t0);
-  return out;
 }
 
 // ---- CPU mirror of shaders/traverse.comp: keep the two in step ----
@@ -365,7 +383,7 @@ GpuHit traverse(const FlatBvh& b, const GpuRay& r) {
   std::uint32_t best = kNoHit, best_prim = kNoHit;
   std::uint32_t stack[kStackSize];
   int sp = 0;
-  std::uint32_t cur = 0;
+  std::uint32_t cur = b.root;
   for (;;) {
     if (!is_leaf(cur)) {
       const Node& n = b.nodes[cur];

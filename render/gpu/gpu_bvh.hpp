@@ -7,12 +7,13 @@
 //     leaf of `count` (<= 4) triangles starting at `first` in the triangle array.
 //   * Tri (48 B): v0, v1, v2 exactly as stored in the block record, in leaf order;
 //     the w slots carry the record index (prim) and the material as uint bits.
-// Node 0 is the root and always an inner node. Boxes are widened by a few ulps so the
+// The root (FlatBvh::root) is always an inner node. Boxes are widened by a few ulps so the
 // box test never culls a box whose triangle the triangle test would hit.
 // Also a CPU mirror of the kernels (the same operations in the same order) for tests.
 // Embree stays out of this header.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -54,15 +55,34 @@ inline std::uint32_t leaf_count(std::uint32_t word) { return word & 7u; }
 struct FlatBvh {
   std::vector<Node> nodes;  // empty for an empty block
   std::vector<Tri> tris;
+  std::uint32_t root = 0;   // index of the root node
   int depth = 0;            // inner-node levels (the traversal stack holds at most this many)
   double seconds = 0;       // whole build: primitives, Embree, flattening
   double embree_seconds = 0;
 };
 
-// Builds the BVH of `n` records (40 B each, block_file.hpp). Triangles with a non-finite
-// vertex are left out (never hit, as in Embree). Throws GpuError(Failed) when Embree fails
-// and OutOfMemory for more than kMaxBlockTriangles.
+// The build's own arrays (Embree's build primitives, subtree heights), kept between builds
+// together with a FlatBvh whose arrays are reused: fresh memory costs page faults, which
+// on a loaded or virtualised host cost as much as the build (render/gpu/README.md).
+class BuildScratch {
+ public:
+  BuildScratch();
+  ~BuildScratch();
+  BuildScratch(const BuildScratch&) = delete;
+  BuildScratch& operator=(const BuildScratch&) = delete;
+  std::uint64_t bytes() const;
+  struct Impl;
+  std::unique_ptr<Impl> impl;
+};
+
+// Builds the BVH of `n` records (40 B each, block_file.hpp) into `out`, reusing its arrays
+// and `scratch`. Triangles with a non-finite vertex are left out (never hit, as in
+// Embree). Throws GpuError(Failed) when Embree fails and OutOfMemory for more than
+// kMaxBlockTriangles.
+void build(std::span<const unsigned char> records, std::uint64_t n, const GpuBuildOptions& opt, FlatBvh& out,
+           BuildScratch& scratch);
 FlatBvh build(std::span<const unsigned char> records, std::uint64_t n, const GpuBuildOptions& opt);
+std::uint64_t capacity_bytes(const FlatBvh& b);
 
 // CPU mirror of traverse.comp (tests and debugging).
 GpuHit closest(const FlatBvh& b, const GpuRay& r);

@@ -36,6 +36,7 @@ class BlockImpl final : public GpuBlock {
   Buffer nodes, tris;
   std::uint64_t n = 0;
   std::uint32_t node_count = 0;
+  std::uint32_t root = 0;
 };
 
 class RaysImpl final : public GpuRays {
@@ -180,7 +181,7 @@ double intersect(GpuContext& ctx, const GpuBlock& block_base, const GpuRays& ray
   }
   for (std::uint32_t c = 0; c < chunks; ++c) {
     const std::uint64_t first = std::uint64_t(c) * chunk, count = std::min(chunk, n - first);
-    const std::uint32_t push[2] = {static_cast<std::uint32_t>(count), block.node_count};
+    const std::uint32_t push[3] = {static_cast<std::uint32_t>(count), block.node_count, block.root};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, core.pipelines.layout, 0, 1, &sets[c], 0, nullptr);
     vkCmdPushConstants(cmd, core.pipelines.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), push);
     vkCmdDispatch(cmd, static_cast<std::uint32_t>((count + kLocalSize - 1) / kLocalSize), 1, 1);
@@ -251,7 +252,9 @@ std::unique_ptr<GpuBlock> upload_block(GpuContext& ctx, std::span<const unsigned
   auto block = std::make_unique<BlockImpl>();
   block->core = core;
   block->n = triangle_count;
-  const bvh::FlatBvh b = bvh::build(records, triangle_count, options);
+  detail::BuildLease cache(*core);
+  bvh::FlatBvh& b = cache->flat;
+  bvh::build(records, triangle_count, options, b, cache->scratch);
   block->build_seconds = b.seconds;
   block->bvh_nodes = b.nodes.size();
   block->leaf_triangles = b.tris.size();
@@ -264,6 +267,7 @@ std::unique_ptr<GpuBlock> upload_block(GpuContext& ctx, std::span<const unsigned
     block->nodes = upload_array(*core, b.nodes.data(), node_bytes);
     block->tris = upload_array(*core, b.tris.data(), tri_bytes);
     block->node_count = static_cast<std::uint32_t>(b.nodes.size());
+    block->root = b.root;
     block->upload_seconds = since(t0);
   }
   return block;

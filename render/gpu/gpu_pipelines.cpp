@@ -56,7 +56,7 @@ void create_pipelines(Core& core) {
   VkPushConstantRange pc{};
   pc.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
   pc.offset = 0;
-  pc.size = 8;  // ray_count, node_count
+  pc.size = 12;  // ray_count, node_count, root
   VkPipelineLayoutCreateInfo pl{};
   pl.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
   pl.setLayoutCount = 1;

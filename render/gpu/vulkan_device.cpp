@@ -3,6 +3,7 @@
 // extensions, no surface: lavapipe (Mesa's CPU driver, CI) and real GPUs share one path.
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 
@@ -227,6 +228,7 @@ Core::~Core() {
     vkDeviceWaitIdle(device);  // nothing may still run on what we free (errors ignored)
     for (auto& s : free_slots) destroy_slot(*this, *s);
     free_slots.clear();
+    staging.reset();
     dummy.reset();
     destroy_pipelines(*this);
     vkDestroyDevice(device, nullptr);
@@ -289,6 +291,44 @@ void Core::release_slot(std::unique_ptr<Slot> s) {
   }
   std::lock_guard lk(slot_mutex);
   free_slots.push_back(std::move(s));
+}
+
+std::unique_ptr<BuildCache> Core::acquire_build() {
+  {
+    std::lock_guard lk(build_mutex);
+    if (!free_builds.empty()) {
+      auto b = std::move(free_builds.back());
+      free_builds.pop_back();
+      build_bytes -= b->bytes();
+      return b;
+    }
+  }
+  return std::make_unique<BuildCache>();
+}
+
+void Core::release_build(std::unique_ptr<BuildCache> b) {
+  std::lock_guard lk(build_mutex);
+  build_bytes += b->bytes();
+  free_builds.push_back(std::move(b));
+}
+
+void Core::release_scratch() {
+  {
+    std::lock_guard lk(slot_mutex);
+    for (auto& s : free_slots) {
+      scratch_bytes -= s->out_device.size + s->out_host.size;
+      s->out_device.reset();
+      s->out_host.reset();
+    }
+  }
+  {
+    std::lock_guard lk(build_mutex);
+    free_builds.clear();
+    build_bytes = 0;
+  }
+  std::lock_guard lk(staging_mutex);
+  scratch_bytes -= staging.size;
+  staging.reset();
 }
 
 void Core::submit_and_wait(Slot& s) {
@@ -408,7 +448,11 @@ std::unique_ptr<GpuContext> GpuContext::open(const std::string& selector) {
   const bool shares_host = core->props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ||
                            core->props.deviceType == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU;
   const std::uint32_t direct_type = detail::find_type(m, DL | HV | HC, CA, 0);
-  core->direct = shares_host && direct_type != UINT32_MAX;
+  // RAYLINE_GPU_STAGING=1 forces the discrete-GPU path (staging copies) on any device, so
+  // lavapipe tests it too.
+  const char* force_staging = std::getenv("RAYLINE_GPU_STAGING");
+  const bool staging = force_staging && *force_staging && std::strcmp(force_staging, "0") != 0;
+  core->direct = shares_host && direct_type != UINT32_MAX && !staging;
   if (core->direct) {
     core->type_device = core->type_upload = core->type_readback = direct_type;
   } else {
@@ -430,7 +474,11 @@ std::unique_ptr<GpuContext> GpuContext::open(const std::string& selector) {
 const GpuDeviceInfo& GpuContext::info() const { return impl_->core->info; }
 std::uint64_t GpuContext::allocated_bytes() const { return impl_->core->accounted_bytes.load(); }
 bool GpuContext::lost() const { return impl_->core->lost.load(); }
-std::uint64_t GpuContext::scratch_bytes() const { return impl_->core->scratch_bytes.load(); }
+std::uint64_t GpuContext::scratch_bytes() const {
+  return impl_->core->scratch_bytes.load() + impl_->core->build_bytes.load();
+}
+void GpuContext::release_scratch() { impl_->core->release_scratch(); }
+bool GpuContext::uses_staging() const { return !impl_->core->direct; }
 
 void GpuContext::inject_fault(int after_ops, GpuErrorKind kind) {
   Core& c = *impl_->core;

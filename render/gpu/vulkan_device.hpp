@@ -51,9 +51,17 @@ class GpuContext {
   const GpuDeviceInfo& info() const;
   std::uint64_t allocated_bytes() const;  // device memory held by blocks and ray buffers now
   bool lost() const;                      // a DeviceLost error happened: every later call throws
-  // Added: kernel-output scratch kept between dispatches (one set per concurrently
-  // dispatching thread, grown to the largest ray queue seen); not in allocated_bytes().
+  // Added: scratch kept between calls, not in allocated_bytes(): kernel-output buffers (one
+  // set per concurrently dispatching thread, grown to the largest ray queue seen), host
+  // BVH-build arrays (one set per concurrently uploading thread, ~145 B per triangle of
+  // the largest block) and the staging buffer of discrete GPUs (64 MiB at most).
+  // release_scratch() frees what no call is using now.
   std::uint64_t scratch_bytes() const;
+  void release_scratch();
+  // Added: whether uploads and results go through host staging buffers (discrete GPUs;
+  // any device with RAYLINE_GPU_STAGING=1 set when it is opened) rather than direct
+  // mapping of device memory (lavapipe, integrated GPUs).
+  bool uses_staging() const;
 
   // Test hook: the `after_ops`-th GPU operation from now (block upload, ray upload or
   // dispatch; 1 = the next one) throws GpuError(kind); DeviceLost also marks the context lost.

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "render/gpu/gpu_bvh.hpp"
 #include "render/gpu/vulkan_device.hpp"
 
 namespace rayline::gpu::detail {
@@ -76,6 +77,17 @@ struct Slot {
   Buffer out_host;    // its host copy (discrete GPUs only)
 };
 
+// A BVH build's arrays, reused by the next build (bvh::BuildScratch).
+struct BuildCache {
+  bvh::FlatBvh flat;
+  bvh::BuildScratch scratch;
+  std::uint64_t bytes() const { return bvh::capacity_bytes(flat) + scratch.bytes(); }
+};
+
+// Host-visible staging for uploads to device-local memory that the host cannot map
+// (discrete GPUs), reused between uploads; larger uploads go through it in chunks.
+inline constexpr VkDeviceSize kStagingBytes = VkDeviceSize(64) << 20;
+
 struct Pipelines {
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
@@ -119,6 +131,13 @@ struct Core {
   std::mutex slot_mutex;
   std::vector<std::unique_ptr<Slot>> free_slots;
 
+  std::mutex build_mutex;
+  std::vector<std::unique_ptr<BuildCache>> free_builds;
+  std::atomic<std::uint64_t> build_bytes{0};  // held by idle build caches
+
+  std::mutex staging_mutex;  // one upload through `staging` at a time
+  Buffer staging;
+
   Core() = default;
   Core(const Core&) = delete;
   Core& operator=(const Core&) = delete;
@@ -129,6 +148,9 @@ struct Core {
   void begin_op(const char* what);
   std::unique_ptr<Slot> acquire_slot();
   void release_slot(std::unique_ptr<Slot> s);
+  std::unique_ptr<BuildCache> acquire_build();
+  void release_build(std::unique_ptr<BuildCache> b);
+  void release_scratch();  // frees idle slots' output buffers, idle build caches, staging
   // Ends the slot's command buffer, submits it (serialised), waits for its fence.
   void submit_and_wait(Slot& s);
 };
@@ -148,6 +170,20 @@ class SlotLease {
  private:
   Core& core_;
   std::unique_ptr<Slot> slot_;
+};
+
+// RAII lease of a build cache.
+class BuildLease {
+ public:
+  explicit BuildLease(Core& c) : core_(c), cache_(c.acquire_build()) {}
+  ~BuildLease() { core_.release_build(std::move(cache_)); }
+  BuildLease(const BuildLease&) = delete;
+  BuildLease& operator=(const BuildLease&) = delete;
+  BuildCache* operator->() const { return cache_.get(); }
+
+ private:
+  Core& core_;
+  std::unique_ptr<BuildCache> cache_;
 };
 
 // Begins recording the slot's (reset) command buffer for one submission.

@@ -2,6 +2,7 @@
 // (vulkan_device.cpp): device-local for the kernels' data, host-visible staging for
 // transfers, and direct mapping where device-local memory is host-visible on a device that
 // shares host memory (lavapipe: one 2 GiB heap with every property bit).
+#include <algorithm>
 #include <cstring>
 #include <string>
 
@@ -87,7 +88,10 @@ Buffer make_buffer(Core& core, VkDeviceSize bytes, VkBufferUsageFlags usage, Mem
   const VkMemoryPropertyFlags f = flags_of(core, b.type);
   b.host_visible = f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT;
   b.coherent = f & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  if (b.host_visible) check(vkMapMemory(core.device, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory", &core);
+  // Device data is mapped only where the host writes it directly (core.direct); else it
+  // is reached through staging even when the type happens to be host-visible.
+  if (b.host_visible && (mem != Mem::Device || core.direct))
+    check(vkMapMemory(core.device, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory", &core);
   return b;
 }
 
@@ -104,27 +108,40 @@ void write_buffer(Core& core, Buffer& dst, const void* src, VkDeviceSize bytes) 
     }
     return;  // vkQueueSubmit makes host writes visible to later submissions
   }
-  Buffer staging = make_buffer(core, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Mem::Upload, false);
-  std::memcpy(staging.mapped, src, bytes);
-  if (!staging.coherent) {
-    VkMappedMemoryRange range{};
-    range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
-    range.memory = staging.memory;
-    range.size = VK_WHOLE_SIZE;
-    check(vkFlushMappedMemoryRanges(core.device, 1, &range), "vkFlushMappedMemoryRanges", &core);
+  // Through the reused staging buffer, in chunks of at most kStagingBytes.
+  std::lock_guard lk(core.staging_mutex);
+  const VkDeviceSize want = std::min(bytes, kStagingBytes);
+  if (!core.staging || core.staging.size < want) {
+    core.scratch_bytes -= core.staging.size;
+    core.staging.reset();
+    core.staging = make_buffer(core, std::max<VkDeviceSize>(want, VkDeviceSize(4) << 20),
+                               VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Mem::Upload, false);
+    core.scratch_bytes += core.staging.size;
   }
+  Buffer& staging = core.staging;
   SlotLease slot(core);
-  begin_commands(core, *slot);
-  VkBufferCopy region{0, 0, bytes};
-  vkCmdCopyBuffer(slot->cmd, staging.buffer, dst.buffer, 1, &region);
-  // Later submissions on this queue read it in compute shaders.
-  VkMemoryBarrier mb{};
-  mb.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  mb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-  mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-  vkCmdPipelineBarrier(slot->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &mb, 0,
-                       nullptr, 0, nullptr);
-  core.submit_and_wait(*slot);
+  for (VkDeviceSize off = 0; off < bytes; off += staging.size) {
+    const VkDeviceSize len = std::min(staging.size, bytes - off);
+    std::memcpy(staging.mapped, static_cast<const unsigned char*>(src) + off, len);
+    if (!staging.coherent) {
+      VkMappedMemoryRange range{};
+      range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
+      range.memory = staging.memory;
+      range.size = VK_WHOLE_SIZE;
+      check(vkFlushMappedMemoryRanges(core.device, 1, &range), "vkFlushMappedMemoryRanges", &core);
+    }
+    begin_commands(core, *slot);
+    VkBufferCopy region{0, off, len};
+    vkCmdCopyBuffer(slot->cmd, staging.buffer, dst.buffer, 1, &region);
+    // Later submissions on this queue read it in compute shaders.
+    VkMemoryBarrier mb{};
+    mb.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    mb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+    vkCmdPipelineBarrier(slot->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &mb,
+                         0, nullptr, 0, nullptr);
+    core.submit_and_wait(*slot);
+  }
 }
 
 }  // namespace rayline::gpu::detail

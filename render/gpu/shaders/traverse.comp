@@ -23,6 +23,7 @@ layout(std430, set = 0, binding = 3) writeonly restrict buffer Out { uvec4 hits[
 layout(push_constant) uniform Push {
   uint ray_count;   // rays in this dispatch
   uint node_count;  // 0: an empty block, every ray misses
+  uint root;        // the root node (always an inner node)
 } pc;
 
 const uint kLeafBit = 0x80000000u;
@@ -54,7 +55,7 @@ void main() {
   if (pc.node_count != 0u) {
     uint stack_[kStackSize];  // per-invocation (local memory on a GPU)
     int sp = 0;
-    uint cur = 0u;  // the root: always an inner node
+    uint cur = pc.root;
     for (;;) {
       if ((cur & kLeafBit) == 0u) {
         // Both children's slab tests from one node fetch.
