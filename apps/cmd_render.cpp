@@ -155,8 +155,8 @@ int run_calibrate(const CalibrateCliOptions& opt) {
     std::printf("GPU '%s' over %d jobs: RayIntersect setup %.1f us, %.3f Mrays/s%s; ShadowIntersect setup %.1f us, "
                 "%.3f Mrays/s%s\n",
                 c.gpu_device.c_str(), c.gpu_exec_samples, gm.intersect_setup * 1e6, 1.0 / (gm.intersect_rate * 64) / 1e6,
-                c.gpu_intersect_fitted ? "" : " (default: too few jobs)", gm.shadow_setup * 1e6,
-                1.0 / (gm.shadow_rate * 64) / 1e6, c.gpu_shadow_fitted ? "" : " (default: too few jobs)");
+                c.gpu_intersect_fitted ? "" : " (defaults kept: no usable fit)", gm.shadow_setup * 1e6,
+                1.0 / (gm.shadow_rate * 64) / 1e6, c.gpu_shadow_fitted ? "" : " (defaults kept: no usable fit)");
     std::printf("RAM->GPU channel, Eq. 1 over %d uploads: latency %.1f us, bandwidth %.1f MB/s, relative RMS error %.1f %%\n",
                 c.pcie_samples, gm.pcie_latency * 1e6, gm.pcie_bandwidth / 1e6, 100 * c.pcie_rel_rms);
   }

@@ -19,12 +19,8 @@ std::unique_ptr<gpu::GpuContext> select_gpu(const std::string& selector, std::st
       status = std::string("none: ") + e.what();
       return nullptr;
     }
-    std::string why, have;
-    for (const auto& d : gpu::list_gpu_devices(&why))
-      have += (have.empty() ? "" : ", ") + std::to_string(d.index) + " '" + d.name + "'" + (d.cpu_backed ? " (CPU)" : "");
-    throw InputError("--gpu", "gpu",
-                     std::string(e.what()) + "; devices: " + (have.empty() ? "none (" + why + ")" : have) +
-                         " (see `rayline devices`; --gpu none renders on the CPU)");
+    // The device layer's message names the selector and lists the devices.
+    throw InputError("--gpu", "gpu", std::string(e.what()) + " (see `rayline devices`; --gpu none renders on the CPU)");
   }
 }
 

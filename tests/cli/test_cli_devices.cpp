@@ -2,44 +2,27 @@
 // (exit 2, naming the flag) for a device that does not exist.
 #include <gtest/gtest.h>
 
-#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "cli/cli_run.hpp"
+
 namespace {
-
-struct CliRun {
-  int rc = -1;
-  std::string out;
-};
-
-CliRun run(const std::string& args) {
-  CliRun r;
-  const std::string cmd = std::string(RAYLINE_BINARY) + " " + args + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int st = ::pclose(p);
-  r.rc = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
-
+rayline::testing::CliResult run(const std::string& args) { return rayline::testing::rayline_cli(args); }
 }  // namespace
 
 TEST(CliDevices, ListsComputeAndMemoryDevicesWithTiming) {
-  const CliRun r = run("devices --gpu none --threads 3");
-  ASSERT_EQ(r.rc, 0) << r.out;
-  EXPECT_NE(r.out.find("Vulkan devices"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("(x3)"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("RayIntersect"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("disk -> "), std::string::npos) << r.out;
+  const auto r = run("devices --gpu none --threads 3");
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.out.find("Vulkan devices"), std::string::npos) << r.all;
+  EXPECT_NE(r.out.find("(x3)"), std::string::npos) << r.all;
+  EXPECT_NE(r.out.find("RayIntersect"), std::string::npos) << r.all;
+  EXPECT_NE(r.out.find("disk -> "), std::string::npos) << r.all;
 }
 
 TEST(CliDevices, JsonListsLavapipeAsCpuBackedAndAddsTheGpuDevice) {
-  const CliRun r = run("devices --json --gpu none");
-  ASSERT_EQ(r.rc, 0) << r.out;
+  const auto r = run("devices --json --gpu none");
+  ASSERT_EQ(r.code, 0) << r.all;
   const auto j = nlohmann::json::parse(r.out);
   int cpus = 0;
   for (const auto& c : j["computes"]) cpus += c["kind"] == "cpu";
@@ -63,10 +46,10 @@ TEST(CliDevices, JsonListsLavapipeAsCpuBackedAndAddsTheGpuDevice) {
 }
 
 TEST(CliDevices, MissingGpuIsAClearError) {
-  const CliRun d = run("devices --gpu no-such-gpu");
-  EXPECT_EQ(d.rc, 2) << d.out;
-  EXPECT_NE(d.out.find("--gpu"), std::string::npos) << d.out;
-  const CliRun r = run("render --gpu no-such-gpu --resolution 8x8 --spp 1 -q --out /tmp/rayline-cli-gpu-missing.exr");
-  EXPECT_EQ(r.rc, 2) << r.out;
-  EXPECT_NE(r.out.find("no-such-gpu"), std::string::npos) << r.out;
+  const auto d = run("devices --gpu no-such-gpu");
+  EXPECT_EQ(d.code, 2) << d.all;
+  EXPECT_NE(d.all.find("--gpu"), std::string::npos) << d.all;
+  const auto r = run("render --gpu no-such-gpu --resolution 8x8 --spp 1 -q --out /tmp/rayline-cli-gpu-missing.exr");
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.all.find("no-such-gpu"), std::string::npos) << r.all;
 }

@@ -166,3 +166,32 @@ TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
   ASSERT_EQ(r.code, 0) << r.all;
   EXPECT_EQ(metrics("p").at("platform"), path("me.json"));
 }
+
+// Issue 7: calibration measures the GPU too (its jobs' Eq. 2, the RAM->GPU channel's
+// Eq. 1) and writes it into the platform file; the renderer drives that GPU from it.
+TEST_F(CliRender, CalibrateCoversTheGpu) {
+  auto d = rayline_cli("devices --json --gpu none");
+  ASSERT_EQ(d.code, 0) << d.all;
+  const auto devs = nlohmann::json::parse(d.out)["vulkan"];
+  if (devs.empty()) GTEST_SKIP() << "no Vulkan device here";
+  const std::string gpu = std::to_string(devs[0]["index"].get<int>());
+  auto r = rayline_cli("calibrate -q --gpu " + gpu + " --resolution 48x48 --spp 2 --blocks 8 --out " + path("gpu.json"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.out.find("RAM->GPU channel"), std::string::npos) << r.out;
+  const auto platform = nlohmann::json::parse(slurp(path("gpu.json")));
+  bool gpu_compute = false, pcie = false;
+  for (const auto& c : platform["node_types"]["W"]["compute"])
+    gpu_compute = gpu_compute || (c["kind"] == "gpu" && c["timing"].contains("RayIntersect"));
+  for (const auto& c : platform["node_types"]["W"]["channels"]) pcie = pcie || c["kind"] == "pcie";
+  EXPECT_TRUE(gpu_compute) << platform.dump(2);
+  EXPECT_TRUE(pcie) << platform.dump(2);
+  r = rayline_cli("render -q --gpu " + gpu + " --resolution 16x16 --spp 1 --platform " + path("gpu.json") + " --out " +
+                  path("g.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(metrics("g").at("gpu").at("status"), "used");
+  // The same platform without the GPU: the CPU devices alone, same image.
+  r = rayline_cli("render -q --gpu none --resolution 16x16 --spp 1 --platform " + path("gpu.json") + " --out " +
+                  path("c.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(metrics("c").at("gpu").at("device"), "");
+}
