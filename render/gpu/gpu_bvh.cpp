@@ -266,9 +266,13 @@ void build(std::span<const unsigned char> records, std::uint64_t n, const GpuBui
   a.maxBranchingFactor = 2;
   a.maxDepth = kMaxDepth;  // Embree fails the build rather than exceed it: the stack holds it
   a.sahBlockSize = 1;
-  a.minLeafSize = 1;
+  // The Morton builder (Low) splits down to minLeafSize regardless of cost: let it stop
+  // at full leaves; the SAH builders choose leaf sizes by cost.
+  a.minLeafSize = opt.quality == GpuBvhQuality::Low ? kMaxLeafTriangles : 1;
   a.maxLeafSize = kMaxLeafTriangles;
-  a.traversalCost = 1.0f;  // a 64-byte node fetch ~ a 48-byte triangle fetch on the GPU
+  // SAH costs of GPU BVH tracing (Karras & Aila 2013, Sec. 6: Ct = 1.2, Ci = 1): a 64-byte
+  // node (two box tests) costs a little more than a 48-byte triangle test.
+  a.traversalCost = 1.2f;
   a.intersectionCost = 1.0f;
   a.bvh = bvh;
   a.primitives = prims.data();

@@ -176,7 +176,7 @@ double intersect(GpuContext& ctx, const GpuBlock& block_base, const GpuRays& ray
   VkCommandBuffer cmd = slot->cmd;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, Any ? core.pipelines.any : core.pipelines.closest);
   if (core.timestamps) {
-    vkCmdResetQueryPool(cmd, slot->queries, 0, 2);
+    vkCmdResetQueryPool(cmd, slot->queries, 0, 3);
     vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, slot->queries, 0);
   }
   for (std::uint32_t c = 0; c < chunks; ++c) {
@@ -198,17 +198,22 @@ double intersect(GpuContext& ctx, const GpuBlock& block_base, const GpuRays& ray
     barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
             VK_ACCESS_HOST_READ_BIT);
   }
+  if (core.timestamps) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, slot->queries, 2);
   core.submit_and_wait(*slot);
   st.submit_seconds = since(t_record);
   st.dispatches = chunks;
   st.kernel_seconds = st.submit_seconds;
   if (core.timestamps) {
-    std::uint64_t ts[2] = {0, 0};
-    const VkResult r = vkGetQueryPoolResults(core.device, slot->queries, 0, 2, sizeof(ts), ts, sizeof(ts[0]),
+    std::uint64_t ts[3] = {0, 0, 0};
+    const VkResult r = vkGetQueryPoolResults(core.device, slot->queries, 0, 3, sizeof(ts), ts, sizeof(ts[0]),
                                              VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
     check(r, "vkGetQueryPoolResults", &core);
-    const std::uint64_t ticks = ((ts[1] & core.timestamp_mask) - (ts[0] & core.timestamp_mask)) & core.timestamp_mask;
-    st.kernel_seconds = double(ticks) * core.timestamp_ns * 1e-9;
+    auto seconds = [&](std::uint64_t a, std::uint64_t b) {
+      const std::uint64_t ticks = ((b & core.timestamp_mask) - (a & core.timestamp_mask)) & core.timestamp_mask;
+      return double(ticks) * core.timestamp_ns * 1e-9;
+    };
+    st.kernel_seconds = seconds(ts[0], ts[1]);
+    if (result != &slot->out_device) st.copy_seconds = seconds(ts[1], ts[2]);
     st.gpu_timestamps = true;
   }
 

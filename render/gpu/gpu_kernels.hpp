@@ -96,6 +96,7 @@ double intersect_any(GpuContext& ctx, const GpuBlock& block, const GpuRays& rays
 struct GpuDispatchStats {
   double kernel_seconds = 0;    // what intersect_* returns
   double submit_seconds = 0;    // host wall time from recording to the fence (kernel + copies)
+  double copy_seconds = 0;      // GPU time of the device -> host copy (staging path, timestamps)
   double download_seconds = 0;  // host wall time copying the results into `out`
   std::uint64_t download_bytes = 0;
   bool gpu_timestamps = false;  // kernel_seconds from GPU timestamps (else host wall time)

@@ -274,7 +274,7 @@ std::unique_ptr<Slot> Core::acquire_slot() {
       VkQueryPoolCreateInfo qi{};
       qi.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
       qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-      qi.queryCount = 2;
+      qi.queryCount = 3;  // dispatch start, dispatch end, copy end
       check(vkCreateQueryPool(device, &qi, nullptr, &s->queries), "vkCreateQueryPool", this);
     }
   } catch (...) {

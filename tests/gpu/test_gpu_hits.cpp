@@ -126,6 +126,55 @@ TEST(GpuHits, CpuMirrorMatchesKernel) {
   EXPECT_LE(block->bvh_depth, bvh::kStackSize - 1);
 }
 
+// The flat BVH is a proper tree: every node reached once from the root, child indices and
+// leaf ranges in bounds, every triangle in exactly one leaf (Low, Medium) or at least one
+// (High: spatial splits), child boxes holding their triangles, the reported depth exact.
+TEST(GpuHits, FlatBvhIsWellFormed) {
+  const std::size_t n = 20000;
+  const auto rec = soup_records(n, 31, 0.05f);
+  for (auto q : {GpuBvhQuality::Low, GpuBvhQuality::Medium, GpuBvhQuality::High}) {
+    GpuBuildOptions opt;
+    opt.quality = q;
+    const bvh::FlatBvh b = bvh::build(rec, n, opt);
+    std::vector<int> node_seen(b.nodes.size()), tri_seen(b.tris.size()), prim_seen(n);
+    int depth = 0;
+    std::vector<std::pair<std::uint32_t, int>> todo{{b.root, 1}};
+    while (!todo.empty()) {
+      const auto [idx, d] = todo.back();
+      todo.pop_back();
+      ASSERT_LT(idx, b.nodes.size());
+      ++node_seen[idx];
+      depth = std::max(depth, d);
+      for (const bvh::Child& c : b.nodes[idx].c) {
+        if (!bvh::is_leaf(c.word)) {
+          todo.push_back({c.word, d + 1});
+          continue;
+        }
+        ASSERT_EQ(bvh::leaf_count(c.word), c.count);
+        ASSERT_LE(c.count, bvh::kMaxLeafTriangles);
+        for (std::uint32_t k = 0; k < c.count; ++k) {
+          const std::uint32_t ti = bvh::leaf_first(c.word) + k;
+          ASSERT_LT(ti, b.tris.size());
+          ++tri_seen[ti];
+          const bvh::Tri& t = b.tris[ti];
+          ++prim_seen[t.prim];
+          if (q != GpuBvhQuality::High) {  // (split references hold only a part of the triangle)
+            for (int a = 0; a < 3; ++a)
+              for (float x : {t.v0[a], t.v1[a], t.v2[a]}) ASSERT_TRUE(x >= c.lo[a] && x <= c.hi[a]);
+          }
+        }
+      }
+    }
+    EXPECT_EQ(depth, b.depth);
+    EXPECT_LE(b.depth, bvh::kStackSize - 1);
+    for (int s : node_seen) ASSERT_EQ(s, 1);
+    for (int s : tri_seen) ASSERT_EQ(s, 1);
+    for (int s : prim_seen) ASSERT_TRUE(q == GpuBvhQuality::High ? s >= 1 : s == 1);
+    std::printf("quality %d: %zu nodes, %zu leaf triangles, depth %d, build %.3f s (Embree %.3f s)\n", int(q),
+                b.nodes.size(), b.tris.size(), b.depth, b.seconds, b.embree_seconds);
+  }
+}
+
 TEST(GpuHits, ClippedIntervalsAxisAlignedAndInsideRays) {
   RL_GPU_CONTEXT(ctx);
   const std::size_t n = 20000;

@@ -32,6 +32,7 @@ const int kStackSize = 64;        // >= the tree depth (gpu_bvh.hpp)
 const float kTinyDir = 1e-30;     // |d| below this -> +-kTinyDir for 1/d: no 0 * inf = NaN
 const float kBoxEps = 1.0e-6;     // widening of a box's exit distance: conservative box test
 const uint kInfBits = 0x7F800000u;  // +infinity: a miss's t
+const uint kDone = 0x7FFFFFFFu;     // end of traversal (never a node index: < 2^28 nodes)
 
 void main() {
   const uint i = gl_GlobalInvocationID.x;
@@ -56,8 +57,11 @@ void main() {
     uint stack_[kStackSize];  // per-invocation (local memory on a GPU)
     int sp = 0;
     uint cur = pc.root;
-    for (;;) {
-      if ((cur & kLeafBit) == 0u) {
+    // "While-while" traversal (Aila & Laine 2009, Sec. 3): descend through inner nodes
+    // until a leaf comes up, then test leaves until an inner node comes up, so the threads
+    // of a warp run the node code and the triangle code in longer uniform stretches.
+    while (cur != kDone) {
+      while ((cur & kLeafBit) == 0u && cur != kDone) {
         // Both children's slab tests from one node fetch.
         const uint b = 4u * cur;
         const vec4 alo = nodes[b], ahi = nodes[b + 1u], blo = nodes[b + 2u], bhi = nodes[b + 3u];
@@ -90,54 +94,56 @@ void main() {
         } else if (hb) {
           cur = cb;
         } else {
-          if (sp == 0) break;
-          cur = stack_[--sp];
+          cur = sp == 0 ? kDone : stack_[--sp];
         }
-        continue;
       }
-      // Leaf: Möller-Trumbore in Embree's factoring (e1 = v0 - v1, e2 = v2 - v0,
-      // Ng = e2 x e1), `precise` so no driver fuses or reorders it.
-      const uint first = (cur >> 3) & 0x0FFFFFFFu;
-      const uint cnt = cur & 7u;
-      for (uint k = 0u; k < cnt; ++k) {
-        const uint ti = 3u * (first + k);
-        const vec4 p0 = tris[ti], p1 = tris[ti + 1u], p2 = tris[ti + 2u];
-        precise vec3 e1 = p0.xyz - p1.xyz;
-        precise vec3 e2 = p2.xyz - p0.xyz;
-        precise vec3 c = p0.xyz - o;
-        precise vec3 ng = vec3(e2.y * e1.z - e2.z * e1.y, e2.z * e1.x - e2.x * e1.z, e2.x * e1.y - e2.y * e1.x);
-        precise vec3 r = vec3(c.y * d.z - c.z * d.y, c.z * d.x - c.x * d.z, c.x * d.y - c.y * d.x);
-        precise float den = ng.x * d.x + ng.y * d.y + ng.z * d.z;
-        precise float uu = r.x * e2.x + r.y * e2.y + r.z * e2.z;
-        precise float vv = r.x * e1.x + r.y * e1.y + r.z * e1.z;
-        const float absden = abs(den);
-        const uint sgn = floatBitsToUint(den) & kLeafBit;
-        const float u = uintBitsToFloat(floatBitsToUint(uu) ^ sgn);
-        const float v = uintBitsToFloat(floatBitsToUint(vv) ^ sgn);
-        precise float w = u + v;
-        if (den != 0.0 && u >= 0.0 && v >= 0.0 && w <= absden) {
-          precise float tt = ng.x * c.x + ng.y * c.y + ng.z * c.z;
-          precise float t = uintBitsToFloat(floatBitsToUint(tt) ^ sgn) / absden;
-          if (t >= tmin && t <= tmax) {
+      while ((cur & kLeafBit) != 0u) {
+        // Leaf: Möller-Trumbore in Embree's factoring (e1 = v0 - v1, e2 = v2 - v0,
+        // Ng = e2 x e1), `precise` so no driver fuses or reorders it.
+        const uint first = (cur >> 3) & 0x0FFFFFFFu;
+        const uint cnt = cur & 7u;
+        for (uint k = 0u; k < cnt; ++k) {
+          const uint ti = 3u * (first + k);
+          const vec4 p0 = tris[ti], p1 = tris[ti + 1u], p2 = tris[ti + 2u];
+          precise vec3 e1 = p0.xyz - p1.xyz;
+          precise vec3 e2 = p2.xyz - p0.xyz;
+          precise vec3 c = p0.xyz - o;
+          precise vec3 ng = vec3(e2.y * e1.z - e2.z * e1.y, e2.z * e1.x - e2.x * e1.z, e2.x * e1.y - e2.y * e1.x);
+          precise vec3 r = vec3(c.y * d.z - c.z * d.y, c.z * d.x - c.x * d.z, c.x * d.y - c.y * d.x);
+          precise float den = ng.x * d.x + ng.y * d.y + ng.z * d.z;
+          precise float uu = r.x * e2.x + r.y * e2.y + r.z * e2.z;
+          precise float vv = r.x * e1.x + r.y * e1.y + r.z * e1.z;
+          const float absden = abs(den);
+          const uint sgn = floatBitsToUint(den) & kLeafBit;
+          const float u = uintBitsToFloat(floatBitsToUint(uu) ^ sgn);
+          const float v = uintBitsToFloat(floatBitsToUint(vv) ^ sgn);
+          precise float w = u + v;
+          if (den != 0.0 && u >= 0.0 && v >= 0.0 && w <= absden) {
+            precise float tt = ng.x * c.x + ng.y * c.y + ng.z * c.z;
+            precise float t = uintBitsToFloat(floatBitsToUint(tt) ^ sgn) / absden;
+            if (t >= tmin && t <= tmax) {
 #ifdef ANY_HIT
-            occ = true;
-            break;
+              occ = true;
+              break;
 #else
-            const uint prim = floatBitsToUint(p0.w);
-            if (t < tmax || prim < best_prim) {
-              tmax = t;
-              best = first + k;
-              best_prim = prim;
-            }
+              const uint prim = floatBitsToUint(p0.w);
+              if (t < tmax || prim < best_prim) {
+                tmax = t;
+                best = first + k;
+                best_prim = prim;
+              }
 #endif
+            }
           }
         }
-      }
 #ifdef ANY_HIT
-      if (occ) break;  // early exit: any hit will do
+        if (occ) {  // early exit: any hit will do
+          cur = kDone;
+          break;
+        }
 #endif
-      if (sp == 0) break;
-      cur = stack_[--sp];
+        cur = sp == 0 ? kDone : stack_[--sp];
+      }
     }
   }
 
