@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdlib>
+#include <optional>
 #include <thread>
 
 #include "gpu_test_util.hpp"
@@ -240,9 +242,14 @@ TEST(GpuDevice, ConcurrentUploadsAndDispatches) {
 // forces it on lavapipe. Uploads larger than the 64 MiB staging buffer go in chunks.
 TEST(GpuDevice, StagingPathMatchesDirectMapping) {
   RL_GPU_CONTEXT(ctx);
+  const char* was = std::getenv("RAYLINE_GPU_STAGING");
+  const std::optional<std::string> saved = was ? std::optional<std::string>(was) : std::nullopt;
   ::setenv("RAYLINE_GPU_STAGING", "1", 1);
   auto staged = GpuContext::open(std::to_string(ctx->info().index));
-  ::unsetenv("RAYLINE_GPU_STAGING");
+  if (saved)
+    ::setenv("RAYLINE_GPU_STAGING", saved->c_str(), 1);
+  else
+    ::unsetenv("RAYLINE_GPU_STAGING");
   EXPECT_TRUE(staged->uses_staging());
   const auto rec = soup_records(20000, 8, 0.05f);
   const auto rays = random_rays(unit_box(), 20000, 9);
@@ -274,4 +281,31 @@ TEST(GpuDevice, StagingPathMatchesDirectMapping) {
   EXPECT_GT(staged->scratch_bytes(), 0u);
   staged->release_scratch();
   EXPECT_EQ(staged->scratch_bytes(), 0u);
+}
+
+// No driver (the loader pointed at a missing ICD manifest): an empty list with the reason,
+// and NoVulkan from open(); the loader rescans at every instance, so the real list returns.
+TEST(GpuDevice, NoDriverIsNoVulkan) {
+  std::string before_why;
+  const std::size_t before = list_gpu_devices(&before_why).size();
+  std::vector<std::pair<const char*, std::optional<std::string>>> saved;
+  for (const char* var : {"VK_DRIVER_FILES", "VK_ICD_FILENAMES"}) {
+    const char* v = std::getenv(var);
+    saved.emplace_back(var, v ? std::optional<std::string>(v) : std::nullopt);
+    ::setenv(var, "/nonexistent/rayline_icd.json", 1);
+  }
+  std::string why, msg;
+  const auto none = list_gpu_devices(&why);
+  const GpuErrorKind k = error_kind([] { GpuContext::open("auto"); }, &msg);
+  for (const auto& [var, v] : saved) {
+    if (v)
+      ::setenv(var, v->c_str(), 1);
+    else
+      ::unsetenv(var);
+  }
+  EXPECT_TRUE(none.empty());
+  EXPECT_FALSE(why.empty());
+  EXPECT_EQ(k, GpuErrorKind::NoVulkan);
+  EXPECT_NE(msg.find("vkCreateInstance"), std::string::npos) << msg;
+  EXPECT_EQ(list_gpu_devices().size(), before);
 }
