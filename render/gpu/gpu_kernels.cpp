@@ -30,10 +30,11 @@ constexpr VkBufferUsageFlags kData = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUF
 class BlockImpl final : public GpuBlock {
  public:
   std::uint64_t triangles() const override { return n; }
-  std::uint64_t device_bytes() const override { return nodes.size + tris.size; }
+  std::uint64_t device_bytes() const override { return data.size; }
 
   std::shared_ptr<Core> core;  // declared first: destroyed after the buffers
-  Buffer nodes, tris;
+  Buffer data;  // one allocation: the nodes, then the triangles at `tri_offset`
+  std::uint64_t node_bytes = 0, tri_offset = 0, tri_bytes = 0;
   std::uint64_t n = 0;
   std::uint32_t node_count = 0;
   std::uint32_t root = 0;
@@ -151,12 +152,15 @@ double intersect(GpuContext& ctx, const GpuBlock& block_base, const GpuRays& ray
   ai.descriptorSetCount = chunks;
   ai.pSetLayouts = layouts.data();
   check(vkAllocateDescriptorSets(core.device, &ai, sets.data()), "vkAllocateDescriptorSets", &core);
-  const VkBuffer nodes = block.node_count ? block.nodes.buffer : core.dummy.buffer;
-  const VkBuffer tris = block.node_count ? block.tris.buffer : core.dummy.buffer;
+  const bool empty = block.node_count == 0;  // an empty block binds a dummy buffer
+  const VkDescriptorBufferInfo nodes{empty ? core.dummy.buffer : block.data.buffer, 0,
+                                     empty ? VK_WHOLE_SIZE : block.node_bytes};
+  const VkDescriptorBufferInfo tris{empty ? core.dummy.buffer : block.data.buffer, empty ? 0 : block.tri_offset,
+                                    empty ? VK_WHOLE_SIZE : block.tri_bytes};
   for (std::uint32_t c = 0; c < chunks; ++c) {
     const std::uint64_t first = std::uint64_t(c) * chunk, count = std::min(chunk, n - first);
-    const VkDescriptorBufferInfo bi[4] = {{nodes, 0, VK_WHOLE_SIZE},
-                                          {tris, 0, VK_WHOLE_SIZE},
+    const VkDescriptorBufferInfo bi[4] = {nodes,
+                                          tris,
                                           {rays.rays.buffer, first * sizeof(GpuRay), count * sizeof(GpuRay)},
                                           {slot->out_device.buffer, first * stride, count * stride}};
     VkWriteDescriptorSet w[4]{};
@@ -269,8 +273,14 @@ std::unique_ptr<GpuBlock> upload_block(GpuContext& ctx, std::span<const unsigned
     check_binding(*core, node_bytes, "BVH nodes", triangle_count);
     check_binding(*core, tri_bytes, "triangles", triangle_count);
     const auto t0 = Clock::now();
-    block->nodes = upload_array(*core, b.nodes.data(), node_bytes);
-    block->tris = upload_array(*core, b.tris.data(), tri_bytes);
+    // One allocation per block (maxMemoryAllocationCount is 4096 on many GPUs).
+    const std::uint64_t align = std::max<std::uint64_t>(core->props.limits.minStorageBufferOffsetAlignment, 16);
+    block->node_bytes = node_bytes;
+    block->tri_offset = (node_bytes + align - 1) / align * align;
+    block->tri_bytes = tri_bytes;
+    block->data = detail::make_buffer(*core, block->tri_offset + tri_bytes, kData, Mem::Device, true);
+    detail::write_buffer(*core, block->data, b.nodes.data(), node_bytes, 0);
+    detail::write_buffer(*core, block->data, b.tris.data(), tri_bytes, block->tri_offset);
     block->node_count = static_cast<std::uint32_t>(b.nodes.size());
     block->root = b.root;
     block->upload_seconds = since(t0);

@@ -189,9 +189,9 @@ class BuildLease {
 // Begins recording the slot's (reset) command buffer for one submission.
 void begin_commands(Core& core, Slot& s);
 
-// Copies `bytes` from the host into `dst` at offset 0: a memcpy into mapped memory when
-// `dst` is host-visible, else through a staging buffer and vkCmdCopyBuffer.
-void write_buffer(Core& core, Buffer& dst, const void* src, VkDeviceSize bytes);
+// Copies `bytes` from the host into `dst` at `dst_offset`: a memcpy where `dst` is mapped,
+// else through the staging buffer and vkCmdCopyBuffer.
+void write_buffer(Core& core, Buffer& dst, const void* src, VkDeviceSize bytes, VkDeviceSize dst_offset = 0);
 
 // Creates the compute pipelines (shaders compiled into the library).
 void create_pipelines(Core& core);

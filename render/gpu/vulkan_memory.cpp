@@ -74,7 +74,8 @@ Buffer make_buffer(Core& core, VkDeviceSize bytes, VkBufferUsageFlags usage, Mem
   const VkResult r = vkAllocateMemory(core.device, &ai, nullptr, &b.memory);
   if (r != VK_SUCCESS) {
     b.memory = VK_NULL_HANDLE;
-    if (kind_of(r) == GpuErrorKind::OutOfMemory)
+    // TOO_MANY_OBJECTS: maxMemoryAllocationCount (4096 on many GPUs) reached: as good as full.
+    if (kind_of(r) == GpuErrorKind::OutOfMemory || r == VK_ERROR_TOO_MANY_OBJECTS)
       throw GpuError(GpuErrorKind::OutOfMemory, "Vulkan: vkAllocateMemory of " + mib(req.size) + " on '" +
                                                     core.info.name + "' failed: " + vk_result_name(r));
     throw_vk("vkAllocateMemory", r, &core);
@@ -95,10 +96,10 @@ Buffer make_buffer(Core& core, VkDeviceSize bytes, VkBufferUsageFlags usage, Mem
   return b;
 }
 
-void write_buffer(Core& core, Buffer& dst, const void* src, VkDeviceSize bytes) {
+void write_buffer(Core& core, Buffer& dst, const void* src, VkDeviceSize bytes, VkDeviceSize dst_offset) {
   if (bytes == 0) return;
   if (dst.mapped) {
-    std::memcpy(dst.mapped, src, bytes);
+    std::memcpy(static_cast<unsigned char*>(dst.mapped) + dst_offset, src, bytes);
     if (!dst.coherent) {
       VkMappedMemoryRange range{};
       range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
@@ -131,7 +132,7 @@ void write_buffer(Core& core, Buffer& dst, const void* src, VkDeviceSize bytes) 
       check(vkFlushMappedMemoryRanges(core.device, 1, &range), "vkFlushMappedMemoryRanges", &core);
     }
     begin_commands(core, *slot);
-    VkBufferCopy region{0, off, len};
+    VkBufferCopy region{0, dst_offset + off, len};
     vkCmdCopyBuffer(slot->cmd, staging.buffer, dst.buffer, 1, &region);
     // Later submissions on this queue read it in compute shaders.
     VkMemoryBarrier mb{};
