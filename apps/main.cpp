@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include "apps/cli_common.hpp"
+#include "apps/cmd_compare.hpp"
 #include "apps/cmd_generate.hpp"
 #include "apps/cmd_partition.hpp"
 #include "apps/cmd_devices.hpp"
@@ -66,6 +67,25 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_flag("--record-replay", opt->record_replay, "Path tracing: also write OUT/replay.log (this run's ray outcomes)");
   sim->add_option("--warmup", opt->warmup, "Path tracing: steady state starts here (default: a third of --duration)");
   sim->callback([opt, &action] { action = [opt] { return run_simulate(*opt); }; });
+}
+
+void add_compare(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<CompareOptions>();
+  SimulateOptions& o = opt->sim;
+  auto* c = app.add_subcommand("compare", "Simulate the same platform and workload under several schedulers and compare them");
+  c->add_option("--schedulers", opt->schedulers, "Comma-separated: gmb, gmb-ca, budge, loadanyonce")->default_val(opt->schedulers);
+  c->add_option("--platform", o.platform, "Platform JSON or built-in name (default: paper-cluster)");
+  c->add_option("--workload", o.workload, "'ray-stream', a job-set JSON file, or boeing, museum, FILE.profile.json")->default_val(o.workload);
+  c->add_option("--horizon,-k", o.horizon, "GMB horizon k (Sec. 4.2)")->default_val(o.horizon);
+  c->add_option("--duration", o.duration, "Simulated time")->default_val(o.duration);
+  c->add_option("--seed", o.seed, "Workload seed")->default_val(o.seed);
+  c->add_option("--clients", o.clients, "Path tracing: clients requesting frames")->default_val(o.clients);
+  c->add_option("--prediction-depth", o.prediction_depth, "Path tracing: job prediction depth (GMB only)")->default_val(o.prediction_depth)->check(CLI::Range(0, 16));
+  c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);
+  c->add_option("--replay", o.replay, "Path tracing: replay log for --fidelity replay");
+  c->add_option("--warmup", o.warmup, "Path tracing: steady state starts here (default: a third of --duration)");
+  c->add_option("--out", opt->out, "Output directory: OUT/<scheduler>/ per run, OUT/compare.csv, compare.json")->default_val(opt->out);
+  c->callback([opt, &action] { action = [opt] { return run_compare(*opt); }; });
 }
 
 void add_generate(CLI::App& app, std::function<int()>& action) {
@@ -173,6 +193,7 @@ int main(int argc, char** argv) {
   add_platform(app, action);
   add_plan(app, action);
   add_simulate(app, action);
+  add_compare(app, action);
   add_generate(app, action);
   add_partition(app, action);
   add_render(app, action);

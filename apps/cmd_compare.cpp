@@ -1,0 +1,148 @@
+// `rayline compare`: one `rayline simulate` run per scheduler on the same platform, workload,
+// seed and duration, each in its own process (SimGrid's engine is a process-wide
+// singleton), results in OUT/<scheduler>/; then a table and OUT/compare.csv, compare.json.
+// A run that fails or stalls stays in the table with its status (never dropped).
+#include "apps/cmd_compare.hpp"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <vector>
+
+#include "apps/cli_common.hpp"
+#include "sched/error.hpp"
+
+namespace rayline::cli {
+
+namespace {
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+struct Row {
+  std::string scheduler, status;
+  int exit_code = 0;
+  double rays = 0, steady = -1, lan = -1, busy = 0, fetching = 0, idle = 0, sched_wall = 0, sched_share = 0, wall = 0;
+  std::string parameters;
+};
+
+double num(const nlohmann::json& j, const char* key, double dflt) {
+  return j.contains(key) && j[key].is_number() ? j[key].get<double>() : dflt;
+}
+
+Row read_row(const std::string& sched, const std::string& dir, int rc) {
+  Row r;
+  r.scheduler = sched;
+  r.exit_code = rc;
+  r.status = rc == kExitOk ? "ok" : rc == kExitFailure ? "failed/stalled" : "bad input";
+  std::ifstream f(dir + "/metrics.json");
+  if (!f) return r;
+  nlohmann::json m;
+  try {
+    f >> m;
+  } catch (const std::exception&) {
+    return r;
+  }
+  r.rays = num(m, "rays_per_second", 0);
+  r.lan = num(m, "lan_utilisation_mean", -1);
+  if (m.contains("path_trace")) r.steady = num(m["path_trace"], "steady_rays_per_second", -1);
+  double n = 0;
+  for (const auto& d : m.value("devices", nlohmann::json::array())) {
+    const double span = num(d, "busy_s", 0) + num(d, "setup_s", 0) + num(d, "fetching_s", 0) + num(d, "idle_s", 0);
+    if (span <= 0) continue;
+    r.busy += (num(d, "busy_s", 0) + num(d, "setup_s", 0)) / span;
+    r.fetching += num(d, "fetching_s", 0) / span;
+    r.idle += num(d, "idle_s", 0) / span;
+    ++n;
+  }
+  if (n > 0) r.busy /= n, r.fetching /= n, r.idle /= n;
+  if (m.contains("scheduler_cost")) {
+    r.sched_wall = num(m["scheduler_cost"], "wall_s", 0);
+    r.sched_share = num(m["scheduler_cost"], "share_of_simulated_time", 0);
+  }
+  if (m.contains("simulator")) r.wall = num(m["simulator"], "wall_s", 0);
+  r.parameters = m.value("scheduler_parameters", "");
+  return r;
+}
+
+}  // namespace
+
+int run_compare(const CompareOptions& opt) {
+  const std::vector<std::string> scheds = split_list(opt.schedulers);
+  if (scheds.empty()) throw InputError("--schedulers", "", "expected a list such as gmb,budge,loadanyonce");
+  for (const auto& s : scheds)
+    if (s != "gmb" && s != "gmb-ca" && s != "budge" && s != "loadanyonce")
+      throw InputError("--schedulers", "", "unknown scheduler '" + s + "' (gmb, gmb-ca, budge, loadanyonce)");
+  if (opt.sim.clients.find(',') != std::string::npos)
+    throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
+  ensure_parent_dir(opt.out + "/x", "--out");
+  std::vector<Row> rows;
+  for (const auto& s : scheds) {
+    std::printf("== %s ==\n", s.c_str());
+    std::fflush(stdout);
+    SimulateOptions o = opt.sim;
+    o.scheduler = s;
+    o.out = opt.out + "/" + s;
+    o.no_progress = true;
+    const pid_t pid = ::fork();
+    if (pid < 0) throw std::runtime_error("fork failed");
+    if (pid == 0) {
+      const int rc = guarded([&] { return run_simulate(o); });
+      std::fflush(nullptr);
+      ::_exit(rc);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    const int rc = WIFEXITED(status) ? WEXITSTATUS(status) : kExitFailure;
+    if (rc == kExitBadInput) return rc;  // the same input is bad for every scheduler
+    rows.push_back(read_row(s, o.out, rc));
+  }
+  // Table, CSV, JSON.
+  const Row* ref = nullptr;
+  for (const Row& r : rows)
+    if (r.scheduler == "gmb") ref = &r;
+  auto metric = [](const Row& r) { return r.steady >= 0 ? r.steady : r.rays; };
+  std::printf("\n%-12s %-15s %14s %9s %8s %6s %9s %6s %12s\n", "scheduler", "status", "rays/s", "vs gmb", "LAN util",
+              "busy", "fetching", "idle", "sched wall s");
+  std::ostringstream csv;
+  csv << "scheduler,status,exit_code,rays_per_second,steady_rays_per_second,lan_utilisation_mean,busy,fetching,true_idle,"
+         "scheduler_wall_s,scheduler_share,sim_wall_s,scheduler_parameters\n";
+  nlohmann::json js = nlohmann::json::array();
+  for (const Row& r : rows) {
+    char rel[32] = "-";
+    if (ref && metric(*ref) > 0 && r.status == "ok") std::snprintf(rel, sizeof rel, "%+.1f%%", 100 * (metric(r) / metric(*ref) - 1));
+    char lan[32] = "-";
+    if (r.lan >= 0) std::snprintf(lan, sizeof lan, "%.1f%%", 100 * r.lan);
+    std::printf("%-12s %-15s %14.4g %9s %8s %5.1f%% %8.1f%% %5.1f%% %12.3f\n", r.scheduler.c_str(), r.status.c_str(), metric(r), rel,
+                lan, 100 * r.busy, 100 * r.fetching, 100 * r.idle, r.sched_wall);
+    std::string params = r.parameters;
+    for (char& c : params)
+      if (c == '"') c = '\'';
+    csv << r.scheduler << ',' << r.status << ',' << r.exit_code << ',' << r.rays << ',' << r.steady << ',' << r.lan << ','
+        << r.busy << ',' << r.fetching << ',' << r.idle << ',' << r.sched_wall << ',' << r.sched_share << ',' << r.wall
+        << ",\"" << params << "\"\n";
+    js.push_back({{"scheduler", r.scheduler}, {"status", r.status}, {"exit_code", r.exit_code},
+                  {"rays_per_second", r.rays}, {"steady_rays_per_second", r.steady}, {"lan_utilisation_mean", r.lan},
+                  {"busy", r.busy}, {"fetching", r.fetching}, {"true_idle", r.idle}, {"scheduler_wall_s", r.sched_wall},
+                  {"scheduler_share", r.sched_share}, {"sim_wall_s", r.wall}, {"scheduler_parameters", r.parameters},
+                  {"out", opt.out + "/" + r.scheduler}});
+  }
+  std::printf("rays/s: steady state (path tracing) or whole run; results in %s/<scheduler>/, %s/compare.csv, compare.json\n",
+              opt.out.c_str(), opt.out.c_str());
+  write_file_atomic(opt.out + "/compare.csv", csv.str());
+  write_file_atomic(opt.out + "/compare.json", js.dump(1) + "\n");
+  for (const Row& r : rows)
+    if (r.status != "ok") return kExitFailure;
+  return kExitOk;
+}
+
+}  // namespace rayline::cli
