@@ -332,7 +332,7 @@ constexpr float kTinyDir = 1e-30f;   // |d| below this is replaced by +-kTinyDir
 constexpr float kBoxEps = 1.0e-6f;   // widening of a box's exit distance (~8 ulps)
 
 struct RayState {
-  float o[3], d[3], inv[3], tmin, tmax;
+  float o[3], d[3], inv[3], oinv[3], tmin, tmax;
 };
 
 RayState setup(const GpuRay& r) {
@@ -341,6 +341,7 @@ RayState setup(const GpuRay& r) {
     s.o[k] = r.org[k], s.d[k] = r.dir[k];
     const float ds = std::fabs(r.dir[k]) < kTinyDir ? std::copysign(kTinyDir, r.dir[k]) : r.dir[k];
     s.inv[k] = 1.0f / ds;
+    s.oinv[k] = s.o[k] * s.inv[k];
   }
   s.tmin = r.tmin, s.tmax = r.tmax;
   return s;
@@ -349,7 +350,7 @@ RayState setup(const GpuRay& r) {
 bool box(const RayState& s, const Child& c, float tmax, float& tnear) {
   float tn[3], tf[3];
   for (int k = 0; k < 3; ++k) {
-    const float t0 = (c.lo[k] - s.o[k]) * s.inv[k], t1 = (c.hi[k] - s.o[k]) * s.inv[k];
+    const float t0 = std::fma(c.lo[k], s.inv[k], -s.oinv[k]), t1 = std::fma(c.hi[k], s.inv[k], -s.oinv[k]);
     tn[k] = std::min(t0, t1), tf[k] = std::max(t0, t1);
   }
   const float n = std::max(std::max(tn[0], tn[1]), std::max(tn[2], s.tmin));

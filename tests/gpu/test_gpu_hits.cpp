@@ -262,6 +262,56 @@ TEST(GpuHits, ClippedIntervalsAxisAlignedAndInsideRays) {
   expect_agree(run_and_compare(*ctx, rec, n, inside, ref), "inside boxes");
 }
 
+// Far from the coordinate origin (the worst case for the slab test's fma(lo, inv, -o*inv)
+// cancellation): a soup around (3000, -7000, 1500), rays starting on its triangles and
+// random rays among them; against Embree and, for conservativeness, brute force with the
+// kernels' own triangle test.
+TEST(GpuHits, FarFromTheOrigin) {
+  RL_GPU_CONTEXT(ctx);
+  const std::size_t n = 20000;
+  auto rec = soup_records(n, 15, 0.05f);
+  const float shift[3] = {3000.0f, -7000.0f, 1500.0f};
+  for (std::size_t i = 0; i < n; ++i) {
+    float v[9];
+    std::memcpy(v, rec.data() + i * 40, 36);
+    for (int k = 0; k < 9; ++k) v[k] += shift[k % 3];
+    std::memcpy(rec.data() + i * 40, v, 36);
+  }
+  const EmbreeRef ref(rec, n);
+  scene::Bounds b;
+  b.lo = {shift[0], shift[1], shift[2]};
+  b.hi = {shift[0] + 1, shift[1] + 1, shift[2] + 1};
+  std::vector<GpuRay> rays = random_rays(b, 6000, 4);
+  std::mt19937_64 rng(6);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int i = 0; i < 6000; ++i) {  // from points on triangles, just off the surface
+    float v[9];
+    std::memcpy(v, rec.data() + std::size_t(i * 3) * 40, 36);
+    const float a = u(rng), c = u(rng) * (1 - a);
+    const scene::Float3 o{v[0] + a * (v[3] - v[0]) + c * (v[6] - v[0]), v[1] + a * (v[4] - v[1]) + c * (v[7] - v[1]),
+                          v[2] + a * (v[5] - v[2]) + c * (v[8] - v[2])};
+    rays.push_back(make_ray(o, random_direction(rng), 1e-3f, INFINITY));
+  }
+  expect_agree(run_and_compare(*ctx, rec, n, rays, ref), "far from the origin");
+  // Brute force on a subset: the box test culls nothing the triangle test hits.
+  auto block = upload_block(*ctx, rec, n);
+  auto q = upload_rays(*ctx, rays);
+  std::vector<GpuHit> hits(rays.size());
+  intersect_closest(*ctx, *block, *q, hits);
+  const bvh::FlatBvh flat = bvh::build(rec, n, GpuBuildOptions{});
+  int wrong = 0;
+  for (std::size_t i = 0; i < rays.size(); i += 12) {
+    float best = INFINITY;
+    std::uint32_t prim = kNoHit;
+    for (const bvh::Tri& t : flat.tris) {
+      const float th = bvh::triangle_t(t, rays[i]);
+      if (th >= rays[i].tmin && th <= rays[i].tmax && (th < best || (th == best && t.prim < prim))) best = th, prim = t.prim;
+    }
+    wrong += hits[i].prim != prim;
+  }
+  EXPECT_EQ(wrong, 0);
+}
+
 TEST(GpuHits, GeneratedSceneBlockCameraAndRandomRays) {
   RL_GPU_CONTEXT(ctx);
   const SceneBlock sb = generated_block("museum-like", 80000, 4);
