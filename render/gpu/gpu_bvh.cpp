@@ -328,7 +328,7 @@ void build(std::span<const unsigned char> records, std::uint64_t n, const GpuBui
 
 namespace {
 
-constexpr float kTinyDir = 1e-30f;   // |d| below this is replaced by +-kTinyDir for 1/d
+constexpr float kTinyDir = 1e-20f;   // |d| below this is replaced by +-kTinyDir for 1/d
 constexpr float kBoxEps = 1.0e-6f;   // widening of a box's exit distance (~8 ulps)
 
 struct RayState {

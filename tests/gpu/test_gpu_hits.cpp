@@ -293,6 +293,24 @@ TEST(GpuHits, FarFromTheOrigin) {
     rays.push_back(make_ray(o, random_direction(rng), 1e-3f, INFINITY));
   }
   expect_agree(run_and_compare(*ctx, rec, n, rays, ref), "far from the origin");
+  {  // Huge coordinates (a soup scaled to 1e7) with axis-aligned rays: no overflow to NaN.
+    auto big = soup_records(5000, 16, 0.05f);
+    for (std::size_t i = 0; i < 5000; ++i) {
+      float v[9];
+      std::memcpy(v, big.data() + i * 40, 36);
+      for (float& x : v) x = x * 1e7f - 3e6f;
+      std::memcpy(big.data() + i * 40, v, 36);
+    }
+    const EmbreeRef big_ref(big, 5000);
+    std::vector<GpuRay> axis;
+    for (int i = 0; i < 3000; ++i) {
+      const scene::Float3 o{u(rng) * 1.2e7f - 4e6f, u(rng) * 1.2e7f - 4e6f, u(rng) * 1.2e7f - 4e6f};
+      scene::Float3 d{0, 0, 0};
+      d[i % 3] = (i / 3) % 2 ? -1.0f : 1.0f;
+      axis.push_back(make_ray(o, d));
+    }
+    expect_agree(run_and_compare(*ctx, big, 5000, axis, big_ref), "huge coordinates, axis-aligned");
+  }
   // Brute force on a subset: the box test culls nothing the triangle test hits.
   auto block = upload_block(*ctx, rec, n);
   auto q = upload_rays(*ctx, rays);
