@@ -1,0 +1,245 @@
+#!/usr/bin/python3
+"""Writes the experiment notebooks (notebooks/NN_*.ipynb) from the cells below; execute them
+afterwards (scripts/experiments/run_all.sh does both). Prose lives in prose/NN.md files
+(one markdown cell per '---' separated section, {{CODE}} markers not needed: the code cells
+are inserted after the matching markdown section)."""
+import os
+
+import nbformat as nbf
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SETUP = """import os, sys
+sys.path.insert(0, os.path.abspath('.'))
+from _nb import *
+import numpy as np
+pd.set_option('display.width', 160); pd.set_option('display.max_columns', 30)
+print('setting:', 'reduced (CI)' if REDUCED else 'full', '| results:', OUT)"""
+
+NB = {}
+
+NB["01_scaling"] = [
+"""df = load('scaling')
+inv = df[df.label.str.contains('GPUs only')]; df = df[~df.label.str.contains('GPUs only')]
+order = ['A', '2A', '3A', '4A', '+B', '+C', '+D', '+R']
+pk = peak(df, ['scene', 'label', 'scheduler'])
+pk['x'] = pk.label.map({l: i for i, l in enumerate(order)})
+fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+for ax, scene in zip(axes, ['boeing', 'museum']):
+    d = pk[pk.scene == scene]
+    floor = max(1.0, d[d.steady_rays_per_second > 0].steady_rays_per_second.min() / 3) if (d.steady_rays_per_second > 0).any() else 1
+    for s in schedulers_in(d):
+        r = d[d.scheduler == s].sort_values('x')
+        ok = r[(r.status == 'ok') & (r.steady_rays_per_second > 0)]
+        ax.plot(ok.x, ok.steady_rays_per_second, 'o-', color=COLORS[s], label=NAMES[s])
+        mark_failures(ax, r.x, r, floor, COLORS[s])
+    ax.set_xticks(range(len(order))); ax.set_xticklabels(order)
+    ax.set_yscale('log'); ax.set_title(f'{scene}: peak rays/s (steady state)'); ax.set_xlabel('nodes'); ax.grid(alpha=.3)
+axes[0].set_ylabel('rays / s'); axes[1].legend(fontsize=8)
+savefig(fig, 'fig8_scaling.png')
+tab = pk.pivot_table(index=['scene', 'label'], columns='scheduler', values='steady_rays_per_second').reindex(columns=schedulers_in(pk))
+tab = tab.reindex([(s, l) for s in ['boeing', 'museum'] for l in order if (s, l) in tab.index])
+tab['gmb/budge'] = tab.gmb / tab.budge; tab['gmb/loadanyonce'] = tab.gmb / tab.loadanyonce
+print(tab.to_string(float_format=lambda v: f'{v:.3g}'))""",
+"""cl = pk[pk.label == '+R']
+fig, axes = plt.subplots(1, 2, figsize=(12, 3.6))
+ss = schedulers_in(cl); w = 0.8 / len(ss)
+for i, s in enumerate(ss):
+    r = cl[cl.scheduler == s].set_index('scene').reindex(['boeing', 'museum'])
+    axes[0].bar(np.arange(2) + (i - (len(ss) - 1) / 2) * w, 100 * r.lan_utilisation_mean, w, color=COLORS[s], label=NAMES[s])
+axes[0].axhline(87.8, color=COLORS['gmb'], ls=':', lw=1); axes[0].axhline(37.1, color=COLORS['budge'], ls=':', lw=1)
+axes[0].axhline(39.2, color=COLORS['loadanyonce'], ls=':', lw=1)
+axes[0].set_xticks(range(2)); axes[0].set_xticklabels(['boeing', 'museum']); axes[0].set_ylabel('mean LAN utilisation %')
+axes[0].set_title('heterogeneous 8 nodes (dotted: paper)'); axes[0].legend(fontsize=7)
+shares = cl.set_index(['scene', 'scheduler'])[['busy', 'fetching', 'true_idle']]
+shares.plot.barh(stacked=True, ax=axes[1], color=['tab:green', 'tab:red', 'tab:gray'])
+axes[1].set_xlabel('share of compute-device time'); axes[1].set_title('where device time goes (8 nodes)')
+savefig(fig, 'fig8_lan_utilisation.png')
+print(cl[['scene', 'scheduler', 'clients', 'steady_rays_per_second', 'lan_utilisation_mean', 'busy', 'fetching', 'true_idle',
+          'exec_prediction_error', 'scheduler_share']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+"""# Investigation: where do the rays go? (peak runs of one node A and of the 8 nodes, and the same with the CPU threads removed)
+diag = pd.concat([pk[pk.label.isin(['A', '+R'])], peak(inv, ['scene', 'label', 'scheduler'])])
+diag = diag.assign(gpu_job_share=diag.ray_jobs_gpu / diag.ray_jobs.where(diag.ray_jobs > 0))
+cols = ['scene', 'label', 'scheduler', 'steady_rays_per_second', 'ray_jobs', 'gpu_job_share', 'rays_per_ray_job',
+        'scene_bytes_per_ray', 'cpu_busy', 'gpu_busy', 'fetching', 'exec_prediction_error']
+print(diag.sort_values(['scene', 'label', 'scheduler'])[cols].to_string(index=False, float_format=lambda v: f'{v:.3g}'))
+fig, axes = plt.subplots(1, 3, figsize=(15, 3.6))
+m = diag[diag.scene == 'museum']
+for ax, col, title in [(axes[0], 'gpu_job_share', 'share of ray jobs run on a GPU'), (axes[1], 'rays_per_ray_job', 'rays per ray job (batch size)'),
+                       (axes[2], 'steady_rays_per_second', 'steady rays/s')]:
+    labs = list(dict.fromkeys(m.label)); ss = schedulers_in(m); w = 0.8 / len(ss)
+    for i, s in enumerate(ss):
+        r = m[m.scheduler == s].set_index('label').reindex(labs)
+        ax.bar(np.arange(len(labs)) + (i - (len(ss) - 1) / 2) * w, r[col].fillna(0), w, color=COLORS[s], label=NAMES[s])
+    ax.set_xticks(range(len(labs))); ax.set_xticklabels(labs, fontsize=8); ax.set_title('museum: ' + title, fontsize=9)
+    if col != 'gpu_job_share': ax.set_yscale('log')
+axes[0].legend(fontsize=7)
+savefig(fig, 'fig8_investigation.png')""",
+]
+
+NB["02_central_database"] = [
+"""df = load('central'); series = load('central', 'central-series'); links = load('central', 'central-links')
+labels = [l for l in ['central database on D', 'central database on D, 1 Gb/s NICs', 'full copy on every disk'] if l in set(series.label)]
+fig, axes = plt.subplots(1, len(labels), figsize=(6 * len(labels), 4), squeeze=False); axes = axes[0]
+rows = []
+for label, ax in zip(labels, axes):
+    for s in SCHEDULERS:
+        r = series[(series.label == label) & (series.scheduler == s)].sort_values('t_s')
+        if r.empty: continue
+        sm = r.rays_per_second.rolling(5, min_periods=1).mean()
+        ax.plot(r.t_s, sm, color=COLORS[s], label=NAMES[s])
+        pk = sm.max(); t90 = r.t_s[sm >= 0.9 * pk].min() if pk > 0 else float('nan')
+        rows.append(dict(setting=label, scheduler=s, peak_5s_mean=pk, time_to_90pct_s=t90))
+        if pk > 0: ax.axvline(t90, color=COLORS[s], ls=':', lw=1)
+    ax.set_title(label + ' (Boeing, 8 nodes)', fontsize=9); ax.set_xlabel('simulated time (s)'); ax.set_ylabel('rays/s (5 s mean)'); ax.grid(alpha=.3)
+axes[0].legend(fontsize=8)
+savefig(fig, 'fig9_central_database.png')
+print(pd.DataFrame(rows).to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+"""cen = [l for l in labels if l.startswith('central')]
+fig, axes = plt.subplots(1, len(cen), figsize=(7 * len(cen), 3.4), squeeze=False); axes = axes[0]
+for ax, lab in zip(axes, cen):
+    l = links[links.label == lab].set_index('scheduler').reindex(SCHEDULERS)
+    ws = [w for w in (10, 30, 60) if f'slave_to_slave_share_{w}s' in l.columns]
+    for j, w in enumerate(ws):
+        ax.bar(np.arange(3) + (j - (len(ws) - 1) / 2) * 0.25, 100 * l[f'slave_to_slave_share_{w}s'].fillna(0), 0.25,
+               color=[COLORS[s] for s in SCHEDULERS], alpha=0.4 + 0.3 * j, edgecolor='k', label=f'first {w} s')
+    ax.axhline(31, color='k', ls=':', lw=1); ax.text(2.4, 32, 'paper, GMB, first 10 s: 31 %', ha='right', fontsize=8)
+    ax.set_xticks(range(3)); ax.set_xticklabels([NAMES[s] for s in SCHEDULERS], fontsize=8); ax.legend(fontsize=7)
+    ax.set_ylim(0, 100); ax.set_ylabel('% of LAN scene bytes'); ax.set_title(lab + ': slave-to-slave share', fontsize=9)
+savefig(fig, 'fig9_slave_to_slave.png')
+print(links[links.label.str.startswith('central')].set_index(['label', 'scheduler']).T.to_string(float_format=lambda v: f'{v:.3g}'))""",
+]
+
+NB["03_workstation"] = [
+"""df = load('workstation')
+pk = peak(df, ['scene', 'scheduler'])
+scenes = sorted(pk.scene.unique())
+fig, ax = plt.subplots(figsize=(7, 3.6)); ss = schedulers_in(pk); w = 0.8 / len(ss)
+for i, s in enumerate(ss):
+    r = pk[pk.scheduler == s].set_index('scene').reindex(scenes)
+    xs = np.arange(len(scenes)) + (i - (len(ss) - 1) / 2) * w
+    ax.bar(xs, r.steady_rays_per_second.fillna(0), w, color=COLORS[s], label=NAMES[s])
+    mark_failures(ax, xs, r.reset_index(), 1.0, COLORS[s])
+ax.set_xticks(range(len(scenes))); ax.set_xticklabels(scenes); ax.set_ylabel('peak rays/s'); ax.legend(fontsize=8)
+ax.set_title('one workstation: 16 CPU threads + 4 GPUs, NVMe')
+savefig(fig, 'workstation.png')
+t = pk.pivot_table(index='scene', columns='scheduler', values='steady_rays_per_second').reindex(columns=ss)
+t['gmb vs budge %'] = 100 * (t.gmb / t.budge - 1); t['gmb vs loadanyonce %'] = 100 * (t.gmb / t.loadanyonce - 1)
+print(t.to_string(float_format=lambda v: f'{v:.3g}'))
+print(df[['scene', 'scheduler', 'clients', 'status', 'steady_rays_per_second', 'busy', 'fetching', 'true_idle', 'ray_jobs', 'ray_jobs_gpu', 'rays_per_ray_job', 'sim_wall_s', 'run_wall_s']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+]
+
+NB["04_horizon_prediction"] = [
+"""df = load('horizon')
+k = df[df.label == 'horizon']; d = df[df.label == 'depth']
+scenes = sorted(df.scene.unique())
+fig, axes = plt.subplots(1, 3, figsize=(15, 3.8))
+for scene, ls in zip(scenes, ['-', '--']):
+    for p, c in [('paper-A', 'tab:purple'), ('paper-cluster', 'tab:blue')]:
+        r = k[(k.scene == scene) & (k.platform == p)].sort_values('horizon_s')
+        axes[0].plot(r.horizon_s, r.steady_rays_per_second, 'o' + ls, color=c, label=f'{scene}, {p}')
+        mark_failures(axes[0], r.horizon_s, r, max(1, k.steady_rays_per_second[k.steady_rays_per_second > 0].min() / 3), c)
+        axes[2].plot(r.horizon_s, 100 * r.scheduler_share, 'o' + ls, color=c, label=f'{scene}, {p}')
+        r2 = d[(d.scene == scene) & (d.platform == p)].sort_values('prediction_depth')
+        axes[1].plot(r2.prediction_depth, r2.steady_rays_per_second, 'o' + ls, color=c, label=f'{scene}, {p}')
+for ax in axes: ax.grid(alpha=.3)
+axes[0].set_xscale('log'); axes[0].set_yscale('log'); axes[0].set_xlabel('horizon k (s)'); axes[0].set_ylabel('steady rays/s'); axes[0].set_title('GMB throughput vs k')
+axes[1].set_yscale('log'); axes[1].set_xlabel('prediction depth'); axes[1].set_title('GMB throughput vs prediction depth (k = 2 s)'); axes[1].set_xticks(sorted(d.prediction_depth.unique()))
+axes[2].set_xscale('log'); axes[2].set_xlabel('horizon k (s)'); axes[2].set_ylabel('scheduler wall time / simulated time (%)'); axes[2].set_title('scheduling overhead share')
+axes[0].legend(fontsize=7)
+savefig(fig, 'horizon_prediction.png')
+print(k[['scene', 'platform', 'horizon_s', 'steady_rays_per_second', 'scheduler_share', 'busy', 'fetching', 'true_idle', 'exec_prediction_error']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))
+print(d[['scene', 'platform', 'prediction_depth', 'steady_rays_per_second', 'prediction_accuracy', 'prediction_ray_accuracy', 'scheduler_share']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+]
+
+NB["05_speed_accuracy"] = [
+"""df = load('accuracy')
+fid = df[df.label.astype(str).str.startswith('seed')]
+ref = fid[fid.fidelity == 'replay'].groupby('scene').steady_rays_per_second.mean()
+fid = fid.assign(error=(fid.steady_rays_per_second / fid.scene.map(ref) - 1).abs())
+g = fid.groupby(['scene', 'fidelity']).agg(wall_s=('sim_wall_s', 'mean'), error=('error', 'mean'), error_max=('error', 'max'),
+                                          rays=('steady_rays_per_second', 'mean'), n=('error', 'size')).reset_index()
+cost = df[df.label == 'cost-vs-k']
+fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+mk = {'analytic': 's', 'markov': 'o', 'replay': '^'}
+for (scene, f), r in g.set_index(['scene', 'fidelity']).iterrows():
+    axes[0].errorbar(r.wall_s, 100 * r.error, yerr=[[0], [100 * (r.error_max - r.error)]], marker=mk[f],
+                     color='tab:blue' if scene == 'boeing' else 'tab:red', ls='', capsize=3, label=f'{scene}, {f}')
+axes[0].set_xlabel('simulator wall time per run (s)'); axes[0].set_ylabel('|throughput error| vs replay mean (%)')
+axes[0].set_title('workload fidelity: cost vs error'); axes[0].legend(fontsize=7); axes[0].grid(alpha=.3)
+for p, c in [('paper-A', 'tab:purple'), ('paper-cluster', 'tab:blue')]:
+    r = cost[cost.platform == p].sort_values('horizon_s')
+    if r.empty: continue
+    axes[1].plot(r.scheduler_wall_s, r.steady_rays_per_second, 'o-', color=c, label=p)
+    for _, x in r.iterrows(): axes[1].annotate(f"k={x.horizon_s:g}s", (x.scheduler_wall_s, x.steady_rays_per_second), fontsize=7)
+axes[1].set_xscale('log'); axes[1].set_xlabel('GMB wall time in the run (s)'); axes[1].set_ylabel('steady rays/s')
+axes[1].set_title('scheduler cost vs schedule quality (museum, 8 clients)'); axes[1].legend(fontsize=8); axes[1].grid(alpha=.3)
+savefig(fig, 'speed_accuracy.png')
+print(g.to_string(index=False, float_format=lambda v: f'{v:.3g}'))
+print(cost[['platform', 'horizon_s', 'scheduler_wall_s', 'steady_rays_per_second']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+]
+
+NB["06_stability"] = [
+"""df = load('stability')
+def pan(ax, rows, xcol, title, xlabel, logx=False, xticks=None):
+    pos = rows.steady_rays_per_second[rows.steady_rays_per_second > 0]
+    floor = max(1.0, pos.min() / 5) if len(pos) else 1.0
+    for s in SCHEDULERS:
+        r = rows[rows.scheduler == s].sort_values(xcol)
+        if r.empty: continue
+        ok = r[(r.status == 'ok') & (r.steady_rays_per_second > 0)]
+        ax.plot(ok[xcol], ok.steady_rays_per_second, 'o-', color=COLORS[s], label=NAMES[s])
+        mark_failures(ax, r[xcol], r, floor, COLORS[s])
+    ax.set_yscale('log'); ax.set_title(title, fontsize=9); ax.set_xlabel(xlabel); ax.grid(alpha=.3)
+    if logx: ax.set_xscale('log')
+    if xticks is not None: ax.set_xticks(xticks)
+fig, axes = plt.subplots(2, 3, figsize=(18, 8.5)); axes = axes.ravel(); axes[5].axis('off')
+tk = df[df.label == 'tiny k'].copy()
+gk = tk[tk.scheduler == 'gmb']
+pan(axes[0], gk, 'horizon_s', 'tiny k: GMB starvation? (A, museum)', 'k (s)', logx=True)
+for s in ['budge', 'loadanyonce']:
+    r = tk[tk.scheduler == s]
+    if len(r) and r.iloc[0].status == 'ok' and r.iloc[0].steady_rays_per_second > 0:
+        axes[0].axhline(r.iloc[0].steady_rays_per_second, color=COLORS[s], ls=':', label=NAMES[s] + ' (no k)')
+    elif len(r):
+        axes[0].text(0.5, 0.1, f'{s}: {r.iloc[0].status}/no rays', transform=axes[0].transAxes, color='red')
+mem = df[df.label.astype(str).str.startswith('memory')].copy(); mem['f'] = mem.label.str.extract(r'x([0-9.e-]+)').astype(float)
+pan(axes[1], mem, 'f', 'RAM and GPU memory x f (A, museum 12.3 GiB)', 'memory factor f', logx=True)
+lan = df[df.label.astype(str).str.startswith('LAN')].copy(); lan['f'] = lan.label.str.extract(r'x([0-9.e-]+)').astype(float)
+pan(axes[2], lan, 'f', 'LAN bandwidth x f (' + str(lan.platform.iloc[0]).split('-lan')[0] + ')', 'LAN factor f', logx=True)
+gpu = df[df.label.astype(str).str.startswith('GPU')].copy(); gpu['f'] = gpu.label.str.extract(r'GPU x([0-9.e-]+)').astype(float)
+pan(axes[3], gpu, 'f', 'one GPU x f, CPU threads / f (A)', 'GPU speed-up f', logx=True)
+cl = df[df.label == 'clients']
+pan(axes[4], cl, 'clients', 'many clients (4A, museum)', 'clients', logx=True)
+axes[0].legend(fontsize=7); axes[4].legend(fontsize=7); axes[0].set_ylabel('steady rays/s')
+savefig(fig, 'stability.png')
+print(df[['label', 'platform', 'scheduler', 'clients', 'horizon_s', 'status', 'steady_rays_per_second', 'busy', 'fetching',
+          'true_idle', 'queued_at_end', 'run_wall_s']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+]
+
+
+def prose(name):
+    path = os.path.join(HERE, "prose", name + ".md")
+    if not os.path.exists(path):
+        return [f"# {name}\n\n(prose missing)"]
+    return [p.strip() for p in open(path).read().split("\n---\n")]
+
+
+def main():
+    for name, code in NB.items():
+        md = prose(name)
+        nb = nbf.v4.new_notebook()
+        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+        cells = [nbf.v4.new_markdown_cell(md[0]), nbf.v4.new_code_cell(SETUP)]
+        for i, c in enumerate(code):
+            if i + 1 < len(md):
+                cells.append(nbf.v4.new_markdown_cell(md[i + 1]))
+            cells.append(nbf.v4.new_code_cell(c))
+        for extra in md[len(code) + 1:]:
+            cells.append(nbf.v4.new_markdown_cell(extra))
+        nb.cells = cells
+        nbf.write(nb, os.path.join(HERE, name + ".ipynb"))
+        print("wrote", name + ".ipynb")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,242 @@
+#!/usr/bin/python3
+"""The paper's experiments (Son & Yoon 2017, Sec. 6) and the issue's extra sweeps, as real
+`rayline simulate` runs. One sub-command per notebook:
+
+  scaling     Fig. 8: peak rays/s of gmb, budge, loadanyonce on A .. 4A+B+C+D+R, both scenes
+  central     Fig. 9: only node D holds the scene; throughput over time, slave-to-slave share
+  workstation one multi-GPU workstation (platforms/workstation-4gpu.json)
+  horizon     horizon k 0.2..10 s, prediction depth 0..3, scheduling-overhead share
+  accuracy    fidelity levels: simulator wall time vs throughput error; scheduler cost vs k
+  stability   tiny k, memory below the working set, 10x slower LAN, fast GPU + slow CPUs, many clients
+
+  experiments.py NAME [--mode full|reduced] [--out DIR]
+
+--mode reduced (or RAYLINE_EXPERIMENTS=reduced) is the CI setting: fewer points, short
+simulated durations. Results: DIR/NAME.csv (one row per run, columns in rayline_exp.FIELDS)
+plus NAME-*.csv extras; raw run folders under DIR/runs/NAME/ (metrics.json, jobs.csv, ...).
+Default DIR: notebooks/results (full) or out/experiments-reduced (reduced)."""
+import argparse
+import csv
+import json
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import rayline_exp as rx  # noqa: E402
+
+SCHEDULERS = ["gmb", "budge", "loadanyonce"]
+SCALING = ["paper-A", "paper-2A", "paper-3A", "paper-4A", "paper-4A+B", "paper-4A+B+C", "paper-4A+B+C+D", "paper-cluster"]
+LABEL = {"paper-A": "A", "paper-2A": "2A", "paper-3A": "3A", "paper-4A": "4A", "paper-4A+B": "+B",
+         "paper-4A+B+C": "+C", "paper-4A+B+C+D": "+D", "paper-cluster": "+R"}
+
+
+class Ctx:
+    def __init__(self, name, reduced, out):
+        self.name, self.reduced, self.out = name, reduced, out
+        self.runs = os.path.join(out, "runs", name)
+        self.variants = os.path.join(out, "platforms")
+        self.rows = []
+        self.dur = "8s" if reduced else "20s"
+        self.timeout = 90 if reduced else 300
+
+    def run(self, tag, platform, scene, scheduler, **kw):
+        kw.setdefault("duration", self.dur)
+        kw.setdefault("timeout", self.timeout)
+        row = rx.simulate(os.path.join(self.runs, tag), platform, scene, scheduler, experiment=self.name, **kw)
+        rx.log(row)
+        self.rows.append(row)
+        return row
+
+    def save(self):
+        rx.write_csv(os.path.join(self.out, self.name + ".csv"), self.rows)
+        print(f"wrote {os.path.join(self.out, self.name + '.csv')} ({len(self.rows)} runs)")
+
+
+def scaling(c):
+    """Fig. 8, plus Rayline's completion-aware GMB (gmb-ca) as a fourth series, plus the
+    investigation runs: the same schedulers with the CPU threads removed (GPUs only)."""
+    plats = ["paper-A", "paper-4A", "paper-cluster"] if c.reduced else SCALING
+    clients = [4] if c.reduced else [2, 8]
+    scheds = SCHEDULERS if c.reduced else SCHEDULERS + ["gmb-ca"]
+    dur = c.dur if c.reduced else "20s"
+    for scene in ["boeing", "museum"]:
+        for p in plats:
+            for s in scheds:
+                for n in clients:
+                    c.run(f"{scene}-{p}-{s}-c{n}", p, scene, s, clients=n, label=LABEL[p], duration=dur)
+    for p in (["paper-A"] if c.reduced else ["paper-A", "paper-cluster"]):
+        gp = rx.load_platform(p)
+        for t in gp["node_types"].values():
+            t["compute"] = [x for x in t["compute"] if x["kind"] != "cpu"]
+        plat = rx.save_platform(gp, c.variants, p + "-gpu-only")
+        for s in scheds:
+            c.run(f"museum-{p}-gpu-only-{s}", plat, "museum", s, clients=8, label=LABEL[p] + " GPUs only", duration=dur)
+
+
+def central(c):
+    """Fig. 9. Paper NICs (D on 100 Mb/s: one 210 MB block takes 17 s to leave D), and the
+    same with every NIC at 1 Gb/s (Fig. 7's bandwidths are not in the text), and, as a
+    reference, the usual full copy on every disk."""
+    base = rx.load_platform("paper-cluster")
+    central = rx.save_platform(rx.central_database(base, "D"), c.variants, "paper-cluster-central-D")
+    fast = rx.central_database(base, "D")
+    for m in fast["networks"][0]["members"]:
+        m["bandwidth"] = "1Gb/s"
+    central_1g = rx.save_platform(fast, c.variants, "paper-cluster-central-D-1g")
+    dur = "20s" if c.reduced else "60s"
+    settings = [(central, "central database on D"), (central_1g, "central database on D, 1 Gb/s NICs"),
+                ("paper-cluster", "full copy on every disk")]
+    for plat, label in settings[:2] if c.reduced else settings:
+        for s in SCHEDULERS:
+            row = c.run(f"{os.path.basename(plat).removesuffix('.json')}-{s}", plat, "boeing", s, clients=8,
+                        duration=dur, extra=["--warmup", "5s"], label=label)
+            for w in (10, 30, 60):
+                row.update({f"{k}_{w}s": v for k, v in _central_metrics(row["out_dir"], "D", float(w)).items()})
+    # extras: throughput over time and link shares
+    series, links = [], []
+    for r in c.rows:
+        mp = os.path.join(r["out_dir"], "metrics.json")
+        if os.path.exists(mp):
+            for t, v in enumerate(json.load(open(mp)).get("rays_per_second_series", [])):
+                series.append({"label": r["label"], "scheduler": r["scheduler"], "t_s": t + 1, "rays_per_second": v})
+        links.append({k: r.get(k, "") for k in ["label", "scheduler"] + [
+            f"{m}_{w}s" for w in (10, 30, 60) for m in ("scene_lan_bytes", "slave_to_slave_bytes", "slave_to_slave_share",
+                                                         "master_out_bytes")]})
+    _write(os.path.join(c.out, "central-series.csv"), series)
+    _write(os.path.join(c.out, "central-links.csv"), links)
+
+
+def _central_metrics(run_dir, master, window):
+    """SceneData bytes moved on LAN channels in [0, window] s (pro rata of each transfer's
+    actual interval), and the share on slave-to-slave channels (neither end the master)."""
+    path = os.path.join(run_dir, "jobs.csv")
+    tot = s2s = mout = 0.0
+    if os.path.exists(path):
+        for r in csv.DictReader(open(path)):
+            ch = r["device_or_channel"]
+            if r["kind"] != "T" or not ch.startswith("lan:") or not r["block"].startswith("scene"):
+                continue
+            if not r["actual_start"]:
+                continue  # never started
+            # a transfer still running at the end of the run: its planned end stands in
+            a, b = float(r["actual_start"]), float(r["actual_end"] or r["planned_end"])
+            if a >= window or b <= a:
+                continue
+            part = float(r["bytes"]) * (min(b, window) - a) / (b - a)
+            src, dst = ch[4:].split("->")
+            tot += part
+            if src != master and dst != master:
+                s2s += part
+            if src == master:
+                mout += part
+    return {"scene_lan_bytes": tot, "slave_to_slave_bytes": s2s, "master_out_bytes": mout,
+            "slave_to_slave_share": s2s / tot if tot > 0 else 0.0}
+
+
+def workstation(c):
+    scenes = ["museum"] if c.reduced else ["boeing", "museum"]
+    clients = [4] if c.reduced else [2, 8]
+    for scene in scenes:
+        for s in (SCHEDULERS if c.reduced else SCHEDULERS + ["gmb-ca"]):
+            for n in clients:
+                # ~100 M rays/s: many more jobs per simulated second than the cluster runs
+                c.run(f"{scene}-{s}-c{n}", "workstation-4gpu", scene, s, clients=n, label="workstation-4gpu",
+                      duration="1.5s" if c.reduced else "3s")
+
+
+def horizon(c):
+    plats = ["paper-A", "paper-cluster"]
+    ks = ["0.2s", "2s", "10s"] if c.reduced else ["0.2s", "0.5s", "1s", "2s", "5s", "10s"]
+    scenes = ["museum"] if c.reduced else ["boeing", "museum"]
+    for scene in scenes:
+        for p in plats:
+            for k in ks:
+                c.run(f"k-{scene}-{p}-{k}", p, scene, "gmb", clients=8, horizon=k, label="horizon")
+            for d in ([0, 2] if c.reduced else [0, 1, 2, 3]):
+                c.run(f"d-{scene}-{p}-{d}", p, scene, "gmb", clients=8, depth=d, label="depth")
+
+
+def accuracy(c):
+    """Fidelity levels: the replay of a recorded run is the reference (today recorded from a
+    Markov run of the simulator itself, docs/scene-profiles.md); analytic and Markov runs with
+    other seeds are compared against it. Plus scheduler cost vs quality as k varies."""
+    seeds = [2] if c.reduced else [2, 3, 4]
+    scenes = ["museum"] if c.reduced else ["boeing", "museum"]
+    plat = "paper-4A" if c.reduced else "paper-cluster"
+    for scene in scenes:
+        rec = c.run(f"fid-{scene}-record", plat, scene, "gmb", clients=4, seed=1, extra=["--record-replay"],
+                    label="recording")
+        log = os.path.join(rec["out_dir"], "replay.log")
+        for seed in seeds:
+            for fid in ["analytic", "markov", "replay"]:
+                extra = ["--replay", log] if fid == "replay" else []
+                c.run(f"fid-{scene}-{fid}-s{seed}", plat, scene, "gmb", clients=4, seed=seed, fidelity=fid,
+                      extra=extra, label=f"seed {seed}")
+    for k in (["0.5s", "5s"] if c.reduced else ["0.2s", "0.5s", "1s", "2s", "5s", "10s"]):
+        for p in (["paper-A"] if c.reduced else ["paper-A", "paper-cluster"]):
+            c.run(f"cost-{p}-{k}", p, "museum", "gmb", clients=8, horizon=k, label="cost-vs-k")
+
+
+def stability(c):
+    red = c.reduced
+    # tiny k: starvation (GMB only; the baselines have no horizon: one run each as reference)
+    for k in (["0.01s", "2s"] if red else ["0.005s", "0.02s", "0.05s", "0.2s", "2s"]):
+        c.run(f"tinyk-{k}", "paper-A", "museum", "gmb", clients=8, horizon=k, label="tiny k")
+    for s in ["budge", "loadanyonce"]:
+        c.run(f"tinyk-{s}", "paper-A", "museum", s, clients=8, label="tiny k")
+    # memory below the working set (museum 12.3 GiB; a node has 8 GiB RAM + 6 GiB GPU)
+    base = rx.load_platform("paper-A")
+    for f in ([1.0, 0.05] if red else [1.0, 0.25, 0.1, 0.05, 0.025]):
+        plat = rx.save_platform(rx.scaled_memory(base, f), c.variants, f"paper-A-mem{f:g}")
+        for s in SCHEDULERS:
+            c.run(f"mem{f:g}-{s}", plat, "museum", s, clients=8, label=f"memory x{f:g}")
+    # 10x slower LAN
+    cl = rx.load_platform("paper-4A+B+C+D" if red else "paper-cluster")
+    for f in [1.0, 0.1]:
+        plat = rx.save_platform(rx.slower_lan(cl, f), c.variants, f"{cl['name']}-lan{f:g}")
+        for s in SCHEDULERS:
+            c.run(f"lan{f:g}-{s}", plat, "museum", s, clients=8, label=f"LAN x{f:g}")
+    # one very fast GPU among slow CPUs
+    for gf, cf in ([(1, 1), (10, 0.1)] if red else [(1, 1), (4, 0.25), (10, 0.1), (30, 0.05)]):
+        plat = rx.save_platform(rx.fast_gpu_slow_cpus(gf, cf), c.variants, f"paper-A-gpu{gf:g}-cpu{cf:g}")
+        for s in SCHEDULERS:
+            c.run(f"gpu{gf:g}-{s}", plat, "museum", s, clients=8, label=f"GPU x{gf:g}, CPU x{cf:g}")
+    # many clients: overload
+    for n in ([1, 32] if red else [1, 4, 16, 64]):
+        for s in SCHEDULERS:
+            c.run(f"clients{n}-{s}", "paper-4A", "museum", s, clients=n, label="clients")
+
+
+def _write(path, rows):
+    if not rows:
+        open(path, "w").close()
+        return
+    keys = list(rows[0].keys())
+    with open(path + ".tmp", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    os.replace(path + ".tmp", path)
+
+
+EXPERIMENTS = {"scaling": scaling, "central": central, "workstation": workstation, "horizon": horizon,
+               "accuracy": accuracy, "stability": stability}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("name", choices=list(EXPERIMENTS) + ["all"])
+    ap.add_argument("--mode", choices=["full", "reduced"], default=None)
+    ap.add_argument("--out", default=None)
+    a = ap.parse_args()
+    reduced = rx.is_reduced(a.mode)
+    out = a.out or os.path.join(rx.REPO, "out/experiments-reduced" if reduced else "notebooks/results")
+    print(f"rayline: {rx.rayline_bin()}  mode: {'reduced' if reduced else 'full'}  results: {out}")
+    for name in (EXPERIMENTS if a.name == "all" else [a.name]):
+        c = Ctx(name, reduced, out)
+        EXPERIMENTS[name](c)
+        c.save()
+
+
+if __name__ == "__main__":
+    main()

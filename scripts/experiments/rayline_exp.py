@@ -1,0 +1,255 @@
+#!/usr/bin/python3
+"""Shared helpers of the experiment scripts (scripts/experiments/exp*.py): find the `rayline`
+binary, run `rayline simulate` once per configuration (one process each: SimGrid's engine is
+a process-wide singleton), read its metrics.json into one flat row, and write platform
+variants (generated from the committed platforms/*.json, never hand-edited).
+
+Every number a notebook shows comes from a row written here by a real `rayline` run. A run
+that fails (non-zero exit), stalls (jobs no device can take) or exceeds its wall-clock limit
+is kept as a row with `status` = failed / stalled / timeout, so a chart can mark it."""
+import copy
+import csv
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+PLATFORMS = os.path.join(REPO, "platforms")
+
+
+def rayline_bin():
+    """RAYLINE_BIN, else build/apps/rayline, else any build*/apps/rayline of the checkout."""
+    env = os.environ.get("RAYLINE_BIN")
+    if env:
+        return env
+    cands = [os.path.join(REPO, "build", "apps", "rayline")]
+    for d in sorted(os.listdir(REPO)):
+        if d.startswith("build"):
+            cands.append(os.path.join(REPO, d, "apps", "rayline"))
+    for c in cands:
+        if os.access(c, os.X_OK):
+            return c
+    sys.exit("rayline binary not found: build it (ninja -C build rayline) or set RAYLINE_BIN")
+
+
+def is_reduced(argv_mode=None):
+    """The reduced (CI) setting: --mode reduced, or RAYLINE_EXPERIMENTS=reduced."""
+    if argv_mode:
+        return argv_mode == "reduced"
+    return os.environ.get("RAYLINE_EXPERIMENTS", "full") == "reduced"
+
+
+FIELDS = ["experiment", "label", "platform", "scene", "scheduler", "clients", "horizon_s", "prediction_depth",
+          "fidelity", "duration_s", "status", "exit_code", "steady_rays_per_second", "rays_per_second",
+          "lan_utilisation_mean", "busy", "fetching", "true_idle", "scheduler_wall_s", "scheduler_share",
+          "sim_wall_s", "run_wall_s", "prediction_accuracy", "prediction_ray_accuracy", "exec_prediction_error",
+          "transfer_prediction_error", "e_jobs_done", "queued_at_end", "frames_delivered", "cpu_busy", "gpu_busy",
+          "work_units_done", "ray_jobs", "ray_jobs_gpu", "rays_per_ray_job", "scene_fetch_bytes",
+          "scene_bytes_per_ray", "scheduler_parameters", "out_dir"]
+
+
+def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth=0, fidelity="markov",
+             duration="30s", seed=1, timeout=300, extra=(), **labels):
+    """One `rayline simulate` run; returns a row (dict of FIELDS) whatever happened."""
+    cmd = [rayline_bin(), "simulate", "--platform", platform, "--workload", scene, "--scheduler", scheduler,
+           "--clients", str(clients), "--horizon", str(horizon), "--prediction-depth", str(depth),
+           "--fidelity", fidelity, "--duration", str(duration), "--seed", str(seed), "--no-progress",
+           "--out", out_dir] + list(extra)
+    shutil.rmtree(out_dir, ignore_errors=True)
+    t0 = time.monotonic()
+    status, rc = "ok", 0
+    try:
+        p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=timeout)
+        rc = p.returncode
+        if rc != 0:
+            status = "stalled" if "could not be placed" in p.stderr else "failed"
+            sys.stderr.write(f"[{status}] {' '.join(cmd)}\n{p.stderr[-2000:]}\n")
+    except subprocess.TimeoutExpired:
+        status, rc = "timeout", 124
+        sys.stderr.write(f"[timeout after {timeout} s] {' '.join(cmd)}\n")
+    wall = time.monotonic() - t0
+    row = {k: "" for k in FIELDS}
+    row.update(labels)
+    row.update(platform=os.path.basename(platform).removesuffix(".json"), scene=scene, scheduler=scheduler,
+               clients=clients, horizon_s=_seconds(horizon), prediction_depth=depth, fidelity=fidelity,
+               duration_s=_seconds(duration), status=status, exit_code=rc, run_wall_s=round(wall, 3), out_dir=out_dir)
+    mpath = os.path.join(out_dir, "metrics.json")
+    if os.path.exists(mpath):  # a stalled run still writes its metrics
+        m = json.load(open(mpath))
+        pt = m.get("path_trace", {})
+        ds = m.get("device_summary", {})
+        tot = {k: 0.0 for k in ("busy", "fetching", "true_idle")}
+        n = 0
+        for d in m.get("devices", []):
+            n += 1
+            span = max(1e-12, d["busy_s"] + d["setup_s"] + d["fetching_s"] + d["idle_s"])
+            tot["busy"] += (d["busy_s"] + d["setup_s"]) / span
+            tot["fetching"] += d["fetching_s"] / span
+            tot["true_idle"] += d["idle_s"] / span
+        pred = pt.get("prediction", {})
+        row.update(
+            steady_rays_per_second=pt.get("steady_rays_per_second", m.get("rays_per_second", 0.0)),
+            rays_per_second=m.get("rays_per_second", 0.0),
+            lan_utilisation_mean=m.get("lan_utilisation_mean", ""),
+            busy=tot["busy"] / max(1, n), fetching=tot["fetching"] / max(1, n), true_idle=tot["true_idle"] / max(1, n),
+            scheduler_wall_s=m["scheduler_cost"]["wall_s"],
+            scheduler_share=m["scheduler_cost"]["share_of_simulated_time"],
+            sim_wall_s=m["simulator"]["wall_s"],
+            prediction_accuracy=pred.get("accuracy", ""), prediction_ray_accuracy=pred.get("ray_accuracy", ""),
+            exec_prediction_error=m["prediction_error"]["exec_mean_rel"],
+            transfer_prediction_error=m["prediction_error"]["transfer_mean_rel"],
+            e_jobs_done=m["activities"]["e_jobs_done"], queued_at_end=m["activities"]["queued_at_end"],
+            frames_delivered=pt.get("frames", {}).get("delivered", ""),
+            cpu_busy=ds.get("cpu", {}).get("busy", ""), gpu_busy=ds.get("gpu", {}).get("busy", ""),
+            work_units_done=m.get("work_units_done", 0),
+            scheduler_parameters=m.get("scheduler_parameters", ""))
+        row.update(job_diagnostics(os.path.join(out_dir, "jobs.csv"), float(m.get("work_units_done", 0))))
+    return row
+
+
+def job_diagnostics(path, rays):
+    """From jobs.csv: finished ray jobs (RayIntersect + ShadowIntersect), how many ran on a
+    GPU, rays per ray job (batch size), and SceneData bytes moved (every channel)."""
+    out = {"ray_jobs": 0, "ray_jobs_gpu": 0, "rays_per_ray_job": "", "scene_fetch_bytes": 0.0, "scene_bytes_per_ray": ""}
+    if not os.path.exists(path):
+        return out
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            if r["state"] != "done":
+                continue
+            if r["kind"] == "E" and r["type"] in ("RayIntersect", "ShadowIntersect"):
+                out["ray_jobs"] += 1
+                if ".gpu" in r["device_or_channel"]:
+                    out["ray_jobs_gpu"] += 1
+            elif r["kind"] == "T" and r["block"].startswith("scene"):
+                out["scene_fetch_bytes"] += float(r["bytes"])
+    if out["ray_jobs"]:
+        out["rays_per_ray_job"] = rays / out["ray_jobs"]
+    if rays > 0:
+        out["scene_bytes_per_ray"] = out["scene_fetch_bytes"] / rays
+    return out
+
+
+def _seconds(text):
+    text = str(text)
+    mm = re.fullmatch(r"([0-9.eE+-]+)(ms|s|min)?", text)
+    if not mm:
+        return text
+    v = float(mm.group(1))
+    return v / 1000 if mm.group(2) == "ms" else v * 60 if mm.group(2) == "min" else v
+
+
+def write_csv(path, rows):
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    tmp = path + ".tmp"
+    with open(tmp, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=FIELDS, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow(r)
+    os.replace(tmp, path)
+
+
+def log(row):
+    sys.stdout.write(f"  {row.get('label','')} {row['platform']} {row['scene']} {row['scheduler']} c={row['clients']} "
+                     f"k={row['horizon_s']} d={row['prediction_depth']}: {row['status']} "
+                     f"{float(row['steady_rays_per_second'] or 0):.4g} rays/s ({row['run_wall_s']} s wall)\n")
+    sys.stdout.flush()
+
+
+# ---------------------------------------------------------------- platform variants
+
+def load_platform(name):
+    return json.load(open(os.path.join(PLATFORMS, name + ".json")))
+
+
+def save_platform(p, folder, name):
+    os.makedirs(folder, exist_ok=True)
+    p = copy.deepcopy(p)
+    p["name"] = name
+    path = os.path.join(folder, name + ".json")
+    with open(path + ".tmp", "w") as f:
+        json.dump(p, f, indent=1)
+    os.replace(path + ".tmp", path)
+    return path
+
+
+_UNIT = re.compile(r"^([0-9.eE+-]+)([kMGT]i?)?([Bb]/s|B)$")
+
+
+def scale_quantity(text, factor):
+    """'1Gb/s' x 0.1 -> '100000000b/s' (unit kept, prefix folded into the number)."""
+    mm = _UNIT.match(text)
+    if not mm:
+        raise ValueError(f"not a size/bandwidth: {text}")
+    mult = {None: 1, "k": 1e3, "M": 1e6, "G": 1e9, "T": 1e12, "Ki": 2**10, "Mi": 2**20, "Gi": 2**30, "Ti": 2**40}[mm.group(2)]
+    v = float(mm.group(1)) * mult * factor
+    if mm.group(3) == "B":
+        return f"{int(v)}B"
+    return f"{v:.6g}{mm.group(3)}"
+
+
+def slower_lan(p, factor):
+    """Every NIC `factor` times slower (Sec. 6's 1 GbE / 100 Mb become 100 Mb / 10 Mb for 0.1)."""
+    p = copy.deepcopy(p)
+    for net in p.get("networks", []):
+        if "bandwidth" in net:
+            net["bandwidth"] = scale_quantity(net["bandwidth"], factor)
+        for m in net["members"]:
+            if "bandwidth" in m:
+                m["bandwidth"] = scale_quantity(m["bandwidth"], factor)
+    return p
+
+
+def scaled_memory(p, factor, kinds=("host", "gpu")):
+    """Host RAM and GPU memory capacities x factor (the scene working set stays the same)."""
+    p = copy.deepcopy(p)
+    for t in p["node_types"].values():
+        for m in t["memory"]:
+            if m["kind"] in kinds:
+                m["capacity"] = scale_quantity(m["capacity"], factor)
+    return p
+
+
+def central_database(p, master):
+    """Only `master` keeps a disk (the scene database, Sec. 6.2); every other node is a
+    diskless copy of its type, caching what it fetches in RAM and GPU memory (the paper's
+    slaves also cache on their local HDD: not modelled)."""
+    p = copy.deepcopy(p)
+    types = p["node_types"]
+    for node in p["nodes"]:
+        if node["name"] == master:
+            continue
+        t = node["type"]
+        nt = t + "-slave"
+        if nt not in types:
+            s = copy.deepcopy(types[t])
+            s["description"] = s.get("description", "") + "; diskless slave of a central scene database"
+            s["memory"] = [m for m in s["memory"] if m["kind"] != "disk"]
+            disks = {m["name"] for m in types[t]["memory"] if m["kind"] == "disk"}
+            s["channels"] = [c for c in s["channels"] if not set(c["between"]) & disks]
+            types[nt] = s
+        node["type"] = nt
+    return p
+
+
+def scale_timing(timing, factor):
+    out = copy.deepcopy(timing)
+    for jt in out.values():
+        for k, v in jt.get("rate", {}).items():
+            jt["rate"][k] = scale_quantity(v, factor)
+    return out
+
+
+def fast_gpu_slow_cpus(gpu_factor, cpu_factor, base="paper-A"):
+    """One node: its GPU `gpu_factor` times faster, its CPU threads `cpu_factor` times slower
+    (one very fast GPU among slow CPUs)."""
+    p = load_platform(base)
+    for t in p["node_types"].values():
+        for c in t["compute"]:
+            c["timing"] = scale_timing(c["timing"], gpu_factor if c["kind"] == "gpu" else cpu_factor)
+    return p
