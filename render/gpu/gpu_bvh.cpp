@@ -362,19 +362,25 @@ bool box(const RayState& s, const Child& c, float tmax, float& tnear) {
 
 float flip(float x, std::uint32_t sgn) { return std::bit_cast<float>(std::bit_cast<std::uint32_t>(x) ^ sgn); }
 
-// Möller-Trumbore in Embree's factoring (e1 = v0 - v1, e2 = v2 - v0, Ng = e2 x e1): t or NaN.
+// Möller-Trumbore exactly as Embree 3 computes it on AVX2 (e1 = v0 - v1, e2 = v2 - v0,
+// Ng = e2 x e1, R = C x D; its cross and dot as fused multiply-adds): t or NaN.
+float cross_x(float ay, float az, float by, float bz) { return std::fma(ay, bz, -(az * by)); }
+float dot3(const float* a, const float* b) { return std::fma(a[0], b[0], std::fma(a[1], b[1], a[2] * b[2])); }
+
 float triangle(const RayState& s, const Tri& t) {
   float e1[3], e2[3], c[3];
   for (int k = 0; k < 3; ++k) e1[k] = t.v0[k] - t.v1[k], e2[k] = t.v2[k] - t.v0[k], c[k] = t.v0[k] - s.o[k];
-  const float ng[3] = {e2[1] * e1[2] - e2[2] * e1[1], e2[2] * e1[0] - e2[0] * e1[2], e2[0] * e1[1] - e2[1] * e1[0]};
-  const float r[3] = {c[1] * s.d[2] - c[2] * s.d[1], c[2] * s.d[0] - c[0] * s.d[2], c[0] * s.d[1] - c[1] * s.d[0]};
-  const float den = ng[0] * s.d[0] + ng[1] * s.d[1] + ng[2] * s.d[2];
+  const float ng[3] = {cross_x(e2[1], e2[2], e1[1], e1[2]), cross_x(e2[2], e2[0], e1[2], e1[0]),
+                       cross_x(e2[0], e2[1], e1[0], e1[1])};
+  const float r[3] = {cross_x(c[1], c[2], s.d[1], s.d[2]), cross_x(c[2], c[0], s.d[2], s.d[0]),
+                      cross_x(c[0], c[1], s.d[0], s.d[1])};
+  const float den = dot3(ng, s.d);
   const float absden = std::fabs(den);
   const std::uint32_t sgn = std::bit_cast<std::uint32_t>(den) & 0x80000000u;
-  const float u = flip(r[0] * e2[0] + r[1] * e2[1] + r[2] * e2[2], sgn);
-  const float v = flip(r[0] * e1[0] + r[1] * e1[1] + r[2] * e1[2], sgn);
+  const float u = flip(dot3(r, e2), sgn);
+  const float v = flip(dot3(r, e1), sgn);
   if (!(den != 0.0f && u >= 0.0f && v >= 0.0f && u + v <= absden)) return NAN;
-  const float T = flip(ng[0] * c[0] + ng[1] * c[1] + ng[2] * c[2], sgn);
+  const float T = flip(dot3(ng, c), sgn);
   return T / absden;
 }
 

@@ -103,8 +103,11 @@ void main() {
         }
       }
       while ((cur & kLeafBit) != 0u) {
-        // Leaf: Möller-Trumbore in Embree's factoring (e1 = v0 - v1, e2 = v2 - v0,
-        // Ng = e2 x e1), `precise` so no driver fuses or reorders it.
+        // Leaf: Möller-Trumbore exactly as Embree 3 computes it on AVX2 (e1 = v0 - v1,
+        // e2 = v2 - v0, Ng = e2 x e1, R = C x D, with its cross (msub(a.y, b.z, a.z * b.y), ...)
+        // and dot (madd(a.x, b.x, madd(a.y, b.y, a.z * b.z))) as fused multiply-adds), so the
+        // edge decisions match Embree's bit for bit; `precise` keeps every fma fused and
+        // stops the driver from fusing or reordering anything else.
         const uint first = (cur >> 3) & 0x0FFFFFFFu;
         const uint cnt = cur & 7u;
         for (uint k = 0u; k < cnt; ++k) {
@@ -113,18 +116,19 @@ void main() {
           precise vec3 e1 = p0.xyz - p1.xyz;
           precise vec3 e2 = p2.xyz - p0.xyz;
           precise vec3 c = p0.xyz - o;
-          precise vec3 ng = vec3(e2.y * e1.z - e2.z * e1.y, e2.z * e1.x - e2.x * e1.z, e2.x * e1.y - e2.y * e1.x);
-          precise vec3 r = vec3(c.y * d.z - c.z * d.y, c.z * d.x - c.x * d.z, c.x * d.y - c.y * d.x);
-          precise float den = ng.x * d.x + ng.y * d.y + ng.z * d.z;
-          precise float uu = r.x * e2.x + r.y * e2.y + r.z * e2.z;
-          precise float vv = r.x * e1.x + r.y * e1.y + r.z * e1.z;
+          precise vec3 ng = vec3(fma(e2.y, e1.z, -(e2.z * e1.y)), fma(e2.z, e1.x, -(e2.x * e1.z)),
+                                 fma(e2.x, e1.y, -(e2.y * e1.x)));
+          precise vec3 r = vec3(fma(c.y, d.z, -(c.z * d.y)), fma(c.z, d.x, -(c.x * d.z)), fma(c.x, d.y, -(c.y * d.x)));
+          precise float den = fma(ng.x, d.x, fma(ng.y, d.y, ng.z * d.z));
+          precise float uu = fma(r.x, e2.x, fma(r.y, e2.y, r.z * e2.z));
+          precise float vv = fma(r.x, e1.x, fma(r.y, e1.y, r.z * e1.z));
           const float absden = abs(den);
           const uint sgn = floatBitsToUint(den) & kLeafBit;
           const float u = uintBitsToFloat(floatBitsToUint(uu) ^ sgn);
           const float v = uintBitsToFloat(floatBitsToUint(vv) ^ sgn);
           precise float w = u + v;
           if (den != 0.0 && u >= 0.0 && v >= 0.0 && w <= absden) {
-            precise float tt = ng.x * c.x + ng.y * c.y + ng.z * c.z;
+            precise float tt = fma(ng.x, c.x, fma(ng.y, c.y, ng.z * c.z));
             precise float t = uintBitsToFloat(floatBitsToUint(tt) ^ sgn) / absden;
             if (t >= tmin && t <= tmax) {
 #ifdef ANY_HIT
