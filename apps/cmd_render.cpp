@@ -8,10 +8,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include "apps/cli_common.hpp"
 #include "apps/cmd_partition.hpp"
 #include "render/engine/calibrate.hpp"
+#include "render/engine/profile_recorder.hpp"
 #include "render/engine/renderer.hpp"
 #include "render/image/image_io.hpp"
 #include "sched/error.hpp"
@@ -86,9 +88,41 @@ int run_render(const RenderCliOptions& opt) {
   check_writable(opt.out, "--out");
   const bool tty = !opt.quiet && ::isatty(2);
   if (tty) ro.progress = progress_bar;
+  std::unique_ptr<engine::ProfileRecorder> recorder;
+  if (!opt.record_profile.empty() || !opt.record_replay.empty()) {
+    engine::ProfileRecorderOptions po;
+    try {
+      parse_resolution(opt.record_tiles, po.tiles_x, po.tiles_y);
+    } catch (const InputError&) {
+      throw InputError("--record-tiles", "", "expected TXxTY, e.g. 8x8; got '" + opt.record_tiles + "'");
+    }
+    po.keyframe = opt.record_keyframe;
+    po.replay = !opt.record_replay.empty();
+    if (!opt.record_profile.empty()) ensure_parent_dir(opt.record_profile, "--record-profile");
+    if (!opt.record_replay.empty()) ensure_parent_dir(opt.record_replay, "--record-replay");
+    recorder = std::make_unique<engine::ProfileRecorder>(po);
+    ro.batching.recorder = recorder.get();
+  }
 
   const engine::RenderResult r = engine::render(ro);
   if (tty) std::fprintf(stderr, "\n");
+  if (recorder) {
+    const std::string extra = "\"scene\": \"" + r.scene_name + "\", \"blocks\": " + std::to_string(r.blocks) +
+                              ", \"seed\": " + std::to_string(r.seed) + ", \"render_rays\": {\"traced\": " +
+                              std::to_string(r.counts.traced) + ", \"created\": " + std::to_string(r.counts.created) +
+                              ", \"escaped\": " + std::to_string(r.counts.escaped) + ", \"occluded\": " +
+                              std::to_string(r.counts.occluded) + ", \"unoccluded\": " +
+                              std::to_string(r.counts.unoccluded) + "}";
+    if (!opt.record_profile.empty()) write_file_atomic(opt.record_profile, recorder->statistics_json(extra));
+    if (!opt.record_replay.empty()) {
+      const std::string tmp = opt.record_replay + ".partial";
+      recorder->replay().save(tmp, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +
+                                       "x" + std::to_string(r.height) + ", " + std::to_string(r.spp) + " spp, keyframe " +
+                                       std::to_string(opt.record_keyframe) + " (client 0, frame " +
+                                       std::to_string(opt.record_keyframe) + ")");
+      fs::rename(tmp, opt.record_replay);
+    }
+  }
 
   image::Metadata meta;
   meta.strings["rayline.scene"] = r.scene_name;

@@ -23,6 +23,10 @@ struct RenderCliOptions {
   std::string gpu_memory_budget;     // "4GiB"; empty: half of the device's memory
   std::string out = "out/render.exr";
   bool quiet = false;
+  // Issue 4: per-cell ray statistics / a replay log from the renderer's kernels.
+  std::string record_profile, record_replay;
+  std::string record_tiles = "8x8";
+  int record_keyframe = 0;
 };
 int run_render(const RenderCliOptions& opt);
 

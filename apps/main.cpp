@@ -148,6 +148,16 @@ void add_render(CLI::App& app, std::function<int()>& action) {
       ->default_val(opt->gpu);
   r->add_option("--gpu-memory-budget", opt->gpu_memory_budget,
                 "GPU memory for scene blocks and ray queues, e.g. 4GiB (default: half of the device's)");
+  r->add_option("--record-profile", opt->record_profile,
+                "Write per-cell ray statistics of this render (JSON, docs/scene-profiles.md); CPU kernels only");
+  r->add_option("--record-replay", opt->record_replay,
+                "Write a replay log of this render for `rayline simulate --fidelity replay` (CPU kernels only)");
+  r->add_option("--record-tiles", opt->record_tiles, "Tile grid of the recorded replay log, TXxTY (the profile's image.tiles)")
+      ->default_val(opt->record_tiles);
+  r->add_option("--record-keyframe", opt->record_keyframe,
+                "Camera keyframe this render stands for (replay log: frame and keyframe)")
+      ->default_val(opt->record_keyframe)
+      ->check(CLI::Range(0, 65535));
   r->add_option("--out,-o", opt->out, "OpenEXR image; .png, .metrics.json, .timeline.json, .jobs.csv go next to it")
       ->default_val(opt->out);
   r->add_flag("--quiet,-q", opt->quiet, "No progress bar or summary");

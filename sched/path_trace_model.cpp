@@ -62,11 +62,30 @@ ReplayLog::Group* ReplayLog::find(const SplitContext& ctx) {
   return it == groups_.end() ? nullptr : &it->second;
 }
 
+void ReplayLog::freeze_templates() {
+  if (templates_.empty()) templates_ = groups_;
+}
+
+ReplayLog::Group* ReplayLog::find_or_clone(const SplitContext& ctx, int keyframes) {
+  if (Group* g = find(ctx)) return g;
+  if (!per_keyframe_ || keyframes <= 0) return nullptr;
+  SplitContext t = ctx;
+  t.client = 0;
+  t.frame = (ctx.client + ctx.frame) % keyframes;
+  if (t.key() == ctx.key()) return nullptr;
+  auto it = templates_.find(t.key());
+  if (it == templates_.end()) return nullptr;
+  Group& g = groups_[ctx.key()];
+  g = it->second;
+  g.ctx = ctx;
+  return &g;
+}
+
 // One line per piece, in the order the groups' pieces were recorded:
 //   STAGE CLIENT FRAME TILE BOUNCE BLOCK N CAT:COUNT ...
 void ReplayLog::save(const std::string& path, const std::string& header) const {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << "rayline-replay 1\n";
+  out << (per_keyframe_ ? "rayline-replay 1 per-keyframe\n" : "rayline-replay 1\n");
   if (!header.empty()) out << "# " << header << "\n";
   out << "# stage client frame tile bounce block rays category:count...\n";
   for (const auto& [key, g] : groups_)
@@ -85,7 +104,9 @@ ReplayLog ReplayLog::load(const std::string& path) {
   ReplayLog log;
   std::string line;
   int lineno = 0;
-  if (!std::getline(in, line) || line != "rayline-replay 1") throw InputError(path, "line 1", "expected 'rayline-replay 1'");
+  if (!std::getline(in, line) || (line != "rayline-replay 1" && line != "rayline-replay 1 per-keyframe"))
+    throw InputError(path, "line 1", "expected 'rayline-replay 1' (optionally followed by ' per-keyframe')");
+  log.per_keyframe_ = line != "rayline-replay 1";
   ++lineno;
   while (std::getline(in, line)) {
     ++lineno;
@@ -261,7 +282,7 @@ void RayFlowModel::sample(const std::vector<double>& p, std::uint64_t n, std::ve
 void RayFlowModel::replay(const SplitContext& ctx, std::uint64_t n, std::vector<std::uint64_t>& out) {
   const std::size_t cats = categories(ctx.stage, ctx.block);
   out.assign(cats, 0);
-  ReplayLog::Group* g = replay_ ? replay_->find(ctx) : nullptr;
+  ReplayLog::Group* g = replay_ ? replay_->find_or_clone(ctx, static_cast<int>(profile_.camera_path.size())) : nullptr;
   std::uint64_t have = 0;
   if (g) {
     if (g->remaining.size() > cats) throw InputError("--replay", "", "a recorded category does not exist in this profile");
@@ -278,26 +299,46 @@ void RayFlowModel::replay(const SplitContext& ctx, std::uint64_t n, std::vector<
     ++exact_pieces_;
     return;
   }
-  if (g) g->pieces.clear();  // batching differs from the recording: totals only from now on
-  std::uint64_t take = std::min(n, have);
-  if (take == have) {
-    for (std::size_t i = 0; i < cats && g; ++i) {
-      out[i] += g->remaining[i];
-      g->remaining[i] = 0;
+  // Batching differs from the recording: the outcomes of the context's next `take` recorded
+  // rays, in recorded order (whole pieces, then a largest-remainder share of the piece that
+  // is split). Following the recorded order keeps causality where contexts feed each other
+  // (rays crossing between two cells in both directions at one bounce); the context's
+  // totals stay exact whenever its inflow is.
+  const std::uint64_t take = std::min(n, have);
+  std::uint64_t need = take;
+  while (need > 0 && g && !g->pieces.empty()) {
+    ReplayLog::Piece& p = g->pieces.front();
+    if (p.n <= need) {
+      for (const auto& [c, k] : p.out) {
+        out[c] += k;
+        g->remaining[c] -= k;
+      }
+      need -= p.n;
+      g->pieces.pop_front();
+      continue;
     }
-  } else if (take > 0) {
     std::vector<std::pair<double, std::size_t>> frac;
+    std::vector<std::uint64_t> part(p.out.size(), 0);
     std::uint64_t given = 0;
-    for (std::size_t i = 0; i < cats; ++i) {
-      const long double share = static_cast<long double>(g->remaining[i]) * take / have;
-      const auto fl = static_cast<std::uint64_t>(share);
-      out[i] = fl;
-      given += fl;
-      frac.emplace_back(-static_cast<double>(share - fl), i);
+    for (std::size_t i = 0; i < p.out.size(); ++i) {
+      const long double share = static_cast<long double>(p.out[i].second) * need / p.n;
+      part[i] = static_cast<std::uint64_t>(share);
+      given += part[i];
+      frac.emplace_back(-static_cast<double>(share - static_cast<long double>(part[i])), i);
     }
     std::sort(frac.begin(), frac.end());
-    for (std::size_t k = 0; given < take; ++k, ++given) ++out[frac[k % frac.size()].second];
-    for (std::size_t i = 0; i < cats; ++i) g->remaining[i] -= out[i];
+    for (std::size_t k = 0; given < need; ++k)
+      if (part[frac[k % frac.size()].second] < p.out[frac[k % frac.size()].second].second) {
+        ++part[frac[k % frac.size()].second];
+        ++given;
+      }
+    for (std::size_t i = 0; i < p.out.size(); ++i) {
+      out[p.out[i].first] += part[i];
+      g->remaining[p.out[i].first] -= part[i];
+      p.out[i].second -= part[i];
+    }
+    p.n -= need;
+    need = 0;
   }
   replayed_ += take;
   if (take < n) {

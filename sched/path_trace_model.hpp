@@ -58,6 +58,15 @@ class ReplayLog {
   };
   void append(const SplitContext& ctx, std::uint64_t n, const std::vector<std::uint64_t>& out);
   Group* find(const SplitContext& ctx);
+  // Per-keyframe logs (written by `rayline render --record-replay`, first line
+  // "rayline-replay 1 per-keyframe"): they hold one frame per camera keyframe k, as client
+  // 0's frame k. Any other (client c, frame f) replays a fresh copy of the recording of its
+  // keyframe (c + f) mod `keyframes` (see find_or_clone). Other logs: exact contexts only.
+  bool per_keyframe() const { return per_keyframe_; }
+  void set_per_keyframe(bool on) { per_keyframe_ = on; }
+  // Copies the groups as recorded (before any replay): the sources of find_or_clone.
+  void freeze_templates();
+  Group* find_or_clone(const SplitContext& ctx, int keyframes);
   std::size_t groups() const { return groups_.size(); }
   std::size_t pieces() const { return pieces_; }
   void save(const std::string& path, const std::string& header) const;  // text, written as is
@@ -65,13 +74,18 @@ class ReplayLog {
 
  private:
   std::map<std::uint64_t, Group> groups_;
+  std::map<std::uint64_t, Group> templates_;
   std::size_t pieces_ = 0;
+  bool per_keyframe_ = false;
 };
 
 class RayFlowModel {
  public:
   RayFlowModel(const SceneProfile& profile, Fidelity fidelity, std::uint64_t seed);
-  void set_replay(std::shared_ptr<ReplayLog> log) { replay_ = std::move(log); }
+  void set_replay(std::shared_ptr<ReplayLog> log) {
+    replay_ = std::move(log);
+    if (replay_ && replay_->per_keyframe()) replay_->freeze_templates();
+  }
   void record_to(ReplayLog* log) { record_ = log; }
   Fidelity fidelity() const { return fidelity_; }
 

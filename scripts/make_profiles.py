@@ -1,31 +1,38 @@
 #!/usr/bin/env python3
 """Scene profiles for the simulator's path-tracing workload (docs/scene-profiles.md).
 
-    scripts/make_profiles.py [--rayline build/apps/rayline] [--work out/profiles] [--paths 20000]
-        writes scenes/boeing.profile.json and scenes/museum.profile.json
+    scripts/make_profiles.py [--rayline build/apps/rayline] [--work out/profiles] [--synthetic]
+        writes scenes/boeing.profile.json and scenes/museum.profile.json (statistics from
+        `rayline render --record-profile`), and WORK/NAME-render.profile.json + NAME.replay.log
     scripts/make_profiles.py fidelity [--rayline ...] [--duration 30s] [--out out/fidelity]
         writes OUT/fidelity.csv: simulator wall time vs throughput error of the three fidelity
-        levels on both scenes, error measured against replay
+        levels on both scenes, error measured against replay of the renderer-recorded logs
+        (run `make` first: it reads WORK/NAME-render.profile.json and WORK/NAME.replay.log),
+        and OUT/prediction.csv: prediction accuracy and throughput with vs without prediction
 
-How a profile is made (standard library only, deterministic for --seed):
+How a profile is made (standard library only; deterministic for --seed):
  1. `rayline generate boeing-like|museum-like` at --triangles, then `rayline partition` into
     129 / 65 blocks (the paper's block counts): cell bounds, geometry bounds, triangle
     counts, block file sizes, face neighbours with shared areas (blocks.json).
  2. Sizes are scaled to the paper's footprints (Table 1: 26.5 GiB / 12.3 GiB): block b gets
     file_bytes(b) * target / sum(file_bytes), so the blocks keep the generated scene's
     proportions.
- 3. A SYNTHETIC tracer (not the renderer's kernels: they were not available to this script
-    when it was written) traces --paths camera paths through the partition's cells. Geometry
-    is modelled as a homogeneous medium inside each block's geometry bounds (cell clipped),
-    of optical density sigma_b = kappa * (triangles_b / volume_b)^(1/3): a segment of length
-    l through it is hit with probability 1 - exp(-sigma_b l); kappa is set per scene so the
-    mean hit ratio per cell visit is the target below. Hits scatter in a uniformly random
-    direction (the generated meshes carry no usable per-block materials); survival at a hit
-    is the scene's beta; each hit sends one shadow ray to a point light above the scene,
-    occluded by the same media. Counting per cell: visits, hits, escapes, exits to each
-    neighbour, shadow visits / occlusions / exits gives alpha_b, escape_b, p(b -> n),
-    shadow_occlusion_b, shadow_exit_b (with a small area-weighted prior, so every face
-    neighbour has p > 0). Primary rays give each camera keyframe's entry distribution.
+ 3. THE RENDERER'S KERNELS (default): for each of --keyframes camera keyframes (an orbit
+    outside the Boeing-like model, a walk through the museum-like interior) the scene is
+    rendered by `rayline render` on that partition at --render-resolution / --render-spp
+    with the profile's max_bounces as --max-depth, with --record-profile (per-cell counts of
+    every ray the kernels traced: hits, continuations, escapes, transitions to each face
+    neighbour, shadow rays occluded / lit / going on) and --record-replay (a per-keyframe
+    replay log). The counts of all keyframes are summed; per block, alpha, beta, escape,
+    p(b -> n), shadow_occlusion, shadow_exit are ratios of those counts with a --prior of
+    pseudo-rays at the scene mean (area-weighted for transitions, so every face neighbour
+    keeps p > 0); camera entry distributions come from the camera rays of each keyframe.
+    Also written to --work: NAME-render.profile.json (the same statistics at the render's
+    image size, for replay) and NAME.replay.log (all keyframes), used by `fidelity`.
+    --synthetic: the old SYNTHETIC tracer instead (homogeneous media inside each block's
+    geometry bounds, density kappa*(triangles/volume)^(1/3), kappa calibrated to a target
+    hit ratio per cell visit, uniform scattering, fixed beta, one shadow ray per hit to a
+    point light above the scene) -- a fallback for builds without the renderer.
  4. The analytic section holds the scene means of the same counts (the paper's global
     alpha/beta; neighbours weighted by area).
 """
@@ -35,8 +42,10 @@ import json
 import math
 import os
 import random
+import shutil
 import subprocess
 import sys
+import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 GIB = 1024 ** 3
@@ -279,7 +288,39 @@ def trace_scene(part, cfg, paths, seed, keys=8):
     return tr, entry, background, kappa
 
 
-def build_profile(name, index, cfg, tr, entry, background, kappa, paths, triangles):
+class RenderCounts:
+    """Per-cell counts summed over the keyframes' `rayline render --record-profile` files,
+    with the attribute names of the synthetic Tracer (build_profile reads either)."""
+
+    def __init__(self, nb):
+        self.visits, self.hits, self.escapes = [0] * nb, [0] * nb, [0] * nb
+        self.survived = [0] * nb
+        self.trans = [dict() for _ in range(nb)]
+        self.s_visits, self.s_occ, self.s_exit = [0] * nb, [0] * nb, [0] * nb
+        self.s_trans = [dict() for _ in range(nb)]
+        self.mapping = {}
+        self.rays = 0
+
+    def add(self, st):
+        for b in st["blocks"]:
+            i = b["id"]
+            self.visits[i] += b["path_rays"]
+            self.hits[i] += b["hits"]
+            self.escapes[i] += b["escaped"]
+            self.survived[i] += b["survived"]
+            for n, c in b["transitions"]:
+                self.trans[i][n] = self.trans[i].get(n, 0) + c
+            self.s_visits[i] += b["shadow_rays"]
+            self.s_occ[i] += b["occluded"]
+            for n, c in b["shadow_transitions"]:
+                self.s_trans[i][n] = self.s_trans[i].get(n, 0) + c
+                self.s_exit[i] += c
+        for k, v in st["mapping"].items():
+            self.mapping[k] = self.mapping.get(k, 0) + v
+        self.rays += st["render_rays"]["traced"]
+
+
+def build_profile(name, index, cfg, tr, entry, background, provenance, prior=20.0, image=None, batching=None):
     part = Partition(index)
     blocks = index["blocks"]
     nb = len(blocks)
@@ -291,7 +332,9 @@ def build_profile(name, index, cfg, tr, entry, background, kappa, paths, triangl
     s_vis, s_occ = sum(tr.s_visits), sum(tr.s_occ)
     g_occ = s_occ / max(1, s_vis)
     g_exit = sum(tr.s_exit) / max(1, s_vis - s_occ)
-    prior = 20.0  # pseudo-visits at the scene mean / area weights
+    measured_beta = hasattr(tr, "survived")
+    g_beta = sum(tr.survived) / max(1, hit) if measured_beta else cfg["beta"]
+    # prior: pseudo-rays at the scene mean / area weights
     for i, b in enumerate(blocks):
         c = b["cell"]
         boundary = 0.0
@@ -316,6 +359,7 @@ def build_profile(name, index, cfg, tr, entry, background, kappa, paths, triangl
         ps = [round(w / wsum, 9) for w in weights]
         if ps:
             ps[-1] = round(1.0 - sum(ps[:-1]), 9)
+        beta = (tr.survived[i] + prior * g_beta) / (tr.hits[i] + prior) if measured_beta else cfg["beta"]
         occ = (tr.s_occ[i] + prior * g_occ) / (tr.s_visits[i] + prior)
         ex = (tr.s_exit[i] + prior * g_exit) / (tr.s_visits[i] - tr.s_occ[i] + prior)
         out_blocks.append({
@@ -324,7 +368,7 @@ def build_profile(name, index, cfg, tr, entry, background, kappa, paths, triangl
             "triangles": b["triangles"],
             "lo": [round(x, 5) for x in c["lo"]], "hi": [round(x, 5) for x in c["hi"]],
             "boundary_area": round(boundary, 5),
-            "alpha": round(alpha, 5), "beta": cfg["beta"], "escape": round(min(1.0, escape), 5),
+            "alpha": round(alpha, 5), "beta": round(beta, 5), "escape": round(min(1.0, escape), 5),
             "shadow_occlusion": round(occ, 5), "shadow_exit": round(min(1.0, ex), 5),
             "neighbours": [[n["block"], round(n["area"], 5), p] for n, p in zip(nbrs, ps)],
         })
@@ -340,15 +384,13 @@ def build_profile(name, index, cfg, tr, entry, background, kappa, paths, triangl
     return {
         "format": "rayline-scene-profile", "version": 1, "name": name,
         "description": cfg["description"],
-        "provenance": (f"scripts/make_profiles.py: rayline generate {cfg['generator']} --triangles {triangles}, "
-                       f"rayline partition --blocks {cfg['blocks']}; block bytes scaled to {cfg['bytes'] / GIB:.1f} GiB; "
-                       f"statistics from a SYNTHETIC tracer ({paths} camera paths through the cells, homogeneous "
-                       f"media of density kappa*(tri/vol)^(1/3), kappa={kappa:.4g}), not the renderer's kernels"),
-        "image": {"width": cfg["width"], "height": cfg["height"], "spp": cfg["spp"], "tiles": cfg["tiles"]},
-        "batching": {"wave_rays": cfg["wave_rays"], "inflight_rays": cfg["inflight_rays"], "max_bounces": cfg["max_bounces"]},
+        "provenance": provenance,
+        "image": image or {"width": cfg["width"], "height": cfg["height"], "spp": cfg["spp"], "tiles": cfg["tiles"]},
+        "batching": batching or {"wave_rays": cfg["wave_rays"], "inflight_rays": cfg["inflight_rays"],
+                                 "max_bounces": cfg["max_bounces"]},
         "records": {"ray_bytes": 64, "shadow_ray_bytes": 64, "hit_bytes": 64, "sample_bytes": 16,
                     "framebuffer_bytes_per_pixel": 16, "request_bytes": 4096},
-        "analytic": {"alpha": round(g_alpha, 5), "beta": cfg["beta"], "shadow_occlusion": round(g_occ, 5),
+        "analytic": {"alpha": round(g_alpha, 5), "beta": round(g_beta, 5), "shadow_occlusion": round(g_occ, 5),
                      "shadow_exit": round(g_exit, 5)},
         "block_count": nb, "blocks": out_blocks, "camera_path": cams,
     }
@@ -375,57 +417,105 @@ def write_compact(path, prof):
     os.replace(tmp, path)
 
 
+def keyframe_scene(scene, eye, fwd, width, height):
+    """The generated scene with one camera: keyframe (eye, fwd) (the renderer renders cameras[0])."""
+    sc = {k: v for k, v in scene.items() if k != "camera_paths"}
+    look = [eye[a] + fwd[a] for a in range(3)]
+    sc["cameras"] = {"key": {"position": eye, "look_at": look, "up": [0.0, 1.0, 0.0], "fov_deg": 50.0,
+                             "resolution": [width, height]}}
+    return sc
+
+
+def render_counts(args, name, cfg, scene_path, blocks_dir, part):
+    """Renders every keyframe with --record-profile / --record-replay; returns the summed
+    counts, per-keyframe entry counts, and the concatenated replay log's pieces."""
+    with open(scene_path) as f:
+        scene = json.load(f)
+    w, h = (int(x) for x in args.render_resolution.split("x"))
+    counts = RenderCounts(len(part.blocks))
+    entry, background, pieces = [], [], []
+    for k, (eye, fwd) in enumerate(cameras(part, cfg["camera"], args.keyframes)):
+        key_scene = os.path.join(args.work, f"{name}-key{k}.json")
+        with open(key_scene, "w") as f:
+            json.dump(keyframe_scene(scene, eye, fwd, w, h), f)
+        stats = os.path.join(args.work, f"{name}-key{k}.stats.json")
+        log = os.path.join(args.work, f"{name}-key{k}.replay.log")
+        run([args.rayline, "render", "--scene", key_scene, "--blocks-dir", blocks_dir, "--resolution", f"{w}x{h}",
+             "--spp", str(args.render_spp), "--max-depth", str(cfg["max_bounces"]), "--threads", str(args.threads),
+             "--seed", str(args.seed + k), "--gpu", "none", "--record-profile", stats, "--record-replay", log,
+             "--record-keyframe", str(k), "--record-tiles", "x".join(str(t) for t in cfg["tiles"]),
+             "--out", os.path.join(args.work, f"{name}-key{k}.exr"), "-q"])
+        with open(stats) as f:
+            st = json.load(f)
+        counts.add(st)
+        e = [0] * len(part.blocks)
+        for b, c in st["camera"]["entry"]:
+            e[b] += c
+        entry.append(e)
+        background.append(st["camera"]["background"])
+        with open(log) as f:
+            pieces += [line for line in f if line.strip() and not line.startswith(("#", "rayline-replay"))]
+    return counts, entry, background, pieces
+
+
 def make(args):
     os.makedirs(args.work, exist_ok=True)
     for name, cfg in SCENES.items():
         ply = os.path.join(args.work, name + ".ply")
         scene = os.path.join(args.work, name + ".json")
         blocks_dir = os.path.join(args.work, name + "-blocks")
+        t0 = time.time()
         run([args.rayline, "generate", cfg["generator"], "--triangles", args.triangles, "--out", ply,
              "--seed", str(args.seed), "-q"])
+        if os.path.isdir(blocks_dir):
+            shutil.rmtree(blocks_dir)
         run([args.rayline, "partition", "--scene", scene, "--blocks", str(cfg["blocks"]), "--out", blocks_dir, "-q"])
         with open(os.path.join(blocks_dir, "blocks.json")) as f:
             index = json.load(f)
         part = Partition(index)
-        tr, entry, bg, kappa = trace_scene(part, cfg, args.paths, args.seed)
-        prof = build_profile(name, index, cfg, tr, entry, bg, kappa, args.paths, args.triangles)
+        base = (f"scripts/make_profiles.py: rayline generate {cfg['generator']} --triangles {args.triangles}, "
+                f"rayline partition --blocks {cfg['blocks']}; block bytes scaled to {cfg['bytes'] / GIB:.1f} GiB; ")
+        if args.synthetic:
+            tr, entry, bg, kappa = trace_scene(part, cfg, args.paths, args.seed)
+            prov = base + (f"statistics from a SYNTHETIC tracer ({args.paths} camera paths through the cells, homogeneous "
+                           f"media of density kappa*(tri/vol)^(1/3), kappa={kappa:.4g}), not the renderer's kernels")
+            prof = build_profile(name, index, cfg, tr, entry, bg, prov)
+            note = f"kappa {kappa:.3g}"
+        else:
+            tr, entry, bg, pieces = render_counts(args, name, cfg, scene, blocks_dir, part)
+            m = tr.mapping
+            prov = base + (f"Markov statistics from the renderer's kernels: rayline render --record-profile of "
+                           f"{args.keyframes} camera keyframes at {args.render_resolution}, {args.render_spp} spp, "
+                           f"--max-depth {cfg['max_bounces']} ({tr.rays} rays traced; prior {args.prior:g} pseudo-rays "
+                           f"at the scene mean; shadow rays the renderer did not make counted occluded: "
+                           f"{m.get('shadow_not_created', 0)})")
+            prof = build_profile(name, index, cfg, tr, entry, bg, prov, prior=args.prior)
+            # The same statistics at the render's image size, and its replay log (for `fidelity`).
+            w, h = (int(x) for x in args.render_resolution.split("x"))
+            frame = w * h * args.render_spp
+            rprof = build_profile(name + "-render", index, cfg, tr, entry, bg,
+                                  prov + "; image at the recorded render's size (replay with NAME.replay.log)",
+                                  prior=args.prior, image={"width": w, "height": h, "spp": args.render_spp,
+                                                           "tiles": cfg["tiles"]},
+                                  batching={"wave_rays": max(1, frame // 4), "inflight_rays": 4 * frame,
+                                            "max_bounces": cfg["max_bounces"]})
+            write_compact(os.path.join(args.work, name + "-render.profile.json"), rprof)
+            log = os.path.join(args.work, name + ".replay.log")
+            with open(log + ".partial", "w") as f:
+                f.write("rayline-replay 1 per-keyframe\n")
+                f.write(f"# {name}: rayline render --record-replay, {args.keyframes} keyframes at "
+                        f"{args.render_resolution}, {args.render_spp} spp (keyframe k = client 0, frame k)\n")
+                f.writelines(pieces)
+            os.replace(log + ".partial", log)
+            note = f"{tr.rays} rays traced, mapping {m}"
         out = os.path.join(ROOT, "scenes", name + ".profile.json")
         write_compact(out, prof)
         print(f"{out}: {len(prof['blocks'])} blocks, {sum(b['bytes'] for b in prof['blocks']) / GIB:.2f} GiB, "
-              f"alpha {prof['analytic']['alpha']:.3f}, shadow occlusion {prof['analytic']['shadow_occlusion']:.3f}, "
-              f"kappa {kappa:.3g}")
+              f"alpha {prof['analytic']['alpha']:.3f}, beta {prof['analytic']['beta']:.3f}, shadow occlusion "
+              f"{prof['analytic']['shadow_occlusion']:.3f}; {note}; {time.time() - t0:.1f} s")
 
 
-def fidelity(args):
-    """Simulator wall time vs throughput error of analytic / markov against replay. The
-    replay log is recorded from a Markov run standing in for an actual render (the renderer
-    cannot write replay logs yet): record once, replay it, run each fidelity level."""
-    os.makedirs(args.out, exist_ok=True)
-    rows = []
-    for scene in ("boeing", "museum"):
-        base = [args.rayline, "simulate", "--workload", scene, "--duration", args.duration, "--clients", str(args.clients),
-                "--prediction-depth", str(args.depth), "--platform", args.platform, "--no-progress"]
-        rec = os.path.join(args.out, scene + "-record")
-        run(base + ["--fidelity", "markov", "--seed", "101", "--record-replay", "--out", rec])
-        results = {}
-        for fid in ("replay", "markov", "analytic"):
-            out = os.path.join(args.out, f"{scene}-{fid}")
-            extra = ["--replay", os.path.join(rec, "replay.log")] if fid == "replay" else []
-            run(base + ["--fidelity", fid, "--seed", "1", "--out", out] + extra)
-            with open(os.path.join(out, "metrics.json")) as f:
-                m = json.load(f)
-            results[fid] = m
-        ref = results["replay"]["path_trace"]["steady_rays_per_second"]
-        for fid in ("analytic", "markov", "replay"):
-            m = results[fid]
-            r = m["path_trace"]["steady_rays_per_second"]
-            rows.append({"scene": scene, "fidelity": fid, "simulated_s": m["simulated_s"],
-                         "wall_s": round(m["simulator"]["wall_s"], 3),
-                         "workload_and_loop_s": round(m["simulator"]["bookkeeping_s"], 3),
-                         "steady_rays_per_second": round(r), "replay_rays_per_second": round(ref),
-                         "throughput_error": round((r - ref) / ref, 5) if ref else "",
-                         "abs_throughput_error": round(abs(r - ref) / ref, 5) if ref else ""})
-    path = os.path.join(args.out, "fidelity.csv")
+def write_csv(path, rows):
     with open(path + ".partial", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
@@ -436,17 +526,83 @@ def fidelity(args):
         print(r)
 
 
+def fidelity(args):
+    """Simulator wall time vs throughput error of analytic / markov against replay of the
+    renderer-recorded logs (`make` wrote WORK/NAME-render.profile.json: the profile's
+    statistics at the render's image size, and WORK/NAME.replay.log: every keyframe's
+    render, replayed for every frame of that keyframe). Then prediction accuracy and the
+    throughput gain of prediction on the committed (paper-scale) profiles."""
+    os.makedirs(args.out, exist_ok=True)
+    rows = []
+    for scene in ("boeing", "museum"):
+        prof = os.path.join(args.work, scene + "-render.profile.json")
+        log = os.path.join(args.work, scene + ".replay.log")
+        if not (os.path.exists(prof) and os.path.exists(log)):
+            sys.exit(f"{prof} / {log} missing: run `scripts/make_profiles.py` (make) first")
+        base = [args.rayline, "simulate", "--workload", prof, "--duration", args.duration, "--clients", str(args.clients),
+                "--prediction-depth", str(args.depth), "--platform", args.platform, "--no-progress"]
+        results = {}
+        for fid in ("replay", "markov", "analytic"):
+            out = os.path.join(args.out, f"{scene}-{fid}")
+            extra = ["--replay", log] if fid == "replay" else []
+            run(base + ["--fidelity", fid, "--seed", "1", "--out", out] + extra)
+            with open(os.path.join(out, "metrics.json")) as f:
+                results[fid] = json.load(f)
+        ref = results["replay"]["path_trace"]["steady_rays_per_second"]
+        rep = results["replay"]["path_trace"]["replay"]
+        fallback = rep["fallback_rays"] / max(1, rep["fallback_rays"] + rep["replayed_rays"])
+        for fid in ("analytic", "markov", "replay"):
+            m = results[fid]
+            r = m["path_trace"]["steady_rays_per_second"]
+            rows.append({"scene": scene, "fidelity": fid, "simulated_s": m["simulated_s"],
+                         "wall_s": round(m["simulator"]["wall_s"], 3),
+                         "workload_and_loop_s": round(m["simulator"]["bookkeeping_s"], 3),
+                         "steady_rays_per_second": round(r), "replay_rays_per_second": round(ref),
+                         "throughput_error": round((r - ref) / ref, 5) if ref else "",
+                         "abs_throughput_error": round(abs(r - ref) / ref, 5) if ref else "",
+                         "frames_delivered": m["path_trace"]["frames"]["delivered"],
+                         "replay_fallback_share": round(fallback, 6) if fid == "replay" else ""})
+    write_csv(os.path.join(args.out, "fidelity.csv"), rows)
+    rows = []
+    for scene in ("boeing", "museum"):
+        res = {}
+        for depth in (0, args.prediction_depth):
+            out = os.path.join(args.out, f"{scene}-prediction-{depth}")
+            run([args.rayline, "simulate", "--workload", scene, "--duration", args.duration, "--clients",
+                 str(args.clients), "--prediction-depth", str(depth), "--platform", args.platform, "--no-progress",
+                 "--fidelity", "markov", "--seed", "1", "--out", out])
+            with open(os.path.join(out, "metrics.json")) as f:
+                res[depth] = json.load(f)["path_trace"]
+        r0 = res[0]["steady_rays_per_second"]
+        rd = res[args.prediction_depth]
+        p = rd.get("prediction", {})
+        rows.append({"scene": scene, "clients": args.clients, "prediction_depth": args.prediction_depth,
+                     "rays_per_second_without": round(r0), "rays_per_second_with": round(rd["steady_rays_per_second"]),
+                     "gain": round(rd["steady_rays_per_second"] / r0 - 1, 5) if r0 else "",
+                     "accuracy": round(p.get("accuracy", 0), 5), "ray_accuracy": round(p.get("ray_accuracy", 0), 5),
+                     "predicted": p.get("created", 0), "confirmed": p.get("confirmed", 0),
+                     "confirmed_planned": p.get("confirmed_planned", 0), "failed": p.get("failed", 0)})
+    write_csv(os.path.join(args.out, "prediction.csv"), rows)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("command", nargs="?", default="make", choices=["make", "fidelity"])
     ap.add_argument("--rayline", default=os.path.join(ROOT, "build", "apps", "rayline"))
     ap.add_argument("--work", default=os.path.join(ROOT, "out", "profiles"))
-    ap.add_argument("--triangles", default="2M")
+    ap.add_argument("--triangles", default="300k")
+    ap.add_argument("--synthetic", action="store_true", help="fallback: the synthetic tracer instead of the renderer")
+    ap.add_argument("--keyframes", type=int, default=8)
+    ap.add_argument("--render-resolution", default="128x128")
+    ap.add_argument("--render-spp", type=int, default=2)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--prior", type=float, default=20.0)
     ap.add_argument("--paths", type=int, default=20000)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--duration", default="30s")
     ap.add_argument("--clients", type=int, default=4)
-    ap.add_argument("--depth", type=int, default=0)
+    ap.add_argument("--depth", type=int, default=0, help="fidelity runs: prediction depth")
+    ap.add_argument("--prediction-depth", type=int, default=2, help="prediction.csv: depth compared with 0")
     ap.add_argument("--platform", default="paper-cluster")
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "fidelity"))
     args = ap.parse_args()

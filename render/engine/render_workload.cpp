@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <numeric>
 
+#include "render/engine/profile_recorder.hpp"
+
 namespace rayline::engine {
 
 using trace::RayKind;
@@ -43,6 +45,7 @@ void RenderWorkload::generate() {
       trace::generate_camera_ray(ts_, camera_.position(), camera_.direction(pixel, sample, ts_.seed), pixel, sample,
                                  fresh, c);
     }
+    if (opt_.recorder) opt_.recorder->camera_rays(fresh, next_camera_, n, pixels);
     next_camera_ += n;
     // Camera rays that never meet the scene bounds end at once (escaped).
     paths_alive_ += n - c.paths_ended;

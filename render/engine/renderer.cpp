@@ -14,6 +14,7 @@
 
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/local_executor.hpp"
+#include "render/engine/profile_recorder.hpp"
 #include "render/engine/render_metrics.hpp"
 #include "render/engine/workstation.hpp"
 #include "render/partition/partition.hpp"
@@ -126,6 +127,13 @@ RenderResult render(const RenderOptions& opt) {
   const partition::BlockIndex index = partition::load_block_index(dir);
   const auto nb = static_cast<std::uint32_t>(index.blocks.size());
   res.blocks = nb;
+  if (opt.batching.recorder) {  // issue 4: per-cell statistics of this render
+    try {
+      opt.batching.recorder->begin(index, res.width, res.height, res.spp, res.max_depth);
+    } catch (const std::invalid_argument& e) {
+      throw InputError("--record-tiles", "record-tiles", e.what());
+    }
+  }
   std::vector<std::uint64_t> footprint(nb);
   Bytes largest = 0;
   for (std::uint32_t b = 0; b < nb; ++b) {
@@ -157,7 +165,8 @@ RenderResult render(const RenderOptions& opt) {
     ram_capacity = res.scene_block_bytes + Bytes(wo.path_cap) * per_path;
   }
   res.path_cap = wo.path_cap;
-  std::unique_ptr<gpu::GpuContext> gpu_ctx = open_gpu(opt, res);
+  // A profile recorder (issue 4) classifies rays in the CPU kernels: no GPU then.
+  std::unique_ptr<gpu::GpuContext> gpu_ctx = opt.batching.recorder ? nullptr : open_gpu(opt, res);
   WorkstationModel wm;
   if (!opt.platform.empty() && opt.platform != "auto") wm = load_workstation_model(opt.platform);
   wm.threads = threads;
@@ -269,10 +278,11 @@ RenderResult render(const RenderOptions& opt) {
           std::vector<trace::RayRecord>().swap(job->rays);
         };
       }
-      return [&ts, &store, job, evict = std::move(evict), do_evict] {
+      return [&ts, &store, job, rec = opt.batching.recorder, evict = std::move(evict), do_evict] {
         do_evict(evict);
         const auto geo = store.get(job->cell);
-        if (job->kind == trace::RayKind::Path) trace::ray_intersect(ts, *geo, job->rays, job->out, job->counts);
+        if (rec) rec->trace_job(ts, *geo, *job);  // issue 4: the same kernels, ray by ray
+        else if (job->kind == trace::RayKind::Path) trace::ray_intersect(ts, *geo, job->rays, job->out, job->counts);
         else trace::shadow_intersect(ts, *geo, job->rays, job->out, job->counts);
         std::vector<trace::RayRecord>().swap(job->rays);
       };
