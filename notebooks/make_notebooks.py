@@ -19,7 +19,8 @@ NB = {}
 
 NB["01_scaling"] = [
 """df = load('scaling')
-inv = df[df.label.str.contains('GPUs only')]; df = df[~df.label.str.contains('GPUs only')]
+inv = df[df.label.str.contains('GPUs only')]; long = df[df.label == 'long run']
+df = df[~df.label.str.contains('GPUs only') & (df.label != 'long run')]
 order = ['A', '2A', '3A', '4A', '+B', '+C', '+D', '+R']
 pk = peak(df, ['scene', 'label', 'scheduler'])
 pk['x'] = pk.label.map({l: i for i, l in enumerate(order)})
@@ -74,6 +75,15 @@ for ax, col, title in [(axes[0], 'gpu_job_share', 'share of ray jobs run on a GP
     if col != 'gpu_job_share': ax.set_yscale('log')
 axes[0].legend(fontsize=7)
 savefig(fig, 'fig8_investigation.png')""",
+"""ls = load('scaling', 'scaling-long-series')
+fig, ax = plt.subplots(figsize=(8, 3.6))
+for s in SCHEDULERS:
+    r = ls[ls.scheduler == s].sort_values('t_s')
+    ax.plot(r.t_s, r.rays_per_second.rolling(10, min_periods=1).mean(), color=COLORS[s], label=NAMES[s])
+ax.set_yscale('log'); ax.set_xlabel('simulated time (s)'); ax.set_ylabel('rays/s (10 s mean)'); ax.grid(alpha=.3); ax.legend(fontsize=8)
+ax.set_title('one long run: Boeing, 8 nodes, 8 clients')
+savefig(fig, 'fig8_long_run.png')
+print(long[['scheduler', 'duration_s', 'steady_rays_per_second', 'frames_delivered', 'fetching', 'true_idle']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
 ]
 
 NB["02_central_database"] = [

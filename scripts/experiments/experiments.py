@@ -71,6 +71,16 @@ def scaling(c):
         plat = rx.save_platform(gp, c.variants, p + "-gpu-only")
         for s in scheds:
             c.run(f"museum-{p}-gpu-only-{s}", plat, "museum", s, clients=8, label=LABEL[p] + " GPUs only", duration=dur)
+    # How steady is "steady"? One long run per scheduler (Boeing, 8 nodes, 8 clients).
+    series = []
+    for s in SCHEDULERS:
+        r = c.run(f"long-boeing-paper-cluster-{s}", "paper-cluster", "boeing", s, clients=8, label="long run",
+                  duration="30s" if c.reduced else "120s")
+        mp = os.path.join(r["out_dir"], "metrics.json")
+        if os.path.exists(mp):
+            for t, v in enumerate(json.load(open(mp)).get("rays_per_second_series", [])):
+                series.append({"scheduler": s, "t_s": t + 1, "rays_per_second": v})
+    _write(os.path.join(c.out, "scaling-long-series.csv"), series)
 
 
 def central(c):
