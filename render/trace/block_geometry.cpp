@@ -1,5 +1,7 @@
 #include "render/trace/block_geometry.hpp"
 
+#include "render/trace/tie_break.hpp"
+
 #include <embree3/rtcore.h>
 
 #include <atomic>
@@ -65,6 +67,7 @@ BlockGeometry::BlockGeometry(const EmbreeDevice& device, std::uint32_t block, st
   rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices_.data(), 0, 12, n * 3);
   rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, indices_.data(), 0, 12, n);
   if (low) rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_LOW);
+  rtcSetGeometryIntersectFilterFunction(g, smaller_prim_wins_ties);  // tie_break.hpp
   rtcCommitGeometry(g);
   rtcAttachGeometry(sc, g);
   rtcReleaseGeometry(g);
@@ -91,6 +94,21 @@ std::vector<unsigned char> BlockGeometry::records() const {
     std::memcpy(&out[i * 40 + 36], &materials_[i], 4);
   }
   return out;
+}
+
+void smaller_prim_wins_ties(const RTCFilterFunctionNArguments* args) {
+  // Only rtcIntersect1 queries carry a TieBreakContext (path_kernels.cpp); a packet (N > 1)
+  // would need per-lane state, and none is traced here.
+  if (args->N != 1 || args->valid[0] != -1) return;
+  auto* c = const_cast<TieBreakContext*>(reinterpret_cast<const TieBreakContext*>(args->context));
+  const float t = RTCRayN_tfar(args->ray, 1, 0);  // the candidate's distance
+  const unsigned prim = RTCHitN_primID(args->hit, 1, 0);
+  if (t == c->best_t && prim > c->best_prim) {
+    args->valid[0] = 0;  // keep the smaller prim met earlier
+    return;
+  }
+  c->best_t = t;
+  c->best_prim = prim;
 }
 
 }  // namespace rayline::trace

@@ -9,6 +9,7 @@
 
 #include "render/trace/cell_walk.hpp"
 #include "render/trace/sampler.hpp"
+#include "render/trace/tie_break.hpp"
 
 namespace rayline::trace {
 
@@ -252,7 +253,8 @@ void generate_camera_ray(const TraceSettings& ts, Float3 origin, Float3 dir, std
 
 void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
                    std::vector<RayRecord>& out, RayCounts& counts) {
-  RTCIntersectContext ctx = incoherent_context();
+  TieBreakContext tie;  // the GPU kernel's tie rule (tie_break.hpp)
+  tie.ctx = incoherent_context();
   auto scene = static_cast<RTCScene>(block.scene());
   for (const RayRecord& r : rays) {
     ++counts.traced;
@@ -261,7 +263,8 @@ void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::spa
       rh.ray = to_rtc(ts, r);
       rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
       rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-      rtcIntersect1(scene, &ctx, &rh);
+      tie.reset();
+      rtcIntersect1(scene, &tie.ctx, &rh);
       if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         const std::uint32_t prim = rh.hit.primID;
         const HitTriangle h{block.vertex(prim, 0), block.vertex(prim, 1), block.vertex(prim, 2), block.material(prim)};
