@@ -15,6 +15,7 @@
 
 #include "render/engine/profile_recorder.hpp"
 #include "render/engine/renderer.hpp"
+#include "small_render.hpp"
 #include "sched/exact_executor.hpp"
 #include "sched/gmb_scheduler.hpp"
 #include "sched/path_trace_workload.hpp"
@@ -27,20 +28,7 @@ using engine::ProfileRecorderOptions;
 
 namespace {
 
-engine::RenderOptions base() {
-  engine::RenderOptions o;  // the built-in Cornell-like scene
-  o.width = 32;
-  o.height = 24;
-  o.spp = 2;
-  o.threads = 2;
-  o.seed = 5;
-  o.blocks = 8;
-  o.gpu = "none";
-  o.batching.min_batch = 256;
-  o.batching.path_cap = 1024;
-  o.keep_schedule_outputs = false;
-  return o;
-}
+engine::RenderOptions base() { return rayline::testing::small_render(32, 24, 2, 5, 1024, "none"); }
 
 std::uint64_t sum_over_blocks(const ProfileRecorder& r, RayStage s, std::size_t cat, std::uint32_t blocks) {
   std::uint64_t t = 0;
@@ -187,8 +175,11 @@ TEST(ProfileRecorder, RendererRecordedLogReplaysEveryContextExactly) {
               100 * rel(t.hit, r.counts.terminated), 100 * rel(t.escaped, r.counts.escaped),
               100 * rel(t.lit, r.counts.unoccluded));
   // Entry contexts are fed by the camera alone: always exact.
-  for (const auto& [key, cats] : want)
-    if (key.rfind("entry", 0) == 0) EXPECT_EQ(got.at(key), cats) << key;
+  for (const auto& [key, cats] : want) {
+    if (key.rfind("entry", 0) == 0) {
+      EXPECT_EQ(got.at(key), cats) << key;
+    }
+  }
   // Replay follows each context's recorded order (sched/path_trace_model.cpp), so every
   // context gets exactly its recorded outcomes although the simulator batches differently.
   EXPECT_EQ(got, want);

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "render/engine/renderer.hpp"
+#include "small_render.hpp"
 
 namespace fs = std::filesystem;
 using rayline::engine::render;
@@ -15,19 +16,7 @@ using rayline::engine::RenderResult;
 
 namespace {
 
-RenderOptions base() {
-  RenderOptions o;  // the built-in Cornell-like scene
-  o.width = 40;
-  o.height = 40;
-  o.spp = 4;
-  o.threads = 2;
-  o.seed = 7;
-  o.blocks = 8;
-  o.batching.min_batch = 256;
-  o.batching.path_cap = 2048;
-  o.keep_schedule_outputs = false;
-  return o;
-}
+RenderOptions base() { return rayline::testing::small_render(40, 40, 4, 7, 2048); }
 
 void expect_sane(const RenderResult& r) {
   EXPECT_EQ(r.counts.created, r.counts.ended()) << "rays created must equal rays ended";

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "render/engine/renderer.hpp"
+#include "small_render.hpp"
 #include "render/gpu/vulkan_device.hpp"
 #include "sched/error.hpp"
 
@@ -21,20 +22,7 @@ std::string test_gpu() {
   return devs.empty() ? "" : std::to_string(devs.front().index);
 }
 
-RenderOptions base(const std::string& gpu) {
-  RenderOptions o;  // the built-in Cornell-like scene
-  o.width = 32;
-  o.height = 32;
-  o.spp = 4;
-  o.threads = 2;
-  o.seed = 11;
-  o.blocks = 8;
-  o.batching.min_batch = 256;
-  o.batching.path_cap = 2048;
-  o.keep_schedule_outputs = false;
-  o.gpu = gpu;
-  return o;
-}
+RenderOptions base(const std::string& gpu) { return rayline::testing::small_render(32, 32, 4, 11, 2048, gpu); }
 
 void expect_complete(const RenderResult& r) {
   EXPECT_EQ(r.counts.created, r.counts.ended()) << "rays created must equal rays ended";
