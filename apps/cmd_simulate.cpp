@@ -81,6 +81,7 @@ int run_simulate(const SimulateOptions& opt) {
   cfg.paje = opt.paje;
   cfg.progress = !opt.no_progress && ::isatty(2);
   cfg.prediction_depth = opt.prediction_depth;
+  cfg.merge_planned = opt.merge_planned == "on";
   cfg.fidelity = opt.fidelity;
   cfg.replay_file = opt.replay;
   cfg.record_replay = opt.record_replay;

@@ -62,6 +62,11 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_flag("--no-progress", opt->no_progress, "No progress line");
   sim->add_option("--clients", opt->clients, "Path tracing: clients requesting frames (N, or N1,N2,... for a sweep reporting the peak)")->default_val(opt->clients);
   sim->add_option("--prediction-depth", opt->prediction_depth, "Path tracing: job prediction depth (Sec. 5.2; 0 = off)")->default_val(opt->prediction_depth)->check(CLI::Range(0, 16));
+  sim->add_option("--merge-planned", opt->merge_planned,
+                  "Path tracing: on = arriving rays may join a planned, not yet started job (it then runs longer than "
+                  "planned); off = only unplanned queued jobs take them (Sec. 5.1)")
+      ->default_val(opt->merge_planned)
+      ->check(CLI::IsMember({"on", "off"}));
   sim->add_option("--fidelity", opt->fidelity, "Path tracing: ray-flow model analytic, markov or replay")->default_val(opt->fidelity);
   sim->add_option("--replay", opt->replay, "Path tracing: replay log for --fidelity replay");
   sim->add_flag("--record-replay", opt->record_replay, "Path tracing: also write OUT/replay.log (this run's ray outcomes)");

@@ -167,7 +167,7 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   // exec_scale). Their bytes are not added to the memory device's reservation: the
   // Schedule has no API to grow a committed copy.
   scan_planned(s, pool);
-  if (auto pl = planned_at_.find(key); pl != planned_at_.end()) {
+  if (auto pl = planned_at_.find(key); opt_.merge_planned && pl != planned_at_.end()) {
     const JobId j = pl->second;
     JobInfo& I = info(j);
     if (pool.state(j) == JobState::Planned && s.activity(pool.activity(j)).state == ActivityState::Planned && I.resolved) {

@@ -32,6 +32,10 @@ struct PathTraceOptions {
   Time stop_new_frames = kNever;      // no new frame requests after this time
   MemId client_memory = kNone;        // default: the first host memory of the platform
   std::uint64_t seed = 1;
+  // Rays arriving where a planned (not yet started) job holds a queue of the same kind and
+  // block join it, so that E-job runs longer than planned (see add_queue). Off: they
+  // wait in the global queue for a new job (Sec. 5.1 read strictly: merge into *queued* jobs).
+  bool merge_planned = true;
 };
 
 struct RayTally {

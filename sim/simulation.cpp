@@ -68,6 +68,7 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   j["fidelity"] = to_string(pt.model().fidelity());
   j["clients"] = cfg.clients;
   j["prediction_depth"] = cfg.prediction_depth;
+  j["merge_planned"] = cfg.merge_planned;
   j["image"] = {{"width", prof.width}, {"height", prof.height}, {"spp", prof.spp}};
   j["warmup_s"] = warm;
   j["steady_rays_per_second"] = traced / span;
@@ -129,6 +130,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     if (cfg.warmup >= cfg.duration) throw InputError("--warmup", "", "must be shorter than --duration");
     pto.clients = cfg.clients;
     pto.prediction_depth = cfg.prediction_depth;
+    pto.merge_planned = cfg.merge_planned;
     pto.seed = cfg.seed;
   }
   ReplayLog recording;

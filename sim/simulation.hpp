@@ -24,6 +24,7 @@ struct SimulationConfig {
   // Path-tracing workload (a scene profile; docs/scene-profiles.md).
   int clients = 1;
   int prediction_depth = 0;             // Sec. 5.2; 0: off
+  bool merge_planned = true;            // path tracing: queues may join planned jobs
   std::string fidelity = "markov";      // analytic | markov | replay
   std::string replay_file;              // replay fidelity: the log to replay
   bool record_replay = false;           // write OUT/replay.log (every split of this run)

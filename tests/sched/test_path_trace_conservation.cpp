@@ -26,10 +26,11 @@ struct Outcome {
   PredictionStats prediction;
   std::uint64_t alive = 0, fallback = 0, exact_pieces = 0;
   bool stalled = false;
+  std::uint64_t merges_into_planned = 0;
 };
 
 Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr, ReplayLog* record = nullptr,
-        int clients = 2, int frames = 2, std::uint64_t seed = 7) {
+        int clients = 2, int frames = 2, std::uint64_t seed = 7, bool merge_planned = true) {
   const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
   const SceneProfile prof = load_scene_profile(kProfile);
   PathTraceOptions o;
@@ -40,6 +41,7 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   o.replay = std::move(replay);
   o.record = record;
   o.seed = seed;
+  o.merge_planned = merge_planned;
   JobPool pool;
   Schedule s(g, pool);
   PathTraceWorkload wl(g, prof, o);
@@ -59,6 +61,7 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   r.fallback = wl.model().fallback_rays();
   r.exact_pieces = wl.model().exact_pieces();
   r.stalled = st.stalled;
+  r.merges_into_planned = wl.merges_into_planned();
   return r;
 }
 
@@ -104,6 +107,19 @@ TEST(PathTraceConservation, ReplayPrediction) {
   const Outcome r = run(Fidelity::Replay, 2, recorded());
   expect_conserved(r, 2, 2);
   EXPECT_EQ(r.fallback, 0u);
+}
+
+// --merge-planned off: arriving rays never join a planned job (whose E-job would then run
+// longer than planned), and every ray and sample is still accounted for.
+TEST(PathTraceConservation, NoMergesIntoPlannedJobs) {
+  const Outcome on = run(Fidelity::Markov, 0);
+  const Outcome off = run(Fidelity::Markov, 0, nullptr, nullptr, 2, 2, 7, false);
+  expect_conserved(off, 2, 2);
+  EXPECT_EQ(off.merges_into_planned, 0u);
+  EXPECT_GT(on.merges_into_planned, 0u) << "the default merges into planned jobs (this test would prove nothing)";
+  const Outcome off_pred = run(Fidelity::Markov, 2, nullptr, nullptr, 2, 2, 7, false);
+  expect_conserved(off_pred, 2, 2);
+  EXPECT_EQ(off_pred.merges_into_planned, 0u);
 }
 
 TEST(PathTraceConservation, OneClientManyFrames) { expect_conserved(run(Fidelity::Markov, 1, nullptr, nullptr, 1, 4), 1, 4); }
