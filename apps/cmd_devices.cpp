@@ -11,7 +11,6 @@
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/workstation.hpp"
 #include "sched/data_block.hpp"
-#include "sched/platform_loader.hpp"
 
 namespace rayline::cli {
 
@@ -56,25 +55,19 @@ int run_devices(const DevicesCliOptions& opt) {
 
   std::string status;
   auto ctx = engine::select_gpu(opt.gpu, status);
-  engine::WorkstationModel m;
-  std::string source = "defaults (uncalibrated; `rayline calibrate` measures this machine)";
-  if (!opt.platform.empty() && opt.platform != "auto") {
-    m = engine::load_workstation_model(opt.platform);
-    source = opt.platform;
-  }
+  engine::WorkstationModel m = engine::workstation_model(opt.platform);
+  const bool defaults = opt.platform.empty() || opt.platform == "auto";
+  const std::string source =
+      defaults ? std::string("defaults (uncalibrated; `rayline calibrate` measures this machine)") : opt.platform;
   m.threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
   m.ram_capacity = opt.memory_budget.empty()
                        ? Bytes(::sysconf(_SC_PHYS_PAGES)) * Bytes(::sysconf(_SC_PAGESIZE))
                        : parse_bytes(opt.memory_budget, "--memory-budget");
-  if (!ctx) {
-    m.gpus.clear();
-  } else {
-    if (m.gpus.empty()) m.gpus.emplace_back();
-    m.gpus.resize(1);
-    m.gpus[0].memory = engine::gpu_memory_budget(
-        ctx->info(), opt.gpu_memory_budget.empty() ? 0 : parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget"));
-  }
-  const DeviceGraph g = parse_platform(engine::workstation_json(m, "rayline devices"), "<devices>");
+  engine::set_gpu(m, ctx ? engine::gpu_memory_budget(ctx->info(), opt.gpu_memory_budget.empty()
+                                                                      ? 0
+                                                                      : parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget"))
+                       : 0);
+  const DeviceGraph g = engine::make_workstation(m, opt.platform);
   out["gpu"] = {{"selector", opt.gpu}, {"status", status}, {"device", ctx ? ctx->info().name : ""},
                 {"cpu_backed", ctx ? ctx->info().cpu_backed : false}};
   out["timing_source"] = source;

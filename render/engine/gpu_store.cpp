@@ -146,8 +146,7 @@ void GpuStore::run_job(const trace::TraceSettings& ts, std::uint32_t cell, RayKi
     if (!block) {
       // The CPU path: Embree on the RAM copy (loaded on the spot if the plan evicted it).
       const auto geo = ram_.get(cell);
-      if (kind == RayKind::Path) trace::ray_intersect(ts, *geo, part, out, counts);
-      else trace::shadow_intersect(ts, *geo, part, out, counts);
+      trace::intersect(ts, *geo, kind, part, out, counts);
       std::lock_guard lk(mu_);
       stats_.fallback_rays += n;
       continue;

@@ -22,7 +22,6 @@
 #include "render/scene/scene_stream.hpp"
 #include "render/trace/camera.hpp"
 #include "sched/error.hpp"
-#include "sched/platform_loader.hpp"
 #include "sched/scheduler_factory.hpp"
 #include "sched/trace_output.hpp"
 
@@ -167,15 +166,11 @@ RenderResult render(const RenderOptions& opt) {
   res.path_cap = wo.path_cap;
   // A profile recorder (issue 4) classifies rays in the CPU kernels: no GPU then.
   std::unique_ptr<gpu::GpuContext> gpu_ctx = opt.batching.recorder ? nullptr : open_gpu(opt, res);
-  WorkstationModel wm;
-  if (!opt.platform.empty() && opt.platform != "auto") wm = load_workstation_model(opt.platform);
+  WorkstationModel wm = workstation_model(opt.platform);
   wm.threads = threads;
   wm.ram_capacity = ram_capacity;
-  if (!gpu_ctx) {
-    wm.gpus.clear();
-  } else {
-    if (wm.gpus.empty()) wm.gpus.emplace_back();  // uncalibrated: the defaults seed the plan
-    wm.gpus.resize(1);
+  set_gpu(wm, 0);
+  if (gpu_ctx) {
     const Bytes budget = gpu_memory_budget(gpu_ctx->info(), opt.gpu_memory_budget);
     // The largest block and one full ray queue must fit, or a GPU job could never be placed.
     const Bytes need = largest + Bytes(wo.max_batch) * sizeof(trace::RayRecord);
@@ -183,13 +178,10 @@ RenderResult render(const RenderOptions& opt) {
       throw InputError("--gpu-memory-budget", "gpu-memory-budget",
                        "budget of " + std::to_string(budget) + " bytes is smaller than the largest block plus one ray queue (" +
                            std::to_string(need) + " bytes); use more blocks or a larger budget");
-    wm.gpus[0].memory = budget;
+    set_gpu(wm, budget);
     res.gpu_memory_budget = budget;
   }
-  DeviceGraph g = parse_platform(workstation_json(wm, opt.platform.empty() || opt.platform == "auto"
-                                                          ? std::string("this machine (defaults)")
-                                                          : "from " + opt.platform),
-                                 opt.platform.empty() ? std::string("<auto platform>") : opt.platform);
+  DeviceGraph g = make_workstation(wm, opt.platform);
   res.platform = opt.platform.empty() ? "auto" : opt.platform;
   MemId disk = kNone, ram = kNone, gmem = kNone;
   for (std::size_t i = 0; i < g.memories.size(); ++i) {
@@ -282,8 +274,7 @@ RenderResult render(const RenderOptions& opt) {
         do_evict(evict);
         const auto geo = store.get(job->cell);
         if (rec) rec->trace_job(ts, *geo, *job);  // issue 4: the same kernels, ray by ray
-        else if (job->kind == trace::RayKind::Path) trace::ray_intersect(ts, *geo, job->rays, job->out, job->counts);
-        else trace::shadow_intersect(ts, *geo, job->rays, job->out, job->counts);
+        else trace::intersect(ts, *geo, job->kind, job->rays, job->out, job->counts);
         std::vector<trace::RayRecord>().swap(job->rays);
       };
     }

@@ -52,8 +52,24 @@ std::string workstation_json(const WorkstationModel& m, const std::string& descr
   return s;
 }
 
-DeviceGraph make_workstation(const WorkstationModel& m) {
-  return parse_platform(workstation_json(m, "this machine (defaults)"), "<auto platform>");
+DeviceGraph make_workstation(const WorkstationModel& m, const std::string& platform) {
+  const bool defaults = platform.empty() || platform == "auto";
+  return parse_platform(workstation_json(m, defaults ? std::string("this machine (defaults)") : "from " + platform),
+                        defaults ? std::string("<auto platform>") : platform);
+}
+
+WorkstationModel workstation_model(const std::string& platform) {
+  return platform.empty() || platform == "auto" ? WorkstationModel{} : load_workstation_model(platform);
+}
+
+void set_gpu(WorkstationModel& m, Bytes memory) {
+  if (memory == 0) {
+    m.gpus.clear();
+    return;
+  }
+  if (m.gpus.empty()) m.gpus.emplace_back();  // uncalibrated: the defaults seed the plan
+  m.gpus.resize(1);
+  m.gpus[0].memory = memory;
 }
 
 WorkstationModel load_workstation_model(const std::string& path) {
@@ -121,13 +137,6 @@ WorkstationModel load_workstation_model(const std::string& path) {
   }
   if (!cpu) throw InputError(path, "compute", "no CPU compute device on host memory");
   return m;
-}
-
-DeviceGraph load_workstation(const std::string& path, int threads, Bytes ram_capacity) {
-  WorkstationModel m = load_workstation_model(path);
-  if (threads > 0) m.threads = threads;
-  if (ram_capacity > 0) m.ram_capacity = ram_capacity;
-  return parse_platform(workstation_json(m, "from " + path), path);
 }
 
 }  // namespace rayline::engine

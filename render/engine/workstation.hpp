@@ -41,16 +41,21 @@ struct WorkstationModel {
 
 // Names used by the renderer: memories "disk" and "ram" (+ "gpu<i>mem"), job types
 // "RayIntersect" and "ShadowIntersect".
-DeviceGraph make_workstation(const WorkstationModel& m);
+// `platform` names where the model came from ("auto" or a file: error messages).
+DeviceGraph make_workstation(const WorkstationModel& m, const std::string& platform = "auto");
 
-// The same graph read from a platform file (as written by `rayline calibrate`); checks that
-// it describes one machine the renderer can drive: a disk and a host memory device, a
+// A platform file (as written by `rayline calibrate`) read back into a model; checks that it
+// describes one machine the renderer can drive: a disk and a host memory device, a
 // disk→RAM channel, CPU compute devices on RAM running both job types, and optionally GPU
-// compute devices on GPU memory linked to RAM both ways. The file is read back into a
-// WorkstationModel; the caller applies its overrides (threads, capacities, GPUs) and
-// builds the graph with make_workstation.
+// compute devices on GPU memory linked to RAM both ways. The caller applies its overrides
+// (threads, capacities, GPUs) and builds the graph with make_workstation.
 WorkstationModel load_workstation_model(const std::string& path);
-DeviceGraph load_workstation(const std::string& path, int threads, Bytes ram_capacity);
+// "auto" (or "") = the defaults above, else load_workstation_model(platform).
+WorkstationModel workstation_model(const std::string& platform);
+
+// One GPU of `memory` bytes (its calibrated timing kept, else the defaults), or none when
+// `memory` is 0.
+void set_gpu(WorkstationModel& m, Bytes memory);
 
 // The platform JSON of a model (what `rayline calibrate` writes).
 std::string workstation_json(const WorkstationModel& m, const std::string& description);

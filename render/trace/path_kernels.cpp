@@ -294,4 +294,10 @@ void shadow_intersect(const TraceSettings& ts, const BlockGeometry& block, std::
   }
 }
 
+void intersect(const TraceSettings& ts, const BlockGeometry& block, RayKind kind, std::span<const RayRecord> rays,
+               std::vector<RayRecord>& out, RayCounts& counts) {
+  if (kind == RayKind::Path) ray_intersect(ts, block, rays, out, counts);
+  else shadow_intersect(ts, block, rays, out, counts);
+}
+
 }  // namespace rayline::trace

@@ -96,6 +96,9 @@ void shade_hit(const TraceSettings& ts, const RayRecord& r, const HitTriangle& h
 void continue_ray(const TraceSettings& ts, const RayRecord& r, std::vector<RayRecord>& out, RayCounts& counts);
 void shadow_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
                       std::vector<RayRecord>& out, RayCounts& counts);
+// The E-job of a queue of `kind` rays: ray_intersect or shadow_intersect.
+void intersect(const TraceSettings& ts, const BlockGeometry& block, RayKind kind, std::span<const RayRecord> rays,
+               std::vector<RayRecord>& out, RayCounts& counts);
 
 // Ray origin offset along the normal (Wächter & Binder, Ray Tracing Gems ch. 6): a few
 // ulps scaled by |p|, so self-intersection is avoided at any scene scale.
