@@ -82,6 +82,7 @@ int run_simulate(const SimulateOptions& opt) {
   cfg.progress = !opt.no_progress && ::isatty(2);
   cfg.prediction_depth = opt.prediction_depth;
   cfg.merge_planned = opt.merge_planned == "on";
+  cfg.cancel_failed = opt.cancel_failed == "on";
   cfg.fidelity = opt.fidelity;
   cfg.replay_file = opt.replay;
   cfg.record_replay = opt.record_replay;

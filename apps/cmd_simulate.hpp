@@ -21,6 +21,7 @@ struct SimulateOptions {
   std::string clients = "1";        // N, or a list "1,2,4,8": one run per value, peak reported
   int prediction_depth = 0;
   std::string merge_planned = "on";
+  std::string cancel_failed = "on";
   std::string fidelity = "markov";
   std::string replay;
   bool record_replay = false;

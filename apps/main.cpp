@@ -67,6 +67,11 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                   "planned); off = only unplanned queued jobs take them (Sec. 5.1)")
       ->default_val(opt->merge_planned)
       ->check(CLI::IsMember({"on", "off"}));
+  sim->add_option("--cancel-failed", opt->cancel_failed,
+                  "Path tracing with prediction: on = a planned predicted job that gets no rays is withdrawn with its "
+                  "T-jobs (Sec. 5.2); off = it runs empty and its prefetches still move data")
+      ->default_val(opt->cancel_failed)
+      ->check(CLI::IsMember({"on", "off"}));
   sim->add_option("--fidelity", opt->fidelity, "Path tracing: ray-flow model analytic, markov or replay")->default_val(opt->fidelity);
   sim->add_option("--replay", opt->replay, "Path tracing: replay log for --fidelity replay");
   sim->add_flag("--record-replay", opt->record_replay, "Path tracing: also write OUT/replay.log (this run's ray outcomes)");

@@ -34,25 +34,49 @@ void ExactExecutor::try_start(ActivityId id) {
   for (ActivityId p : a.timeline_prev)
     if (!ready(p)) return;
   s.started = true;
-  const Time dur = perturb ? perturb(id, a) : a.duration;
+  s.start = start;
+  const Time dur = a.cancelled ? 0 : perturb ? perturb(id, a) : a.duration;  // withdrawn: 0 s
   s.end = start + dur;
   running_.emplace(s.end, id);
   pending_starts_.push_back({ExecutorEvent::Type::Started, id, start});
 }
 
 bool ExactExecutor::advance(std::vector<ExecutorEvent>& out) {
-  if (!pending_starts_.empty()) {
+  for (ActivityId id : reported_starts_) {
+    State& s = st_[id];
+    if (!s.done && s.end > s.start && schedule_.activity(id).cancelled) {
+      s.end = s.start;  // the entry at the old end is skipped below
+      running_.emplace(s.end, id);
+    }
+  }
+  reported_starts_.clear();
+  auto hand_out = [&] {
+    for (const ExecutorEvent& e : pending_starts_) reported_starts_.push_back(e.activity);
     out.insert(out.end(), pending_starts_.begin(), pending_starts_.end());
     pending_starts_.clear();
+  };
+  if (!pending_starts_.empty()) {
+    hand_out();
     return true;
   }
+  while (!running_.empty() && (st_[running_.top().second].done || st_[running_.top().second].end != running_.top().first))
+    running_.pop();  // superseded entries of withdrawn activities
   if (running_.empty()) return false;
   const Time t = running_.top().first;
   now_ = std::max(now_, t);
   while (!running_.empty() && running_.top().first == t) {
     const ActivityId id = running_.top().second;
     running_.pop();
+    if (st_[id].done || st_[id].end != t) continue;
     st_[id].done = true;
+    // A 0 s activity started in this very step: its start goes out before its end.
+    if (auto it = std::find_if(pending_starts_.begin(), pending_starts_.end(),
+                               [id](const ExecutorEvent& e) { return e.activity == id; });
+        it != pending_starts_.end()) {
+      out.push_back(*it);
+      reported_starts_.push_back(id);
+      pending_starts_.erase(it);
+    }
     out.push_back({ExecutorEvent::Type::Finished, id, t});
     if (static_cast<std::size_t>(id) < waiters_.size()) {
       std::vector<ActivityId> w;
@@ -60,8 +84,7 @@ bool ExactExecutor::advance(std::vector<ExecutorEvent>& out) {
       for (ActivityId x : w) try_start(x);
     }
   }
-  out.insert(out.end(), pending_starts_.begin(), pending_starts_.end());
-  pending_starts_.clear();
+  hand_out();
   return true;
 }
 

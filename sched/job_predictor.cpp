@@ -159,10 +159,28 @@ JobId JobPredictor::resolve(JobId parent, PtJob kind, int block, std::uint64_t a
     return kNone;
   }
   ++stats_.failed;
-  if (planned) return c;  // runs empty; its own children fail when it ends
+  if (planned) {  // no rays will come to it nor below it: its planned subtree is withdrawn
+    fail_planned(c, pool);
+    return c;
+  }
   pool.mark_discarded(c);
   for (JobId k : std::vector<JobId>(n.children)) discard(k, pool, true);
   return kNone;
+}
+
+void JobPredictor::fail_planned(JobId j, JobPool& pool) {
+  for (JobId k : std::vector<JobId>(node(j).children)) {
+    Node& n = node(k);
+    if (n.resolved) continue;
+    if (pool.state(k) == JobState::Planned) {
+      n.resolved = true;
+      ++stats_.failed;
+      fail_planned(k, pool);
+    } else {
+      discard(k, pool, true);
+    }
+  }
+  failed_planned_.push_back(j);
 }
 
 const std::vector<JobId>& JobPredictor::children(JobId j) const {

@@ -20,13 +20,15 @@
 //     them (the workload gives it the real rays; its E-job runs for their real size);
 //   * real rays but the child is still queued: it is superseded — discarded with its
 //     subtree, and the rays become an ordinary (merged or new) job;
-//   * no rays: it failed — discarded with its subtree if queued; if planned, it runs empty
-//     (0 s), because the Schedule has no API to cancel committed activities (its T-jobs,
-//     the wasted prefetch, still run).
+//   * no rays: it failed — discarded with its subtree. If queued, the jobs leave the pool;
+//     if planned, the whole planned subtree fails at once and is listed (deepest first) by
+//     take_failed_planned(), for the workload to withdraw their E-jobs and T-jobs from the
+//     Schedule (Schedule::cancel_job: the paper's "discarded with their T-jobs").
 // Placeholders are not "consumed" blocks: a leftover placeholder is plain cache that the
 // Schedule may evict once no queued job wants it (its size never changes after commit).
 #pragma once
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include "job_pool.hpp"
@@ -80,6 +82,9 @@ class JobPredictor {
   JobId resolve(JobId parent, PtJob kind, int block, std::uint64_t actual, JobPool& pool);
   // After the parent's outcomes were resolved: children it produced nothing for failed.
   void finish(JobId parent, JobPool& pool);
+  // Planned predicted jobs judged failed since the last call, every job after its
+  // descendants (so each one's outputs are unused when it is withdrawn).
+  std::vector<JobId> take_failed_planned() { return std::exchange(failed_planned_, {}); }
   double predicted_rays(JobId j) const { return nodes_[static_cast<std::size_t>(j)].rays; }
   PtJob kind(JobId j) const { return nodes_[static_cast<std::size_t>(j)].kind; }
   int block(JobId j) const { return nodes_[static_cast<std::size_t>(j)].block; }
@@ -106,6 +111,7 @@ class JobPredictor {
   void children_of(const Node& n, std::vector<Spec>& out) const;
   JobId add_node(Job job, Node node, JobPool& pool);
   void discard(JobId j, JobPool& pool, bool judged_failed);
+  void fail_planned(JobId j, JobPool& pool);
   Node& node(JobId j);
 
   const SceneProfile& profile_;
@@ -115,6 +121,7 @@ class JobPredictor {
   std::vector<double> hits_, rays_, survived_, shaded_;  // per block, observed
   std::vector<Node> nodes_;                              // per JobId (real jobs too)
   PredictionStats stats_;
+  std::vector<JobId> failed_planned_;
 };
 
 }  // namespace rayline

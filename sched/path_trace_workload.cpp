@@ -170,7 +170,8 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   if (auto pl = planned_at_.find(key); opt_.merge_planned && pl != planned_at_.end()) {
     const JobId j = pl->second;
     JobInfo& I = info(j);
-    if (pool.state(j) == JobState::Planned && s.activity(pool.activity(j)).state == ActivityState::Planned && I.resolved) {
+    const Activity* pa = pool.state(j) == JobState::Planned ? &s.activity(pool.activity(j)) : nullptr;
+    if (pa && pa->state == ActivityState::Planned && !pa->cancelled && I.resolved) {
       merge_into(I.rays, rays);
       merge_into(I.records, records);
       if (pt_traces_rays(kind)) pool.job(j).work += n;
@@ -375,13 +376,18 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
   for (auto& [k, d] : dests) route(j, d, mem, now, pool, s);
   if (predictor_) {  // children it produced nothing for: failed (Sec. 5.2)
     predictor_->finish(j, pool);
-    for (JobId c : predictor_->children(j)) {
+    // Planned failures (deepest first): nothing to process; withdrawn with their T-jobs.
+    for (JobId c : predictor_->take_failed_planned()) {
       JobInfo& C = info(c);
-      if (!C.resolved) {  // planned, and the parent produced nothing for it: runs empty
-        C.resolved = true;
-        C.rays.clear();
-        pool.job(c).work = 0;
-      }
+      C.resolved = true;
+      C.rays.clear();
+      pool.job(c).work = 0;
+      if (!opt_.cancel_failed) continue;
+      const Schedule::CancelCount n = s.cancel_job(c);
+      withdrawn_.execs += n.execs;
+      withdrawn_.transfers += n.transfers;
+      withdrawn_.kept_transfers += n.kept_transfers;
+      withdrawn_.bytes += n.bytes;
     }
   }
   normalize(samples);

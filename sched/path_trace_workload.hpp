@@ -36,6 +36,9 @@ struct PathTraceOptions {
   // block join it, so that E-job runs longer than planned (see add_queue). Off: they
   // wait in the global queue for a new job (Sec. 5.1 read strictly: merge into *queued* jobs).
   bool merge_planned = true;
+  // A planned prediction that failed is withdrawn with its T-jobs (Sec. 5.2, Schedule::
+  // cancel_job). Off: it runs empty (0 s) and its prefetches still move their blocks.
+  bool cancel_failed = true;
 };
 
 struct RayTally {
@@ -70,6 +73,9 @@ class PathTraceWorkload final : public Workload {
   const RayFlowModel& model() const { return model_; }
   std::uint64_t merges() const { return merges_; }
   std::uint64_t merges_into_planned() const { return merges_planned_; }
+  // What withdrawing failed predictions removed from the plan (and the T-jobs it kept
+  // because another job uses their copies).
+  const Schedule::CancelCount& withdrawn() const { return withdrawn_; }
   std::uint64_t jobs_of(PtJob k) const { return jobs_by_kind_[static_cast<int>(k)]; }
   // (finish time, rays) of every finished RayIntersect/ShadowIntersect; (time, rays ended).
   const std::vector<std::pair<Time, std::uint64_t>>& traced() const { return traced_; }
@@ -120,6 +126,7 @@ class PathTraceWorkload final : public Workload {
   std::map<std::tuple<int, int, MemId>, JobId> planned_at_;  // (kind, block, memory) -> latest job planned to run there
   std::size_t act_cursor_ = 0;
   std::uint64_t merges_planned_ = 0;
+  Schedule::CancelCount withdrawn_;
   RayTally tally_;
   std::vector<FrameReport> reports_;
   std::vector<std::pair<Time, std::uint64_t>> traced_, ended_;

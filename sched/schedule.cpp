@@ -190,6 +190,10 @@ ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time
   }
   acts_.push_back(std::move(a));
   ++unfinished_;
+  if (for_job >= 0) {
+    if (static_cast<std::size_t>(for_job) >= job_transfers_.size()) job_transfers_.resize(static_cast<std::size_t>(for_job) + 1);
+    job_transfers_[static_cast<std::size_t>(for_job)].push_back(id);
+  }
   apply_evictions(adm, ch.to, id, blk.name + " (" + std::to_string(blk.bytes) + " B)");
   if (blk.consumed) {
     drop_copy_later(b, ch.from, id);
@@ -254,6 +258,78 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
     add_copy(o, std::move(c));
   }
   return id;
+}
+
+const std::vector<ActivityId>& Schedule::transfers_for(JobId j) const {
+  static const std::vector<ActivityId> kNoTransfers;
+  return j >= 0 && static_cast<std::size_t>(j) < job_transfers_.size() ? job_transfers_[static_cast<std::size_t>(j)]
+                                                                         : kNoTransfers;
+}
+
+void Schedule::forget_user(Copy* c, ActivityId a) {
+  if (c) std::erase(c->users, a);
+}
+
+// The copy of b on m that `producer` makes leaves the plan now; its bytes stay reserved
+// until `producer` ends (a Leaving entry), so no later admission counts on room that the
+// producer's own evictions free only once their users are done. A copy evicted since
+// (or replaced by another producer's) is left alone. False: a live activity still uses it.
+bool Schedule::withdraw_copy(BlockId b, MemId m, ActivityId producer) {
+  auto& v = copies_[b];
+  auto it = std::find_if(v.begin(), v.end(), [&](const Copy& c) { return c.mem == m && c.producer == producer; });
+  if (it == v.end()) return true;
+  if (!it->users.empty()) return false;
+  v.erase(it);
+  ++holders_version_[b];
+  ++memory_version_[m];
+  leaving_.push_back({b, m, producer, pool_->block(b).bytes});
+  return true;
+}
+
+bool Schedule::cancel(ActivityId id) {
+  Activity& a = acts_[id];
+  if (a.state != ActivityState::Planned || a.cancelled) return false;
+  auto unused = [&](BlockId b, MemId m) {
+    const Copy* c = copy_at(b, m);
+    return !c || c->producer != id || c->users.empty();
+  };
+  if (a.kind == ActivityKind::Transfer) {
+    const Channel& ch = graph_->channels[a.channel];
+    if (a.move || !unused(a.block, ch.to)) return false;
+    withdraw_copy(a.block, ch.to, id);
+    forget_user(mutable_copy(a.block, ch.from), id);
+    for (ResourceId r : ch.resources) ++resource_version_[r];
+  } else {
+    const Job& job = pool_->job(a.job);
+    const MemId m = graph_->computes[a.device].memory;
+    for (BlockId b : job.inputs)
+      if (pool_->block(b).consumed) return false;
+    for (BlockId o : job.outputs)
+      if (!unused(o, m)) return false;
+    for (BlockId o : job.outputs) withdraw_copy(o, m, id);
+    for (BlockId b : job.inputs) forget_user(mutable_copy(b, m), id);
+  }
+  a.cancelled = true;
+  a.duration = a.setup = 0;
+  a.end = a.start;
+  return true;
+}
+
+Schedule::CancelCount Schedule::cancel_job(JobId j) {
+  CancelCount n;
+  const ActivityId e = pool_->activity(j);
+  if (e != kNone && cancel(e)) ++n.execs;
+  const std::vector<ActivityId>& ts = transfers_for(j);
+  for (auto it = ts.rbegin(); it != ts.rend(); ++it) {
+    if (acts_[*it].cancelled) continue;
+    if (cancel(*it)) {
+      ++n.transfers;
+      n.bytes += acts_[*it].bytes;
+    } else {
+      ++n.kept_transfers;
+    }
+  }
+  return n;
 }
 
 Time Schedule::inputs_ready_at(JobId j, MemId m) const {

@@ -16,7 +16,7 @@
 namespace rayline {
 
 enum class ActivityKind : std::uint8_t { Exec, Transfer };
-enum class ActivityState : std::uint8_t { Planned, Running, Done, Failed, Cancelled };
+enum class ActivityState : std::uint8_t { Planned, Running, Done, Failed };
 
 struct Activity {
   ActivityKind kind = ActivityKind::Exec;
@@ -32,6 +32,7 @@ struct Activity {
   Time planned_start = 0, planned_end = 0;  // as committed (never changed afterwards)
   Time start = 0, end = 0;     // projected; the measured values once known
   Time data_ready = 0;         // Exec: when every input was resident (fetching idle, Sec. 4.2)
+  bool cancelled = false;      // withdrawn by Schedule::cancel: runs for 0 s, moves nothing
   std::vector<ActivityId> deps;      // data / eviction / job-job dependencies
   std::vector<ActivityId> timeline_prev;  // predecessor on each of its timelines
 };
@@ -117,6 +118,25 @@ class Schedule {
   // Appends an E-job; inputs must already be (or be arriving) on the device's memory.
   ActivityId commit_exec(JobId j, DeviceId d, Time not_before, const Admission& out_adm);
 
+  // ---- withdrawing (used by workloads) ----------------------------------------------
+  // Sec. 5.2: a predicted job whose parent produced nothing for it is "discarded with its
+  // T-jobs". cancel() withdraws one Planned (not yet started) activity when nothing else
+  // counts on what it produces: a T-job that copies (never one that moves a ray queue)
+  // and whose destination copy no live activity uses; an E-job that consumes no input and
+  // whose outputs no live activity uses. Its copies disappear from the plan at once, but
+  // their bytes stay reserved until the activity "finishes"; it keeps its dependencies
+  // and its place on its timelines and runs for 0 s, so executors complete it as soon as
+  // what it waited for is done, and reproject() pulls its successors forward. Evictions
+  // made for it stand (they were decided; the room is simply free). Returns false, and
+  // changes nothing, when the activity is not withdrawable.
+  bool cancel(ActivityId a);
+  // Withdraws job j's E-job, then its T-jobs, last hop first (each one's copy is used by
+  // the next), keeping those another activity still needs.
+  struct CancelCount { int execs = 0, transfers = 0, kept_transfers = 0; Bytes bytes = 0; };
+  CancelCount cancel_job(JobId j);
+  // T-jobs committed to fetch inputs for job j (commit order).
+  const std::vector<ActivityId>& transfers_for(JobId j) const;
+
   // ---- reality (used by the runtime loop) -------------------------------------------
   void on_started(ActivityId a, Time t);
   void on_finished(ActivityId a, Time t);
@@ -137,6 +157,8 @@ class Schedule {
   Copy* mutable_copy(BlockId b, MemId m);
   void add_copy(BlockId b, Copy c);
   void drop_copy_later(BlockId b, MemId m, ActivityId leaving_with);
+  bool withdraw_copy(BlockId b, MemId m, ActivityId producer);
+  static void forget_user(Copy* c, ActivityId a);
   Time end_of(ActivityId a) const { return a == kNone ? 0 : acts_[a].end; }
 
   const DeviceGraph* graph_;
@@ -151,6 +173,7 @@ class Schedule {
   struct Leaving { BlockId block; MemId mem; ActivityId at; Bytes bytes; };
   std::vector<Leaving> leaving_;
   std::vector<Eviction> evictions_;
+  std::vector<std::vector<ActivityId>> job_transfers_;  // per JobId: its T-jobs
   std::vector<std::size_t> device_pending_;
   std::size_t unfinished_ = 0;
   EvictionPolicy eviction_policy_ = EvictionPolicy::QueueAware;

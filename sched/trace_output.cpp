@@ -43,6 +43,7 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
   };
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
     const Activity& a = s.activity(id);
+    if (a.cancelled) continue;  // withdrawn before it ran: nothing to show (jobs.csv lists it)
     emit(a, id, false);
     if (include_actual && a.state == ActivityState::Done) emit(a, id, true);
   }
@@ -75,7 +76,7 @@ std::string jobs_csv(const Schedule& s) {
     } else {
       out << ",,";
     }
-    out << (done ? "done" : "planned") << '\n';
+    out << (a.cancelled ? "cancelled" : done ? "done" : "planned") << '\n';
   }
   return out.str();
 }

@@ -15,6 +15,7 @@ Utilisation compute_utilisation(const Schedule& s, Time t0, Time t1) {
     Time prev_end = t0;
     for (ActivityId id : s.device_timeline(static_cast<DeviceId>(d)).items) {
       const Activity& a = s.activity(id);
+      if (a.cancelled) continue;  // withdrawn (Sec. 5.2): it never waited for data nor ran
       // Gap before this E-job: fetching while its inputs were still arriving, idle otherwise.
       const Time gap_end = std::max(prev_end, a.start);
       const Time fetch_until = std::clamp(a.data_ready, prev_end, gap_end);

@@ -45,6 +45,10 @@ void SimExecutor::try_start(ActivityId id) {
   s.started = true;
   ++started_count_;
   buffered_.push_back({ExecutorEvent::Type::Started, id, platform_.now()});
+  if (a.cancelled) {  // withdrawn (Schedule::cancel): done the moment it may run, nothing moves
+    on_done(id, platform_.now(), true);
+    return;
+  }
   auto cb = [this, id](const SgCompletion& c) { on_done(id, c.finish_s, c.ok); };
   if (a.kind == ActivityKind::Transfer) {
     platform_.start_transfer(a.channel, a.bytes, cb);

@@ -87,7 +87,10 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   if (const PredictionStats* p = pt.prediction()) {
     j["prediction"] = {{"created", p->created}, {"confirmed", p->confirmed}, {"confirmed_planned", p->confirmed_planned},
                        {"failed", p->failed}, {"superseded", p->superseded}, {"accuracy", p->accuracy()},
-                       {"ray_accuracy", p->ray_accuracy()}};
+                       {"ray_accuracy", p->ray_accuracy()}, {"cancel_failed", cfg.cancel_failed},
+                       {"withdrawn", {{"e_jobs", pt.withdrawn().execs}, {"t_jobs", pt.withdrawn().transfers},
+                                      {"t_jobs_kept", pt.withdrawn().kept_transfers},
+                                      {"t_job_bytes", pt.withdrawn().bytes}}}};
     sum.prediction_accuracy = p->accuracy();
     sum.prediction_ray_accuracy = p->ray_accuracy();
   }
@@ -131,6 +134,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     pto.clients = cfg.clients;
     pto.prediction_depth = cfg.prediction_depth;
     pto.merge_planned = cfg.merge_planned;
+    pto.cancel_failed = cfg.cancel_failed;
     pto.seed = cfg.seed;
   }
   ReplayLog recording;
@@ -231,18 +235,22 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   Time planned_ms = 0, actual_ms = 0;
   for (std::size_t i = 0; i < s.activity_count(); ++i) {
     const Activity& a = s.activity(static_cast<ActivityId>(i));
-    if (a.state != ActivityState::Done) continue;
+    if (a.state != ActivityState::Done || a.cancelled) continue;
     planned_ms = std::max(planned_ms, a.planned_end);
     actual_ms = std::max(actual_ms, a.end);
   }
   m["makespan_s"] = {{"planned", planned_ms}, {"actual", actual_ms}, {"gap", actual_ms - planned_ms}};
   m["stalled"] = st.stalled;
-  std::uint64_t done_exec = 0, done_transfer = 0;
+  std::uint64_t done_exec = 0, done_transfer = 0, cancelled_exec = 0, cancelled_transfer = 0;
   std::vector<double> err_exec, err_transfer;
   double work_done = 0;
   std::vector<double> per_second(static_cast<std::size_t>(std::ceil(std::max<Time>(end, 1e-9))), 0.0);
   for (std::size_t i = 0; i < s.activity_count(); ++i) {
     const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.cancelled) {  // withdrawn predictions (Sec. 5.2): no work, no error sample
+      ++(a.kind == ActivityKind::Exec ? cancelled_exec : cancelled_transfer);
+      continue;
+    }
     if (a.state != ActivityState::Done) continue;
     const double actual = a.end - a.start;
     const double rel = a.duration > 0 ? std::abs(actual - a.duration) / a.duration : 0;
@@ -263,7 +271,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   m["rays_per_second_series"] = per_second;
   m["activities"] = {{"e_jobs_done", done_exec}, {"t_jobs_done", done_transfer},
                      {"committed", s.activity_count()}, {"evictions", s.evictions().size()},
-                     {"queued_at_end", pool.queued_count()}};
+                     {"queued_at_end", pool.queued_count()}, {"e_jobs_cancelled", cancelled_exec},
+                     {"t_jobs_cancelled", cancelled_transfer}};
   if (rs) m["activities"]["queue_merges"] = rs->merges();
   SimulationSummary sum;
   if (pt) path_trace_metrics(m, *pt, *profile, cfg, end, sum);

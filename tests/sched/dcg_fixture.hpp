@@ -127,6 +127,7 @@ inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
       st.leave = std::min(st.leave, at);
     }
     const Activity& a = s.activity(id);
+    if (a.cancelled) continue;  // withdrawn (Schedule::cancel): no copy, no residency needed
     if (a.kind == ActivityKind::Transfer) {
       const Channel& c = g.channels[a.channel];
       stays[{a.block, c.to}].push_back({a.start, a.end, kNever});
@@ -153,7 +154,7 @@ inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
   // Every E-job input must stay until the job ends.
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
     const Activity& a = s.activity(id);
-    if (a.kind != ActivityKind::Exec) continue;
+    if (a.kind != ActivityKind::Exec || a.cancelled) continue;
     const MemId m = g.computes[a.device].memory;
     for (BlockId b : pool.job(a.job).inputs) {
       const auto& v = stays[{b, m}];
@@ -177,6 +178,38 @@ inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
       cur += delta;
       if (cur > static_cast<double>(g.memories[m].capacity) + 0.5)
         out.fail(g.memories[m].name + " over capacity at t=" + std::to_string(t));
+    }
+  }
+  // Withdrawn activities produce nothing: no live activity may read what one would have made
+  // (a cancelled T-job's destination copy, a cancelled E-job's outputs).
+  for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
+    const Activity& a = s.activity(id);
+    if (a.cancelled) {
+      if (a.end - a.start > eps) out.fail("withdrawn activity " + std::to_string(id) + " took time");
+      continue;
+    }
+    // What it reads: (block, memory) pairs; a dependency that delivers one of them is where
+    // it reads it from, unless a live activity among its dependencies delivers it too (a
+    // cancelled one may also be a dependency for its reserved room, Schedule::cancel).
+    std::vector<std::pair<BlockId, MemId>> reads;
+    if (a.kind == ActivityKind::Transfer) {
+      reads.emplace_back(a.block, g.channels[a.channel].from);
+    } else {
+      for (BlockId b : pool.job(a.job).inputs) reads.emplace_back(b, g.computes[a.device].memory);
+    }
+    auto delivers = [&](const Activity& c, BlockId b, MemId m) {
+      if (c.kind == ActivityKind::Transfer) return c.block == b && g.channels[c.channel].to == m;
+      const auto& outs = pool.job(c.job).outputs;
+      return g.computes[c.device].memory == m && std::find(outs.begin(), outs.end(), b) != outs.end();
+    };
+    for (auto [b, m] : reads) {
+      bool live = false, withdrawn = false;
+      for (ActivityId p : a.deps) {
+        if (!delivers(s.activity(p), b, m)) continue;
+        (s.activity(p).cancelled ? withdrawn : live) = true;
+      }
+      if (withdrawn && !live)
+        out.fail("activity " + std::to_string(id) + " reads " + pool.block(b).name + " from a withdrawn activity");
     }
   }
   // 4. Every non-discarded job has exactly one E-job.

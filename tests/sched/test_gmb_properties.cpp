@@ -181,23 +181,54 @@ Time lower_bound(const DeviceGraph& g, const JobPool& pool, const std::vector<st
 struct RunResult {
   Time makespan;
   bool stalled;
+  int withdrawn = 0;
+};
+
+// All jobs known up front; whenever a job ends, it may withdraw another planned job's
+// activities (Schedule::cancel_job) as the path-tracing workload does with failed
+// predictions. Jobs with outputs are never withdrawn (nothing would make their outputs).
+class WithdrawingWorkload final : public Workload {
+ public:
+  explicit WithdrawingWorkload(std::uint32_t seed) : rng_(seed) {}
+  void start(Time, JobPool&, Schedule&) override {}
+  void on_job_finished(JobId, Time, JobPool& pool, Schedule& s) override {
+    if (std::uniform_int_distribution<int>(0, 1)(rng_) == 0) return;
+    std::vector<JobId> planned;
+    for (std::size_t j = 0; j < pool.job_count(); ++j) {
+      const auto id = static_cast<JobId>(j);
+      if (pool.state(id) == JobState::Planned && pool.job(id).outputs.empty() &&
+          s.activity(pool.activity(id)).state == ActivityState::Planned && !s.activity(pool.activity(id)).cancelled)
+        planned.push_back(id);
+    }
+    if (planned.empty()) return;
+    const Schedule::CancelCount n =
+        s.cancel_job(planned[std::uniform_int_distribution<std::size_t>(0, planned.size() - 1)(rng_)]);
+    withdrawn += n.execs + n.transfers;
+  }
+  bool finished() const override { return true; }
+  int withdrawn = 0;
+
+ private:
+  std::mt19937 rng_;
 };
 
 RunResult run(Instance& inst, Time horizon, const std::function<Time(ActivityId, const Activity&)>& perturb,
-              bool completion_aware) {
+              bool completion_aware, bool withdraw = false, std::uint32_t seed = 0) {
   Schedule s(inst.g, inst.pool);
   for (auto [b, m] : inst.initial) s.put_initial(b, m);
   GmbScheduler gmb({.horizon = horizon, .completion_aware = completion_aware});
   ExactExecutor ex(s);
   ex.perturb = perturb;
-  StaticWorkload wl;
+  StaticWorkload static_wl;
+  WithdrawingWorkload withdrawing_wl(seed);
+  Workload& wl = withdraw ? static_cast<Workload&>(withdrawing_wl) : static_wl;
   RuntimeLoop loop(gmb, ex, wl, inst.pool, s);
   const RunStats st = loop.run();
   const auto check = check_schedule(s, inst.pool);
   for (const auto& e : check.errors) ADD_FAILURE() << e;
   for (std::size_t j = 0; j < inst.pool.job_count(); ++j)
     EXPECT_EQ(inst.pool.state(static_cast<JobId>(j)), JobState::Done) << inst.pool.job(static_cast<JobId>(j)).name;
-  return {st.makespan, st.stalled};
+  return {st.makespan, st.stalled, withdrawing_wl.withdrawn};
 }
 }  // namespace
 
@@ -205,9 +236,10 @@ class GmbProperty : public ::testing::TestWithParam<int> {};
 
 TEST_P(GmbProperty, InvariantsHoldOnRandomInstances) {
   // 0: exact, ample memory; 1: tight memory; 2: DAG; 3: perturbed reality;
-  // 4: completion-aware GMB with tight memory, DAG and perturbed reality.
+  // 4: completion-aware GMB with tight memory, DAG and perturbed reality;
+  // 5: like 3, and planned jobs are withdrawn at random (Schedule::cancel_job, Sec. 5.2).
   const int mode = GetParam();
-  int checked = 0;
+  int checked = 0, withdrawn = 0;
   double worst_gap = 1e9;
   for (int seed = 0; seed < 60; ++seed) {
     std::mt19937 rng(1000 * mode + seed);
@@ -221,7 +253,8 @@ TEST_P(GmbProperty, InvariantsHoldOnRandomInstances) {
         return a.duration * std::uniform_real_distribution<double>(0.6, 1.6)(*prng);
       };
     }
-    const RunResult r = run(inst, horizon, perturb, mode == 4);
+    const RunResult r = run(inst, horizon, perturb, mode == 4, mode == 5, static_cast<std::uint32_t>(seed));
+    withdrawn += r.withdrawn;
     ASSERT_FALSE(r.stalled) << "seed " << seed;
     if (mode < 3) {
       EXPECT_GE(r.makespan, lb * (1 - 1e-9)) << "seed " << seed;
@@ -233,11 +266,14 @@ TEST_P(GmbProperty, InvariantsHoldOnRandomInstances) {
       return;
     }
   }
-  if (mode < 3) std::printf("[property mode %d] %d random instances, min makespan/lower-bound %.3f\n", mode, checked, worst_gap);
+  if (mode == 5) {
+    EXPECT_GT(withdrawn, 100) << "the withdrawing runs must actually withdraw activities";
+    std::printf("[property mode 5] %d random instances, %d activities withdrawn, invariants hold\n", checked, withdrawn);
+  } else if (mode < 3) std::printf("[property mode %d] %d random instances, min makespan/lower-bound %.3f\n", mode, checked, worst_gap);
   else std::printf("[property mode %d] %d random instances, invariants hold under perturbed durations\n", mode, checked);
 }
 
-INSTANTIATE_TEST_SUITE_P(Modes, GmbProperty, ::testing::Values(0, 1, 2, 3, 4));
+INSTANTIATE_TEST_SUITE_P(Modes, GmbProperty, ::testing::Values(0, 1, 2, 3, 4, 5));
 
 // A plan executed with no perturbation reproduces the predicted makespan exactly when it
 // was planned in one pass (k = infinity).

@@ -115,3 +115,30 @@ TEST(JobPredictor, EstimatesAverageObservedOutcomes) {
   f.pred.observe_shade(0, 1000000, 100000);
   EXPECT_NEAR(f.pred.beta(0), 0.1, 0.01);
 }
+
+TEST(JobPredictor, PlannedMissFailsItsPlannedSubtreeDeepestFirst) {
+  Fixture f(2);
+  Job j;
+  const JobId r = f.pred.add(j, PtJob::Intersect, 1, 100000, f.pool);
+  JobId c2 = kNone;
+  for (JobId c : f.pred.children(r))
+    if (f.pred.kind(c) == PtJob::Intersect && f.pred.block(c) == 2) c2 = c;
+  ASSERT_NE(c2, kNone);
+  ASSERT_FALSE(f.pred.children(c2).empty());
+  f.pool.mark_planned(r, 0);
+  f.pool.mark_planned(c2, 1);
+  const JobId g = f.pred.children(c2).front();  // planned too; its siblings stay queued
+  f.pool.mark_planned(g, 2);
+  const std::size_t failed_before = f.pred.stats().failed;
+  EXPECT_EQ(f.pred.resolve(r, PtJob::Intersect, 2, 0, f.pool), c2);  // no rays: failed, planned
+  const std::vector<JobId> gone = f.pred.take_failed_planned();
+  ASSERT_GE(gone.size(), 2u);
+  EXPECT_EQ(gone.back(), c2) << "the job comes after its descendants";
+  EXPECT_NE(std::find(gone.begin(), gone.end(), g), gone.end());
+  EXPECT_LT(std::find(gone.begin(), gone.end(), g) - gone.begin(), static_cast<std::ptrdiff_t>(gone.size() - 1));
+  // Every descendant was judged now: failed, queued ones discarded.
+  for (JobId k : f.pred.children(c2))
+    if (k != g) EXPECT_EQ(f.pool.state(k), JobState::Discarded);
+  EXPECT_GE(f.pred.stats().failed - failed_before, 1 + f.pred.children(c2).size());
+  EXPECT_TRUE(f.pred.take_failed_planned().empty());
+}

@@ -27,10 +27,11 @@ struct Outcome {
   std::uint64_t alive = 0, fallback = 0, exact_pieces = 0;
   bool stalled = false;
   std::uint64_t merges_into_planned = 0;
+  Schedule::CancelCount withdrawn;
 };
 
 Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr, ReplayLog* record = nullptr,
-        int clients = 2, int frames = 2, std::uint64_t seed = 7, bool merge_planned = true) {
+        int clients = 2, int frames = 2, std::uint64_t seed = 7, bool merge_planned = true, bool cancel_failed = true) {
   const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
   const SceneProfile prof = load_scene_profile(kProfile);
   PathTraceOptions o;
@@ -42,6 +43,7 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   o.record = record;
   o.seed = seed;
   o.merge_planned = merge_planned;
+  o.cancel_failed = cancel_failed;
   JobPool pool;
   Schedule s(g, pool);
   PathTraceWorkload wl(g, prof, o);
@@ -62,6 +64,17 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   r.exact_pieces = wl.model().exact_pieces();
   r.stalled = st.stalled;
   r.merges_into_planned = wl.merges_into_planned();
+  r.withdrawn = wl.withdrawn();
+  // Withdrawn predictions leave no trace a live activity reads (DESIGN.md invariants).
+  std::size_t cancelled = 0;
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (!a.cancelled) continue;
+    ++cancelled;
+    EXPECT_EQ(a.state, ActivityState::Done);
+    EXPECT_EQ(a.end, a.start) << "a withdrawn activity runs for 0 s";
+  }
+  EXPECT_EQ(cancelled, static_cast<std::size_t>(r.withdrawn.execs + r.withdrawn.transfers));
   return r;
 }
 
@@ -95,9 +108,16 @@ TEST(PathTraceConservation, MarkovPrediction) {
   expect_conserved(r, 2, 2);
   EXPECT_GT(r.prediction.created, 0u);
   EXPECT_GT(r.prediction.confirmed, 0u);
+  EXPECT_GT(r.withdrawn.execs, 0) << "failed planned predictions are withdrawn (Sec. 5.2)";
   EXPECT_GE(r.prediction.accuracy(), 0.0);
   EXPECT_LE(r.prediction.accuracy(), 1.0);
 }
+TEST(PathTraceConservation, MarkovPredictionWithoutWithdrawing) {
+  const Outcome r = run(Fidelity::Markov, 2, nullptr, nullptr, 2, 2, 7, true, false);
+  expect_conserved(r, 2, 2);
+  EXPECT_EQ(r.withdrawn.execs + r.withdrawn.transfers, 0);
+}
+
 TEST(PathTraceConservation, ReplayNoPrediction) {
   expect_conserved(run(Fidelity::Replay, 0, recorded()), 2, 2);
 }
