@@ -141,6 +141,7 @@ print(df[['scene', 'scheduler', 'clients', 'status', 'steady_rays_per_second', '
 NB["04_horizon_prediction"] = [
 """df = load('horizon')
 k = df[df.label == 'horizon']; d = df[df.label == 'depth']
+kept = df[df.label == 'depth, failed kept']  # --cancel-failed off: failed predictions' T-jobs still run
 scenes = sorted(df.scene.unique())
 fig, axes = plt.subplots(1, 3, figsize=(15, 3.8))
 for scene, ls in zip(scenes, ['-', '--']):
@@ -151,6 +152,8 @@ for scene, ls in zip(scenes, ['-', '--']):
         axes[2].plot(r.horizon_s, 100 * r.scheduler_share, 'o' + ls, color=c, label=f'{scene}, {p}')
         r2 = d[(d.scene == scene) & (d.platform == p)].sort_values('prediction_depth')
         axes[1].plot(r2.prediction_depth, r2.steady_rays_per_second, 'o' + ls, color=c, label=f'{scene}, {p}')
+        r3 = kept[(kept.scene == scene) & (kept.platform == p)].sort_values('prediction_depth')
+        if len(r3): axes[1].plot(r3.prediction_depth, r3.steady_rays_per_second, 'x', color=c, ms=8, label=f'{scene}, {p}: failed kept')
 for ax in axes: ax.grid(alpha=.3)
 axes[0].set_xscale('log'); axes[0].set_yscale('log'); axes[0].set_xlabel('horizon k (s)'); axes[0].set_ylabel('steady rays/s'); axes[0].set_title('GMB throughput vs k')
 axes[1].set_yscale('log'); axes[1].set_xlabel('prediction depth'); axes[1].set_title('GMB throughput vs prediction depth (k = 2 s)'); axes[1].set_xticks(sorted(d.prediction_depth.unique()))
@@ -158,7 +161,7 @@ axes[2].set_xscale('log'); axes[2].set_xlabel('horizon k (s)'); axes[2].set_ylab
 axes[0].legend(fontsize=7)
 savefig(fig, 'horizon_prediction.png')
 print(k[['scene', 'platform', 'horizon_s', 'steady_rays_per_second', 'scheduler_share', 'busy', 'fetching', 'true_idle', 'exec_prediction_error']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))
-print(d[['scene', 'platform', 'prediction_depth', 'steady_rays_per_second', 'prediction_accuracy', 'prediction_ray_accuracy', 'scheduler_share']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+print(pd.concat([d, kept])[['label', 'scene', 'platform', 'prediction_depth', 'steady_rays_per_second', 'prediction_accuracy', 'prediction_ray_accuracy', 'withdrawn_t_jobs', 'scheduler_share']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
 ]
 
 NB["05_speed_accuracy"] = [

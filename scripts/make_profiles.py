@@ -8,7 +8,11 @@
         writes OUT/fidelity.csv: simulator wall time vs throughput error of the three fidelity
         levels on both scenes, error measured against replay of the renderer-recorded logs
         (run `make` first: it reads WORK/NAME-render.profile.json and WORK/NAME.replay.log),
-        and OUT/prediction.csv: prediction accuracy and throughput with vs without prediction
+        and OUT/prediction.csv (as below)
+    scripts/make_profiles.py prediction [--rayline ...] [--duration 30s] [--clients 4] [--out out/fidelity]
+        writes OUT/prediction.csv: prediction accuracy and steady throughput without
+        prediction, with it (failed predictions withdrawn with their T-jobs) and with failed
+        predictions kept (--cancel-failed off), 1 and --clients clients, on paper-A and --platform
 
 How a profile is made (standard library only; deterministic for --seed):
  1. `rayline generate boeing-like|museum-like` at --triangles, then `rayline partition` into
@@ -563,31 +567,53 @@ def fidelity(args):
                          "frames_delivered": m["path_trace"]["frames"]["delivered"],
                          "replay_fallback_share": round(fallback, 6) if fid == "replay" else ""})
     write_csv(os.path.join(args.out, "fidelity.csv"), rows)
+    prediction(args)
+
+
+def prediction(args):
+    """Job prediction (Sec. 5.2) on the committed paper-scale profiles: steady throughput
+    without prediction, with it (failed predictions withdrawn with their T-jobs), and with it
+    but failed predictions kept (--cancel-failed off), on one node A and on the platform."""
     rows = []
-    for scene in ("boeing", "museum"):
-        res = {}
-        for depth in (0, args.prediction_depth):
-            out = os.path.join(args.out, f"{scene}-prediction-{depth}")
-            run([args.rayline, "simulate", "--workload", scene, "--duration", args.duration, "--clients",
-                 str(args.clients), "--prediction-depth", str(depth), "--platform", args.platform, "--no-progress",
-                 "--fidelity", "markov", "--seed", "1", "--out", out])
-            with open(os.path.join(out, "metrics.json")) as f:
-                res[depth] = json.load(f)["path_trace"]
-        r0 = res[0]["steady_rays_per_second"]
-        rd = res[args.prediction_depth]
-        p = rd.get("prediction", {})
-        rows.append({"scene": scene, "clients": args.clients, "prediction_depth": args.prediction_depth,
-                     "rays_per_second_without": round(r0), "rays_per_second_with": round(rd["steady_rays_per_second"]),
-                     "gain": round(rd["steady_rays_per_second"] / r0 - 1, 5) if r0 else "",
-                     "accuracy": round(p.get("accuracy", 0), 5), "ray_accuracy": round(p.get("ray_accuracy", 0), 5),
-                     "predicted": p.get("created", 0), "confirmed": p.get("confirmed", 0),
-                     "confirmed_planned": p.get("confirmed_planned", 0), "failed": p.get("failed", 0)})
+    for platform in dict.fromkeys(["paper-A", args.platform]):
+        for scene in ("boeing", "museum"):
+            for clients in sorted({1, args.clients}):
+                res = {}
+                for tag, depth, cancel in (("none", 0, "on"), ("withdrawn", args.prediction_depth, "on"),
+                                           ("kept", args.prediction_depth, "off")):
+                    out = os.path.join(args.out, f"{scene}-{platform}-c{clients}-prediction-{tag}")
+                    run([args.rayline, "simulate", "--workload", scene, "--duration", args.duration, "--clients",
+                         str(clients), "--prediction-depth", str(depth), "--cancel-failed", cancel, "--platform",
+                         platform, "--no-progress", "--fidelity", "markov", "--seed", "1", "--out", out])
+                    with open(os.path.join(out, "metrics.json")) as f:
+                        res[tag] = json.load(f)["path_trace"]
+                r0 = res["none"]["steady_rays_per_second"]
+                rw, rk = res["withdrawn"], res["kept"]
+                p = rw.get("prediction", {})
+                w = p.get("withdrawn", {})
+                gain = lambda r: round(r["steady_rays_per_second"] / r0 - 1, 5) if r0 else ""
+                rows.append({"platform": platform, "scene": scene, "clients": clients,
+                             "prediction_depth": args.prediction_depth, "rays_per_second_without": round(r0),
+                             "rays_per_second_with": round(rw["steady_rays_per_second"]), "gain": gain(rw),
+                             "rays_per_second_with_failed_kept": round(rk["steady_rays_per_second"]),
+                             "gain_failed_kept": gain(rk),
+                             "accuracy": round(p.get("accuracy", 0), 5), "ray_accuracy": round(p.get("ray_accuracy", 0), 5),
+                             "predicted": p.get("created", 0), "confirmed": p.get("confirmed", 0),
+                             "confirmed_planned": p.get("confirmed_planned", 0), "failed": p.get("failed", 0),
+                             "withdrawn_e_jobs": w.get("e_jobs", 0), "withdrawn_t_jobs": w.get("t_jobs", 0),
+                             "kept_t_jobs": w.get("t_jobs_kept", 0), "withdrawn_t_job_bytes": w.get("t_job_bytes", 0)})
     write_csv(os.path.join(args.out, "prediction.csv"), rows)
+    for r in rows:
+        print(f"{r['platform']:>14} {r['scene']:>7} c={r['clients']}: {r['rays_per_second_without']:>9} -> "
+              f"{r['rays_per_second_with']:>9} rays/s ({100 * r['gain']:+.0f} %), failed kept "
+              f"{r['rays_per_second_with_failed_kept']:>9} ({100 * r['gain_failed_kept']:+.0f} %), accuracy "
+              f"{100 * r['accuracy']:.1f} % jobs / {100 * r['ray_accuracy']:.1f} % rays, withdrawn "
+              f"{r['withdrawn_t_jobs']} T-jobs (kept {r['kept_t_jobs']})")
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("command", nargs="?", default="make", choices=["make", "fidelity"])
+    ap.add_argument("command", nargs="?", default="make", choices=["make", "fidelity", "prediction"])
     ap.add_argument("--rayline", default=os.path.join(ROOT, "build", "apps", "rayline"))
     ap.add_argument("--work", default=os.path.join(ROOT, "out", "profiles"))
     ap.add_argument("--triangles", default="300k")
@@ -606,7 +632,7 @@ def main():
     ap.add_argument("--platform", default="paper-cluster")
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "fidelity"))
     args = ap.parse_args()
-    (fidelity if args.command == "fidelity" else make)(args)
+    {"make": make, "fidelity": fidelity, "prediction": prediction}[args.command](args)
 
 
 if __name__ == "__main__":

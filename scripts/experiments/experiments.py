@@ -164,6 +164,10 @@ def horizon(c):
                 c.run(f"k-{scene}-{p}-{k}", p, scene, "gmb", clients=8, horizon=k, label="horizon")
             for d in ([0, 2] if c.reduced else [0, 1, 2, 3]):
                 c.run(f"d-{scene}-{p}-{d}", p, scene, "gmb", clients=8, depth=d, label="depth")
+            # the same without withdrawing failed predictions (their T-jobs still run)
+            for d in ([2] if c.reduced else [1, 2, 3]):
+                c.run(f"d-{scene}-{p}-{d}-kept", p, scene, "gmb", clients=8, depth=d, label="depth, failed kept",
+                      extra=["--cancel-failed", "off"])
 
 
 def accuracy(c):

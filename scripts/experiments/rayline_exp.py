@@ -49,7 +49,7 @@ FIELDS = ["experiment", "label", "platform", "scene", "scheduler", "clients", "h
           "sim_wall_s", "run_wall_s", "prediction_accuracy", "prediction_ray_accuracy", "exec_prediction_error",
           "transfer_prediction_error", "e_jobs_done", "queued_at_end", "frames_delivered", "cpu_busy", "gpu_busy",
           "work_units_done", "ray_jobs", "ray_jobs_gpu", "rays_per_ray_job", "scene_fetch_bytes",
-          "scene_bytes_per_ray", "scheduler_parameters", "out_dir"]
+          "scene_bytes_per_ray", "withdrawn_t_jobs", "withdrawn_t_job_bytes", "scheduler_parameters", "out_dir"]
 
 
 def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth=0, fidelity="markov",
@@ -100,6 +100,8 @@ def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth
             scheduler_share=m["scheduler_cost"]["share_of_simulated_time"],
             sim_wall_s=m["simulator"]["wall_s"],
             prediction_accuracy=pred.get("accuracy", ""), prediction_ray_accuracy=pred.get("ray_accuracy", ""),
+            withdrawn_t_jobs=pred.get("withdrawn", {}).get("t_jobs", ""),
+            withdrawn_t_job_bytes=pred.get("withdrawn", {}).get("t_job_bytes", ""),
             exec_prediction_error=m["prediction_error"]["exec_mean_rel"],
             transfer_prediction_error=m["prediction_error"]["transfer_mean_rel"],
             e_jobs_done=m["activities"]["e_jobs_done"], queued_at_end=m["activities"]["queued_at_end"],
