@@ -168,6 +168,7 @@ struct Result {
   std::string rays, kind;
   std::uint64_t count = 0;
   double kernel_s = 0, rays_per_s = 0, hit_fraction = 0, download_gbps = 0;
+  double doubtful_fraction = 0;  // rays the kernel flagged doubtful (a render hands them to Embree)
   double rays_per_cpu_s = 0;  // rays per CPU-second of the whole process (lavapipe: its workers)
   bool timestamps = false;
   double embree_rays_per_s = 0;
@@ -316,20 +317,24 @@ int main(int argc, char** argv) {
       r.download_gbps = median(dl);
       r.rays_per_cpu_s = double(rays.size()) / median(cpu);
       r.timestamps = st.gpu_timestamps;
-      std::uint64_t h = 0;
-      for (std::size_t i = 0; i < rays.size(); ++i) h += kind == 0 ? hits[i].prim != kNoHit : occ[i] != 0;
+      std::uint64_t h = 0, doubt = 0;
+      for (std::size_t i = 0; i < rays.size(); ++i) {
+        h += kind == 0 ? hits[i].prim != kNoHit : (occ[i] & kAnyOccluded) != 0;
+        doubt += kind == 0 ? doubtful(hits[i]) : (occ[i] & kAnyDoubtful) != 0;
+      }
       r.hit_fraction = double(h) / double(rays.size());
+      r.doubtful_fraction = double(doubt) / double(rays.size());
       if (emb) r.embree_rays_per_s = emb->rays_per_s(rays, kind == 1);
       results.push_back(r);
     }
   }
 
-  std::printf("\n%-11s %-8s %10s %12s %14s %14s %8s %14s%s\n", "rays", "kernel", "count", "kernel ms", "rays/s",
-              "rays/CPU-s", "hits", "download GB/s", emb ? "   Embree 1 thread rays/s" : "");
+  std::printf("\n%-11s %-8s %10s %12s %14s %14s %8s %10s %14s%s\n", "rays", "kernel", "count", "kernel ms", "rays/s",
+              "rays/CPU-s", "hits", "doubtful", "download GB/s", emb ? "   Embree 1 thread rays/s" : "");
   for (const auto& r : results) {
-    std::printf("%-11s %-8s %10llu %12.3f %14.4g %14.4g %7.1f%% %14.2f", r.rays.c_str(), r.kind.c_str(),
+    std::printf("%-11s %-8s %10llu %12.3f %14.4g %14.4g %7.1f%% %9.3f%% %14.2f", r.rays.c_str(), r.kind.c_str(),
                 static_cast<unsigned long long>(r.count), r.kernel_s * 1e3, r.rays_per_s, r.rays_per_cpu_s,
-                100 * r.hit_fraction, r.download_gbps);
+                100 * r.hit_fraction, 100 * r.doubtful_fraction, r.download_gbps);
     if (emb) std::printf("   %14.4g", r.embree_rays_per_s);
     std::printf("\n");
   }
@@ -360,10 +365,10 @@ int main(int argc, char** argv) {
       const auto& r = results[i];
       std::fprintf(f, "    {\"rays\": \"%s\", \"kernel\": \"%s\", \"count\": %llu, \"kernel_seconds\": %.6g, "
                       "\"rays_per_second\": %.6g, \"rays_per_cpu_second\": %.6g, \"hit_fraction\": %.6f, "
-                      "\"download_gbps\": %.4f, \"gpu_timestamps\": %s%s}%s\n",
+                      "\"doubtful_fraction\": %.6f, \"download_gbps\": %.4f, \"gpu_timestamps\": %s%s}%s\n",
                    r.rays.c_str(), r.kind.c_str(), static_cast<unsigned long long>(r.count), r.kernel_s, r.rays_per_s,
                    r.rays_per_cpu_s,
-                   r.hit_fraction, r.download_gbps, r.timestamps ? "true" : "false",
+                   r.hit_fraction, r.doubtful_fraction, r.download_gbps, r.timestamps ? "true" : "false",
                    emb ? (", \"embree_one_thread_rays_per_second\": " + std::to_string(r.embree_rays_per_s)).c_str() : "",
                    i + 1 < results.size() ? "," : "");
     }

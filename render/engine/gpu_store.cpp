@@ -112,7 +112,7 @@ void GpuStore::run_job(const trace::TraceSettings& ts, std::uint32_t cell, RayKi
   std::vector<gpu::GpuHit> hits;
   std::vector<std::uint8_t> occluded;
   double kernel = 0;
-  std::uint64_t on_gpu = 0;
+  std::uint64_t on_gpu = 0, doubtful = 0;
   for (const auto& [queue, n] : parts) {
     const std::span<const RayRecord> part = rays.subspan(off, n);
     off += n;
@@ -153,27 +153,38 @@ void GpuStore::run_job(const trace::TraceSettings& ts, std::uint32_t cell, RayKi
     }
     // Shading on the host from the hit triangles the kernel returned (path_kernels.hpp), in
     // parallel chunks (oneTBB) so one host thread does not bound the GPU; chunk outputs are
-    // appended in chunk order (the image does not depend on the order anyway).
+    // appended in chunk order (the image does not depend on the order anyway). A doubtful
+    // ray is not traced here: it goes back as it came, flagged for a CPU device, which
+    // traces it with exactly the CPU-only render's arithmetic (Embree + tie filter).
     on_gpu += n;
     constexpr std::size_t kChunk = 2048;
     const std::size_t chunks = (part.size() + kChunk - 1) / kChunk;
     std::vector<std::vector<RayRecord>> chunk_out(chunks);
     std::vector<trace::RayCounts> chunk_counts(chunks);
+    std::vector<std::uint64_t> chunk_doubtful(chunks);
+    const bool resolve = resolve_doubtful_;
     tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
       std::vector<RayRecord>& o = chunk_out[c];
       trace::RayCounts& k = chunk_counts[c];
       for (std::size_t i = c * kChunk; i < std::min(part.size(), (c + 1) * kChunk); ++i) {
         const RayRecord& r = part[i];
+        const bool doubt = kind == RayKind::Path ? gpu::doubtful(hits[i]) : (occluded[i] & gpu::kAnyDoubtful) != 0;
+        chunk_doubtful[c] += doubt;
+        if (doubt && resolve) {
+          o.push_back(r);
+          o.back().flags |= trace::kRayCpuOnly;
+          continue;
+        }
         ++k.traced;
         if (kind == RayKind::Path) {
           const gpu::GpuHit& h = hits[i];
           if (h.prim != gpu::kNoHit) {
             const trace::HitTriangle tri{{h.v[0], h.v[1], h.v[2]}, {h.v[3], h.v[4], h.v[5]}, {h.v[6], h.v[7], h.v[8]},
                                          h.material};
-            trace::shade_hit(ts, r, tri, h.t, o, k);
+            trace::shade_hit(ts, r, tri, gpu::hit_t(h), o, k);
             continue;
           }
-        } else if (occluded[i]) {
+        } else if (occluded[i] & gpu::kAnyOccluded) {
           ++k.occluded;
           continue;
         }
@@ -183,11 +194,13 @@ void GpuStore::run_job(const trace::TraceSettings& ts, std::uint32_t cell, RayKi
     for (std::size_t c = 0; c < chunks; ++c) {
       out.insert(out.end(), chunk_out[c].begin(), chunk_out[c].end());
       counts += chunk_counts[c];
+      doubtful += chunk_doubtful[c];
     }
   }
   std::lock_guard lk(mu_);
   stats_.kernel_seconds += kernel;
   stats_.gpu_rays += on_gpu;
+  stats_.doubtful_rays += doubtful;
   if (on_gpu == rays.size()) ++stats_.gpu_jobs;
   else ++stats_.fallback_jobs;
 }

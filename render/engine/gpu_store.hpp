@@ -32,6 +32,9 @@ struct GpuStoreStats {
   std::uint64_t gpu_jobs = 0, fallback_jobs = 0;      // E-jobs on the GPU / run on the CPU path instead
   std::uint64_t gpu_rays = 0, fallback_rays = 0;
   double kernel_seconds = 0;                          // sum of kernel times
+  // Rays the kernels flagged doubtful (render/gpu/README.md, "Doubtful rays"): handed back
+  // as kRayCpuOnly rays (resolve_doubtful) or, with it off, answered by the kernel's guess.
+  std::uint64_t doubtful_rays = 0;
 };
 
 class GpuStore {
@@ -48,10 +51,16 @@ class GpuStore {
   // The E-jobs: RayIntersect / ShadowIntersect of a job's queues on the GPU, shading on the
   // host. `parts` are the job's queues (block, ray count) in the order of `rays`. Parts the
   // GPU cannot run (block absent, device lost, a GpuError) run on the CPU path with the RAM
-  // copy of the block. Thread-safe.
+  // copy of the block. Rays the kernel flags doubtful go to `out` unchanged but for
+  // kRayCpuOnly (the workload queues them for a CPU device: render/gpu/README.md), so the
+  // image equals the CPU-only one by construction. Thread-safe.
   void run_job(const trace::TraceSettings& ts, std::uint32_t cell, trace::RayKind kind,
                std::span<const trace::RayRecord> rays, std::span<const std::pair<BlockId, std::uint32_t>> parts,
                std::vector<trace::RayRecord>& out, trace::RayCounts& counts);
+
+  // Test hook: false takes the kernel's guess for doubtful rays (the image may then differ
+  // from the CPU-only one at edge cracks and near ties).
+  void set_resolve_doubtful(bool on) { resolve_doubtful_ = on; }
 
   bool lost() const;
   std::string failure() const;  // the first GPU error, "" if none
@@ -69,6 +78,7 @@ class GpuStore {
   std::map<std::uint32_t, int> copies_;
   std::map<BlockId, std::unique_ptr<gpu::GpuRays>> rays_;
   bool lost_ = false;
+  bool resolve_doubtful_ = true;
   std::string failure_;
   GpuStoreStats stats_;
 };

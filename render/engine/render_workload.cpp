@@ -14,9 +14,12 @@ RenderWorkload::RenderWorkload(const trace::TraceSettings& ts, const trace::Pinh
                                const DeviceGraph& g, MemId ram, std::vector<BlockId> scene_blocks,
                                RenderWorkloadOptions opt)
     : ts_(ts), camera_(camera), g_(g), ram_(ram), scene_blocks_(std::move(scene_blocks)), opt_(opt),
-      staging_(scene_blocks_.size()), open_(scene_blocks_.size(), {kNone, kNone}) {
+      staging_(scene_blocks_.size()), open_(scene_blocks_.size(), {kNone, kNone, kNone, kNone}) {
   type_[0] = g.job_type("RayIntersect");
   type_[1] = g.job_type("ShadowIntersect");
+  type_[2] = g.job_type("RayIntersectCpu");
+  type_[3] = g.job_type("ShadowIntersectCpu");
+  if (type_[2] == kNone || type_[3] == kNone) type_[2] = type_[0], type_[3] = type_[1];
   for (std::size_t m = 0; m < g.memories.size(); ++m)
     if (!g.computes_on(MemId(m)).empty()) near_.push_back(MemId(m));
   total_camera_ = std::uint64_t(camera.width()) * std::uint64_t(camera.height()) * std::uint64_t(opt_.spp);
@@ -55,15 +58,15 @@ void RenderWorkload::generate() {
 }
 
 void RenderWorkload::stage(std::vector<RayRecord>& rays) {
-  for (const RayRecord& r : rays) staging_[r.cell][static_cast<int>(r.kind)].push_back(r);
+  for (const RayRecord& r : rays) staging_[r.cell][slot_of(r)].push_back(r);
   staged_ += rays.size();
   rays.clear();
   rays.shrink_to_fit();
 }
 
-void RenderWorkload::make_job(RayKind kind, std::uint32_t cell, std::vector<RayRecord>& rays, std::size_t n, Time now,
+void RenderWorkload::make_job(int k, std::uint32_t cell, std::vector<RayRecord>& rays, std::size_t n, Time now,
                               JobPool& pool, Schedule& s) {
-  const int k = static_cast<int>(kind);
+  const RayKind kind = static_cast<RayKind>(k % 2);
   DataBlock q;
   q.name = std::string(kind == RayKind::Path ? "rays" : "shadow") + std::to_string(cell) + "." +
            std::to_string(pool.block_count());
@@ -85,7 +88,7 @@ void RenderWorkload::make_job(RayKind kind, std::uint32_t cell, std::vector<RayR
     ++merges_;
   } else {
     Job j;
-    j.name = std::string(kind == RayKind::Path ? "ri" : "si") + std::to_string(cell);
+    j.name = std::string(kind == RayKind::Path ? "ri" : "si") + (k >= 2 ? "cpu" : "") + std::to_string(cell);
     j.type = type_[k];
     j.inputs = {scene_blocks_[cell], qb};
     j.created = now;
@@ -114,18 +117,21 @@ void RenderWorkload::flush(Time now, JobPool& pool, Schedule& s, bool all) {
   // Out of core, every job on a block that is not in RAM costs a load (Sec. 5.1: batch rays
   // to amortise data movement). Queues of resident cells (held or arriving on RAM in the
   // plan) become jobs at min_batch rays; queues of other cells wait for big_batch rays.
-  auto resident = [&](std::uint32_t c) {
+  // CPU-only queues (slots 2, 3) count as resident only where a CPU works: in RAM.
+  auto resident = [&](std::uint32_t c, int k) {
+    if (k >= 2) return s.copy_at(scene_blocks_[c], ram_) != nullptr;
     for (MemId m : near_)
       if (s.copy_at(scene_blocks_[c], m) != nullptr) return true;
     return false;
   };
   const std::size_t big_batch = std::min<std::size_t>(opt_.max_batch, std::size_t(opt_.min_batch) * 16);
   for (std::uint32_t c = 0; c < staging_.size(); ++c)
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < kSlots; ++k) {
       auto& v = staging_[c][k];
-      const std::size_t threshold = resident(c) ? opt_.min_batch : big_batch;
+      if (v.empty()) continue;
+      const std::size_t threshold = resident(c, k) ? opt_.min_batch : big_batch;
       while (v.size() >= threshold || (all && !v.empty()))
-        make_job(static_cast<RayKind>(k), c, v, std::min<std::size_t>(v.size(), opt_.max_batch), now, pool, s);
+        make_job(k, c, v, std::min<std::size_t>(v.size(), opt_.max_batch), now, pool, s);
     }
   // Keep every compute device fed: the largest remaining queues become jobs, those of
   // resident cells first.
@@ -135,16 +141,16 @@ void RenderWorkload::flush(Time now, JobPool& pool, Schedule& s, bool all) {
     int bk = 0;
     bool best_res = false;
     for (std::uint32_t c = 0; c < staging_.size(); ++c) {
-      const bool res = resident(c);
-      for (int k = 0; k < 2; ++k) {
+      for (int k = 0; k < kSlots; ++k) {
         const std::size_t n = staging_[c][k].size();
         if (n == 0) continue;
+        const bool res = resident(c, k);
         if ((res && !best_res) || (res == best_res && n > best)) best = n, bc = c, bk = k, best_res = res;
       }
     }
     // A cell that is not resident is loaded only when nothing is queued at all.
     if (!best_res && pool.queued_count() > 0) break;
-    make_job(static_cast<RayKind>(bk), bc, staging_[bc][bk], std::min<std::size_t>(best, opt_.max_batch), now, pool, s);
+    make_job(bk, bc, staging_[bc][bk], std::min<std::size_t>(best, opt_.max_batch), now, pool, s);
   }
 }
 

@@ -75,7 +75,7 @@ class RenderWorkload final : public Workload {
   void generate();  // camera rays into staging
   void stage(std::vector<trace::RayRecord>& rays);
   void flush(Time now, JobPool& pool, Schedule& s, bool all);
-  void make_job(trace::RayKind kind, std::uint32_t cell, std::vector<trace::RayRecord>& rays, std::size_t n, Time now,
+  void make_job(int slot, std::uint32_t cell, std::vector<trace::RayRecord>& rays, std::size_t n, Time now,
                 JobPool& pool, Schedule& s);
 
   trace::TraceSettings ts_;
@@ -85,9 +85,16 @@ class RenderWorkload final : public Workload {
   std::vector<MemId> near_;  // memories compute devices work from (RAM, GPU memories)
   std::vector<BlockId> scene_blocks_;
   RenderWorkloadOptions opt_;
-  JobTypeId type_[2];
-  std::vector<std::array<std::vector<trace::RayRecord>, 2>> staging_;  // per cell, per kind
-  std::vector<std::array<JobId, 2>> open_;                               // queued job per cell, kind
+  // Slots: 0 path, 1 shadow, 2 and 3 the same kinds flagged kRayCpuOnly (doubtful on a GPU,
+  // render/gpu/README.md): job types RayIntersectCpu / ShadowIntersectCpu, which only CPU
+  // devices support (renderer.cpp adds them when there is a GPU; without them, 0 and 1).
+  static constexpr int kSlots = 4;
+  static int slot_of(const trace::RayRecord& r) {
+    return static_cast<int>(r.kind) + ((r.flags & trace::kRayCpuOnly) ? 2 : 0);
+  }
+  JobTypeId type_[kSlots];
+  std::vector<std::array<std::vector<trace::RayRecord>, kSlots>> staging_;  // per cell, per slot
+  std::vector<std::array<JobId, kSlots>> open_;                               // queued job per cell, slot
   std::vector<std::unique_ptr<RayJob>> jobs_;                            // by JobId
   std::unordered_map<BlockId, JobId> consumer_;                          // ray queue -> its job
   trace::RayCounts counts_;

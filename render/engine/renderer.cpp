@@ -12,6 +12,8 @@
 #include <map>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/local_executor.hpp"
 #include "render/engine/profile_recorder.hpp"
@@ -193,6 +195,20 @@ RenderResult render(const RenderOptions& opt) {
   for (std::size_t d = 0; d < g.computes.size(); ++d)
     if (g.computes[d].kind == ComputeKind::Gpu) gpu_dev = DeviceId(d);
   res.gpu_device_id = gpu_dev == kNone ? -1 : int(gpu_dev);
+  if (gpu_dev != kNone) {
+    // Rays a GPU kernel cannot decide exactly as Embree would come back flagged
+    // kRayCpuOnly (render/gpu/README.md, "Doubtful rays") and are queued as these job types,
+    // which only the CPU devices support, with the CPU's Eq. 2 coefficients: GMB plans them
+    // (and the RAM copy of their block) like any CPU job, so no sample is lost and nothing
+    // unplanned is loaded.
+    const JobTypeId ri = g.job_type("RayIntersect"), si = g.job_type("ShadowIntersect");
+    const JobTypeId ric = g.add_job_type("RayIntersectCpu"), sic = g.add_job_type("ShadowIntersectCpu");
+    for (std::size_t d = 0; d < g.computes.size(); ++d)
+      if (g.computes[d].kind == ComputeKind::Cpu) {
+        g.timing.at(DeviceId(d), ric) = g.timing.at(DeviceId(d), ri);
+        g.timing.at(DeviceId(d), sic) = g.timing.at(DeviceId(d), si);
+      }
+  }
 
   // ---- the run -------------------------------------------------------------------------
   JobPool pool;
@@ -229,6 +245,7 @@ RenderResult render(const RenderOptions& opt) {
 
   std::unique_ptr<GpuStore> gpu_store;
   if (gpu_ctx) gpu_store = std::make_unique<GpuStore>(*gpu_ctx, store);
+  if (gpu_store) gpu_store->set_resolve_doubtful(opt.gpu_resolve_doubtful);
 
   // Evictions the plan decided, by the activity that needed the space (Schedule::Eviction):
   // scene blocks leave RAM or GPU memory, ray queues leave GPU memory.
@@ -360,7 +377,8 @@ RenderResult render(const RenderOptions& opt) {
       res.first_exec_start = std::min(res.first_exec_start, a.start);
       TimingSample t;
       t.device = a.device;
-      t.type = pool.job(a.job).type == g.job_type("RayIntersect") ? 0 : 1;
+      const std::string& type_name = g.job_types[std::size_t(pool.job(a.job).type)];
+      t.type = type_name == "RayIntersect" || type_name == "RayIntersectCpu" ? 0 : 1;
       for (BlockId b : pool.job(a.job).inputs) t.inputs.push_back({pool.block(b).kind, pool.block(b).bytes});
       t.duration = a.end - a.start;
       res.exec_samples.push_back(std::move(t));
@@ -376,6 +394,15 @@ RenderResult render(const RenderOptions& opt) {
       res.gpu_status = std::string(gpu_store->lost() ? "lost: " : "used, with failures: ") + gpu_store->failure();
   }
   res.metrics_json = render_metrics_json(res, schedule, executor.busy_seconds());
+  if (gpu_store) {
+    // metrics.json gpu: the rays the kernels flagged doubtful, and their share of the rays
+    // the GPU traced (render/gpu/README.md, "Doubtful rays").
+    nlohmann::json m = nlohmann::json::parse(res.metrics_json);
+    m["gpu"]["doubtful_rays"] = res.gpu.doubtful_rays;
+    m["gpu"]["doubtful_fraction"] = res.gpu.gpu_rays ? double(res.gpu.doubtful_rays) / double(res.gpu.gpu_rays) : 0.0;
+    m["gpu"]["resolve_doubtful"] = opt.gpu_resolve_doubtful;
+    res.metrics_json = m.dump(2) + "\n";
+  }
   if (opt.keep_schedule_outputs) {
     res.timeline_json = chrome_trace_json(schedule, true);
     res.jobs_csv = jobs_csv(schedule);

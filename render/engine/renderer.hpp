@@ -40,6 +40,10 @@ struct RenderOptions {
   // Test hook (GpuContext::inject_fault): the n-th GPU operation fails with "oom" or "lost".
   int gpu_fault_after = 0;
   std::string gpu_fault = "lost";
+  // Test hook: false answers the rays a GPU kernel flags doubtful with the kernel's own
+  // guess instead of handing them to a CPU device (render/gpu/README.md, "Doubtful rays"):
+  // the image may then differ from the CPU-only one at edge cracks.
+  bool gpu_resolve_doubtful = true;
   bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result
   // Called from the loop at most every 200 ms: fraction of paths done, rays/s so far.
   std::function<void(double fraction, double rays_per_second)> progress;

@@ -329,7 +329,9 @@ void build(std::span<const unsigned char> records, std::uint64_t n, const GpuBui
 namespace {
 
 constexpr float kTinyDir = 1e-20f;   // |d| below this is replaced by +-kTinyDir for 1/d
-constexpr float kBoxEps = 1.0e-6f;   // widening of a box's exit distance (~8 ulps)
+constexpr float kErr = 0x1p-19f;     // margins of the doubtful-ray test (traverse.comp's derivation)
+constexpr float kCull = 0x1p-8f;     // culling slack beyond the farthest t that matters
+constexpr float kInf = INFINITY;
 
 struct RayState {
   float o[3], d[3], inv[3], oinv[3], tmin, tmax;
@@ -347,15 +349,15 @@ RayState setup(const GpuRay& r) {
   return s;
 }
 
-bool box(const RayState& s, const Child& c, float tmax, float& tnear) {
+bool box(const RayState& s, const Child& c, float tmin_c, float tcull, float& tnear) {
   float tn[3], tf[3];
   for (int k = 0; k < 3; ++k) {
     const float t0 = std::fma(c.lo[k], s.inv[k], -s.oinv[k]), t1 = std::fma(c.hi[k], s.inv[k], -s.oinv[k]);
     tn[k] = std::min(t0, t1), tf[k] = std::max(t0, t1);
   }
-  const float n = std::max(std::max(tn[0], tn[1]), std::max(tn[2], s.tmin));
-  float f = std::min(std::min(tf[0], tf[1]), std::min(tf[2], tmax));
-  f = f + std::fabs(f) * kBoxEps;
+  const float n = std::max(std::max(tn[0], tn[1]), std::max(tn[2], tmin_c));
+  float f = std::min(std::min(tf[0], tf[1]), std::min(tf[2], tcull));
+  f = f + std::fabs(f) * kCull;
   tnear = n;
   return n <= f;
 }
@@ -363,35 +365,71 @@ bool box(const RayState& s, const Child& c, float tmax, float& tnear) {
 float flip(float x, std::uint32_t sgn) { return std::bit_cast<float>(std::bit_cast<std::uint32_t>(x) ^ sgn); }
 
 // Möller-Trumbore exactly as Embree 3 computes it on AVX2 (e1 = v0 - v1, e2 = v2 - v0,
-// Ng = e2 x e1, R = C x D; its cross and dot as fused multiply-adds): t or NaN.
+// Ng = e2 x e1, R = C x D; its cross and dot as fused multiply-adds), with traverse.comp's
+// classification: 0 certain miss, 1 doubtful, 2 certain hit (see candidate() there).
 float cross_x(float ay, float az, float by, float bz) { return std::fma(ay, bz, -(az * by)); }
 float dot3(const float* a, const float* b) { return std::fma(a[0], b[0], std::fma(a[1], b[1], a[2] * b[2])); }
+float dot_abs(const float* a, const float* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-float triangle(const RayState& s, const Tri& t) {
-  float e1[3], e2[3], c[3];
-  for (int k = 0; k < 3; ++k) e1[k] = t.v0[k] - t.v1[k], e2[k] = t.v2[k] - t.v0[k], c[k] = t.v0[k] - s.o[k];
+int candidate(const RayState& s, const Tri& tri, float tmin, float tmax, float& t, float& e, bool& plain) {
+  float e1[3], e2[3], c[3], a1[3], a2[3], ac[3], ad[3];
+  for (int k = 0; k < 3; ++k) {
+    e1[k] = tri.v0[k] - tri.v1[k], e2[k] = tri.v2[k] - tri.v0[k], c[k] = tri.v0[k] - s.o[k];
+    a1[k] = std::fabs(e1[k]), a2[k] = std::fabs(e2[k]), ac[k] = std::fabs(c[k]), ad[k] = std::fabs(s.d[k]);
+  }
   const float ng[3] = {cross_x(e2[1], e2[2], e1[1], e1[2]), cross_x(e2[2], e2[0], e1[2], e1[0]),
                        cross_x(e2[0], e2[1], e1[0], e1[1])};
   const float r[3] = {cross_x(c[1], c[2], s.d[1], s.d[2]), cross_x(c[2], c[0], s.d[2], s.d[0]),
                       cross_x(c[0], c[1], s.d[0], s.d[1])};
   const float den = dot3(ng, s.d);
+  const float uu = dot3(r, e2), vv = dot3(r, e1), tt = dot3(ng, c);
   const float absden = std::fabs(den);
   const std::uint32_t sgn = std::bit_cast<std::uint32_t>(den) & 0x80000000u;
-  const float u = flip(dot3(r, e2), sgn);
-  const float v = flip(dot3(r, e1), sgn);
-  if (!(den != 0.0f && u >= 0.0f && v >= 0.0f && u + v <= absden)) return NAN;
-  const float T = flip(dot3(ng, c), sgn);
-  return T / absden;
+  const float u = flip(uu, sgn), v = flip(vv, sgn), w = u + v;
+  plain = den != 0.0f && u >= 0.0f && v >= 0.0f && w <= absden;
+  t = flip(tt, sgn) / absden;
+  e = kInf;
+  const float ang[3] = {a2[1] * a1[2] + a2[2] * a1[1], a2[2] * a1[0] + a2[0] * a1[2], a2[0] * a1[1] + a2[1] * a1[0]};
+  const float ar[3] = {ac[1] * ad[2] + ac[2] * ad[1], ac[2] * ad[0] + ac[0] * ad[2], ac[0] * ad[1] + ac[1] * ad[0]};
+  const float mden = kErr * dot_abs(ang, ad), mu = kErr * dot_abs(ar, a2), mv = kErr * dot_abs(ar, a1);
+  const float mw = mden + mu + mv;
+  if (!(absden > mden)) {
+    if ((uu > mu && vv < -mv) || (uu < -mu && vv > mv) || std::fabs(uu + vv) - absden > mw) return 0;
+    t = 0;
+    return 1;
+  }
+  if (u < -mu || v < -mv || w - absden > mw) return 0;
+  e = (kErr * dot_abs(ang, ac) + std::fabs(t) * mden) / (absden - mden) + kErr * std::fabs(t);
+  if (!(e < kInf)) {
+    t = 0, e = kInf;
+    return 1;
+  }
+  if (t + e < tmin || t - e > tmax) return 0;
+  return (u > mu && v > mv && absden - w > mw && t - e > tmin && t + e < tmax) ? 2 : 1;
 }
 
+float triangle(const RayState& s, const Tri& tri) {
+  float t = 0, e = 0;
+  bool plain = false;
+  candidate(s, tri, s.tmin, s.tmax, t, e, plain);
+  return plain ? t : NAN;
+}
+
+// Returns the closest hit (t's sign bit: doubtful) or, for Any, the any-hit code in prim.
 template <bool Any>
 GpuHit traverse(const FlatBvh& b, const GpuRay& r) {
   GpuHit h{};
   h.t = INFINITY, h.prim = kNoHit, h.material = kNoHit;
-  if (b.nodes.empty()) return h;
+  if (b.nodes.empty()) {
+    if (Any) h.prim = 0;
+    return h;
+  }
   const RayState s = setup(r);
-  float tmax = s.tmax;
+  const float tq = s.tmax, tmin_c = s.tmin - s.tmin * kCull;
+  float tmax = tq, tcull = tq;
   std::uint32_t best = kNoHit, best_prim = kNoHit;
+  bool best_sure = false, doubt = false, guess = false, occ = false;
+  float best_lo = 0, best_hi = kInf, rival_lo = kInf;
   std::uint32_t stack[kStackSize];
   int sp = 0;
   std::uint32_t cur = b.root;
@@ -399,7 +437,7 @@ GpuHit traverse(const FlatBvh& b, const GpuRay& r) {
     if (!is_leaf(cur)) {
       const Node& n = b.nodes[cur];
       float na = 0, nb = 0;
-      const bool ha = box(s, n.c[0], tmax, na), hb = box(s, n.c[1], tmax, nb);
+      const bool ha = box(s, n.c[0], tmin_c, tcull, na), hb = box(s, n.c[1], tmin_c, tcull, nb);
       std::uint32_t ca = n.c[0].word, cb = n.c[1].word;
       if (ha && hb) {
         if (nb < na) std::swap(ca, cb);
@@ -416,31 +454,45 @@ GpuHit traverse(const FlatBvh& b, const GpuRay& r) {
       continue;
     }
     const std::uint32_t first = leaf_first(cur), cnt = leaf_count(cur);
-    bool done = false;
-    for (std::uint32_t k = 0; k < cnt; ++k) {
+    for (std::uint32_t k = 0; k < cnt && !occ; ++k) {
       const Tri& tri = b.tris[first + k];
-      const float t = triangle(s, tri);
-      if (!(t >= s.tmin && t <= tmax)) continue;
+      float t = 0, e = 0;
+      bool plain = false;
+      const int cls = candidate(s, tri, s.tmin, tq, t, e, plain);
+      if (cls == 0) continue;
       if (Any) {
-        done = true;
-        break;
+        occ = cls == 2;
+        doubt = doubt || cls == 1;
+        guess = guess || (cls == 1 && plain && t >= s.tmin && t <= tq);
+        continue;
       }
-      if (t < tmax || tri.prim < best_prim) tmax = t, best = first + k, best_prim = tri.prim;
+      if (plain && t >= s.tmin && t <= tmax && (t < tmax || tri.prim < best_prim)) {
+        if (best != kNoHit) rival_lo = std::min(rival_lo, best_lo);
+        tmax = t, best = first + k, best_prim = tri.prim, best_sure = cls == 2;
+        best_lo = t - e, best_hi = t + e;
+        const float cut = std::min(tq, best_hi);
+        doubt = doubt || cut > tcull;
+        tcull = cut;
+      } else {
+        rival_lo = std::min(rival_lo, t - e);
+      }
     }
-    if (done) {
-      h.prim = 0;  // "occluded"
-      return h;
-    }
-    if (sp == 0) break;
+    if (occ || sp == 0) break;
     cur = stack[--sp];
   }
-  if (!Any && best != kNoHit) {
+  if (Any) {
+    h.prim = occ ? 1u : (doubt ? (guess ? 3u : 2u) : 0u);
+    return h;
+  }
+  doubt = doubt || (best != kNoHit ? (!best_sure || rival_lo <= best_hi) : rival_lo < kInf);
+  if (best != kNoHit) {
     const Tri& tri = b.tris[best];
     h.t = tmax, h.prim = tri.prim, h.material = tri.material;
     std::memcpy(h.v, tri.v0, 12);
     std::memcpy(h.v + 3, tri.v1, 12);
     std::memcpy(h.v + 6, tri.v2, 12);
   }
+  if (doubt) h.t = -h.t;
   return h;
 }
 
@@ -448,6 +500,6 @@ GpuHit traverse(const FlatBvh& b, const GpuRay& r) {
 
 GpuHit closest(const FlatBvh& b, const GpuRay& r) { return traverse<false>(b, r); }
 float triangle_t(const Tri& t, const GpuRay& r) { return triangle(setup(r), t); }
-bool any(const FlatBvh& b, const GpuRay& r) { return traverse<true>(b, r).prim != kNoHit; }
+std::uint8_t any(const FlatBvh& b, const GpuRay& r) { return static_cast<std::uint8_t>(traverse<true>(b, r).prim); }
 
 }  // namespace rayline::gpu::bvh

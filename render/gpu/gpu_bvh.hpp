@@ -84,9 +84,10 @@ void build(std::span<const unsigned char> records, std::uint64_t n, const GpuBui
 FlatBvh build(std::span<const unsigned char> records, std::uint64_t n, const GpuBuildOptions& opt);
 std::uint64_t capacity_bytes(const FlatBvh& b);
 
-// CPU mirror of traverse.comp (tests and debugging).
+// CPU mirror of traverse.comp (tests and debugging): the same answers and doubt flags as
+// intersect_closest / intersect_any (GpuHit, kAny* codes), up to fma fusion.
 GpuHit closest(const FlatBvh& b, const GpuRay& r);
-bool any(const FlatBvh& b, const GpuRay& r);
+std::uint8_t any(const FlatBvh& b, const GpuRay& r);
 // The kernels' triangle test alone: t where the ray meets `t` (ignoring [tmin, tmax]), or
 // NaN on a miss. Brute force over every triangle with it checks that the box test never
 // culls a hit.

@@ -231,7 +231,7 @@ double intersect(GpuContext& ctx, const GpuBlock& block_base, const GpuRays& ray
   }
   if constexpr (Any) {
     const auto* src = static_cast<const std::uint32_t*>(result->mapped);
-    for (std::uint64_t i = 0; i < n; ++i) out[i] = static_cast<std::uint8_t>(src[i] != 0);
+    for (std::uint64_t i = 0; i < n; ++i) out[i] = static_cast<std::uint8_t>(src[i]);  // kAny* codes
   } else {
     std::memcpy(out.data(), result->mapped, out_bytes);
   }

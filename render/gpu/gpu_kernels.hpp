@@ -4,6 +4,7 @@
 // the closest-hit kernel returns the hit triangle's vertices and material, so the host
 // never needs the block in RAM to shade a GPU hit.
 #pragma once
+#include <bit>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -27,6 +28,11 @@ static_assert(sizeof(GpuRay) == 32);
 // prim = kNoHit on a miss. `prim` is the triangle's index in the block file's records
 // (the same id Embree reports for BlockGeometry), v = its vertices v0 v1 v2 as stored.
 // (Added: on a miss t = +infinity, material = kNoHit and v is all zero.)
+// Doubtful rays (render/gpu/README.md): the kernel reports only what it decides exactly as
+// Embree would; a ray where some candidate lies within a rounding margin of changing the
+// answer (an edge, a near tie, the interval's ends) is flagged by the sign bit of t
+// (rays need tmin >= 0, so an answer's t is never negative otherwise), and the rest of the
+// hit is the kernel's own guess. Certain answers equal Embree's (same prim, same occlusion).
 struct GpuHit {
   float t;
   std::uint32_t prim;
@@ -34,6 +40,12 @@ struct GpuHit {
   float v[9];
 };
 static_assert(sizeof(GpuHit) == 48);
+inline bool doubtful(const GpuHit& h) { return (std::bit_cast<std::uint32_t>(h.t) >> 31) != 0; }
+inline float hit_t(const GpuHit& h) { return std::bit_cast<float>(std::bit_cast<std::uint32_t>(h.t) & 0x7FFFFFFFu); }
+
+// intersect_any's answer per ray: kAnyClear / kAnyOccluded when certain; doubtful rays get
+// kAnyDoubtful, | kAnyOccluded when the kernel's own test found a hit.
+inline constexpr std::uint8_t kAnyClear = 0, kAnyOccluded = 1, kAnyDoubtful = 2;
 
 // A block resident in GPU memory (the RAM->GPU T-job makes it). Freed on destruction.
 class GpuBlock {
@@ -89,7 +101,9 @@ std::unique_ptr<GpuRays> upload_rays(GpuContext& ctx, std::span<const GpuRay> ra
 // the host's wall time around submit + wait), not counting the download of `out`.
 double intersect_closest(GpuContext& ctx, const GpuBlock& block, const GpuRays& rays, std::span<GpuHit> out);
 
-// ShadowIntersect's traversal: out[i] = 1 when any triangle has t in [tmin, tmax], else 0.
+// ShadowIntersect's traversal: out[i] = kAnyOccluded when some triangle certainly has t in
+// [tmin, tmax], kAnyClear when certainly none has, else kAnyDoubtful (| kAnyOccluded if the
+// kernel's own test found one).
 double intersect_any(GpuContext& ctx, const GpuBlock& block, const GpuRays& rays, std::span<std::uint8_t> out);
 
 // Added: where the time of one intersect call went (benchmarks, the renderer's metrics).

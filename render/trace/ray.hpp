@@ -32,4 +32,10 @@ struct RayRecord {
 };
 static_assert(sizeof(RayRecord) == 64, "the timing model charges 64 bytes per ray");
 
+// RayRecord::flags bits. Bit 0 is path_kernels.cpp's "first cell". kRayCpuOnly: a GPU E-job
+// found the ray doubtful (render/gpu/README.md, "Doubtful rays") and hands it back to its
+// cell's queue for a CPU device, so Embree decides it as in a CPU-only render; every ray a
+// kernel makes (continuation, shadow, next cell) starts with the bit clear.
+inline constexpr std::uint8_t kRayCpuOnly = 2;
+
 }  // namespace rayline::trace

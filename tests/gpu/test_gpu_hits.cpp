@@ -2,7 +2,7 @@
 // prim with |t_gpu - t_embree| <= 1e-5 max(1, t), and the same any-hit answers, on random
 // soups, generated-scene blocks, clipped intervals, axis-aligned rays, rays starting inside
 // boxes, empty and tiny blocks, every build quality, and more rays than one dispatch binds.
-// Ties (two triangles at the same t within epsilon: shared edges) are counted and printed.
+// Every ray the kernels call certain must agree exactly; doubtful rays are counted.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -35,9 +35,9 @@ void expect_agree(const Agreement& a, const char* what) {
   std::printf("[%s] %s\n", what, a.summary().c_str());
   EXPECT_EQ(a.mismatches, 0u) << what << ": " << a.summary();
   EXPECT_EQ(a.any_mismatches, 0u) << what << ": " << a.summary();
-  // Ties come from coplanar overlapping faces (the museum's walls and slabs) and shared
-  // edges: Embree keeps whichever it met first, the kernel the smaller prim.
-  EXPECT_LE(a.ties * 200, a.rays) << what << ": ties should be rare (< 0.5 %)";
+  // Doubtful rays (near ties: coplanar overlapping faces, shared edges; hits at the ends of
+  // the interval; grazing triangles) go to the CPU in a render: they must stay rare.
+  EXPECT_LE(a.doubtful_fraction(), 0.01) << what << ": doubtful rays should be rare (< 1 %)";
   EXPECT_GT(a.hits, 0u) << what;
 }
 
@@ -95,13 +95,16 @@ TEST(GpuHits, RandomSoupsRandomRays) {
     const auto rays = random_rays(unit_box(0.2f), 30000, 100 + seed);
     const Agreement a = run_and_compare(*ctx, rec, n, rays, ref);
     expect_agree(a, ("soup seed " + std::to_string(seed)).c_str());
-    total.rays += a.rays, total.ties += a.ties;
+    total.rays += a.rays, total.doubtful += a.doubtful, total.any_doubtful += a.any_doubtful;
   }
-  std::printf("random soups: %zu rays, %zu ties\n", total.rays, total.ties);
+  std::printf("random soups: %zu rays, doubtful %zu closest, %zu any hit (%.4f %%)\n", total.rays, total.doubtful,
+              total.any_doubtful, 100 * total.doubtful_fraction());
 }
 
 // The CPU mirror of the kernel (gpu_bvh.cpp) gives the GPU's answers: same prim, t within
-// an ulp or two (Vulkan's division is 2.5 ulp), same any-hit.
+// an ulp or two (Vulkan's division is 2.5 ulp), same any-hit, same doubt flags (the
+// mirror fuses its fmas and lavapipe does not, so a value right at a margin may flip a
+// flag: at most 1 ray in 1 000).
 TEST(GpuHits, CpuMirrorMatchesKernel) {
   RL_GPU_CONTEXT(ctx);
   const std::size_t n = 5000;
@@ -114,13 +117,20 @@ TEST(GpuHits, CpuMirrorMatchesKernel) {
   std::vector<std::uint8_t> any(rays.size());
   intersect_closest(*ctx, *block, *q, hits);
   intersect_any(*ctx, *block, *q, any);
-  int differ = 0;
+  int differ = 0, flags = 0, doubtful_rays = 0;
   for (std::size_t i = 0; i < rays.size(); ++i) {
     const GpuHit c = bvh::closest(b, rays[i]);
-    differ += c.prim != hits[i].prim || std::fabs(c.t - hits[i].t) > 1e-6f * std::max(1.0f, std::fabs(c.t)) ||
-              bvh::any(b, rays[i]) != (any[i] != 0);
+    const float ct = hit_t(c), gt = hit_t(hits[i]);
+    const std::uint8_t ca = bvh::any(b, rays[i]);
+    flags += doubtful(c) != doubtful(hits[i]) || (ca & kAnyDoubtful) != (any[i] & kAnyDoubtful);
+    doubtful_rays += doubtful(hits[i]);
+    if (!doubtful(c) && !doubtful(hits[i]))
+      differ += c.prim != hits[i].prim || std::fabs(ct - gt) > 1e-6f * std::max(1.0f, std::fabs(ct));
+    if (!(ca & kAnyDoubtful) && !(any[i] & kAnyDoubtful)) differ += ca != any[i];
   }
+  std::printf("mirror vs kernel: %zu rays, %d doubtful on the GPU, %d flags differ\n", rays.size(), doubtful_rays, flags);
   EXPECT_EQ(differ, 0);
+  EXPECT_LE(flags * 1000, int(rays.size()));
   EXPECT_EQ(block->bvh_nodes, b.nodes.size());
   EXPECT_EQ(block->leaf_triangles, n);
   EXPECT_LE(block->bvh_depth, bvh::kStackSize - 1);
@@ -213,7 +223,8 @@ TEST(GpuHits, ClippedIntervalsAxisAlignedAndInsideRays) {
   // faces: the box test must keep them (conservative). Here Embree's own box and triangle
   // tests (robust mode too) may miss a vertex hit that the inclusive Möller-Trumbore test
   // reports, so the reference is brute force over every triangle with the kernels' own
-  // triangle test (bvh::triangle_t): the same closest prim (ties: smaller prim) and t.
+  // triangle test (bvh::triangle_t): the same closest prim (ties: smaller prim) and t as the
+  // kernels' own answer (rays through vertices are doubtful; the guess is still this one).
   std::vector<GpuRay> sliding;
   for (int i = 0; i < 1000; ++i) {
     float v[9];
@@ -241,7 +252,8 @@ TEST(GpuHits, ClippedIntervalsAxisAlignedAndInsideRays) {
         best = th, prim = t.prim;
     }
     vertex_hits += prim == i;
-    wrong += hits[i].prim != prim || (prim != kNoHit && !close(hits[i].t, best)) || (any[i] != 0) != (prim != kNoHit);
+    wrong += hits[i].prim != prim || (prim != kNoHit && !close(hit_t(hits[i]), best)) ||
+             ((any[i] & kAnyOccluded) != 0) != (prim != kNoHit);
   }
   std::printf("[axis-aligned through vertices] %zu rays, %d through their own triangle's vertex, %d differ from brute force\n",
               sliding.size(), vertex_hits, wrong);
@@ -342,8 +354,8 @@ TEST(GpuHits, GeneratedSceneBlockCameraAndRandomRays) {
   const auto rnd = random_rays(sb.info.cell, 20000, 17);
   const Agreement b = run_and_compare(*ctx, sb.records, sb.n, rnd, ref);
   expect_agree(b, "museum block, random rays in its cell");
-  std::printf("museum block %u: %llu triangles, ties: %zu + %zu of %zu rays\n", sb.info.id,
-              static_cast<unsigned long long>(sb.n), a.ties, b.ties, a.rays + b.rays);
+  std::printf("museum block %u: %llu triangles, doubtful (closest): %zu + %zu of %zu rays\n", sb.info.id,
+              static_cast<unsigned long long>(sb.n), a.doubtful, b.doubtful, a.rays + b.rays);
 }
 
 TEST(GpuHits, GeneratedClosedHullFromInside) {
@@ -446,7 +458,7 @@ TEST(GpuHits, RayQueueLargerThanOneDispatch) {
     const float x = rays[i].org[0], y = rays[i].org[1];
     const bool in = x > 1e-5f && x < 1 - 1e-5f && y > 1e-5f && y < 1 - 1e-5f && std::fabs(x - y) > 1e-5f;
     const bool out = x < -1e-5f || x > 1 + 1e-5f || y < -1e-5f || y > 1 + 1e-5f;
-    if (in) bad += hits[i].prim != (x > y ? 0u : 1u) || hits[i].t != 2.0f || hits[i].material != 5u;
+    if (in) bad += hits[i].prim != (x > y ? 0u : 1u) || hit_t(hits[i]) != 2.0f || hits[i].material != 5u;
     if (out) bad += hits[i].prim != kNoHit;
   }
   EXPECT_EQ(bad, 0u);
