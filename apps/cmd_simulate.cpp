@@ -83,6 +83,7 @@ int run_simulate(const SimulateOptions& opt) {
   cfg.prediction_depth = opt.prediction_depth;
   cfg.merge_planned = opt.merge_planned == "on";
   cfg.cancel_failed = opt.cancel_failed == "on";
+  cfg.retime_merged = opt.retime_merged == "on";
   cfg.fidelity = opt.fidelity;
   cfg.replay_file = opt.replay;
   cfg.record_replay = opt.record_replay;

@@ -22,6 +22,7 @@ struct SimulateOptions {
   int prediction_depth = 0;
   std::string merge_planned = "on";
   std::string cancel_failed = "on";
+  std::string retime_merged = "on";
   std::string fidelity = "markov";
   std::string replay;
   bool record_replay = false;

@@ -67,6 +67,11 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                   "planned); off = only unplanned queued jobs take them (Sec. 5.1)")
       ->default_val(opt->merge_planned)
       ->check(CLI::IsMember({"on", "off"}));
+  sim->add_option("--retime-merged", opt->retime_merged,
+                  "Path tracing with --merge-planned on: on = the planned E-job that rays joined is re-timed for its "
+                  "grown queue, so the plan stays true; off = it runs longer than planned")
+      ->default_val(opt->retime_merged)
+      ->check(CLI::IsMember({"on", "off"}));
   sim->add_option("--cancel-failed", opt->cancel_failed,
                   "Path tracing with prediction: on = a planned predicted job that gets no rays is withdrawn with its "
                   "T-jobs (Sec. 5.2); off = it runs empty and its prefetches still move data")

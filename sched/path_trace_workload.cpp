@@ -177,6 +177,8 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
       if (pt_traces_rays(kind)) pool.job(j).work += n;
       ++merges_;
       ++merges_planned_;
+      // The plan learns the longer E-job at once (else it stays wrong until it runs).
+      if (opt_.retime_merged) s.retime(pool.activity(j), exec_time_now(j, pa->device));
       return;
     }
   }
@@ -228,6 +230,9 @@ void PathTraceWorkload::route(JobId parent, Dest& d, MemId mem, Time now, JobPoo
       merge_into(C.rays, d.rays);
       C.resolved = true;
       pool.job(c).work = pt_traces_rays(d.kind) ? total(C.rays) : 0;
+      // Planned for the predicted queue; it will run for the real one (Sec. 5.2).
+      if (opt_.retime_merged && pool.state(c) == JobState::Planned)
+        s.retime(pool.activity(c), exec_time_now(c, s.activity(pool.activity(c)).device));
       return;
     }
   }
@@ -484,12 +489,19 @@ double PathTraceWorkload::exec_scale(JobId j, DeviceId d, const Activity& planne
   if (I.kind == PtJob::Generate || I.kind == PtJob::Compose || !I.resolved) return 1.0;
   const std::uint64_t n = I.kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
   if (n == 0) return 0.0;
+  const Time actual = exec_time_now(j, d);
+  return planned.duration > 0 ? actual / planned.duration : 1.0;
+}
+
+// Eq. 2 for the queue job j holds now on device d.
+Time PathTraceWorkload::exec_time_now(JobId j, DeviceId d) const {
+  const JobInfo& I = info_[static_cast<std::size_t>(j)];
+  const std::uint64_t n = I.kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
   std::vector<InputSize> sizes;
   if (I.kind == PtJob::Intersect || I.kind == PtJob::Shadow)
     sizes.push_back({DataKind::SceneData, pool_->block(scene_[static_cast<std::size_t>(I.block)]).bytes});
   sizes.push_back({pt_queue_kind(I.kind), n * bytes_per(I.kind)});
-  const Time actual = g_.timing.exec_time(d, pool_->job(j).type, sizes);
-  return planned.duration > 0 ? actual / planned.duration : 1.0;
+  return g_.timing.exec_time(d, pool_->job(j).type, sizes);
 }
 
 }  // namespace rayline

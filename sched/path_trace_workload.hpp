@@ -36,6 +36,9 @@ struct PathTraceOptions {
   // block join it, so that E-job runs longer than planned (see add_queue). Off: they
   // wait in the global queue for a new job (Sec. 5.1 read strictly: merge into *queued* jobs).
   bool merge_planned = true;
+  // ... and the planned E-job is re-timed for its grown queue (Schedule::retime), so the
+  // timelines GMB plans on stay true. Off: it runs longer than planned, unannounced.
+  bool retime_merged = true;
   // A planned prediction that failed is withdrawn with its T-jobs (Sec. 5.2, Schedule::
   // cancel_job). Off: it runs empty (0 s) and its prefetches still move their blocks.
   bool cancel_failed = true;
@@ -65,6 +68,7 @@ class PathTraceWorkload final : public Workload {
   // Actual / planned E-job duration (SimExecutor::exec_factor): a job's queue may have grown
   // by merges after it was planned, and a predicted job runs for its real rays (0: none).
   double exec_scale(JobId job, DeviceId device, const Activity& planned) const;
+  Time exec_time_now(JobId job, DeviceId device) const;
 
   const RayTally& tally() const { return tally_; }
   std::uint64_t rays_alive() const;

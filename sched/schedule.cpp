@@ -315,6 +315,17 @@ bool Schedule::cancel(ActivityId id) {
   return true;
 }
 
+bool Schedule::retime(ActivityId id, Time duration) {
+  Activity& a = acts_[id];
+  if (a.kind != ActivityKind::Exec || a.state != ActivityState::Planned || a.cancelled) return false;
+  a.duration = duration;
+  a.setup = std::min(a.setup, duration);
+  a.end = a.start + duration;
+  Timeline& tl = device_tl_[a.device];
+  if (!tl.items.empty() && tl.items.back() == id) tl.busy_until = a.end;
+  return true;
+}
+
 Schedule::CancelCount Schedule::cancel_job(JobId j) {
   CancelCount n;
   const ActivityId e = pool_->activity(j);

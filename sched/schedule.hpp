@@ -134,6 +134,10 @@ class Schedule {
   // the next), keeping those another activity still needs.
   struct CancelCount { int execs = 0, transfers = 0, kept_transfers = 0; Bytes bytes = 0; };
   CancelCount cancel_job(JobId j);
+  // A Planned E-job whose input grew after commit (rays merged into its queue, Sec. 5.1)
+  // runs `duration` (Eq. 2 for the new sizes): its end moves, and reproject() moves what
+  // follows it, so the plan stays true to what will run. Returns false unless Planned.
+  bool retime(ActivityId a, Time duration);
   // T-jobs committed to fetch inputs for job j (commit order).
   const std::vector<ActivityId>& transfers_for(JobId j) const;
 

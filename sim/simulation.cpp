@@ -69,6 +69,7 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   j["clients"] = cfg.clients;
   j["prediction_depth"] = cfg.prediction_depth;
   j["merge_planned"] = cfg.merge_planned;
+  j["retime_merged"] = cfg.retime_merged;
   j["image"] = {{"width", prof.width}, {"height", prof.height}, {"spp", prof.spp}};
   j["warmup_s"] = warm;
   j["steady_rays_per_second"] = traced / span;
@@ -135,6 +136,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     pto.prediction_depth = cfg.prediction_depth;
     pto.merge_planned = cfg.merge_planned;
     pto.cancel_failed = cfg.cancel_failed;
+    pto.retime_merged = cfg.retime_merged;
     pto.seed = cfg.seed;
   }
   ReplayLog recording;

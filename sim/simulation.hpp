@@ -25,6 +25,7 @@ struct SimulationConfig {
   int clients = 1;
   int prediction_depth = 0;             // Sec. 5.2; 0: off
   bool merge_planned = true;            // path tracing: queues may join planned jobs
+  bool retime_merged = true;            // path tracing: planned jobs that rays joined are re-timed
   bool cancel_failed = true;            // path tracing: withdraw failed predictions with their T-jobs
   std::string fidelity = "markov";      // analytic | markov | replay
   std::string replay_file;              // replay fidelity: the log to replay

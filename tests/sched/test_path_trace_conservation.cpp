@@ -144,6 +144,48 @@ TEST(PathTraceConservation, NoMergesIntoPlannedJobs) {
 
 TEST(PathTraceConservation, OneClientManyFrames) { expect_conserved(run(Fidelity::Markov, 1, nullptr, nullptr, 1, 4), 1, 4); }
 
+// Rays joining a planned, not yet started job (and a confirmed prediction's real rays)
+// re-time its E-job (Schedule::retime): every ray job's planned duration is then Eq. 2 of
+// the queue it processed. Without re-timing some run longer than the plan says.
+TEST(PathTraceConservation, PlannedJobsThatRaysJoinAreRetimed) {
+  for (const bool retime : {true, false}) {
+    const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
+    const SceneProfile prof = load_scene_profile(kProfile);
+    PathTraceOptions o;
+    o.clients = 2;
+    o.frames_per_client = 2;
+    o.prediction_depth = 2;
+    o.seed = 7;
+    o.retime_merged = retime;
+    JobPool pool;
+    Schedule s(g, pool);
+    PathTraceWorkload wl(g, prof, o);
+    GmbScheduler gmb;
+    ExactExecutor ex(s);
+    RuntimeLoop loop(gmb, ex, wl, pool, s);
+    ASSERT_FALSE(loop.run().stalled);
+    ASSERT_GT(wl.merges_into_planned(), 0u);
+    std::size_t checked = 0, off = 0;
+    for (std::size_t i = 0; i < s.activity_count(); ++i) {
+      const Activity& a = s.activity(static_cast<ActivityId>(i));
+      if (a.kind != ActivityKind::Exec || a.cancelled || wl.job_rays(a.job) == 0) continue;
+      const std::string_view type = g.job_types[static_cast<std::size_t>(pool.job(a.job).type)];
+      if (type == "GenerateRays") continue;  // timed by its request, not by rays
+      ++checked;
+      const Time want = wl.exec_time_now(a.job, a.device);
+      if (std::abs(a.duration - want) > 1e-12 * std::max(1.0, want)) ++off;
+    }
+    ASSERT_GT(checked, 100u);
+    if (retime) EXPECT_EQ(off, 0u) << "of " << checked << " ray jobs";
+    else EXPECT_GT(off, 0u) << "merges make E-jobs run longer than planned";
+    Outcome r;
+    r.tally = wl.tally();
+    r.frames = wl.frames();
+    r.alive = wl.rays_alive();
+    expect_conserved(r, 2, 2);
+  }
+}
+
 TEST(PathTraceReplay, ReproducesRecordedPerJobRayCountsExactly) {
   Outcome rec;
   auto log = recorded(&rec);
