@@ -12,7 +12,8 @@
     scripts/make_profiles.py prediction [--rayline ...] [--duration 30s] [--clients 4] [--out out/fidelity]
         writes OUT/prediction.csv: prediction accuracy and steady throughput without
         prediction, with it (failed predictions withdrawn with their T-jobs) and with failed
-        predictions kept (--cancel-failed off), 1 and --clients clients, on paper-A and --platform
+        predictions kept (--cancel-failed off), 1 and --clients clients, on paper-A and --platform,
+        means over --seeds (default 1,2,3)
 
 How a profile is made (standard library only; deterministic for --seed):
  1. `rayline generate boeing-like|museum-like` at --triangles, then `rayline partition` into
@@ -573,35 +574,38 @@ def fidelity(args):
 def prediction(args):
     """Job prediction (Sec. 5.2) on the committed paper-scale profiles: steady throughput
     without prediction, with it (failed predictions withdrawn with their T-jobs), and with it
-    but failed predictions kept (--cancel-failed off), on one node A and on the platform."""
+    but failed predictions kept (--cancel-failed off), on one node A and on the platform;
+    each point is the mean over --seeds (these runs are chaotic: one seed can differ by tens of %)."""
     rows = []
+    seeds = [int(x) for x in args.seeds.split(",")]
     for platform in dict.fromkeys(["paper-A", args.platform]):
         for scene in ("boeing", "museum"):
             for clients in sorted({1, args.clients}):
-                res = {}
+                res = {}  # tag -> one path_trace dict per seed
                 for tag, depth, cancel in (("none", 0, "on"), ("withdrawn", args.prediction_depth, "on"),
                                            ("kept", args.prediction_depth, "off")):
-                    out = os.path.join(args.out, f"{scene}-{platform}-c{clients}-prediction-{tag}")
-                    run([args.rayline, "simulate", "--workload", scene, "--duration", args.duration, "--clients",
-                         str(clients), "--prediction-depth", str(depth), "--cancel-failed", cancel, "--platform",
-                         platform, "--no-progress", "--fidelity", "markov", "--seed", "1", "--out", out])
-                    with open(os.path.join(out, "metrics.json")) as f:
-                        res[tag] = json.load(f)["path_trace"]
-                r0 = res["none"]["steady_rays_per_second"]
-                rw, rk = res["withdrawn"], res["kept"]
-                p = rw.get("prediction", {})
-                w = p.get("withdrawn", {})
-                gain = lambda r: round(r["steady_rays_per_second"] / r0 - 1, 5) if r0 else ""
-                rows.append({"platform": platform, "scene": scene, "clients": clients,
+                    for seed in seeds:
+                        out = os.path.join(args.out, f"{scene}-{platform}-c{clients}-s{seed}-prediction-{tag}")
+                        run([args.rayline, "simulate", "--workload", scene, "--duration", args.duration, "--clients",
+                             str(clients), "--prediction-depth", str(depth), "--cancel-failed", cancel, "--platform",
+                             platform, "--no-progress", "--fidelity", "markov", "--seed", str(seed), "--out", out])
+                        with open(os.path.join(out, "metrics.json")) as f:
+                            res.setdefault(tag, []).append(json.load(f)["path_trace"])
+                mean = lambda tag, f: sum(f(r) for r in res[tag]) / len(res[tag])
+                rate = lambda tag: mean(tag, lambda r: r["steady_rays_per_second"])
+                pred = lambda key: mean("withdrawn", lambda r: r.get("prediction", {}).get(key, 0))
+                wd = lambda key: mean("withdrawn", lambda r: r.get("prediction", {}).get("withdrawn", {}).get(key, 0))
+                r0 = rate("none")
+                gain = lambda tag: round(rate(tag) / r0 - 1, 5) if r0 else ""
+                rows.append({"platform": platform, "scene": scene, "clients": clients, "seeds": len(seeds),
                              "prediction_depth": args.prediction_depth, "rays_per_second_without": round(r0),
-                             "rays_per_second_with": round(rw["steady_rays_per_second"]), "gain": gain(rw),
-                             "rays_per_second_with_failed_kept": round(rk["steady_rays_per_second"]),
-                             "gain_failed_kept": gain(rk),
-                             "accuracy": round(p.get("accuracy", 0), 5), "ray_accuracy": round(p.get("ray_accuracy", 0), 5),
-                             "predicted": p.get("created", 0), "confirmed": p.get("confirmed", 0),
-                             "confirmed_planned": p.get("confirmed_planned", 0), "failed": p.get("failed", 0),
-                             "withdrawn_e_jobs": w.get("e_jobs", 0), "withdrawn_t_jobs": w.get("t_jobs", 0),
-                             "kept_t_jobs": w.get("t_jobs_kept", 0), "withdrawn_t_job_bytes": w.get("t_job_bytes", 0)})
+                             "rays_per_second_with": round(rate("withdrawn")), "gain": gain("withdrawn"),
+                             "rays_per_second_with_failed_kept": round(rate("kept")), "gain_failed_kept": gain("kept"),
+                             "accuracy": round(pred("accuracy"), 5), "ray_accuracy": round(pred("ray_accuracy"), 5),
+                             "predicted": round(pred("created")), "confirmed": round(pred("confirmed")),
+                             "confirmed_planned": round(pred("confirmed_planned")), "failed": round(pred("failed")),
+                             "withdrawn_e_jobs": round(wd("e_jobs")), "withdrawn_t_jobs": round(wd("t_jobs")),
+                             "kept_t_jobs": round(wd("t_jobs_kept")), "withdrawn_t_job_bytes": round(wd("t_job_bytes"))})
     write_csv(os.path.join(args.out, "prediction.csv"), rows)
     for r in rows:
         print(f"{r['platform']:>14} {r['scene']:>7} c={r['clients']}: {r['rays_per_second_without']:>9} -> "
@@ -630,6 +634,7 @@ def main():
     ap.add_argument("--depth", type=int, default=0, help="fidelity runs: prediction depth")
     ap.add_argument("--prediction-depth", type=int, default=2, help="prediction.csv: depth compared with 0")
     ap.add_argument("--platform", default="paper-cluster")
+    ap.add_argument("--seeds", default="1,2,3", help="prediction: seeds averaged per point")
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "fidelity"))
     args = ap.parse_args()
     {"make": make, "fidelity": fidelity, "prediction": prediction}[args.command](args)
