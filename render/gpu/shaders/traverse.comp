@@ -50,10 +50,10 @@ const float kCull = 1.0 / 256.0;
 // e = inf when t itself is unknown).
 //   Margins (Higham 2002, Sec. 3.1: a sum of products computed with k roundings is off by
 // at most gamma_k = k u / (1 - k u) times the same sum of |products|; u = 2^-24). From exact
-// floats v0, v1, v2, o, d: e1, e2, C one rounding, Ng and R three more (product, product,
-// difference: an unfused fma is two roundings, as on lavapipe), a dot three more, so every
-// term of den, U, V has k <= 7 and of T k <= 8, whatever the association or fusion (Embree
-// with FMA, lavapipe without). |X - X_exact| <= gamma_8 |terms| < 2^-21 |terms| for each
+// floats v0, v1, v2, o, d: e1, e2, C cost one rounding each, a term of Ng or R its product
+// and the difference (an unfused fma is two roundings, as on lavapipe), a dot product one
+// product and two sums: terms of den (e2 e1 d) and U, V (C d e) have k <= 1+1+2+3 = 7, of T
+// (e2 e1 C) k <= 8, whatever the association or fusion (Embree with FMA, lavapipe without). |X - X_exact| <= gamma_8 |terms| < 2^-21 |terms| for each
 // engine, 2^-20 between the two; kErr = 2^-19 doubles that (rounding of the |terms| sums
 // and of kErr * |terms| fit in it). Assumes no underflow in the products (scene scales
 // above ~1e-9). A decision on X is then certain when |X| > m_X; W = |den| - (U + V) gets
