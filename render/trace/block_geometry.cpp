@@ -60,8 +60,15 @@ BlockGeometry::BlockGeometry(const EmbreeDevice& device, std::uint32_t block, st
   RTCScene sc = rtcNewScene(dev);
   // Low quality: Embree's Morton builder (selected by the dynamic-scene flag), about 4x
   // faster to build; blocks loaded again and again out of core pay the build each time.
+  // Robust mode (conservative box test, watertight Plücker triangle test) for every quality:
+  // the fast mode's box test can drop a flat leaf box (axis-aligned floors and walls) for a
+  // ray that meets it, and which box it drops depends on the BVH built. On a scene of two
+  // coplanar, differently tessellated floors, 1 460 of 20 000 camera rays hit a different
+  // triangle with the SAH and the Morton BVH in fast mode, none in robust mode; the image
+  // then differed between in core and out of core (RenderDeterminism.
+  // BvhQualitySameImageOnZFighting). Cost: not measurable in core, ≈ 3 % at a 25 % budget.
   const bool low = quality == BvhQuality::Low;
-  rtcSetSceneFlags(sc, low ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
+  rtcSetSceneFlags(sc, (low ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE) | RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(sc, low ? RTC_BUILD_QUALITY_LOW : (quality == BvhQuality::High ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM));
   RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
   rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices_.data(), 0, 12, n * 3);

@@ -53,9 +53,9 @@ inline void flush_denormals() {
 // Embree's answer for the same records (the CPU renderer's BlockGeometry setup).
 class EmbreeRef {
  public:
-  // robust: RTC_SCENE_FLAG_ROBUST (conservative box test, watertight triangle test); the
-  // renderer's BlockGeometry does not set it.
-  EmbreeRef(std::span<const unsigned char> records, std::uint64_t n, bool robust = false) {
+  // robust: RTC_SCENE_FLAG_ROBUST (conservative box test, watertight Plücker triangle
+  // test), as the renderer's BlockGeometry sets it; false: Embree's fast mode (Möller–Trumbore).
+  EmbreeRef(std::span<const unsigned char> records, std::uint64_t n, bool robust = true) {
     flush_denormals();
     device_ = rtcNewDevice("threads=1");
     vertices_.resize(n * 9 + 3);
