@@ -123,6 +123,11 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
               {"fallback_jobs", r.gpu.fallback_jobs},
               {"rays", r.gpu.gpu_rays},
               {"fallback_rays", r.gpu.fallback_rays},
+              // rays the kernels flagged doubtful (render/gpu/README.md, "Doubtful rays")
+              // and their share of the rays the GPU traced; they ran as CPU-only jobs
+              {"doubtful_rays", r.gpu.doubtful_rays},
+              {"doubtful_fraction", r.gpu.gpu_rays ? double(r.gpu.doubtful_rays) / double(r.gpu.gpu_rays) : 0.0},
+              {"resolve_doubtful", r.gpu_resolve_doubtful},
               {"kernel_seconds", r.gpu.kernel_seconds},
               {"block_uploads", r.gpu.block_uploads},
               {"block_evictions", r.gpu.block_evictions},

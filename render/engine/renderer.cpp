@@ -12,7 +12,6 @@
 #include <map>
 #include <thread>
 
-#include <nlohmann/json.hpp>
 
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/local_executor.hpp"
@@ -393,16 +392,8 @@ RenderResult render(const RenderOptions& opt) {
     if (!gpu_store->failure().empty())
       res.gpu_status = std::string(gpu_store->lost() ? "lost: " : "used, with failures: ") + gpu_store->failure();
   }
+  res.gpu_resolve_doubtful = opt.gpu_resolve_doubtful;
   res.metrics_json = render_metrics_json(res, schedule, executor.busy_seconds());
-  if (gpu_store) {
-    // metrics.json gpu: the rays the kernels flagged doubtful, and their share of the rays
-    // the GPU traced (render/gpu/README.md, "Doubtful rays").
-    nlohmann::json m = nlohmann::json::parse(res.metrics_json);
-    m["gpu"]["doubtful_rays"] = res.gpu.doubtful_rays;
-    m["gpu"]["doubtful_fraction"] = res.gpu.gpu_rays ? double(res.gpu.doubtful_rays) / double(res.gpu.gpu_rays) : 0.0;
-    m["gpu"]["resolve_doubtful"] = opt.gpu_resolve_doubtful;
-    res.metrics_json = m.dump(2) + "\n";
-  }
   if (opt.keep_schedule_outputs) {
     res.timeline_json = chrome_trace_json(schedule, true);
     res.jobs_csv = jobs_csv(schedule);

@@ -80,6 +80,7 @@ struct RenderResult {
   std::string gpu_device, gpu_status = "none";
   int gpu_device_id = -1;                 // its compute device in the DCG (TimingSample::device)
   bool gpu_cpu_backed = false;
+  bool gpu_resolve_doubtful = true;  // RenderOptions::gpu_resolve_doubtful (a test hook)
   Bytes gpu_memory_budget = 0;
   GpuStoreStats gpu;
   std::vector<std::pair<Bytes, Time>> pcie_samples;  // RAM->GPU T-jobs (bytes, seconds)
