@@ -38,6 +38,12 @@ struct Fixture {
                d.bytes = static_cast<Bytes>(rays * 64);
                return pool.add_block(d);
              }) {}
+  // The predicted child of `parent` of this kind on this block (kNone if there is none).
+  JobId child(JobId parent, PtJob kind, int block) const {
+    for (JobId c : pred.children(parent))
+      if (pred.kind(c) == kind && pred.block(c) == block) return c;
+    return kNone;
+  }
 };
 }  // namespace
 
@@ -97,9 +103,7 @@ TEST(JobPredictor, PlannedChildTakesTheRealRays) {
   Fixture f(1);
   Job j;
   const JobId r = f.pred.add(j, PtJob::Intersect, 1, 100000, f.pool);
-  JobId c2 = kNone;
-  for (JobId c : f.pred.children(r))
-    if (f.pred.kind(c) == PtJob::Intersect && f.pred.block(c) == 2) c2 = c;
+  const JobId c2 = f.child(r, PtJob::Intersect, 2);
   f.pool.mark_planned(r, 0);
   f.pool.mark_planned(c2, 1);
   EXPECT_EQ(f.pred.resolve(r, PtJob::Intersect, 2, 40000, f.pool), c2);
@@ -120,9 +124,7 @@ TEST(JobPredictor, PlannedMissFailsItsPlannedSubtreeDeepestFirst) {
   Fixture f(2);
   Job j;
   const JobId r = f.pred.add(j, PtJob::Intersect, 1, 100000, f.pool);
-  JobId c2 = kNone;
-  for (JobId c : f.pred.children(r))
-    if (f.pred.kind(c) == PtJob::Intersect && f.pred.block(c) == 2) c2 = c;
+  const JobId c2 = f.child(r, PtJob::Intersect, 2);
   ASSERT_NE(c2, kNone);
   ASSERT_FALSE(f.pred.children(c2).empty());
   f.pool.mark_planned(r, 0);
@@ -138,7 +140,9 @@ TEST(JobPredictor, PlannedMissFailsItsPlannedSubtreeDeepestFirst) {
   EXPECT_LT(std::find(gone.begin(), gone.end(), g) - gone.begin(), static_cast<std::ptrdiff_t>(gone.size() - 1));
   // Every descendant was judged now: failed, queued ones discarded.
   for (JobId k : f.pred.children(c2))
-    if (k != g) EXPECT_EQ(f.pool.state(k), JobState::Discarded);
+    if (k != g) {
+      EXPECT_EQ(f.pool.state(k), JobState::Discarded);
+    }
   EXPECT_GE(f.pred.stats().failed - failed_before, 1 + f.pred.children(c2).size());
   EXPECT_TRUE(f.pred.take_failed_planned().empty());
 }

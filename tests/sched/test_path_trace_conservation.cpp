@@ -6,6 +6,8 @@
 // per-job ray counts exactly.
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include "sched/exact_executor.hpp"
 #include "sched/gmb_scheduler.hpp"
 #include "sched/path_trace_workload.hpp"
@@ -30,8 +32,11 @@ struct Outcome {
   Schedule::CancelCount withdrawn;
 };
 
+using Inspect = std::function<void(const DeviceGraph&, const JobPool&, const Schedule&, const PathTraceWorkload&)>;
+
 Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr, ReplayLog* record = nullptr,
-        int clients = 2, int frames = 2, std::uint64_t seed = 7, bool merge_planned = true, bool cancel_failed = true) {
+        int clients = 2, int frames = 2, std::uint64_t seed = 7, bool merge_planned = true, bool cancel_failed = true,
+        bool retime_merged = true, const Inspect& inspect = {}) {
   const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
   const SceneProfile prof = load_scene_profile(kProfile);
   PathTraceOptions o;
@@ -44,6 +49,7 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   o.seed = seed;
   o.merge_planned = merge_planned;
   o.cancel_failed = cancel_failed;
+  o.retime_merged = retime_merged;
   JobPool pool;
   Schedule s(g, pool);
   PathTraceWorkload wl(g, prof, o);
@@ -51,6 +57,7 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   ExactExecutor ex(s);
   RuntimeLoop loop(gmb, ex, wl, pool, s);
   const RunStats st = loop.run();
+  if (inspect) inspect(g, pool, s, wl);
   Outcome r;
   r.tally = wl.tally();
   r.frames = wl.frames();
@@ -149,40 +156,25 @@ TEST(PathTraceConservation, OneClientManyFrames) { expect_conserved(run(Fidelity
 // the queue it processed. Without re-timing some run longer than the plan says.
 TEST(PathTraceConservation, PlannedJobsThatRaysJoinAreRetimed) {
   for (const bool retime : {true, false}) {
-    const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
-    const SceneProfile prof = load_scene_profile(kProfile);
-    PathTraceOptions o;
-    o.clients = 2;
-    o.frames_per_client = 2;
-    o.prediction_depth = 2;
-    o.seed = 7;
-    o.retime_merged = retime;
-    JobPool pool;
-    Schedule s(g, pool);
-    PathTraceWorkload wl(g, prof, o);
-    GmbScheduler gmb;
-    ExactExecutor ex(s);
-    RuntimeLoop loop(gmb, ex, wl, pool, s);
-    ASSERT_FALSE(loop.run().stalled);
-    ASSERT_GT(wl.merges_into_planned(), 0u);
-    std::size_t checked = 0, off = 0;
-    for (std::size_t i = 0; i < s.activity_count(); ++i) {
-      const Activity& a = s.activity(static_cast<ActivityId>(i));
-      if (a.kind != ActivityKind::Exec || a.cancelled || wl.job_rays(a.job) == 0) continue;
-      const std::string_view type = g.job_types[static_cast<std::size_t>(pool.job(a.job).type)];
-      if (type == "GenerateRays") continue;  // timed by its request, not by rays
-      ++checked;
-      const Time want = wl.exec_time_now(a.job, a.device);
-      if (std::abs(a.duration - want) > 1e-12 * std::max(1.0, want)) ++off;
-    }
+    std::size_t checked = 0, off = 0, merges = 0;
+    const Outcome r = run(Fidelity::Markov, 2, nullptr, nullptr, 2, 2, 7, true, true, retime,
+                          [&](const DeviceGraph& g, const JobPool& pool, const Schedule& s, const PathTraceWorkload& wl) {
+                            merges = wl.merges_into_planned();
+                            for (std::size_t i = 0; i < s.activity_count(); ++i) {
+                              const Activity& a = s.activity(static_cast<ActivityId>(i));
+                              if (a.kind != ActivityKind::Exec || a.cancelled || wl.job_rays(a.job) == 0) continue;
+                              // GenerateRays is timed by its request, not by rays
+                              if (g.job_types[static_cast<std::size_t>(pool.job(a.job).type)] == "GenerateRays") continue;
+                              ++checked;
+                              const Time want = wl.exec_time_now(a.job, a.device);
+                              if (std::abs(a.duration - want) > 1e-12 * std::max(1.0, want)) ++off;
+                            }
+                          });
+    expect_conserved(r, 2, 2);
+    ASSERT_GT(merges, 0u);
     ASSERT_GT(checked, 100u);
     if (retime) EXPECT_EQ(off, 0u) << "of " << checked << " ray jobs";
     else EXPECT_GT(off, 0u) << "merges make E-jobs run longer than planned";
-    Outcome r;
-    r.tally = wl.tally();
-    r.frames = wl.frames();
-    r.alive = wl.rays_alive();
-    expect_conserved(r, 2, 2);
   }
 }
 
