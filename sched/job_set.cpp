@@ -211,10 +211,22 @@ JobSet synthetic_ray_batching(const DeviceGraph& g, int blocks, int jobs, std::u
     acc += 1.0 / (b + 1);  // Zipf popularity
     cdf.push_back(acc);
   }
+  // Queues fill at most half of a host memory (the rest is for scene blocks): a queue drawn
+  // for a full host goes to the next one with room, and when none has room the snapshot
+  // ends with fewer jobs (a single node holds a few hundred, not the cluster's thousand).
+  std::vector<Bytes> queued(g.memories.size(), 0);
   for (int j = 0; j < jobs; ++j) {
     const double u = uniform(0, acc);
     const int b = static_cast<int>(std::lower_bound(cdf.begin(), cdf.end(), u) - cdf.begin());
     const auto rays = static_cast<Bytes>(uniform(1e4, 5e5));
+    const std::size_t drawn = static_cast<std::size_t>(uniform(0, static_cast<double>(hosts.size()))) % hosts.size();
+    MemId host = kNone;
+    for (std::size_t k = 0; k < hosts.size() && host == kNone; ++k) {
+      const MemId h = hosts[(drawn + k) % hosts.size()];
+      if (queued[h] + rays * 64 <= g.memories[h].capacity / 2) host = h;
+    }
+    if (host == kNone) break;
+    queued[host] += rays * 64;
     DataBlock q;
     q.name = "rays" + std::to_string(j);
     q.kind = DataKind::RayQueue;
@@ -222,7 +234,7 @@ JobSet synthetic_ray_batching(const DeviceGraph& g, int blocks, int jobs, std::u
     q.bytes = rays * 64;
     q.scene_block = scene[std::min<std::size_t>(static_cast<std::size_t>(b), scene.size() - 1)];
     const BlockId qb = set.pool.add_block(q);
-    set.initial.emplace_back(qb, hosts[static_cast<std::size_t>(uniform(0, static_cast<double>(hosts.size()))) % hosts.size()]);
+    set.initial.emplace_back(qb, host);
     Job job;
     job.name = "ri" + std::to_string(j);
     job.type = ri;

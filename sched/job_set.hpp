@@ -25,7 +25,8 @@ JobSet parse_job_set(const std::string& json_text, const std::string& file_label
 // scene_bytes/blocks each, a full copy on every disk (Sec. 6.1: "each node has a full copy
 // of the model dataset on its HDD"); `jobs` RayIntersect jobs, each with its own RayQueue
 // of 10 k - 500 k rays x 64 B in a random node's host memory; block popularity is skewed
-// (Zipf, s = 1) as rays concentrate on visible blocks. Deterministic for a seed.
+// (Zipf, s = 1) as rays concentrate on visible blocks. Queues fill at most half of each host
+// memory, so a small platform gets fewer than `jobs` jobs. Deterministic for a seed.
 JobSet synthetic_ray_batching(const DeviceGraph& g, int blocks, int jobs, std::uint64_t seed,
                               Bytes scene_bytes = Bytes(26.5 * 1024 * 1024 * 1024.0));
 
