@@ -46,6 +46,7 @@ void add_plan(CLI::App& app, std::function<int()>& action) {
   plan->callback([opt, &action] { action = [opt] { return run_plan(*opt); }; });
 }
 
+#ifdef RAYLINE_WITH_SIM  // simulate, compare: need sim/ (SimGrid)
 void add_simulate(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<SimulateOptions>();
   auto* sim = app.add_subcommand("simulate", "Run a schedule on the SimGrid virtual platform and measure it");
@@ -63,8 +64,8 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--clients", opt->clients, "Path tracing: clients requesting frames (N, or N1,N2,... for a sweep reporting the peak)")->default_val(opt->clients);
   sim->add_option("--prediction-depth", opt->prediction_depth, "Path tracing: job prediction depth (Sec. 5.2; 0 = off)")->default_val(opt->prediction_depth)->check(CLI::Range(0, 16));
   sim->add_option("--merge-planned", opt->merge_planned,
-                  "Path tracing: on = arriving rays may join a planned, not yet started job (it then runs longer than "
-                  "planned); off = only unplanned queued jobs take them (Sec. 5.1)")
+                  "Path tracing: on = arriving rays may join a planned, not yet started job (its E-job grows, see "
+                  "--retime-merged); off = only unplanned queued jobs take them (Sec. 5.1)")
       ->default_val(opt->merge_planned)
       ->check(CLI::IsMember({"on", "off"}));
   sim->add_option("--retime-merged", opt->retime_merged,
@@ -102,7 +103,9 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--out", opt->out, "Output directory: OUT/<scheduler>/ per run, OUT/compare.csv, compare.json")->default_val(opt->out);
   c->callback([opt, &action] { action = [opt] { return run_compare(*opt); }; });
 }
+#endif  // RAYLINE_WITH_SIM
 
+#ifdef RAYLINE_WITH_RENDER  // generate, partition, render, calibrate, devices: need render/
 void add_generate(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<GenerateOptions>();
   auto* gen = app.add_subcommand(
@@ -207,6 +210,7 @@ void add_devices(CLI::App& app, std::function<int()>& action) {
   d->add_flag("--json", opt->json, "Print JSON instead of text");
   d->callback([opt, &action] { action = [opt] { return run_devices(*opt); }; });
 }
+#endif  // RAYLINE_WITH_RENDER
 
 }  // namespace
 
@@ -217,14 +221,19 @@ int main(int argc, char** argv) {
   std::function<int()> action;
   add_platform(app, action);
   add_plan(app, action);
+#ifdef RAYLINE_WITH_SIM
   add_simulate(app, action);
   add_compare(app, action);
+#endif
+#ifdef RAYLINE_WITH_RENDER
   add_generate(app, action);
   add_partition(app, action);
   add_render(app, action);
   add_calibrate(app, action);
   add_devices(app, action);
-  // New subcommands: add an add_<name>(app, action) above and call it here.
+#endif
+  // New subcommands: add an add_<name>(app, action) above, call it here, and list its
+  // cmd_<name>.cpp in apps/CMakeLists.txt.
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
