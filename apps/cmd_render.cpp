@@ -76,8 +76,10 @@ int run_render(const RenderCliOptions& opt) {
   ro.threads = opt.threads;
   ro.seed = opt.seed;
   ro.horizon = opt.horizon;
+  if (opt.paths > 0 && opt.paths < 64) throw InputError("--paths", "paths", "must be 0 (auto) or at least 64");
   ro.batching.path_cap = opt.paths;
   ro.bvh_quality = opt.bvh_quality;
+  ro.read_ahead = opt.read_ahead == "on";
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!opt.memory_budget.empty()) ro.memory_budget = parse_bytes(opt.memory_budget, "--memory-budget");
   ro.gpu = opt.gpu;

@@ -17,8 +17,9 @@ struct RenderCliOptions {
   std::string memory_budget;         // "512MiB"; empty: unlimited (in core)
   std::uint64_t seed = 1;
   double horizon = 2.0;
-  std::uint32_t paths = 1u << 17;    // paths in flight at most
+  std::uint32_t paths = 0;           // paths in flight at most; 0 = auto
   std::string bvh_quality = "auto";
+  std::string read_ahead = "on";     // --read-ahead on|off
   std::string gpu = "auto";          // none | auto | index | name (issue 7)
   std::string gpu_memory_budget;     // "4GiB"; empty: half of the device's memory
   std::string out = "out/render.exr";

@@ -155,12 +155,20 @@ void add_render(CLI::App& app, std::function<int()>& action) {
   r->add_option("--seed", opt->seed, "Random seed (same seed: same image, bit for bit)")->default_val(opt->seed);
   r->add_option("--horizon", opt->horizon, "GMB horizon k in seconds (Sec. 4.2)")->default_val(opt->horizon)
       ->check(CLI::PositiveNumber);
-  r->add_option("--paths", opt->paths, "Paths in flight at most (bounds ray memory)")->default_val(opt->paths)
-      ->check(CLI::Range(64, 1 << 26));
+  r->add_option("--paths", opt->paths,
+                "Paths in flight at most (bounds ray memory); 0 = auto: under --memory-budget all that fit next to "
+                "the largest block, else 131072")
+      ->default_val(opt->paths)
+      ->check(CLI::Range(0, 1 << 26));
   r->add_option("--bvh-quality", opt->bvh_quality,
-                "auto (low under a budget, else medium) | low (fast Morton build) | medium | high; the image is the same")
+                "auto (low under a budget, else medium) | low (fast low-quality build) | medium | high; the image is the same")
       ->default_val(opt->bvh_quality)
       ->check(CLI::IsMember({"auto", "low", "medium", "high"}));
+  r->add_option("--read-ahead", opt->read_ahead,
+                "on = the next planned block file is read while the disk->RAM channel still builds the previous "
+                "block's BVH (one staged file outside the budget); off = read and build in turn")
+      ->default_val(opt->read_ahead)
+      ->check(CLI::IsMember({"on", "off"}));
   r->add_option("--gpu", opt->gpu,
                 "Vulkan device: none | auto (first non-CPU device, else none) | index | name substring (see `rayline devices`)")
       ->default_val(opt->gpu);

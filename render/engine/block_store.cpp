@@ -1,8 +1,10 @@
 #include "render/engine/block_store.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <future>
 
 #include "sched/error.hpp"
 
@@ -14,10 +16,64 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
+struct BlockStore::TimedRead {
+  RawBlock raw;
+  double t0 = 0, t1 = 0;  // since the store was created
+};
+
+struct BlockStore::Staged {
+  std::uint32_t block = 0;
+  std::future<TimedRead> read;  // std::async: its destructor waits for the read
+};
+
 BlockStore::BlockStore(const partition::BlockIndex& index, std::string dir, std::vector<std::uint64_t> footprint,
                        std::uint32_t material_count, trace::BvhQuality quality, int build_threads)
     : index_(index), dir_(std::move(dir)), footprint_(std::move(footprint)), materials_(material_count),
       quality_(quality), device_(build_threads), resident_(index.blocks.size()), copies_(index.blocks.size(), 0) {}
+
+BlockStore::~BlockStore() {
+  std::unique_ptr<Staged> s;
+  {
+    std::lock_guard lk(stage_mu_);
+    s.swap(staged_);
+  }
+  // `s` waits here for a read still in flight (its result, or error, is dropped).
+}
+
+double BlockStore::since_start() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+}
+
+void BlockStore::busy(double t0, double t1, bool read) {
+  busy_.emplace_back(t0, t1);
+  if (read) reads_.emplace_back(t0, t1);
+}
+
+BlockStore::TimedRead BlockStore::timed_read(std::uint32_t block) const {
+  TimedRead r;
+  r.t0 = since_start();
+  r.raw = read_block_uncached(path(block));
+  r.t1 = since_start();
+  return r;
+}
+
+void BlockStore::read_ahead(std::uint32_t block) {
+  if (block >= resident_.size() || resident(block)) return;
+  std::unique_ptr<Staged> old;
+  {
+    std::lock_guard lk(stage_mu_);
+    if (staged_ && staged_->block == block) return;
+    old.swap(staged_);
+    staged_ = std::make_unique<Staged>();
+    staged_->block = block;
+    staged_->read = std::async(std::launch::async, [this, block] { return timed_read(block); });
+  }
+  if (old) {
+    std::lock_guard lk(mu_);
+    ++stats_.wasted_read_aheads;
+  }
+  // `old` (never used: its load was withdrawn or found the block resident) waits here.
+}
 
 std::string BlockStore::path(std::uint32_t block) const {
   return (std::filesystem::path(dir_) / index_.blocks.at(block).file).string();
@@ -25,9 +81,16 @@ std::string BlockStore::path(std::uint32_t block) const {
 
 std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t block) {
   const std::string p = path(block);
-  auto t0 = std::chrono::steady_clock::now();
-  RawBlock raw = read_block_uncached(p);
-  const double read_s = seconds_since(t0);
+  const double t_begin = since_start();
+  std::unique_ptr<Staged> staged;
+  {
+    std::lock_guard lk(stage_mu_);
+    if (staged_ && staged_->block == block) staged.swap(staged_);
+  }
+  // A read-ahead of this block: wait for it (errors are thrown here, as a direct read's).
+  TimedRead tr = staged ? staged->read.get() : timed_read(block);
+  RawBlock raw = std::move(tr.raw);
+  const double read_s = tr.t1 - tr.t0;
   if (raw.header.block_id != block)
     throw InputError(p, "block_id", "holds block " + std::to_string(raw.header.block_id) + ", expected " +
                                         std::to_string(block));
@@ -42,9 +105,11 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t bloc
                                           " but the scene has " + std::to_string(materials_));
   }
   const std::int64_t embree_before = device_.embree_bytes();
-  t0 = std::chrono::steady_clock::now();
-  auto g = std::make_shared<const trace::BlockGeometry>(device_, block, raw.payload, raw.header.triangle_count, quality_);
+  auto t0 = std::chrono::steady_clock::now();
+  auto g = std::make_shared<const trace::BlockGeometry>(device_, block, raw.payload, raw.header.triangle_count, quality_,
+                                                        &pool_);
   const double build_s = seconds_since(t0);
+  const double t_end = since_start();
   // Single loader thread per channel: the Embree delta is this block's BVH (an estimate
   // when several loaders build at once).
   const auto measured = static_cast<double>(g->array_bytes()) +
@@ -54,6 +119,9 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t bloc
   stats_.bytes_read += raw.file_bytes;
   (raw.mode == ReadMode::Direct ? stats_.direct_reads : stats_.buffered_reads) += 1;
   stats_.read_seconds += read_s;
+  if (staged) ++stats_.read_aheads;
+  busy(tr.t0, tr.t1, true);
+  busy(std::max(t_begin, tr.t1), t_end, false);  // waiting for a read-ahead is in the read's interval
   stats_.build_seconds += build_s;
   if (footprint_[block] > 0)
     stats_.worst_footprint_ratio = std::max(stats_.worst_footprint_ratio, measured / double(footprint_[block]));
@@ -103,9 +171,32 @@ bool BlockStore::resident(std::uint32_t block) const {
   return resident_.at(block) != nullptr;
 }
 
+namespace {
+// Length of the union of intervals.
+double union_length(std::vector<std::pair<double, double>> v) {
+  std::sort(v.begin(), v.end());
+  double total = 0, lo = 0, hi = -1;
+  for (auto [a, b] : v) {
+    if (b <= a) continue;
+    if (a > hi) {
+      if (hi > lo) total += hi - lo;
+      lo = a, hi = b;
+    } else {
+      hi = std::max(hi, b);
+    }
+  }
+  if (hi > lo) total += hi - lo;
+  return total;
+}
+}  // namespace
+
 BlockStoreStats BlockStore::stats() const {
   std::lock_guard lk(mu_);
-  return stats_;
+  BlockStoreStats s = stats_;
+  s.recycled_arrays = pool_.reuses();
+  s.channel_busy_seconds = union_length(busy_);
+  s.disk_read_busy_seconds = union_length(reads_);
+  return s;
 }
 
 }  // namespace rayline::engine

@@ -5,9 +5,9 @@
 
 namespace rayline::engine {
 
-LocalExecutor::LocalExecutor(const DeviceGraph& g, TaskFactory factory)
-    : g_(g), factory_(std::move(factory)), t0_(std::chrono::steady_clock::now()),
-      lanes_(g.computes.size() + g.resources.size()), busy_(lanes_.size(), 0.0) {
+LocalExecutor::LocalExecutor(const DeviceGraph& g, TaskFactory factory, TaskFactory hint_factory)
+    : g_(g), factory_(std::move(factory)), hint_factory_(std::move(hint_factory)), t0_(std::chrono::steady_clock::now()),
+      lanes_(g.computes.size() + g.resources.size()), busy_(lanes_.size(), 0.0), running_(lanes_.size(), 0) {
   for (std::size_t i = 0; i < lanes_.size(); ++i) threads_.emplace_back([this, i] { worker(i); });
 }
 
@@ -25,18 +25,28 @@ Time LocalExecutor::now() const {
 }
 
 void LocalExecutor::dispatch(ActivityId id, const Activity& a) {
-  Item it{id, a.deps, factory_(id, a)};
+  Item it{id, a.deps, factory_(id, a), hint_factory_ ? hint_factory_(id, a) : Task{}};
   it.wait.insert(it.wait.end(), a.timeline_prev.begin(), a.timeline_prev.end());
   const std::size_t lane = a.kind == ActivityKind::Exec
                                ? static_cast<std::size_t>(a.device)
                                : g_.computes.size() + static_cast<std::size_t>(g_.channels[a.channel].resources.front());
+  Task hint;
   {
     std::lock_guard lk(mu_);
     if (static_cast<std::size_t>(id) >= done_.size()) done_.resize(static_cast<std::size_t>(id) + 1, 0);
     lanes_[lane].push_back(std::move(it));
     ++in_flight_;
+    // Next behind a running task: its lane's thread is busy, so the hint runs here.
+    if (lanes_[lane].size() == 1 && running_[lane] && !failure_) hint = std::move(lanes_[lane].front().hint);
+    if (hint) lanes_[lane].front().hint = nullptr;
   }
   cv_.notify_all();
+  if (hint) {
+    try {
+      hint();
+    } catch (...) {  // only starts work: a failure shows again in the task itself
+    }
+  }
 }
 
 bool LocalExecutor::ready(const Item& it) const {
@@ -45,19 +55,39 @@ bool LocalExecutor::ready(const Item& it) const {
   return true;
 }
 
+void LocalExecutor::fire_hint(std::size_t lane, std::unique_lock<std::mutex>& lk) {
+  if (lanes_[lane].empty() || !lanes_[lane].front().hint) return;
+  Task hint = std::move(lanes_[lane].front().hint);
+  lanes_[lane].front().hint = nullptr;  // cleared in every case: the worker waits on it
+  if (failure_) return;                 // after a failure nothing more is started
+  lk.unlock();
+  try {
+    hint();  // only starts work (read-ahead): a failure there shows again in the task itself
+  } catch (...) {
+  }
+  lk.lock();
+}
+
 void LocalExecutor::worker(std::size_t lane) {
   // Embree wants flush-to-zero and denormals-are-zero in every tracing thread.
   _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
   _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
   std::unique_lock lk(mu_);
   for (;;) {
-    cv_.wait(lk, [&] { return stop_ || (!lanes_[lane].empty() && ready(lanes_[lane].front())); });
+    // The next item's hint runs as soon as it is next, before it may start.
+    cv_.wait(lk, [&] { return stop_ || (!lanes_[lane].empty() && (lanes_[lane].front().hint || ready(lanes_[lane].front()))); });
     if (stop_) return;
+    if (lanes_[lane].front().hint) {
+      fire_hint(lane, lk);
+      continue;
+    }
     Item it = std::move(lanes_[lane].front());
     lanes_[lane].pop_front();
     const bool skip = failure_ != nullptr;  // after a failure: finish quickly, run nothing
     const Time t_start = now();
     events_.push_back({ExecutorEvent::Type::Started, it.id, t_start});
+    running_[lane] = 1;
+    fire_hint(lane, lk);  // the next item's read-ahead overlaps this one
     lk.unlock();
     cv_.notify_all();
     std::exception_ptr err;
@@ -72,6 +102,7 @@ void LocalExecutor::worker(std::size_t lane) {
     const Time t_end = now();
     lk.lock();
     busy_[lane] += t_end - t_start;
+    running_[lane] = 0;
     if (err && !failure_) failure_ = err;
     done_[static_cast<std::size_t>(it.id)] = 1;
     --in_flight_;

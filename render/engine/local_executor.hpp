@@ -3,6 +3,14 @@
 // channel: reads and BVH builds). Each thread runs its timeline in commit order; an
 // activity starts once its dependencies and its timeline predecessors have finished.
 // Times are wall-clock seconds since the executor was created.
+//
+// Read-ahead hints: an optional second factory gives an activity a *hint*, run once when
+// the activity becomes the next in its lane: by the lane's thread when it starts the
+// predecessor or waits for the activity's dependencies, or by the dispatching thread when
+// the activity is queued behind a running one. A hint may only start work that touches no
+// memory the plan accounts for: the renderer uses it to read the next block file into a
+// staging buffer while the channel is still building the previous block's BVH
+// (BlockStore::read_ahead), so the disk and the CPU side of consecutive T-jobs overlap.
 #pragma once
 #include <condition_variable>
 #include <deque>
@@ -23,7 +31,7 @@ class LocalExecutor final : public Executor {
   // capture what it needs; it runs on the timeline's thread).
   using TaskFactory = std::function<Task(ActivityId, const Activity&)>;
 
-  LocalExecutor(const DeviceGraph& g, TaskFactory factory);
+  LocalExecutor(const DeviceGraph& g, TaskFactory factory, TaskFactory hint_factory = {});
   ~LocalExecutor() override;
   LocalExecutor(const LocalExecutor&) = delete;
   LocalExecutor& operator=(const LocalExecutor&) = delete;
@@ -42,12 +50,14 @@ class LocalExecutor final : public Executor {
     ActivityId id;
     std::vector<ActivityId> wait;  // deps + timeline predecessors
     Task task;
+    Task hint;  // run once when the item is next in its lane (read-ahead), then cleared
   };
   void worker(std::size_t lane);
   bool ready(const Item& it) const;
+  void fire_hint(std::size_t lane, std::unique_lock<std::mutex>& lk);
 
   const DeviceGraph& g_;
-  TaskFactory factory_;
+  TaskFactory factory_, hint_factory_;
   std::chrono::steady_clock::time_point t0_;
   mutable std::mutex mu_;
   std::condition_variable cv_;
@@ -55,6 +65,7 @@ class LocalExecutor final : public Executor {
   std::vector<char> done_;
   std::vector<ExecutorEvent> events_;
   std::vector<double> busy_;
+  std::vector<char> running_;  // per lane: a task is running
   std::size_t in_flight_ = 0;
   bool stop_ = false;
   std::exception_ptr failure_;

@@ -71,6 +71,9 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
     if (g.memories[c.from].kind == MemoryKind::Disk)
       for (ResourceId x : c.resources) disk_res.insert(x);
   for (ResourceId x : disk_res) disk_busy = std::max(disk_busy, lane_busy.at(g.computes.size() + std::size_t(x)));
+  // With read-ahead a block's read overlaps the previous T-job: the channel is busy for the
+  // union of reads and builds (BlockStore), which the T-jobs' own time undercounts.
+  disk_busy = std::max(disk_busy, r.store.channel_busy_seconds);
   m["io"] = {{"loads", r.store.loads},
              {"evictions", r.store.evictions},
              {"unplanned_loads", r.store.unplanned_loads},
@@ -80,6 +83,10 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
              {"direct_reads", r.store.direct_reads},
              {"buffered_reads", r.store.buffered_reads},
              {"mode", r.store.buffered_reads == 0 ? "O_DIRECT" : (r.store.direct_reads == 0 ? "buffered+DONTNEED" : "mixed")},
+             {"read_aheads", r.store.read_aheads},
+             {"recycled_arrays", r.store.recycled_arrays},
+             {"wasted_read_aheads", r.store.wasted_read_aheads},
+             {"disk_read_fraction", r.store.disk_read_busy_seconds / secs},
              {"disk_busy_fraction", disk_busy / secs}};
   // Cache hits: E-jobs whose SceneData was already in RAM (no T-job fetched it for them).
   std::set<JobId> fetched_for;

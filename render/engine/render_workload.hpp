@@ -23,7 +23,7 @@ class ProfileRecorder;
 
 struct RenderWorkloadOptions {
   int spp = 4;
-  std::uint32_t path_cap = 1u << 17;   // paths alive at once
+  std::uint32_t path_cap = 1u << 17;   // paths alive at once (RenderOptions: 0 = auto, renderer.cpp)
   std::uint32_t min_batch = 4096;      // rays per job before a queue is worth a job
   std::uint32_t max_batch = 1u << 16;  // rays per job at most (load balance)
   // Issue 4: per-cell statistics / replay log of every ray (profile_recorder.hpp); the

@@ -135,12 +135,13 @@ RenderResult render(const RenderOptions& opt) {
     }
   }
   std::vector<std::uint64_t> footprint(nb);
-  Bytes largest = 0;
+  Bytes largest = 0, largest_triangles = 0;
   for (std::uint32_t b = 0; b < nb; ++b) {
     // Missing or truncated block files are found before anything runs.
     const auto h = partition::read_block_header((fs::path(dir) / index.blocks[b].file).string());
     footprint[b] = BlockStore::footprint_of(h.triangle_count, quality);
     largest = std::max<Bytes>(largest, footprint[b]);
+    largest_triangles = std::max<Bytes>(largest_triangles, h.triangle_count);
     res.scene_block_bytes += footprint[b];
   }
   // ---- the platform: this machine ------------------------------------------------------
@@ -151,6 +152,14 @@ RenderResult render(const RenderOptions& opt) {
   const Bytes per_path = Bytes(1 + res.max_depth) * sizeof(trace::RayRecord);
   RenderWorkloadOptions wo = opt.batching;
   wo.spp = res.spp;
+  // path_cap 0 = auto: under a budget, as many paths as the budget can hold next to the
+  // largest block (at most the frame's); every path alive is one more ray in each batch,
+  // and out of core fewer waves of paths mean fewer rounds of loads over the cells (10 M
+  // triangles at a 25 % budget: 131 072 paths 276 loads, all 844 k that fit 142 loads).
+  // The plan charges the rays actually queued, so blocks keep the room rays do not use.
+  const Bytes frame_paths = Bytes(res.width) * Bytes(res.height) * Bytes(res.spp);
+  const bool auto_cap = wo.path_cap == 0;
+  if (auto_cap) wo.path_cap = static_cast<std::uint32_t>(std::min<Bytes>(frame_paths, Bytes(1) << 17));
   Bytes ram_capacity = 0;
   if (opt.memory_budget > 0) {
     const Bytes need = largest + 64 * per_path;
@@ -159,7 +168,9 @@ RenderResult render(const RenderOptions& opt) {
                        "budget of " + std::to_string(opt.memory_budget) + " bytes is smaller than the largest block (" +
                            std::to_string(largest) + " bytes in RAM) plus room for 64 paths of rays (" +
                            std::to_string(need) + " bytes in all); use more blocks or a larger budget");
-    wo.path_cap = static_cast<std::uint32_t>(std::min<Bytes>(wo.path_cap, (opt.memory_budget - largest) / per_path));
+    const Bytes fit = (opt.memory_budget - largest) / per_path;
+    wo.path_cap = static_cast<std::uint32_t>(
+        auto_cap ? std::min<Bytes>({fit, frame_paths, Bytes(1) << 26}) : std::min<Bytes>(wo.path_cap, fit));
     ram_capacity = opt.memory_budget;
   } else {
     ram_capacity = res.scene_block_bytes + Bytes(wo.path_cap) * per_path;
@@ -330,9 +341,19 @@ RenderResult render(const RenderOptions& opt) {
   // What the run may add beyond the budget (README, "Memory"): the film, ray records in
   // flight twice over (staged and in jobs), and a fixed allowance for thread stacks,
   // Embree's and the allocator's own state.
+  // Loading adds, outside the budget, one staged block file (read-ahead) and one block's
+  // idle recycled arrays (ArrayPool): 40 + 52 bytes per triangle of the largest block.
   res.overhead_bound_bytes = Bytes(res.width) * Bytes(res.height) * 28 + 2 * Bytes(wo.path_cap) * per_path +
-                             (Bytes(64) << 20);
-  LocalExecutor executor(g, task_for);
+                             largest_triangles * 92 + partition::kBlockHeaderBytes + (Bytes(64) << 20);
+  // Read-ahead (LocalExecutor's hints): the next disk->RAM load reads its block file while
+  // the channel still builds the previous block's BVH or waits for its dependencies.
+  auto hint_for = [&](ActivityId, const Activity& a) -> LocalExecutor::Task {
+    if (a.kind != ActivityKind::Transfer || g.channels[a.channel].to != ram || !opt.read_ahead) return {};
+    const auto it = cell_of.find(a.block);
+    if (it == cell_of.end()) return {};
+    return [&store, cell = it->second] { store.read_ahead(cell); };
+  };
+  LocalExecutor executor(g, task_for, hint_for);
   RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
   auto last = std::chrono::steady_clock::now();
   bool gpu_disabled = false;

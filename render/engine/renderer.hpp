@@ -26,9 +26,10 @@ struct RenderOptions {
   Bytes memory_budget = 0;         // bytes of scene blocks in RAM; 0 = unlimited (in core)
   int threads = 0;                 // compute devices; 0 = hardware threads
   int build_threads = 0;           // threads of one BVH build (the disk->RAM channel); 0 = `threads`
+  bool read_ahead = true;          // read the next planned block file during the current build
   std::uint64_t seed = 1;
   Time horizon = 2.0;              // k of GMB (Sec. 4.2)
-  // BVH builder: "auto" = low (fast Morton build) under a memory budget, where blocks are
+  // BVH builder: "auto" = low (fast low-quality build) under a memory budget, where blocks are
   // rebuilt on every load, medium in core. The image does not depend on it.
   std::string bvh_quality = "auto";
   RenderWorkloadOptions batching;

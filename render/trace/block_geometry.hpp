@@ -13,6 +13,8 @@
 
 namespace rayline::trace {
 
+class ArrayPool;
+
 // An Embree device shared by all blocks. `build_threads` bounds the threads one BVH build
 // uses (the loader is one channel: one thread by default, so builds never steal the
 // compute devices' cores). Tracks the bytes Embree holds.
@@ -39,9 +41,10 @@ enum class BvhQuality : std::uint8_t { Low, Medium, High };
 class BlockGeometry {
  public:
   // `records` is the block file payload: triangle_count records of 9 float32 + uint32
-  // material (little-endian, block_file.hpp).
+  // material (little-endian, block_file.hpp). With a `pool` (which must outlive the block)
+  // the arrays are taken from it and given back when the block is dropped.
   BlockGeometry(const EmbreeDevice& device, std::uint32_t block, std::span<const unsigned char> records,
-                std::uint64_t triangle_count, BvhQuality quality = BvhQuality::Medium);
+                std::uint64_t triangle_count, BvhQuality quality = BvhQuality::Medium, ArrayPool* pool = nullptr);
   ~BlockGeometry();
   BlockGeometry(const BlockGeometry&) = delete;
   BlockGeometry& operator=(const BlockGeometry&) = delete;
@@ -66,6 +69,7 @@ class BlockGeometry {
   std::vector<std::uint32_t> indices_;  // 3 per triangle: 3i, 3i+1, 3i+2
   std::vector<std::uint32_t> materials_;
   void* scene_ = nullptr;
+  ArrayPool* pool_ = nullptr;
 };
 
 }  // namespace rayline::trace

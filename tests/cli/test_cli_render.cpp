@@ -87,6 +87,25 @@ TEST_F(CliRender, MemoryStaysWithinBudgetPlusDocumentedOverhead) {
   EXPECT_GT(metrics("b").at("io").at("evictions").get<int>(), 0);
 }
 
+TEST_F(CliRender, PathsInFlightAutoAndExplicit) {
+  blocks(4);
+  const std::string args = "render -q --resolution 16x16 --spp 2 --blocks-dir " + path("blocks") + " ";
+  // Auto under a budget: every path of the frame fits next to the largest block here.
+  auto r = rayline_cli(args + "--memory-budget 64MiB --out " + path("auto.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(metrics("auto").at("memory").at("paths_in_flight_cap").get<int>(), 16 * 16 * 2);
+  r = rayline_cli(args + "--memory-budget 64MiB --paths 100 --out " + path("explicit.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(metrics("explicit").at("memory").at("paths_in_flight_cap").get<int>(), 100);
+  r = rayline_cli(args + "--paths 10 --out " + path("bad.exr"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("paths"), std::string::npos) << r.err;
+  r = rayline_cli(args + "--read-ahead maybe --out " + path("bad.exr"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("read-ahead"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("bad.exr")));
+}
+
 TEST_F(CliRender, BadInputsExitTwoAndKeepTheGoodImage) {
   blocks(4);
   auto r = rayline_cli("render -q --resolution 16x16 --spp 1 --blocks-dir " + path("blocks") + " --out " + path("good.exr"));

@@ -112,3 +112,21 @@ TEST(RenderDeterminism, BvhQualitySameImage) {
   expect_sane(rb);
   EXPECT_EQ(ra.sums, rb.sums);
 }
+
+TEST(RenderDeterminism, ReadAheadSameImage) {
+  // Reading the next block during the previous build changes timing only.
+  RenderOptions a = base();
+  RenderOptions b = base();
+  const RenderResult in_core = render(base());
+  a.memory_budget = b.memory_budget = in_core.scene_block_bytes / 4;
+  a.read_ahead = true;
+  b.read_ahead = false;
+  const RenderResult ra = render(a), rb = render(b);
+  expect_sane(ra);
+  expect_sane(rb);
+  EXPECT_EQ(rb.store.read_aheads, 0u);
+  EXPECT_GT(ra.store.read_aheads, 0u) << "out of core, loads must be read ahead";
+  EXPECT_GT(ra.store.recycled_arrays, 0u) << "evicted blocks' arrays must be reused";
+  EXPECT_EQ(ra.sums, rb.sums);
+  EXPECT_EQ(ra.sums, in_core.sums);
+}
