@@ -17,7 +17,7 @@ void plan_horizon(benchmark::State& state, const char* platform, int blocks, int
                   bool reference = false) {
   const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/" + platform);
   const JobSet base = synthetic_ray_batching(g, blocks, jobs, 42);
-  double placements = 0, execs = 0, searches = 0, hits = 0, plan_seconds = 0;
+  double placements = 0, execs = 0, searches = 0, hits = 0, cut = 0, plan_seconds = 0;
   for (auto _ : state) {
     state.PauseTiming();
     JobSet set = base;
@@ -32,6 +32,7 @@ void plan_horizon(benchmark::State& state, const char* platform, int blocks, int
     execs += st.execs;
     searches += static_cast<double>(st.path_searches);
     hits += static_cast<double>(st.path_cache_hits);
+    cut += static_cast<double>(st.path_cut_searches);
     plan_seconds += st.wall_seconds;
     s.reset();
     state.ResumeTiming();
@@ -40,6 +41,7 @@ void plan_horizon(benchmark::State& state, const char* platform, int blocks, int
   state.counters["placements"] = benchmark::Counter(placements, benchmark::Counter::kAvgIterations);
   state.counters["E-jobs"] = benchmark::Counter(execs, benchmark::Counter::kAvgIterations);
   state.counters["sdc_searches"] = benchmark::Counter(searches, benchmark::Counter::kAvgIterations);
+  state.counters["sdc_cut_searches"] = benchmark::Counter(cut, benchmark::Counter::kAvgIterations);
   state.counters["sdc_cache_hit%"] = hits + searches > 0 ? 100 * hits / (hits + searches) : 0;
   state.counters["plan_ms"] = benchmark::Counter(plan_seconds * 1e3, benchmark::Counter::kAvgIterations);
 }

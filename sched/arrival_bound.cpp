@@ -39,6 +39,8 @@ std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b) {
   auto& mem = groups_[static_cast<std::size_t>(it->second)].members;
   const std::pair<Bytes, BlockId> me{s.pool().block(b).bytes, b};
   const auto pos = std::lower_bound(mem.begin(), mem.end(), me);
+  Group& grp = groups_[static_cast<std::size_t>(it->second)];
+  grp.first = std::min(grp.first, static_cast<std::size_t>(pos - mem.begin()));
   if (pos == mem.end() || *pos != me) mem.insert(pos, me);
   bs.group = it->second;
   bs.holders = hv;
@@ -52,10 +54,16 @@ std::int32_t ArrivalBound::group(const Schedule& s, BlockId b) const {
   return bs.epoch == epoch_ && bs.holders == s.holders_version(b) ? bs.group : kNone;
 }
 
+std::size_t ArrivalBound::first_current(const Schedule& s, std::int32_t g) const {
+  const Group& grp = groups_[static_cast<std::size_t>(g)];
+  while (grp.first < grp.members.size() && group(s, grp.members[grp.first].second) != g) ++grp.first;
+  return grp.first;
+}
+
 BlockId ArrivalBound::smallest(const Schedule& s, std::int32_t g) const {
-  for (const auto& [bytes, b] : groups_[static_cast<std::size_t>(g)].members)
-    if (group(s, b) == g) return b;
-  return kNone;
+  const Group& grp = groups_[static_cast<std::size_t>(g)];
+  const std::size_t k = first_current(s, g);
+  return k < grp.members.size() ? grp.members[k].second : kNone;
 }
 
 void ArrivalBound::record(const Schedule& s, BlockId b, MemId m, Time lb) {

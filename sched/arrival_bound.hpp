@@ -33,6 +33,8 @@ class ArrivalBound {
   // Members of g, smallest first; may list blocks that left since (group(b) != g).
   const std::vector<std::pair<Bytes, BlockId>>& members(std::int32_t g) const { return groups_[static_cast<std::size_t>(g)].members; }
   BlockId smallest(const Schedule& s, std::int32_t g) const;  // kNone if none is current
+  // Index in members(g) of its smallest current member (members().size() if none).
+  std::size_t first_current(const Schedule& s, std::int32_t g) const;
   // `lb` is at most the SDC arrival of b at m at this point of the plan.
   void record(const Schedule& s, BlockId b, MemId m, Time lb);
   // A lower bound on the SDC arrival of b at m from the records; -inf if none applies.
@@ -55,6 +57,9 @@ class ArrivalBound {
   struct Group {
     std::vector<std::pair<Bytes, BlockId>> members;
     std::vector<Rec> largest;  // per memory device: the largest member with a record
+    // No member before this index is current (members leave lazily; one that joins again
+    // moves it back).
+    mutable std::size_t first = 0;
   };
   bool valid(const Schedule& s, const Rec& r) const {
     return r.epoch == epoch_ && r.block != kNone && r.holders == s.holders_version(r.block);

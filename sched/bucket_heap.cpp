@@ -14,10 +14,10 @@ void BucketHeap::pop() {
   heap_.pop_back();
 }
 
-void BucketHeap::push(std::int32_t bucket, Time key) {
+void BucketHeap::push(std::int32_t bucket, Time key, std::uint64_t stamp) {
   if (static_cast<std::size_t>(bucket) >= gen_.size()) gen_.resize(static_cast<std::size_t>(bucket) + 1, 0);
   const std::uint32_t g = ++gen_[static_cast<std::size_t>(bucket)];
-  heap_.push_back({key, bucket, g});
+  heap_.push_back({key, bucket, g, stamp});
   std::push_heap(heap_.begin(), heap_.end(), later);
 }
 

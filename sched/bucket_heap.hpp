@@ -25,21 +25,23 @@ class BucketHeap {
     Time key;
     std::int32_t bucket;
     std::uint32_t gen;
+    std::uint64_t stamp = 0;  // the caller's: e.g. when `key` was computed (0: never)
   };
   void reset(std::size_t buckets);
   bool empty() const { return heap_.empty(); }
   const Entry& top() const { return heap_.front(); }
   void pop();
   // Insert (or supersede) bucket's entry.
-  void push(std::int32_t bucket, Time key);
+  void push(std::int32_t bucket, Time key, std::uint64_t stamp = 0);
   // Put back an entry taken off by pop() that is still its bucket's newest.
   void restore(const Entry& e);
   bool current(const Entry& e) const { return gen_[static_cast<std::size_t>(e.bucket)] == e.gen; }
 
  private:
-  static bool later(const Entry& a, const Entry& b) {  // min-heap on (key, bucket)
-    return a.key != b.key ? a.key > b.key : a.bucket > b.bucket;
-  }
+  struct Later {  // min-heap on (key, bucket)
+    bool operator()(const Entry& a, const Entry& b) const { return a.key != b.key ? a.key > b.key : a.bucket > b.bucket; }
+  };
+  static constexpr Later later{};
   std::vector<Entry> heap_;
   std::vector<std::uint32_t> gen_;
 };

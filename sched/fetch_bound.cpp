@@ -4,7 +4,7 @@
 
 namespace rayline {
 
-FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()), in_resources_(g.memories.size()) {
+FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
   lat_.assign(n_ * n_, kNever);
   inv_bw_.assign(n_ * n_, kNever);
   for (std::size_t i = 0; i < n_; ++i) lat_[i * n_ + i] = inv_bw_[i * n_ + i] = 0;
@@ -12,16 +12,39 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()), in_resourc
     const std::size_t k = static_cast<std::size_t>(c.from) * n_ + static_cast<std::size_t>(c.to);
     lat_[k] = std::min(lat_[k], c.latency);
     inv_bw_[k] = std::min(inv_bw_[k], 1.0 / c.bandwidth);
-    auto& in = in_resources_[static_cast<std::size_t>(c.to)];
-    for (ResourceId r : c.resources)
-      if (std::find(in.begin(), in.end(), r) == in.end()) in.push_back(r);
   }
-  for (std::size_t k = 0; k < n_; ++k)  // Floyd-Warshall, twice
-    for (std::size_t i = 0; i < n_; ++i)
-      for (std::size_t j = 0; j < n_; ++j) {
-        lat_[i * n_ + j] = std::min(lat_[i * n_ + j], lat_[i * n_ + k] + lat_[k * n_ + j]);
-        inv_bw_[i * n_ + j] = std::min(inv_bw_[i * n_ + j], inv_bw_[i * n_ + k] + inv_bw_[k * n_ + j]);
+  // Floyd-Warshall, twice (rows that cannot reach k yet are skipped: min(x, inf) = x; and
+  // d[i][k] does not change while row i is relaxed through k, as d[k][k] = 0).
+  auto relax = [n = n_](std::vector<double>& d) {
+    for (std::size_t k = 0; k < n; ++k) {
+      const double* dk = d.data() + k * n;
+      for (std::size_t i = 0; i < n; ++i) {
+        double* di = d.data() + i * n;
+        const double dik = di[k];
+        if (dik == kNever || i == k) continue;
+        for (std::size_t j = 0; j < n; ++j) di[j] = std::min(di[j], dik + dk[j]);
       }
+    }
+  };
+  relax(lat_);
+  relax(inv_bw_);
+  relay_in_.resize(n_);
+  direct_to_.assign(n_ * n_, kNone);
+  for (std::size_t c = 0; c < g.channels.size(); ++c) {
+    const Channel& ch = g.channels[c];
+    ChannelId& d = direct_to_[static_cast<std::size_t>(ch.to) * n_ + static_cast<std::size_t>(ch.from)];
+    d = d == kNone ? static_cast<ChannelId>(c) : kSeveral;
+    bool relay = false;
+    for (ChannelId in : g.in_channels(ch.from)) relay = relay || g.channels[in].from != ch.to;
+    if (relay) relay_in_[static_cast<std::size_t>(ch.to)].push_back(static_cast<ChannelId>(c));
+  }
+  lat_to_.resize(n_ * n_);
+  inv_bw_to_.resize(n_ * n_);
+  for (std::size_t i = 0; i < n_; ++i)
+    for (std::size_t j = 0; j < n_; ++j) {
+      lat_to_[j * n_ + i] = lat_[i * n_ + j];
+      inv_bw_to_[j * n_ + i] = inv_bw_[i * n_ + j];
+    }
 }
 
 FetchBound::Memos& FetchBound::memo(BlockId b, MemId m) const {
@@ -34,19 +57,25 @@ FetchBound::Memos& FetchBound::memo(BlockId b, MemId m) const {
   return memos_[static_cast<std::size_t>(slot_of_block_[bi]) * n_ + static_cast<std::size_t>(m)];
 }
 
-std::uint64_t FetchBound::in_stamp(const Schedule& s, MemId m) const {
+
+std::uint64_t FetchBound::channel_stamp(const Schedule& s, ChannelId c) const {
   std::uint64_t v = 0;
-  for (ResourceId r : in_resources_[static_cast<std::size_t>(m)]) v += s.resource_version(r);
+  for (ResourceId r : s.graph().channels[static_cast<std::size_t>(c)].resources) v += s.resource_version(r);
   return v;
 }
 
+// Within a planning pass every term of the minimum only grows (channels get busier, the
+// holders term is fixed while the holders are): while the attaining channel is unchanged,
+// so is the minimum.
 Time FetchBound::lower_bound(const Schedule& s, BlockId b, MemId m, Time now) const {
   Memo& e = memo(b, m).lower;
-  const std::uint64_t hv = s.holders_version(b), in = in_stamp(s, m);
-  if (e.epoch == epoch_ && e.holders == hv && e.in == in) return e.value;
-  e.value = lower_bound_uncached(s, b, m, now, true);
+  const std::uint64_t hv = s.holders_version(b);
+  if (e.epoch == epoch_ && e.holders == hv && (e.arg == kNone || e.in == channel_stamp(s, e.arg))) return e.value;
+  ChannelId arg = kNone;
+  e.value = lower_bound_uncached(s, b, m, now, true, &arg);
   e.holders = hv;
-  e.in = in;
+  e.arg = arg;
+  e.in = arg == kNone ? 0 : channel_stamp(s, arg);
   e.epoch = epoch_;
   return e.value;
 }
@@ -55,7 +84,8 @@ Time FetchBound::lower_bound_once(const Schedule& s, BlockId b, MemId m, Time no
   return lower_bound_uncached(s, b, m, now, false);
 }
 
-Time FetchBound::lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now, bool memoised_holders) const {
+Time FetchBound::lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now, bool memoised_holders,
+                                      ChannelId* arg) const {
   if (const Copy* c = s.copy_at(b, m)) return std::max(now, s.copy_ready(*c));
   const DeviceGraph& g = s.graph();
   const Bytes bytes = s.pool().block(b).bytes;
@@ -64,7 +94,11 @@ Time FetchBound::lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Tim
     const Time at_src = memoised_holders ? holders_bound(s, b, g.channels[c].from, now)
                                          : holders_bound_uncached(s, b, g.channels[c].from, now);
     if (at_src == kNever) continue;
-    best = std::min(best, std::max(at_src, s.channel_finish(c)) + g.transfer_time(c, bytes));
+    const Time t = std::max(at_src, s.channel_finish(c)) + g.transfer_time(c, bytes);
+    if (t < best) {
+      best = t;
+      if (arg) *arg = c;
+    }
   }
   return best;
 }

@@ -15,6 +15,7 @@
 // versions), so a commit re-opens only the bounds it can move. Values are bit-identical to
 // recomputing them.
 #pragma once
+#include <algorithm>
 #include <vector>
 
 #include "schedule.hpp"
@@ -29,24 +30,43 @@ class FetchBound {
   Time lower_bound(const Schedule& s, BlockId b, MemId m, Time now) const;
   // The same value, not memoised (for blocks asked about once, e.g. a job's ray queue).
   Time lower_bound_once(const Schedule& s, BlockId b, MemId m, Time now) const;
+  // The uncontended part alone: min over holders of max(now, ready) + L + |b| W (memoised
+  // while b's holders are unchanged).
+  Time free_run_bound(const Schedule& s, BlockId b, MemId m, Time now) const { return holders_bound(s, b, m, now); }
   // An upper bound: the best path of one or two hops from a holder into m, with Eq. 3 on
   // that path (the second hop chained after the first); SDC's arrival is never later.
   // kNever when no holder is within two hops.
   Time direct_upper_bound(const Schedule& s, BlockId b, MemId m, Time now) const;
+  // For FetchPathFinder::arrival_within(), per destination m:
+  //  * per memory device q: the least total latency / total inverse bandwidth of any path
+  //    q -> m (uncontended; +inf where none);
+  //  * the channels into m that a simple path from a non-adjacent device can end with
+  //    (their source has an incoming channel from a device other than m): a last hop from
+  //    p != q into m is one of them;
+  //  * the channel q -> m (kNone: none; kSeveral: more than one).
+  static constexpr ChannelId kSeveral = -2;
+  const double* latency_to(MemId m) const { return lat_to_.data() + static_cast<std::size_t>(m) * n_; }
+  const double* inv_bw_to(MemId m) const { return inv_bw_to_.data() + static_cast<std::size_t>(m) * n_; }
+  const std::vector<ChannelId>& relay_in(MemId m) const { return relay_in_[static_cast<std::size_t>(m)]; }
+  const ChannelId* direct_to(MemId m) const { return direct_to_.data() + static_cast<std::size_t>(m) * n_; }
 
  private:
   Time holders_bound(const Schedule& s, BlockId b, MemId m, Time now) const;
   Time holders_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now) const;
-  Time lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now, bool memoised_holders) const;
-  std::uint64_t in_stamp(const Schedule& s, MemId m) const;  // versions of m's incoming resources
+  Time lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now, bool memoised_holders,
+                            ChannelId* arg = nullptr) const;
+  std::uint64_t channel_stamp(const Schedule& s, ChannelId c) const;
 
   std::size_t n_;
   std::vector<double> lat_, inv_bw_;  // n x n, +inf where unreachable
-  std::vector<std::vector<ResourceId>> in_resources_;  // per memory device, distinct
+  std::vector<double> lat_to_, inv_bw_to_;  // the same, transposed (rows by destination)
+  std::vector<std::vector<ChannelId>> relay_in_;
+  std::vector<ChannelId> direct_to_;  // [m * n + q]
   struct Memo {
     Time value = 0;
     std::uint64_t holders = 0;  // holders_version(b) when taken
-    std::uint64_t in = 0;       // in_stamp(m) when taken (lower_bound only)
+    std::uint64_t in = 0;       // lower_bound: versions of the resources of `arg` when taken
+    ChannelId arg = kNone;      // lower_bound: the last hop attaining it (kNone: b on m)
     std::uint64_t epoch = 0;    // reset() count when taken (0: never); reset() at every new `now`
   };
   struct Memos {

@@ -4,10 +4,65 @@
 
 namespace rayline {
 
-FetchPathFinder::FetchPathFinder(const Schedule& schedule) : schedule_(&schedule) {}
+FetchPathFinder::FetchPathFinder(const Schedule& schedule)
+    : schedule_(&schedule),
+      n_(schedule.graph().memories.size()),
+      done_(n_),
+      holder_(n_),
+      label_(n_),
+      label_via_(n_),
+      tie_(n_) {
+  open_.reserve(4 * n_ + 8);
+}
 
 void FetchPathFinder::clear() {
   for (Tree& t : trees_) t.valid = false;
+  std::fill(memo_head_.begin(), memo_head_.end(), -1);
+  memos_.clear();
+  // About one memo per block is typical: one allocation, not a chain of doublings.
+  memos_.reserve(std::max(memos_.capacity(), schedule_->pool().block_count()));
+}
+
+// b's memo for m, reset when b's holders changed since it was taken.
+FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
+  const auto bi = static_cast<std::size_t>(b);
+  if (bi >= memo_head_.size()) memo_head_.resize(std::max(schedule_->pool().block_count(), bi + 1), -1);
+  const std::uint64_t hv = schedule_->holders_version(b);
+  for (std::int32_t k = memo_head_[bi]; k >= 0; k = memos_[static_cast<std::size_t>(k)].next) {
+    Memo& e = memos_[static_cast<std::size_t>(k)];
+    if (e.m != m) continue;
+    if (e.holders != hv) {
+      const std::int32_t next = e.next;
+      e = Memo{};
+      e.m = m;
+      e.next = next;
+      e.holders = hv;
+    }
+    return e;
+  }
+  Memo e;
+  e.m = m;
+  e.next = memo_head_[bi];
+  e.holders = hv;
+  memo_head_[bi] = static_cast<std::int32_t>(memos_.size());
+  memos_.push_back(e);
+  return memos_.back();
+}
+
+Time FetchPathFinder::known_lower_bound(BlockId b, MemId m) const {
+  const auto bi = static_cast<std::size_t>(b);
+  if (bi >= memo_head_.size()) return -kNever;
+  for (std::int32_t k = memo_head_[bi]; k >= 0; k = memos_[static_cast<std::size_t>(k)].next) {
+    const Memo& e = memos_[static_cast<std::size_t>(k)];
+    if (e.m == m) return e.holders == schedule_->holders_version(b) ? e.lb : -kNever;
+  }
+  return -kNever;
+}
+
+bool FetchPathFinder::memo_exact(const Memo& e) const {
+  std::uint64_t v = 0;
+  for (int h = 0; h < e.hops; ++h) v += channel_stamp(e.path[h]);
+  return v == e.stamp;
 }
 
 std::uint64_t FetchPathFinder::channel_stamp(ChannelId c) const {
@@ -20,18 +75,25 @@ std::uint64_t FetchPathFinder::channel_stamp(ChannelId c) const {
 // at search time iff none of them was booked since: versions only grow).
 std::uint64_t FetchPathFinder::path_stamp(const Tree& t, MemId m) const {
   const DeviceGraph& g = schedule_->graph();
+  const ChannelId* via = via_of(t);
   std::uint64_t v = 0;
-  for (MemId q = m; t.via[q] != kNone; q = g.channels[t.via[q]].from) v += channel_stamp(t.via[q]);
+  for (MemId q = m; via[q] != kNone; q = g.channels[via[q]].from) v += channel_stamp(via[q]);
   return v;
 }
 
-FetchPathFinder::Tree& FetchPathFinder::tree(BlockId b, MemId m) {
+bool FetchPathFinder::tree_valid(BlockId b, MemId m) {
   if (static_cast<std::size_t>(b) >= trees_.size()) trees_.resize(schedule_->pool().block_count());
-  Tree& t = trees_[b];
+  const Tree& t = trees_[static_cast<std::size_t>(b)];
   const bool restricted = scene_local_ && schedule_->pool().block(b).kind == DataKind::SceneData;
   restrict_node_ = restricted ? schedule_->graph().memories[m].node : kNone;
-  if (t.valid && t.holders_version == schedule_->holders_version(b) && t.node == restrict_node_ &&
-      t.stamp[m] == path_stamp(t, m)) {
+  return t.valid && t.holders_version == schedule_->holders_version(b) && t.node == restrict_node_ &&
+         stamp_[static_cast<std::size_t>(t.slot) * n_ + static_cast<std::size_t>(m)] == path_stamp(t, m);
+}
+
+FetchPathFinder::Tree& FetchPathFinder::tree(BlockId b, MemId m) {
+  const bool valid = tree_valid(b, m);  // (sizes trees_)
+  Tree& t = trees_[static_cast<std::size_t>(b)];
+  if (valid) {
     ++hits_;
     return t;
   }
@@ -43,13 +105,21 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
   ++searches_;
   const DeviceGraph& g = schedule_->graph();
   const DataBlock& blk = schedule_->pool().block(b);
-  const std::size_t nm = g.memories.size();
-  t.arrival.assign(nm, kNever);
-  t.via.assign(nm, kNone);
-  t.stamp.assign(nm, 0);
+  const std::size_t nm = n_;
+  if (t.slot < 0) {
+    t.slot = slots_++;
+    arrival_.resize(static_cast<std::size_t>(slots_) * nm);
+    via_.resize(static_cast<std::size_t>(slots_) * nm);
+    stamp_.resize(static_cast<std::size_t>(slots_) * nm);
+  }
+  Time* arrival = arrival_of(t);
+  ChannelId* via = via_of(t);
+  std::uint64_t* stamp = stamp_of(t);
+  std::fill_n(arrival, nm, kNever);
+  std::fill_n(via, nm, kNone);
+  std::fill_n(stamp, nm, 0);
   done_.assign(nm, 0);
   heap_.clear();
-  auto cmp = [](const auto& a, const auto& c) { return a.first > c.first; };
   // Virtual source S: one edge per holder, weighted by the copy's ready time.
   holder_.assign(nm, 0);
   t.node = restrict_node_;
@@ -65,31 +135,31 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
       if (node_has_copy ? !local : !c.origin) continue;
     }
     const Time r = std::max(now_, schedule_->copy_ready(c));
-    if (r < t.arrival[c.mem]) {
-      t.arrival[c.mem] = r;
+    if (r < arrival[c.mem]) {
+      arrival[c.mem] = r;
       heap_.emplace_back(r, c.mem);
-      std::push_heap(heap_.begin(), heap_.end(), cmp);
+      std::push_heap(heap_.begin(), heap_.end(), heap_after);
     }
   }
   if (blk.movable) {
     while (!heap_.empty()) {
-      std::pop_heap(heap_.begin(), heap_.end(), cmp);
+      std::pop_heap(heap_.begin(), heap_.end(), heap_after);
       const auto [lp, p] = heap_.back();
       heap_.pop_back();
       if (done_[p]) continue;
       done_[p] = 1;
       // p's tree path is final now, and its parent's stamp was taken before.
-      if (t.via[p] != kNone) t.stamp[p] = t.stamp[g.channels[t.via[p]].from] + channel_stamp(t.via[p]);
+      if (via[p] != kNone) stamp[p] = stamp[g.channels[via[p]].from] + channel_stamp(via[p]);
       for (ChannelId c : g.out_channels(p)) {
         const MemId q = g.channels[c].to;
         // A holder never receives a second copy (its own copy may still be in flight).
         if (done_[q] || holder_[q] || g.memories[q].capacity < blk.bytes) continue;
         const Time lq = std::max(lp, schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);  // Eq. 3
-        if (lq < t.arrival[q]) {
-          t.arrival[q] = lq;
-          t.via[q] = c;
+        if (lq < arrival[q]) {
+          arrival[q] = lq;
+          via[q] = c;
           heap_.emplace_back(lq, q);
-          std::push_heap(heap_.begin(), heap_.end(), cmp);
+          std::push_heap(heap_.begin(), heap_.end(), heap_after);
         }
       }
     }
@@ -98,14 +168,64 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
   t.holders_version = schedule_->holders_version(b);
 }
 
-Time FetchPathFinder::arrival(BlockId b, MemId m) { return tree(b, m).arrival[m]; }
+Time FetchPathFinder::arrival(BlockId b, MemId m) {
+  const Tree& t = tree(b, m);
+  return arrival_.data()[static_cast<std::size_t>(t.slot) * n_ + static_cast<std::size_t>(m)];
+}
+
+int FetchPathFinder::via_hops(MemId m, MemId* root) const {
+  const DeviceGraph& g = schedule_->graph();
+  int h = 0;
+  MemId q = m;
+  while (label_via_[static_cast<std::size_t>(q)] != kNone) {
+    if (++h > kMemoHops) return kMemoHops + 1;
+    q = g.channels[static_cast<std::size_t>(label_via_[static_cast<std::size_t>(q)])].from;
+  }
+  if (root) *root = holder_[static_cast<std::size_t>(q)] ? q : kNone;
+  return h;
+}
 
 void FetchPathFinder::path(BlockId b, MemId m, std::vector<ChannelId>& out) {
   out.clear();
+  if (rest_ && !scene_local_) {
+    // The best path when it is the only one (no tie anywhere along it): every search,
+    // whatever its order, finds exactly this one.
+    // Its arrival first (memoised, or a search cut at the best label found), so that the
+    // search for ties can drop every label that cannot end at it.
+    const Time best = arrival_within(b, m, -kNever, [](Time) { return false; });
+    if (best == kNever) return;
+    {
+      const Memo& e = memo(b, m);
+      if (e.hops >= 0 && e.unique && memo_exact(e)) {  // proved the only best path when found
+        ++hits_;
+        out.assign(e.path, e.path + e.hops);
+        return;
+      }
+    }
+    Time dropped = kNever;
+    const auto beyond = [best](Time x) { return x > best; };
+    const Time a = cut_search<decltype(beyond), true>(b, m, -kNever, beyond, dropped);
+    if (a == kNever) return;
+    const DeviceGraph& g = schedule_->graph();
+    bool unique = true;
+    MemId q = m;
+    for (std::size_t k = 0; unique && label_via_[static_cast<std::size_t>(q)] != kNone; ++k) {
+      if (k > n_ || tie_[static_cast<std::size_t>(q)]) unique = false;
+      out.push_back(label_via_[static_cast<std::size_t>(q)]);
+      q = g.channels[static_cast<std::size_t>(label_via_[static_cast<std::size_t>(q)])].from;
+    }
+    if (unique && holder_[static_cast<std::size_t>(q)] && !tie_[static_cast<std::size_t>(q)]) {
+      ++cut_searches_;
+      std::reverse(out.begin(), out.end());
+      return;
+    }
+    out.clear();
+  }
   const Tree& t = tree(b, m);
-  if (t.arrival[m] == kNever) return;
+  if (arrival_of(t)[m] == kNever) return;
   const DeviceGraph& g = schedule_->graph();
-  for (MemId q = m; t.via[q] != kNone; q = g.channels[t.via[q]].from) out.push_back(t.via[q]);
+  const ChannelId* via = via_of(t);
+  for (MemId q = m; via[q] != kNone; q = g.channels[via[q]].from) out.push_back(via[q]);
   std::reverse(out.begin(), out.end());
 }
 

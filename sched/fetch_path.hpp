@@ -12,12 +12,22 @@
 // path crosses a resource it booked). Within one planning pass costs never decrease, so a
 // path none of whose edges changed stays optimal.
 //
+// The arrival time itself does not depend on which search found it: every edge function
+// max(l, F) + T is monotone in l (also in floating point), so Dijkstra's label is the
+// minimum over all admissible paths of the path's Eq. 3 chain, evaluated with the same
+// operations. arrival_within() uses that to answer GMB's question "does b reach m by
+// `enough`, and if not, exactly when, unless that already loses" with a search cut at the
+// losing labels and stopped at m (issue 2 planning speed): the same value as arrival(),
+// usually after a handful of relaxations, and no tree is stored.
+//
 // Capacity is not part of the search (it would invalidate every tree reaching the
 // memory device that just received data); the scheduler applies admission delays when it
 // commits the hops. Memory devices smaller than the block are skipped.
 #pragma once
+#include <algorithm>
 #include <vector>
 
+#include "fetch_bound.hpp"
 #include "schedule.hpp"
 
 namespace rayline {
@@ -30,6 +40,30 @@ class FetchPathFinder {
   Time arrival(BlockId b, MemId m);
   // Channels of the best path to m, source first (empty if b is already on m).
   void path(BlockId b, MemId m, std::vector<ChannelId>& out);
+
+  // The SDC arrival a = arrival(b, m), asked by a selection that only needs max(enough, a)
+  // and discards it when it is `lost`. `lost` must be monotone (lost(x) implies lost(y) for
+  // y >= x) and !lost(enough) (enough may be -inf). Returns x with
+  //     x <= enough         when a <= enough,
+  //     x == a              when enough < a and !lost(a),
+  //     x == kNever         when lost(a) (then *proven, if given, is a lower bound on a).
+  // With x == a, *hops (if given) is the number of hops of a best path (kMemoHops + 1: more).
+  // Answers from a valid memo or cached tree when it can; otherwise a branch-and-bound
+  // search (cut_search) that never expands a lost label and stops once nothing open can
+  // beat m's label. The answer is memoised per (b, m): an exact arrival while the resources
+  // on its path and b's holders are unchanged, a lower bound while b's holders are
+  // unchanged (costs only grow within a planning pass). No tree is stored.
+  template <class Lost>
+  Time arrival_within(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven = nullptr, int* hops = nullptr);
+  static constexpr int kMemoHops = 4;
+  // What arrival_within() has proved so far: a lower bound on arrival(b, m) (-inf: none).
+  Time known_lower_bound(BlockId b, MemId m) const;
+
+  // Lower bounds on the remaining way to a destination that order and cut those searches
+  // (GMB sets its FetchBound; without, the searches run in Dijkstra's order). With bounds
+  // set, path() takes the best path from one such search when no other path ties with it
+  // anywhere along it (then every search finds this path), else from the full tree.
+  void set_bounds(const FetchBound* rest) { rest_ = rest; }
 
   // After a T-job was appended on r. Kept for callers; validity is read from the
   // Schedule's resource versions, so this has nothing left to do.
@@ -47,29 +81,300 @@ class FetchPathFinder {
 
   std::uint64_t searches() const { return searches_; }
   std::uint64_t hits() const { return hits_; }
+  std::uint64_t cut_searches() const { return cut_searches_; }  // arrival_within() without a tree
 
  private:
+  // Per block: its tree's arrays live in slot `slot` of the flat arrays below (n_ entries
+  // each), allocated on the block's first search.
   struct Tree {
     bool valid = false;
+    std::int32_t slot = -1;
     std::uint64_t holders_version = 0;
-    std::vector<Time> arrival;         // per memory device
-    std::vector<ChannelId> via;        // incoming tree channel per memory device (kNone at roots)
-    std::vector<std::uint64_t> stamp;  // per memory device: sum of resource versions on its path
-    NodeId node = kNone;               // scene_local_: the node the roots were restricted to
+    NodeId node = kNone;  // scene_local_: the node the roots were restricted to
   };
   Tree& tree(BlockId b, MemId m);
+  bool tree_valid(BlockId b, MemId m);  // a cached tree answers for (b, m)
   NodeId restrict_node_ = kNone;  // with scene_local_: the destination's node
   void search(BlockId b, Tree& t);
   std::uint64_t path_stamp(const Tree& t, MemId m) const;
   std::uint64_t channel_stamp(ChannelId c) const;
+  Time* arrival_of(const Tree& t) { return arrival_.data() + static_cast<std::size_t>(t.slot) * n_; }
+  ChannelId* via_of(const Tree& t) { return via_.data() + static_cast<std::size_t>(t.slot) * n_; }
+  const ChannelId* via_of(const Tree& t) const { return via_.data() + static_cast<std::size_t>(t.slot) * n_; }
+  std::uint64_t* stamp_of(const Tree& t) { return stamp_.data() + static_cast<std::size_t>(t.slot) * n_; }
 
   const Schedule* schedule_;
+  std::size_t n_ = 0;  // memory devices
   std::vector<Tree> trees_;
+  std::vector<Time> arrival_;          // slot x memory device
+  std::vector<ChannelId> via_;         // incoming tree channel (kNone at roots)
+  std::vector<std::uint64_t> stamp_;   // sum of resource versions on the tree path
+  std::int32_t slots_ = 0;
   std::vector<std::pair<Time, MemId>> heap_;
   std::vector<char> done_, holder_;
-  std::uint64_t searches_ = 0, hits_ = 0;
+  // arrival_within(): labels, incoming channels, open labels, memo.
+  std::vector<Time> label_;
+  std::vector<ChannelId> label_via_;
+  struct Open {
+    Time bound, label;
+    MemId mem;
+  };
+  struct OpenAfter {  // min-heap on the bound
+    bool operator()(const Open& a, const Open& c) const { return a.bound > c.bound; }
+  };
+  std::vector<Open> open_;
+  struct Memo {
+    MemId m = kNone;
+    std::int32_t next = -1;      // next memo of the same block
+    std::uint64_t holders = 0;   // holders_version(b) when taken
+    Time lb = -kNever;           // at most the arrival; the arrival itself while `path` is valid
+    std::uint64_t stamp = 0;     // sum of the resource versions along `path` when taken
+    std::int16_t hops = -1;      // `path` holds a best path of `hops` channels (-1: none)
+    bool unique = false;         // no other admissible path ties with `path` (stays so while it is valid)
+    ChannelId path[kMemoHops] = {};
+  };
+  const FetchBound* rest_ = nullptr;
+  std::vector<char> tie_;  // cut_search(): another admissible path reaches q with its label
+  bool cut_unique_ = false;  // cut_search()'s result came with a proof that its path is the only best one
+  // Branch and bound for b's arrival at m (arrival_within()). Ties: also explores paths
+  // that tie with the best (for path()) and flags nodes reached by two of them.
+  template <class Lost, bool Ties, bool Funnel = true>
+  Time cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped);
+  int via_hops(MemId m, MemId* root) const;  // cut_search's path to m (kMemoHops + 1: longer)
+  std::vector<std::int32_t> memo_head_;  // per block
+  std::vector<Memo> memos_;
+  Memo& memo(BlockId b, MemId m);
+  bool memo_exact(const Memo& e) const;
+  std::uint64_t searches_ = 0, hits_ = 0, cut_searches_ = 0;
   Time now_ = 0;
   bool scene_local_ = false;
+
+  struct HeapAfter {  // min-heap on the label only (as it always was: ties keep heap order)
+    bool operator()(const std::pair<Time, MemId>& a, const std::pair<Time, MemId>& c) const { return a.first > c.first; }
+  };
+  static constexpr HeapAfter heap_after{};
 };
+
+template <class Lost>
+Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven, int* hops) {
+  auto answer = [&](Time a) {
+    if (a <= enough || !lost(a)) return a;
+    if (proven) *proven = a;
+    return kNever;
+  };
+  if (scene_local_) {  // roots depend on the destination's node: the plain way
+    if (hops) {
+      std::vector<ChannelId> p;
+      path(b, m, p);
+      *hops = static_cast<int>(p.size());
+    }
+    return answer(arrival(b, m));
+  }
+  {
+    Memo& e = memo(b, m);
+    if (e.hops >= 0 && memo_exact(e)) {
+      ++hits_;
+      if (hops) *hops = e.hops;
+      return answer(e.lb);
+    }
+    if (e.lb > enough && lost(e.lb)) {
+      ++hits_;
+      if (proven) *proven = e.lb;
+      return kNever;
+    }
+  }
+  ++cut_searches_;
+  Time dropped = kNever;
+  const Time a = cut_search<Lost, false>(b, m, enough, lost, dropped);
+  Memo& f = memo(b, m);
+  if (a < kNever && label_[static_cast<std::size_t>(m)] == a) {
+    // Exact: memoise it with its path (labels only improve, so the path through the
+    // recorded channels evaluates to exactly this label).
+    f.lb = a;  // (lb <= a before)
+    MemId root = kNone;
+    const int h = via_hops(m, &root);
+    f.hops = -1;
+    f.unique = cut_unique_;
+    if (h <= kMemoHops && root != kNone) {
+      MemId q = m;
+      f.stamp = 0;
+      for (int k = h - 1; k >= 0; --k) {
+        const ChannelId c = label_via_[static_cast<std::size_t>(q)];
+        f.path[k] = c;
+        f.stamp += channel_stamp(c);
+        q = schedule_->graph().channels[static_cast<std::size_t>(c)].from;
+      }
+      f.hops = static_cast<std::int16_t>(h);
+    }
+    if (hops) *hops = h;
+    return a;
+  }
+  if (a < kNever) return a;  // <= enough, not exact
+  f.lb = std::max(f.lb, dropped);
+  if (proven) *proven = dropped;
+  return kNever;
+}
+
+// Branch and bound over the same Eq. 3 labels as search(): a label l at q is expanded in
+// order of through(l, q), a lower bound on m's label along any path continuing from it
+// (l itself without bounds), and re-expanded if it improves. Once the least open bound
+// reaches m's best label, that label is the minimum over all admissible paths, i.e.
+// search()'s arrival (the same floating-point chain, along a best path). Returns m's
+// label (== label_[m]), or a label <= enough found on the way (!= label_[m]), or kNever
+// (then `dropped` bounds the arrival from below).
+template <class Lost, bool Ties, bool Funnel>
+Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped) {
+  const DeviceGraph& g = schedule_->graph();
+  const DataBlock& blk = schedule_->pool().block(b);
+  const auto mi = static_cast<std::size_t>(m);
+  cut_unique_ = false;
+  std::fill_n(label_.data(), n_, kNever);  // (sized n_ by the constructor)
+  std::fill_n(label_via_.data(), n_, kNone);
+  std::fill_n(holder_.data(), n_, 0);
+  if constexpr (Ties) std::fill_n(tie_.data(), n_, 0);
+  open_.clear();
+  const auto bytes = blk.bytes;
+  const double wbytes = static_cast<double>(bytes);
+  const FetchBound* rest = rest_;
+  const double* rest_lat = rest ? rest->latency_to(m) : nullptr;
+  const double* rest_inv_bw = rest ? rest->inv_bw_to(m) : nullptr;
+  const ChannelId* direct = rest ? rest->direct_to(m) : nullptr;
+  for (const Copy& c : schedule_->copies(b)) holder_[static_cast<std::size_t>(c.mem)] = 1;
+  if (!holder_[mi] && g.memories[mi].capacity < bytes) return kNever;  // never routed into m
+  // The earliest a relayed last hop can land on m: from a device that is neither a holder
+  // (nothing is routed through a holder) nor the label's own (its direct channel).
+  Time relay_end = kNever;
+  if (rest)
+    for (ChannelId c : rest->relay_in(m)) {
+      const auto p = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c)].from);
+      if (!holder_[p] && g.memories[p].capacity >= bytes)
+        relay_end = std::min(relay_end, schedule_->channel_finish(c) + g.transfer_time(c, bytes));
+    }
+  // A destination reached by one channel only (a GPU behind its host memory): its arrival
+  // is Eq. 3 on that hop after the arrival at the channel's source (every path to m ends
+  // with it), and its best paths are those to the source, extended.
+  if constexpr (Funnel) if (rest && !holder_[mi] && blk.movable && g.in_channels(m).size() == 1) {
+    const ChannelId c = g.in_channels(m)[0];
+    const MemId p = g.channels[static_cast<std::size_t>(c)].from;
+    if (!holder_[static_cast<std::size_t>(p)] && g.memories[static_cast<std::size_t>(p)].capacity >= bytes) {
+      const Time finish = schedule_->channel_finish(c), trans = g.transfer_time(c, bytes);
+      auto hop = [&](Time x) { return std::max(x, finish) + trans; };  // Eq. 3
+      auto lost_at_p = [&](Time x) { return lost(hop(x)); };
+      Time dropped_at_p = kNever;
+      const Time ap = cut_search<decltype(lost_at_p), Ties, false>(b, p, -kNever, lost_at_p, dropped_at_p);
+      if (ap == kNever) {
+        if (dropped_at_p < kNever) dropped = std::min(dropped, hop(dropped_at_p));
+        return kNever;
+      }
+      const Time am = hop(ap);
+      label_[mi] = am;
+      label_via_[mi] = c;
+      if constexpr (Ties) tie_[mi] = 0;
+      return am;
+    }
+  }
+  // Every path to m is one direct hop from a holder or ends with a relayed hop. When the
+  // best direct hop lands no later than any relayed one can, it is the arrival (Ties: and
+  // when it lands strictly first and no other direct hop ties, the only best path).
+  if (rest && !holder_[mi] && blk.movable) {
+    Time best = kNever;
+    ChannelId best_c = kNone;
+    int n_best = 0;
+    for (const Copy& cp : schedule_->copies(b)) {
+      const Time r = std::max(now_, schedule_->copy_ready(cp));
+      auto consider = [&](ChannelId c) {
+        const Time t = std::max(r, schedule_->channel_finish(c)) + g.transfer_time(c, bytes);  // Eq. 3
+        if (t < best) {
+          best = t;
+          best_c = c;
+          n_best = 1;
+        } else if (t == best) {
+          ++n_best;
+        }
+      };
+      if (const ChannelId d = direct[static_cast<std::size_t>(cp.mem)]; d >= 0) {
+        consider(d);
+      } else if (d == FetchBound::kSeveral) {
+        for (ChannelId c : g.out_channels(cp.mem))
+          if (g.channels[static_cast<std::size_t>(c)].to == m) consider(c);
+      }
+    }
+    if (best < kNever && (Ties ? best < relay_end && n_best == 1 : best <= relay_end)) {
+      if (best > enough && lost(best)) {
+        dropped = std::min(dropped, best);
+        return kNever;
+      }
+      label_[mi] = best;
+      label_via_[mi] = best_c;
+      cut_unique_ = best < relay_end && n_best == 1;
+      return best;
+    }
+  }
+  // A lower bound on m's label along any path on from label l at q: the uncontended rest
+  // (scaled below the real-arithmetic sum by far more than the rounding of any Eq. 3
+  // chain), and the last hop: q's own channel into m or a relayed one (Eq. 3 as is).
+  auto through = [&](Time l, MemId q) -> Time {
+    if (!rest || q == m) return l;
+    const auto qi = static_cast<std::size_t>(q);
+    const Time free_run = (l + (rest_lat[qi] + wbytes * rest_inv_bw[qi]) * (1 - 1e-9)) * (1 - 1e-14);
+    Time last = relay_end;
+    if (const ChannelId c = direct[qi]; c >= 0) {
+      last = std::min(last, std::max(l, schedule_->channel_finish(c)) + g.transfer_time(c, bytes));
+    } else if (c == FetchBound::kSeveral) {
+      for (ChannelId d : g.out_channels(q))
+        if (g.channels[static_cast<std::size_t>(d)].to == m)
+          last = std::min(last, std::max(l, schedule_->channel_finish(d)) + g.transfer_time(d, bytes));
+    }
+    return std::max(free_run, last);
+  };
+  for (const Copy& c : schedule_->copies(b)) {
+    const auto qi = static_cast<std::size_t>(c.mem);
+    const Time r = std::max(now_, schedule_->copy_ready(c));
+    if (r < label_[qi]) {
+      const Time x = through(r, c.mem);
+      if (x > enough && lost(x)) {
+        dropped = std::min(dropped, x);
+        continue;
+      }
+      label_[qi] = r;
+      open_.push_back({x, r, c.mem});
+      std::push_heap(open_.begin(), open_.end(), OpenAfter{});
+    }
+  }
+  if (holder_[mi] || !blk.movable) return label_[mi];  // a holder's label is final
+  while (!open_.empty()) {
+    const Open top = open_.front();
+    // Nothing open can beat m's label (Ties: nor reach it).
+    if (Ties ? top.bound > label_[mi] : top.bound >= label_[mi]) break;
+    std::pop_heap(open_.begin(), open_.end(), OpenAfter{});
+    open_.pop_back();
+    if (top.label != label_[static_cast<std::size_t>(top.mem)]) continue;  // superseded
+    for (ChannelId c : g.out_channels(top.mem)) {
+      const MemId q = g.channels[static_cast<std::size_t>(c)].to;
+      const auto qi = static_cast<std::size_t>(q);
+      if (holder_[qi] || g.memories[qi].capacity < bytes) continue;
+      const Time lq = std::max(top.label, schedule_->channel_finish(c)) + g.transfer_time(c, bytes);  // Eq. 3
+      if (!(lq < label_[qi])) {
+        if constexpr (Ties)
+          if (lq == label_[qi] && c != label_via_[qi]) tie_[qi] = 1;
+        continue;
+      }
+      if (q == m && lq <= enough) return lq;  // a <= lq <= enough
+      const Time x = through(lq, q);
+      if (x > enough && lost(x)) {
+        dropped = std::min(dropped, x);
+        continue;
+      }
+      label_[qi] = lq;
+      label_via_[qi] = c;
+      if constexpr (Ties) tie_[qi] = 0;
+      if (q != m) {
+        open_.push_back({x, lq, q});
+        std::push_heap(open_.begin(), open_.end(), OpenAfter{});
+      }
+    }
+  }
+  return label_[mi];
+}
 
 }  // namespace rayline

@@ -166,7 +166,8 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
         }
         // Exact without a search when a direct hop already lands by `start`.
         if (bound_time_->direct_upper_bound(s, b, m, now) <= start) continue;
-        if (loses(bound_time_->lower_bound(s, b, m, now))) {
+        // (Not memoised: the same value, without a memo slot per ray queue.)
+        if (loses(bound_time_->lower_bound_once(s, b, m, now))) {
           start = kNever;
           break;
         }
@@ -261,15 +262,47 @@ const GmbScheduler::Sorted& GmbScheduler::sorted_jobs(std::int32_t i, DeviceId d
   return so;
 }
 
-// Lower bound on when any job of group g can start on m: the exact SDC arrival of the
-// group's smallest block (arrivals are monotone in size within a group).
+// Lower bound on when any job of group g can start on m: a lower bound on the SDC arrival
+// of the group's smallest block (arrivals are monotone in size within a group): FetchBound
+// (Eq. 3's last hop) and the exact arrivals recorded so far (ArrivalBound). No search: the
+// exact arrival is computed when the group is visited (evaluate_bucket) and recorded.
 Time GmbScheduler::group_key(std::int32_t g, MemId m, Time now, const Schedule& s) {
   const BlockId ref = arrival_bound_->smallest(s, g);
   if (ref == kNone) return kNever;
   if (const Copy* c = s.copy_at(ref, m)) return std::max(now, s.copy_ready(*c));
-  const Time at = placer_->finder().arrival(ref, m);
-  arrival_bound_->record(s, ref, m, at);
-  return std::max(bound_time_->lower_bound(s, ref, m, now), at);
+  return std::max({bound_time_->free_run_bound(s, ref, m, now), arrival_bound_->bound(s, ref, m),
+                   placer_->finder().known_lower_bound(ref, m)});
+}
+
+// Exact SDC arrival of input b at m folded into `start` (max), or kNever once it `loses`.
+// Same result as select_pruned()'s per-input step (one/two-hop upper bound, lower bound,
+// search), with one search cut at losing labels instead. Where the upper bound is not an
+// SDC path (an unmovable block, a destination smaller than the block) the step is kept
+// as it was, so the choice stays the same.
+template <class Loses>
+Time GmbScheduler::fold_input(BlockId b, MemId m, Time start, Time now, const Schedule& s, const Loses& loses) {
+  if (const Copy* c = s.copy_at(b, m)) {
+    const Time r = std::max(now, s.copy_ready(*c));
+    if (r <= start) return start;
+    if (loses(r)) return kNever;
+    return std::max(start, s.copy_ready(*c));
+  }
+  const DataBlock& blk = s.pool().block(b);
+  if (blk.movable && s.graph().memories[static_cast<std::size_t>(m)].capacity >= blk.bytes)
+    return std::max(start, placer_->finder().arrival_within(b, m, start, loses));
+  if (bound_time_->direct_upper_bound(s, b, m, now) <= start) return start;
+  if (loses(bound_time_->lower_bound_once(s, b, m, now))) return kNever;
+  return std::max(start, placer_->finder().arrival(b, m));
+}
+
+// Does input b surely reach m by t? select_pruned() asks the one/two-hop upper bound; the
+// exact answer only moves which job the scan folds first (gmb_scheduler.cpp, "first").
+bool GmbScheduler::input_by(BlockId b, MemId m, Time t, Time now, const Schedule& s) {
+  if (const Copy* c = s.copy_at(b, m)) return std::max(now, s.copy_ready(*c)) <= t;
+  const DataBlock& blk = s.pool().block(b);
+  if (blk.movable && s.graph().memories[static_cast<std::size_t>(m)].capacity >= blk.bytes)
+    return placer_->finder().arrival_within(b, m, t, [t](Time x) { return x > t; }) <= t;
+  return bound_time_->direct_upper_bound(s, b, m, now) <= t;
 }
 
 // The group's buckets, smallest key block first, until the key block's bound loses: every
@@ -278,7 +311,9 @@ bool GmbScheduler::visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, 
                                const Schedule& s, Choice& best) {
   auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
   bool any = false;
-  for (const auto& [bytes, b] : arrival_bound_->members(g)) {
+  const auto& members = arrival_bound_->members(g);
+  for (std::size_t k = arrival_bound_->first_current(s, g); k < members.size(); ++k) {
+    const BlockId b = members[k].second;
     if (arrival_bound_->group(s, b) != g) continue;  // left the group
     const std::int32_t i = bucket_of_block_[b];
     if (i < 0 || open(i, m) == 0) continue;  // every job planned, or infeasible on m
@@ -306,15 +341,34 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     if (key_copy) {
       key_at = std::max(ready, s.copy_ready(*key_copy));
     } else {
-      const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now);
-      Time at = ub;
-      if (!(ub <= blb * (1 + 1e-12))) {
-        at = placer_->finder().arrival(bk.key, m);
-        arrival_bound_->record(s, bk.key, m, at);
+      const DataBlock& kb = pool.block(bk.key);
+      if (kb.movable && g.memories[static_cast<std::size_t>(m)].capacity >= kb.bytes &&
+          !placer_->finder().scene_from_origin_or_local()) {
+        // select_pruned(): the one/two-hop upper bound when it meets the lower bound, else
+        // the SDC arrival. Both are the arrival when a best path has at most two hops.
+        Time proven = kNever;
+        int hops = 0;
+        const Time a = placer_->finder().arrival_within(bk.key, m, -kNever, loses, &proven, &hops);
+        if (a == kNever) {  // loses (or no path)
+          arrival_bound_->record(s, bk.key, m, proven);
+          return;
+        }
+        Time at = a;
+        if (hops > 2)
+          if (const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now); ub <= blb * (1 + 1e-12)) at = ub;
+        arrival_bound_->record(s, bk.key, m, a);
+        key_at = std::max(ready, at);
       } else {
-        arrival_bound_->record(s, bk.key, m, bound_time_->lower_bound(s, bk.key, m, now));
+        const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now);
+        Time at = ub;
+        if (!(ub <= blb * (1 + 1e-12))) {
+          at = placer_->finder().arrival(bk.key, m);
+          arrival_bound_->record(s, bk.key, m, at);
+        } else {
+          arrival_bound_->record(s, bk.key, m, bound_time_->lower_bound(s, bk.key, m, now));
+        }
+        key_at = std::max(ready, at);
       }
-      key_at = std::max(ready, at);
     }
   }
   if (key_at == kNever || loses(key_at)) return;
@@ -342,17 +396,11 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     for (BlockId b : job.inputs) {
       if (start == kNever || loses(start)) break;
       if (has_key && b == bk.key) continue;
-      const Copy* c = s.copy_at(b, m);
-      if (!c && !Placer::may_fetch(job, b, s)) {
+      if (!Placer::may_fetch(job, b, s) && !s.copy_at(b, m)) {
         start = kNever;
         break;
       }
-      if (bound_time_->direct_upper_bound(s, b, m, now) <= start) continue;
-      if (loses(bound_time_->lower_bound_once(s, b, m, now))) {
-        start = kNever;
-        break;
-      }
-      start = std::max(start, c ? s.copy_ready(*c) : placer_->finder().arrival(b, m));
+      start = fold_input(b, m, start, now, s, loses);
     }
     if (start == kNever || loses(start)) return kNever;
     Choice c;
@@ -368,10 +416,10 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     for (std::size_t k = 0; k < n; ++k) evaluate(k);
     return;
   }
-  // Granularity order. The first job whose inputs provably arrive by key_at (upper
-  // bounds, no search) starts at key_at, the earliest any job here can; jobs after it
-  // have no smaller granularity and cannot win, jobs before it only if they also start
-  // at key_at. Folding it first lets their bounds prune them.
+  // Granularity order. The first job whose inputs provably arrive by key_at (input_by:
+  // a search cut at key_at, usually a memo hit) starts at key_at, the earliest any job
+  // here can; jobs after it have no smaller granularity and cannot win, jobs before it
+  // only if they also start at key_at. Folding it first lets their bounds prune them.
   std::size_t first = n;
   for (std::size_t k = 0; k < n && first == n; ++k) {
     const JobId j = job_at(k);
@@ -379,17 +427,40 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     bool sure = true;
     for (BlockId b : pool.job(j).inputs) {
       if (has_key && b == bk.key) continue;
-      if ((!s.copy_at(b, m) && !Placer::may_fetch(pool.job(j), b, s)) || !(bound_time_->direct_upper_bound(s, b, m, now) <= key_at)) {
+      if ((!s.copy_at(b, m) && !Placer::may_fetch(pool.job(j), b, s)) || !input_by(b, m, key_at, now, s)) {
         sure = false;
         break;
       }
     }
     if (sure) first = k;
   }
-  if (first < n) evaluate(first);
-  for (std::size_t k = 0; k < first; ++k)
-    // Later jobs have no smaller granularity (then a larger id) and start no earlier.
-    if (evaluate(k) == key_at) break;
+  if (first < n) {
+    evaluate(first);
+    for (std::size_t k = 0; k < first; ++k)
+      // Later jobs have no smaller granularity (then a larger id) and start no earlier.
+      if (evaluate(k) == key_at) break;
+    return;
+  }
+  // No job here surely starts at key_at, and the scan above proved for each input that it
+  // does not arrive by key_at, with a lower bound on when it does: fold the jobs in order
+  // of those bounds, until the bound loses (the fold is order-free, see prefer_checked).
+  by_bound_.clear();
+  for (std::size_t k = 0; k < n; ++k) {
+    const JobId j = job_at(k);
+    if (!eligible(j)) continue;
+    Time lb = std::max(key_at, s.after_deps_ready(j));
+    for (BlockId b : pool.job(j).inputs) {
+      if (has_key && b == bk.key) continue;
+      if (const Copy* c = s.copy_at(b, m)) lb = std::max(lb, s.copy_ready(*c));
+      else lb = std::max(lb, placer_->finder().known_lower_bound(b, m));
+    }
+    by_bound_.emplace_back(lb, k);
+  }
+  std::sort(by_bound_.begin(), by_bound_.end());
+  for (const auto& [lb, k] : by_bound_) {
+    if (lb == kNever || loses(lb)) break;
+    evaluate(k);
+  }
 }
 
 GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time now, const JobPool& pool,
@@ -414,10 +485,12 @@ GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time n
       mi.heap.pop();
       continue;
     }
-    const Time lb = group_key(e.bucket, m, now, s);
+    // A key computed since the last commit is as high as group_key() would make it.
+    const std::uint64_t stamp = s.activity_count() + 1;
+    const Time lb = e.stamp == stamp ? e.key : group_key(e.bucket, m, now, s);
     if (lb > e.key) {  // stale from below: raise it and look again
       mi.heap.pop();
-      mi.heap.push(e.bucket, lb);
+      mi.heap.push(e.bucket, lb, stamp);
       continue;
     }
     if (loses(std::max(ready, e.key))) break;  // every group left starts later
@@ -505,6 +578,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   const DeviceGraph& g = s.graph();
   placer_->finder().clear();
   placer_->finder().set_now(now);
+  placer_->finder().set_bounds(bound_time_.get());
   blocked_pairs_.clear();
   build_index(now, pool);
   bound_time_->reset();
@@ -522,6 +596,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   build_classes(s);
   sorted_.assign(buckets_.size() * static_cast<std::size_t>(classes_), Sorted{});
   const std::uint64_t searches0 = placer_->finder().searches(), hits0 = placer_->finder().hits();
+  const std::uint64_t cut0 = placer_->finder().cut_searches();
   now_ = now;
   const Time end = now + opt_.horizon;
   using Item = std::pair<Time, DeviceId>;
@@ -552,6 +627,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   }
   st.path_searches = placer_->finder().searches() - searches0;
   st.path_cache_hits = placer_->finder().hits() - hits0;
+  st.path_cut_searches = placer_->finder().cut_searches() - cut0;
   st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }

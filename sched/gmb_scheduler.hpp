@@ -76,6 +76,7 @@ class GmbScheduler final : public Scheduler {
   std::vector<Bucket> buckets_;
   std::vector<std::int32_t> bucket_of_block_, bucket_of_job_;
   std::vector<std::pair<Time, std::int32_t>> order_;
+  std::vector<std::pair<Time, std::size_t>> by_bound_;  // evaluate_bucket(): jobs by a lower bound on their start
   bool any_aged_ = false;
   void build_index(Time now, const JobPool& pool);
   // Reference selection: every bucket's bound recomputed and sorted at every step.
@@ -89,6 +90,9 @@ class GmbScheduler final : public Scheduler {
   void evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
                        const Schedule& s, Choice& best);
   Time group_key(std::int32_t g, MemId m, Time now, const Schedule& s);
+  template <class Loses>
+  Time fold_input(BlockId b, MemId m, Time start, Time now, const Schedule& s, const Loses& loses);
+  bool input_by(BlockId b, MemId m, Time t, Time now, const Schedule& s);
   bool visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
                    const Schedule& s, Choice& best);
   // After a commit (or a failed one that left hops): re-group the blocks it moved.

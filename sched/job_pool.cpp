@@ -1,5 +1,6 @@
 #include "sched/job_pool.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace rayline {
@@ -27,12 +28,13 @@ JobId JobPool::add_job(Job j) {
 }
 
 void JobPool::remove_from_queue(JobId j) {
-  const auto pos = queue_pos_[j];
-  if (pos < 0) return;
+  if (queue_pos_[j] < 0) return;
+  // queue_pos_ is where j was appended; erasures before it only move it to the front, so
+  // it is found looking back from there (no positions to rewrite after an erase).
+  auto pos = std::min(static_cast<std::size_t>(queue_pos_[j]), queue_.size() - 1);
+  while (queue_[pos] != j) --pos;
   // Order-preserving erase keeps planning deterministic and FIFO-fair among equals.
-  queue_.erase(queue_.begin() + pos);
-  for (std::size_t i = static_cast<std::size_t>(pos); i < queue_.size(); ++i)
-    queue_pos_[queue_[i]] = static_cast<std::int32_t>(i);
+  queue_.erase(queue_.begin() + static_cast<std::ptrdiff_t>(pos));
   queue_pos_[j] = -1;
   for (BlockId i : jobs_[j].inputs) --demand_[i];
 }

@@ -47,7 +47,7 @@ class JobPool {
   std::vector<Job> jobs_;
   std::vector<JobState> state_;
   std::vector<ActivityId> activity_;
-  std::vector<std::int32_t> queue_pos_;
+  std::vector<std::int32_t> queue_pos_;  // -1: not queued; else an upper bound on its index in queue_
   std::vector<JobId> queue_;
 };
 

@@ -31,12 +31,16 @@ bool Placer::place(JobId j, DeviceId d, Time ready, Time now, JobPool& pool, Sch
   finder_.set_now(now);
   // Feasibility first, so a job that cannot fit leaves no half-built chain behind.
   Bytes need_here = 0;
+  paths_.clear();
+  path_end_.clear();
   for (BlockId b : job.inputs) {
     if (s.copy_at(b, m)) continue;
     if (!may_fetch(job, b, s)) return false;
     need_here += pool.block(b).bytes;
     finder_.path(b, m, path_);
     if (path_.empty()) return false;
+    paths_.insert(paths_.end(), path_.begin(), path_.end());
+    path_end_.push_back(paths_.size());
     for (std::size_t h = 0; h + 1 < path_.size(); ++h)
       if (s.admission(g.channels[path_[h]].to, pool.block(b).bytes, keep).at == kNever) return false;
   }
@@ -45,11 +49,20 @@ bool Placer::place(JobId j, DeviceId d, Time ready, Time now, JobPool& pool, Sch
 
   // Sec. 4.4: chained T-jobs along each SDC path, then the E-job.
   const std::size_t evictions_before = s.evictions().size();
+  const std::size_t activities_before = s.activity_count();
+  std::size_t fetched = 0;
   for (BlockId b : job.inputs) {
     if (s.copy_at(b, m)) continue;
-    finder_.path(b, m, path_);
-    const std::vector<ChannelId> hops = path_;
-    for (ChannelId ch : hops) {
+    // Until something is committed the schedule is as the feasibility pass saw it, and
+    // path() would answer the same.
+    if (s.activity_count() == activities_before && fetched < path_end_.size()) {
+      path_.assign(paths_.begin() + static_cast<std::ptrdiff_t>(fetched ? path_end_[fetched - 1] : 0),
+                   paths_.begin() + static_cast<std::ptrdiff_t>(path_end_[fetched]));
+    } else {
+      finder_.path(b, m, path_);
+    }
+    ++fetched;
+    for (ChannelId ch : path_) {
       const auto adm = s.admission(g.channels[ch].to, pool.block(b).bytes, keep);
       // Rare: an earlier hop of another input took the room. What was placed stays as a
       // prefetch (the data is moved closer); the job is retried later.

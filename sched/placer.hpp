@@ -31,6 +31,8 @@ class Placer {
  private:
   FetchPathFinder finder_;
   std::vector<ChannelId> path_;
+  std::vector<ChannelId> paths_;      // place(): the feasibility pass's paths, concatenated
+  std::vector<std::size_t> path_end_;
 };
 
 }  // namespace rayline

@@ -1,6 +1,8 @@
 #include "sched/schedule.hpp"
 
 #include <algorithm>
+#include <array>
+#include <span>
 #include <stdexcept>
 
 namespace rayline {
@@ -14,20 +16,35 @@ Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
       pool_(&pool),
       device_tl_(graph.computes.size()),
       resource_tl_(graph.resources.size()),
+      channel_finish_(graph.channels.size(), 0.0),
       resource_version_(graph.resources.size(), 0),
       memory_version_(graph.memories.size(), 0),
       used_(graph.memories.size(), 0),
-      device_pending_(graph.computes.size(), 0) {}
+      device_pending_(graph.computes.size(), 0) {
+  resource_channels_first_.assign(graph.resources.size() + 1, 0);
+  for (const Channel& c : graph.channels)
+    for (ResourceId r : c.resources) ++resource_channels_first_[static_cast<std::size_t>(r) + 1];
+  for (std::size_t r = 0; r < graph.resources.size(); ++r) resource_channels_first_[r + 1] += resource_channels_first_[r];
+  resource_channels_.resize(static_cast<std::size_t>(resource_channels_first_.back()));
+  std::vector<std::int32_t> fill(resource_channels_first_.begin(), resource_channels_first_.end() - 1);
+  for (std::size_t c = 0; c < graph.channels.size(); ++c)
+    for (ResourceId r : graph.channels[c].resources) resource_channels_[static_cast<std::size_t>(fill[static_cast<std::size_t>(r)]++)] = static_cast<ChannelId>(c);
+}
+
+// Same arithmetic as before the cache: max(0, busy_until of each resource in order).
+void Schedule::resource_busy_changed(ResourceId r) {
+  const auto first = static_cast<std::size_t>(resource_channels_first_[static_cast<std::size_t>(r)]);
+  const auto last = static_cast<std::size_t>(resource_channels_first_[static_cast<std::size_t>(r) + 1]);
+  for (std::size_t k = first; k < last; ++k) {
+    const ChannelId c = resource_channels_[k];
+    Time t = 0;
+    for (ResourceId q : graph_->channels[c].resources) t = std::max(t, resource_tl_[q].busy_until);
+    channel_finish_[static_cast<std::size_t>(c)] = t;
+  }
+}
 
 const std::vector<Copy>& Schedule::copies(BlockId b) const {
   return static_cast<std::size_t>(b) < copies_.size() ? copies_[b] : kNoCopies;
-}
-
-const Copy* Schedule::copy_at(BlockId b, MemId m) const {
-  if (static_cast<std::size_t>(b) >= copies_.size()) return nullptr;
-  for (const Copy& c : copies_[b])
-    if (c.mem == m) return &c;
-  return nullptr;
 }
 
 Copy* Schedule::mutable_copy(BlockId b, MemId m) {
@@ -38,11 +55,13 @@ void Schedule::add_copy(BlockId b, Copy c) {
   if (static_cast<std::size_t>(b) >= copies_.size()) {
     copies_.resize(pool_->block_count());
     holders_version_.resize(pool_->block_count(), 0);
+    holder_mask_.resize(pool_->block_count(), 0);
   }
   if (copy_at(b, c.mem)) throw std::logic_error("block already on that memory device: " + pool_->block(b).name);
   used_[c.mem] += pool_->block(b).bytes;
   ++memory_version_[c.mem];
   ++holders_version_[b];
+  if (static_cast<std::uint32_t>(c.mem) < 64u) holder_mask_[static_cast<std::size_t>(b)] |= std::uint64_t{1} << c.mem;
   copies_[b].push_back(std::move(c));
 }
 
@@ -52,12 +71,6 @@ void Schedule::put_initial(BlockId b, MemId m, Time ready, bool origin) {
   c.initial_ready = ready;
   c.origin = origin;
   add_copy(b, std::move(c));
-}
-
-Time Schedule::channel_finish(ChannelId c) const {
-  Time t = 0;
-  for (ResourceId r : graph_->channels[c].resources) t = std::max(t, resource_tl_[r].busy_until);
-  return t;
 }
 
 // Capacity (issue 2): eviction is a decision the plan makes and can explain. Candidates,
@@ -131,17 +144,20 @@ void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const
   used_[m] -= pool_->block(b).bytes;
   v.erase(it);
   ++holders_version_[b];
+  forget_holder(b, m);
   ++memory_version_[m];
   evictions_.push_back({b, m, at, for_activity, pool_->queued_demand(b), reason, std::move(after)});
 }
 
 // Belady-style explanation: the victim had no (or the least) queued demand, i.e. its next
 // use is the farthest we know of; its last planned use ends by `adm.at`.
-void Schedule::apply_evictions(const Admission& adm, MemId m, ActivityId for_activity, const std::string& what) {
+template <class What>
+void Schedule::apply_evictions(const Admission& adm, MemId m, ActivityId for_activity, const What& what) {
   for (const auto& [vb, vm] : adm.victims)
     evict(vb, vm, adm.at, for_activity,
-          "room for " + what + "; victim wanted by " + std::to_string(pool_->queued_demand(vb)) +
+          "room for " + what() + "; victim wanted by " + std::to_string(pool_->queued_demand(vb)) +
               " queued job(s), last planned use ends by t=" + std::to_string(adm.at) + " s");
+  if (adm.wait_for.empty()) return;  // nothing leaving is waited for
   std::erase_if(leaving_, [&](const Leaving& l) {
     if (l.mem != m || std::find(adm.wait_for.begin(), adm.wait_for.end(), l.at) == adm.wait_for.end()) return false;
     used_[l.mem] -= l.bytes;  // its room now belongs to the incoming block, from `adm.at` on
@@ -155,6 +171,7 @@ void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
   if (it == v.end()) throw std::logic_error("dropping a copy that is not there");
   v.erase(it);
   ++holders_version_[b];
+  forget_holder(b, m);
   leaving_.push_back({b, m, leaving_with, pool_->block(b).bytes});
 }
 
@@ -188,13 +205,14 @@ ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time
     tl.busy_until = a.end;
     ++resource_version_[r];
   }
+  for (ResourceId r : ch.resources) resource_busy_changed(r);
   acts_.push_back(std::move(a));
   ++unfinished_;
   if (for_job >= 0) {
     if (static_cast<std::size_t>(for_job) >= job_transfers_.size()) job_transfers_.resize(static_cast<std::size_t>(for_job) + 1);
     job_transfers_[static_cast<std::size_t>(for_job)].push_back(id);
   }
-  apply_evictions(adm, ch.to, id, blk.name + " (" + std::to_string(blk.bytes) + " B)");
+  apply_evictions(adm, ch.to, id, [&] { return blk.name + " (" + std::to_string(blk.bytes) + " B)"; });
   if (blk.consumed) {
     drop_copy_later(b, ch.from, id);
   } else {
@@ -216,14 +234,24 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   a.kind = ActivityKind::Exec;
   a.job = j;
   a.device = d;
-  std::vector<InputSize> sizes;
+  // Eq. 2's input sizes (on the stack for the usual few inputs).
+  std::array<InputSize, 8> few;
+  std::vector<InputSize> many;
+  std::size_t n_sizes = 0;
   Time ready = 0;
   for (BlockId b : job.inputs) {
     const Copy* c = copy_at(b, m);
     if (!c) throw std::logic_error("E-job committed before input " + pool_->block(b).name + " is on its memory");
     ready = std::max(ready, copy_ready(*c));
     if (c->producer != kNone) a.deps.push_back(c->producer);
-    sizes.push_back({pool_->block(b).kind, pool_->block(b).bytes});
+    const InputSize sz{pool_->block(b).kind, pool_->block(b).bytes};
+    if (n_sizes < few.size()) {
+      few[n_sizes] = sz;
+    } else {
+      if (many.empty()) many.assign(few.begin(), few.end());
+      many.push_back(sz);
+    }
+    ++n_sizes;
   }
   for (JobId p : job.after) {
     const ActivityId pa = pool_->activity(p);
@@ -234,6 +262,8 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   a.deps.insert(a.deps.end(), out_adm.wait_for.begin(), out_adm.wait_for.end());
   ready = std::max(ready, out_adm.at);
   a.data_ready = ready;
+  const std::span<const InputSize> sizes = n_sizes <= few.size() ? std::span<const InputSize>(few.data(), n_sizes)
+                                                                  : std::span<const InputSize>(many);
   a.duration = graph_->timing.exec_time(d, job.type, sizes);  // Eq. 2
   a.setup = a.duration > 0 ? graph_->timing.setup_time(d, job.type) : 0;
   Timeline& tl = device_tl_[d];
@@ -246,7 +276,7 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   acts_.push_back(std::move(a));
   ++unfinished_;
   ++device_pending_[d];
-  apply_evictions(out_adm, m, id, "outputs of " + job.name);
+  apply_evictions(out_adm, m, id, [&] { return "outputs of " + job.name; });
   for (BlockId b : job.inputs) {
     if (pool_->block(b).consumed) drop_copy_later(b, m, id);
     else mutable_copy(b, m)->users.push_back(id);
@@ -281,6 +311,7 @@ bool Schedule::withdraw_copy(BlockId b, MemId m, ActivityId producer) {
   if (!it->users.empty()) return false;
   v.erase(it);
   ++holders_version_[b];
+  forget_holder(b, m);
   ++memory_version_[m];
   leaving_.push_back({b, m, producer, pool_->block(b).bytes});
   return true;
@@ -410,6 +441,7 @@ void Schedule::reproject(Time now) {
     const Time nb = tl.items.empty() ? 0 : acts_[tl.items.back()].end;
     if (nb != tl.busy_until) ++resource_version_[r];
     tl.busy_until = nb;
+    resource_busy_changed(static_cast<ResourceId>(r));
   }
 }
 

@@ -80,7 +80,13 @@ class Schedule {
   // Data placement. Initial copies: put(b, m, ready_time, origin).
   void put_initial(BlockId b, MemId m, Time ready = 0, bool origin = true);
   const std::vector<Copy>& copies(BlockId b) const;
-  const Copy* copy_at(BlockId b, MemId m) const;
+  const Copy* copy_at(BlockId b, MemId m) const {
+    if (static_cast<std::size_t>(b) >= copies_.size()) return nullptr;
+    if (static_cast<std::uint32_t>(m) < 64u && !((holder_mask_[static_cast<std::size_t>(b)] >> m) & 1)) return nullptr;
+    for (const Copy& c : copies_[static_cast<std::size_t>(b)])
+      if (c.mem == m) return &c;
+    return nullptr;
+  }
   Time copy_ready(const Copy& c) const {
     return c.producer == kNone ? c.initial_ready : acts_[c.producer].end;
   }
@@ -94,7 +100,9 @@ class Schedule {
   // Timelines.
   const Timeline& device_timeline(DeviceId d) const { return device_tl_[d]; }
   const Timeline& resource_timeline(ResourceId r) const { return resource_tl_[r]; }
-  Time channel_finish(ChannelId c) const;  // FinishTime(c) of Eq. 3
+  // FinishTime(c) of Eq. 3: the latest busy-until of c's resources (kept per channel, updated
+  // when a resource's timeline changes).
+  Time channel_finish(ChannelId c) const { return channel_finish_[static_cast<std::size_t>(c)]; }
   std::uint64_t resource_version(ResourceId r) const { return resource_version_[r]; }
 
   // Activities.
@@ -157,7 +165,9 @@ class Schedule {
 
  private:
   void evict(BlockId b, MemId m, Time at, ActivityId for_activity, const std::string& reason);
-  void apply_evictions(const Admission& adm, MemId m, ActivityId for_activity, const std::string& what);
+  // `what` names what needs the room (for the eviction reasons); built only when evicting.
+  template <class What>
+  void apply_evictions(const Admission& adm, MemId m, ActivityId for_activity, const What& what);
   Copy* mutable_copy(BlockId b, MemId m);
   void add_copy(BlockId b, Copy c);
   void drop_copy_later(BlockId b, MemId m, ActivityId leaving_with);
@@ -169,8 +179,19 @@ class Schedule {
   const JobPool* pool_;
   std::vector<Activity> acts_;
   std::vector<Timeline> device_tl_, resource_tl_;
+  std::vector<Time> channel_finish_;  // per channel: max(0, busy_until of its resources)
+  // Channels using each resource (CSR: channels_of_resource_[first_..[r+1])).
+  std::vector<std::int32_t> resource_channels_first_;
+  std::vector<ChannelId> resource_channels_;
+  void resource_busy_changed(ResourceId r);
   std::vector<std::uint64_t> resource_version_, memory_version_, holders_version_;
   std::vector<std::vector<Copy>> copies_;          // per block (grows with the pool)
+  // Per block: bit m set iff a copy is on memory device m < 64 (copy_at's quick miss; a
+  // device >= 64 is always looked up).
+  std::vector<std::uint64_t> holder_mask_;
+  void forget_holder(BlockId b, MemId m) {
+    if (static_cast<std::uint32_t>(m) < 64u) holder_mask_[static_cast<std::size_t>(b)] &= ~(std::uint64_t{1} << m);
+  }
   std::vector<Bytes> used_;                        // per memory device
   // Copies leaving (consumed or moved away) at the end of an activity: their bytes stay
   // reserved until then; admission may count on them from that time.

@@ -14,6 +14,7 @@ struct PlanStats {
   int evictions = 0;
   double wall_seconds = 0;
   std::uint64_t path_searches = 0, path_cache_hits = 0;
+  std::uint64_t path_cut_searches = 0;  // SDC searches stopped at the destination / losing labels (GMB)
 };
 
 class Scheduler {

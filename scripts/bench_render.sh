@@ -8,10 +8,12 @@
 #     read and its BVH built), Embree's from its "creating Embree objects done" timestamp
 #     (scene parsed, BVH built) to exit.
 # Usage: scripts/bench_render.sh [TRIANGLES=10000000] [RES=256] [SPP=16] [DEPTH=5]
+# Environment: RAYLINE_BIN (another rayline binary), RENDER_FLAGS (extra render flags, e.g.
+# "--paths 131072 --read-ahead off"), BENCH_DIR (work folder, default out/bench-render).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TRIS="${1:-10000000}"; RES="${2:-256}"; SPP="${3:-16}"; DEPTH="${4:-5}"
-BIN=build/apps/rayline
+BIN="${RAYLINE_BIN:-build/apps/rayline}"  # RAYLINE_BIN=/path/to/other/rayline for an A/B
 [ -x "$BIN" ] || { echo "build first: scripts/setup.sh" >&2; exit 2; }
 WORK="${BENCH_DIR:-out/bench-render}"
 mkdir -p "$WORK"
@@ -28,21 +30,22 @@ run() {  # label blocks budget
   [ -n "$budget" ] && extra=(--memory-budget "$budget")
   part "$blocks"
   "$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-$blocks" --resolution "${RES}x${RES}" --spp "$SPP" \
-    --max-depth "$DEPTH" "${extra[@]}" --out "$WORK/$label.exr"
+    --max-depth "$DEPTH" "${extra[@]}" ${RENDER_FLAGS:-} --out "$WORK/$label.exr"
   /usr/bin/python3 - "$WORK/$label.metrics.json" "$label" <<'PY'
 import json, sys
 m = json.load(open(sys.argv[1])); io = m["io"]
 print(f"| {sys.argv[2]} | {m['blocks']} | {m['memory']['budget_bytes']/2**20:.0f} MiB | {m['bvh_quality']} | {m['seconds']:.2f} s | "
       f"{m['rays_per_second']/1e6:.2f} M | {m['samples_per_second']/1e3:.1f} k | {io['loads']} | "
-      f"{io['bytes_read']/1e6:.0f} MB | {io['bvh_build_seconds']:.1f} s | {io['disk_busy_fraction']*100:.0f} % | {io['mode']} |")
+      f"{io['bytes_read']/1e6:.0f} MB | {io['bvh_build_seconds']:.1f} s | {io['disk_busy_fraction']*100:.0f} % | "
+      f"{io.get('disk_read_fraction', 0)*100:.0f} % | {m['memory']['paths_in_flight_cap']} | {m['memory']['peak_rss_bytes']/2**20:.0f} MiB | {io['mode']} |")
 PY
 }
 part 16
 "$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-16" --resolution 8x8 --spp 1 --bvh-quality low --out "$WORK/probe.exr"
 SCENE_BYTES=$(/usr/bin/python3 -c "import json;print(json.load(open('$WORK/probe.metrics.json'))['memory']['scene_block_bytes'])")
 echo "scene: $TRIS triangles, $((SCENE_BYTES / 1048576)) MiB of blocks in RAM (low-quality BVH); ${RES}x${RES}, $SPP spp, max depth $DEPTH, $(nproc) threads"
-echo "| run | blocks | budget | BVH | wall | rays/s | samples/s | loads | read | BVH builds | disk busy | I/O |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| run | blocks | budget | BVH | wall | rays/s | samples/s | loads | read | BVH builds | channel busy | disk reading | paths | peak RSS | I/O |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 run in-core-1 1 ""
 run in-core-16 16 ""
 run budget-25 16 "$((SCENE_BYTES / 4))"

@@ -1,7 +1,9 @@
 // SDC details beyond the paper's examples: a memory device that holds (or is receiving) a
-// block never gets a second copy routed into it, and FetchBound's bounds bracket SDC.
+// block never gets a second copy routed into it, and FetchBound's bounds bracket SDC. The
+// planning-speed caches (issue 2) answer exactly what a fresh computation answers.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <random>
 
 #include "dcg_fixture.hpp"
@@ -82,4 +84,226 @@ TEST(FetchPath, BoundsBracketSdcOnRandomGraphs) {
       }
   }
   EXPECT_GT(checked, 1000);
+}
+
+// ---- planning-speed caches (issue 2): cached / cut answers equal fresh ones ------------
+namespace {
+
+struct RandomState {
+  DeviceGraph g;
+  JobPool pool;
+  std::vector<BlockId> blocks;
+  std::vector<MemId> m;
+};
+
+// Random graph: some channels on shared resources (contention, equal finish times), some
+// round bandwidths (ties), random holders (1-3 per block, some not yet ready).
+RandomState random_state(std::mt19937& rng, int inst) {
+  RandomState r;
+  rayline::testing::DcgBuilder b;
+  const int n = 3 + inst % 6;
+  std::uniform_real_distribution<double> bw(10e6, 500e6), lat(0, 0.01), u(0, 1);
+  for (int i = 0; i < n; ++i)
+    r.m.push_back(b.mem("m" + std::to_string(i), u(rng) < 0.15 ? Bytes(50'000'000) : Bytes(1) << 40));
+  const ResourceId shared = b.resource("shared", 100e6);
+  const bool round = inst % 3 == 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      if (i != j && u(rng) < 0.5) {
+        const double w = round ? 100e6 : bw(rng);
+        std::vector<ResourceId> res;
+        if (u(rng) < 0.3) res.push_back(shared);
+        b.channel(r.m[static_cast<std::size_t>(i)], r.m[static_cast<std::size_t>(j)], w, round ? 0.001 : lat(rng), res);
+      }
+  r.g = b.build();
+  for (int k = 0; k < 5; ++k) {
+    DataBlock d;
+    d.name = "b" + std::to_string(k);
+    d.kind = k % 2 ? DataKind::RayQueue : DataKind::SceneData;
+    d.bytes = round ? Bytes(20'000'000) * static_cast<Bytes>(1 + k % 3) : static_cast<Bytes>(u(rng) * 150e6) + 1;
+    r.blocks.push_back(r.pool.add_block(d));
+  }
+  return r;
+}
+
+// Eq. 3 along a path from its source holder (what committing it would achieve).
+Time chain(const Schedule& s, BlockId b, const std::vector<ChannelId>& p, Time now) {
+  const DeviceGraph& g = s.graph();
+  const Copy* src = s.copy_at(b, g.channels[static_cast<std::size_t>(p.front())].from);
+  if (!src) return -1;
+  Time t = std::max(now, s.copy_ready(*src));
+  for (ChannelId c : p) t = std::max(t, s.channel_finish(c)) + g.transfer_time(c, s.pool().block(b).bytes);
+  return t;
+}
+
+}  // namespace
+
+// arrival_within() (branch and bound, memo) against the full Dijkstra: the same bits for
+// the exact answers, and the documented contract for `enough` / `lost`; path() with bounds
+// (a unique best path or the tree's) has the arrival's Eq. 3 value; all of it again after
+// more commits (memo validity by path stamps and holders versions).
+TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomGraphs) {
+  std::mt19937 rng(2026);
+  std::uniform_real_distribution<double> u(0, 1);
+  int checked = 0, cut = 0;
+  for (int inst = 0; inst < 300; ++inst) {
+    RandomState r = random_state(rng, inst);
+    Schedule s(r.g, r.pool);
+    for (BlockId blk : r.blocks) {
+      const int holders = 1 + static_cast<int>(u(rng) * 3);
+      for (int h = 0; h < holders; ++h) {
+        const MemId at = r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)];
+        if (!s.copy_at(blk, at)) s.put_initial(blk, at, u(rng) < 0.3 ? u(rng) : 0.0, h == 0);
+      }
+    }
+    const Time now = u(rng) * 0.5;
+    FetchBound fb(r.g);
+    FetchPathFinder cached(s);  // lives through the commits: its memo must stay right
+    cached.set_now(now);
+    cached.set_bounds(&fb);
+    for (int round = 0; round < 4; ++round) {
+      FetchPathFinder full(s);  // fresh: plain Dijkstra
+      full.set_now(now);
+      for (BlockId blk : r.blocks)
+        for (MemId dst : r.m) {
+          const Time a = full.arrival(blk, dst);
+          EXPECT_EQ(std::bit_cast<std::uint64_t>(cached.arrival_within(blk, dst, -kNever, [](Time) { return false; })),
+                    std::bit_cast<std::uint64_t>(a))
+              << "instance " << inst << " round " << round;
+          if (a < kNever) {
+            const Time t = a * (0.5 + u(rng));
+            Time proven = -1;
+            const Time x = cached.arrival_within(blk, dst, -kNever, [t](Time v) { return v > t; }, &proven);
+            if (a <= t) {
+              EXPECT_EQ(x, a);
+            } else {
+              EXPECT_EQ(x, kNever);
+              EXPECT_LE(proven, a);
+            }
+            const Time e = a * (0.5 + u(rng));
+            const Time y = cached.arrival_within(blk, dst, e, [](Time) { return false; });
+            if (a <= e) EXPECT_LE(y, e);
+            else EXPECT_EQ(y, a);
+            std::vector<ChannelId> p;
+            cached.path(blk, dst, p);
+            if (!s.copy_at(blk, dst)) {
+              ASSERT_FALSE(p.empty()) << "instance " << inst;
+              EXPECT_EQ(r.g.channels[static_cast<std::size_t>(p.back())].to, dst);
+              for (std::size_t k = 1; k < p.size(); ++k)
+                EXPECT_EQ(r.g.channels[static_cast<std::size_t>(p[k])].from, r.g.channels[static_cast<std::size_t>(p[k - 1])].to);
+              EXPECT_EQ(chain(s, blk, p, now), a) << "instance " << inst;
+            }
+          }
+          ++checked;
+        }
+      cut += static_cast<int>(cached.cut_searches());
+      // More contention and new holders: commit a few hops.
+      for (int k = 0; k < 3; ++k) {
+        const ChannelId c = static_cast<ChannelId>(u(rng) * static_cast<double>(r.g.channels.size()));
+        const BlockId blk = r.blocks[static_cast<std::size_t>(u(rng) * static_cast<double>(r.blocks.size()))];
+        const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
+        if (s.copy_at(blk, ch.from) && !s.copy_at(blk, ch.to)) {
+          const auto adm = s.admission(ch.to, r.pool.block(blk).bytes, {});
+          if (adm.at != kNever) s.commit_transfer(blk, c, kNone, now, adm);
+        }
+      }
+    }
+  }
+  EXPECT_GT(checked, 5000);
+  EXPECT_GT(cut, 0);
+}
+
+// FetchBound::lower_bound() memoised by the attaining channel equals the bound recomputed
+// from scratch, as commits make channels busier and add holders.
+TEST(FetchBound, MemoisedLowerBoundEqualsFreshOne) {
+  std::mt19937 rng(77);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int inst = 0; inst < 150; ++inst) {
+    RandomState r = random_state(rng, inst);
+    Schedule s(r.g, r.pool);
+    for (BlockId blk : r.blocks) s.put_initial(blk, r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)]);
+    FetchBound memoised(r.g);
+    const Time now = u(rng);
+    for (int step = 0; step < 12; ++step) {
+      FetchBound fresh(r.g);
+      for (BlockId blk : r.blocks)
+        for (MemId dst : r.m)
+          EXPECT_EQ(std::bit_cast<std::uint64_t>(memoised.lower_bound(s, blk, dst, now)),
+                    std::bit_cast<std::uint64_t>(fresh.lower_bound_once(s, blk, dst, now)))
+              << "instance " << inst << " step " << step;
+      const ChannelId c = static_cast<ChannelId>(u(rng) * static_cast<double>(r.g.channels.size()));
+      const BlockId blk = r.blocks[static_cast<std::size_t>(u(rng) * static_cast<double>(r.blocks.size()))];
+      const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
+      if (s.copy_at(blk, ch.from) && !s.copy_at(blk, ch.to)) {
+        const auto adm = s.admission(ch.to, r.pool.block(blk).bytes, {});
+        if (adm.at != kNever) s.commit_transfer(blk, c, kNone, now, adm);
+      }
+    }
+  }
+}
+
+// Schedule keeps FinishTime(c) per channel and a holder mask per block: both equal what
+// they summarise, through commits and reproject().
+TEST(Schedule, ChannelFinishAndHoldersStayInStepWithTimelines) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int inst = 0; inst < 100; ++inst) {
+    RandomState r = random_state(rng, inst);
+    Schedule s(r.g, r.pool);
+    for (BlockId blk : r.blocks) s.put_initial(blk, r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)]);
+    auto check = [&] {
+      for (std::size_t c = 0; c < r.g.channels.size(); ++c) {
+        Time t = 0;
+        for (ResourceId q : r.g.channels[c].resources) t = std::max(t, s.resource_timeline(q).busy_until);
+        EXPECT_EQ(s.channel_finish(static_cast<ChannelId>(c)), t);
+      }
+      for (BlockId blk : r.blocks)
+        for (MemId dst : r.m) {
+          const Copy* want = nullptr;
+          for (const Copy& c : s.copies(blk))
+            if (c.mem == dst) want = &c;
+          EXPECT_EQ(s.copy_at(blk, dst), want);
+        }
+    };
+    for (int step = 0; step < 10; ++step) {
+      const ChannelId c = static_cast<ChannelId>(u(rng) * static_cast<double>(r.g.channels.size()));
+      const BlockId blk = r.blocks[static_cast<std::size_t>(u(rng) * static_cast<double>(r.blocks.size()))];
+      const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
+      if (s.copy_at(blk, ch.from) && !s.copy_at(blk, ch.to)) {
+        const auto adm = s.admission(ch.to, r.pool.block(blk).bytes, {});
+        if (adm.at != kNever) s.commit_transfer(blk, c, kNone, u(rng), adm);
+      }
+      check();
+    }
+    for (std::size_t a = 0; a < s.activity_count(); ++a)
+      if (u(rng) < 0.5) s.on_finished(static_cast<ActivityId>(a), s.activity(static_cast<ActivityId>(a)).end * (0.5 + u(rng)));
+    s.reproject(2.0);
+    check();
+  }
+}
+
+// JobPool's queue keeps arrival order through removals (no position rewrite any more) and
+// requeues.
+TEST(JobPool, QueueKeepsArrivalOrderThroughRemovalsAndRequeues) {
+  std::mt19937 rng(11);
+  JobPool pool;
+  const BlockId b = rayline::testing::add_block(pool, "b", DataKind::Generic, 1);
+  std::vector<JobId> ref;
+  for (int i = 0; i < 300; ++i) ref.push_back(rayline::testing::add_job(pool, "j" + std::to_string(i), 0, {b}));
+  std::vector<JobId> out;
+  for (int step = 0; step < 2000; ++step) {
+    if (!ref.empty() && (out.empty() || rng() % 3 != 0)) {
+      const std::size_t k = rng() % ref.size();
+      pool.mark_planned(ref[k], 0);
+      out.push_back(ref[k]);
+      ref.erase(ref.begin() + static_cast<std::ptrdiff_t>(k));
+    } else {
+      const std::size_t k = rng() % out.size();
+      pool.requeue(out[k]);
+      ref.push_back(out[k]);
+      out.erase(out.begin() + static_cast<std::ptrdiff_t>(k));
+    }
+    ASSERT_EQ(std::vector<JobId>(pool.queued().begin(), pool.queued().end()), ref) << "step " << step;
+    ASSERT_EQ(pool.queued_demand(b), static_cast<int>(ref.size()));
+  }
 }
