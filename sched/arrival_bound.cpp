@@ -1,6 +1,7 @@
 #include "sched/arrival_bound.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -16,8 +17,55 @@ ArrivalBound::ArrivalBound(const DeviceGraph& g) : n_(g.memories.size()), min_in
 void ArrivalBound::reset(Time now) {
   ++epoch_;
   now_ = now;
-  group_ids_.clear();
-  groups_.clear();
+  n_groups_ = 0;
+  sigs_.clear();
+  std::fill(table_.begin(), table_.end(), -1);
+}
+
+// FNV-1a over the signature's values (times by value: +0 and -0 are the same root weight).
+std::uint64_t ArrivalBound::hash(const std::vector<std::pair<std::int64_t, Time>>& sig) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](std::uint64_t v) {
+    h ^= v;
+    h *= 1099511628211ull;
+  };
+  for (const auto& [mem, t] : sig) {
+    mix(static_cast<std::uint64_t>(mem));
+    mix(t == 0 ? 0 : std::bit_cast<std::uint64_t>(t));
+  }
+  return h;
+}
+
+// The group whose signature equals sig_ (values compared with ==), created if new: ids in
+// order of first appearance.
+std::int32_t ArrivalBound::find_or_add_group(std::uint64_t h) {
+  if (table_.size() < 2 * (n_groups_ + 1)) {  // grow (and rehash) to a load of at most 1/2
+    table_.assign(std::bit_ceil(std::max<std::size_t>(64, 4 * (n_groups_ + 1))), -1);
+    for (std::size_t g = 0; g < n_groups_; ++g) {
+      std::size_t k = groups_[g].hash & (table_.size() - 1);
+      while (table_[k] >= 0) k = (k + 1) & (table_.size() - 1);
+      table_[k] = static_cast<std::int32_t>(g);
+    }
+  }
+  // (table_.size() is a power of two.)
+  std::size_t k = h & (table_.size() - 1);
+  for (; table_[k] >= 0; k = (k + 1) & (table_.size() - 1)) {
+    const Group& grp = groups_[static_cast<std::size_t>(table_[k])];
+    if (grp.hash == h && grp.sig_size == sig_.size() && std::equal(sig_.begin(), sig_.end(), sigs_.begin() + static_cast<std::ptrdiff_t>(grp.sig_at)))
+      return table_[k];
+  }
+  const auto g = static_cast<std::int32_t>(n_groups_++);
+  table_[k] = g;
+  if (groups_.size() < n_groups_) groups_.emplace_back();
+  Group& grp = groups_[static_cast<std::size_t>(g)];
+  grp.members.clear();
+  grp.largest.assign(n_, Rec{});
+  grp.first = 0;
+  grp.hash = h;
+  grp.sig_at = sigs_.size();
+  grp.sig_size = sig_.size();
+  sigs_.insert(sigs_.end(), sig_.begin(), sig_.end());
+  return g;
 }
 
 // The class of blocks with exactly b's SDC sources: movability, and every holder with its
@@ -31,18 +79,14 @@ std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b) {
   sig_.emplace_back(-1, s.pool().block(b).movable ? 1.0 : 0.0);
   for (const Copy& c : s.copies(b)) sig_.emplace_back(c.mem, std::max(now_, s.copy_ready(c)));
   std::sort(sig_.begin() + 1, sig_.end());
-  const auto [it, fresh] = group_ids_.try_emplace(sig_, static_cast<std::int32_t>(groups_.size()));
-  if (fresh) {
-    groups_.emplace_back();
-    groups_.back().largest.resize(n_);
-  }
-  auto& mem = groups_[static_cast<std::size_t>(it->second)].members;
+  const std::int32_t id = find_or_add_group(hash(sig_));
+  Group& grp = groups_[static_cast<std::size_t>(id)];
+  auto& mem = grp.members;
   const std::pair<Bytes, BlockId> me{s.pool().block(b).bytes, b};
   const auto pos = std::lower_bound(mem.begin(), mem.end(), me);
-  Group& grp = groups_[static_cast<std::size_t>(it->second)];
   grp.first = std::min(grp.first, static_cast<std::size_t>(pos - mem.begin()));
   if (pos == mem.end() || *pos != me) mem.insert(pos, me);
-  bs.group = it->second;
+  bs.group = id;
   bs.holders = hv;
   bs.epoch = epoch_;
   return bs.group;

@@ -14,7 +14,6 @@
 // not reported is merely bounded less tightly. The bounds only order and prune; a job's
 // start is always computed exactly (fetch_path.hpp) before it can be chosen.
 #pragma once
-#include <map>
 #include <vector>
 
 #include "schedule.hpp"
@@ -29,7 +28,7 @@ class ArrivalBound {
   std::int32_t assign(const Schedule& s, BlockId b);
   // b's group if it is still current (kNone otherwise).
   std::int32_t group(const Schedule& s, BlockId b) const;
-  std::size_t group_count() const { return groups_.size(); }
+  std::size_t group_count() const { return n_groups_; }
   // Members of g, smallest first; may list blocks that left since (group(b) != g).
   const std::vector<std::pair<Bytes, BlockId>>& members(std::int32_t g) const { return groups_[static_cast<std::size_t>(g)].members; }
   BlockId smallest(const Schedule& s, std::int32_t g) const;  // kNone if none is current
@@ -60,6 +59,8 @@ class ArrivalBound {
     // No member before this index is current (members leave lazily; one that joins again
     // moves it back).
     mutable std::size_t first = 0;
+    std::uint64_t hash = 0;       // of its signature,
+    std::size_t sig_at = 0, sig_size = 0;  // sigs_[sig_at, sig_at + sig_size)
   };
   bool valid(const Schedule& s, const Rec& r) const {
     return r.epoch == epoch_ && r.block != kNone && r.holders == s.holders_version(r.block);
@@ -72,9 +73,16 @@ class ArrivalBound {
   Time now_ = 0;
   std::vector<BlockState> blocks_;
   std::vector<Rec> own_;
-  std::map<std::vector<std::pair<std::int64_t, Time>>, std::int32_t> group_ids_;
+  // Groups of this pass: groups_[0, n_groups_) (the vector keeps earlier passes' groups,
+  // and their members' capacity, for reuse). Their signatures, concatenated, and an
+  // open-addressing table from a signature's hash to its group (-1: empty slot).
   std::vector<Group> groups_;
+  std::size_t n_groups_ = 0;
+  std::vector<std::pair<std::int64_t, Time>> sigs_;
+  std::vector<std::int32_t> table_;
   std::vector<std::pair<std::int64_t, Time>> sig_;
+  static std::uint64_t hash(const std::vector<std::pair<std::int64_t, Time>>& sig);
+  std::int32_t find_or_add_group(std::uint64_t h);  // for sig_
 };
 
 }  // namespace rayline

@@ -23,6 +23,15 @@ void FetchPathFinder::clear() {
   memos_.reserve(std::max(memos_.capacity(), schedule_->pool().block_count()));
 }
 
+void FetchPathFinder::rebind(const Schedule& schedule) {
+  schedule_ = &schedule;
+  if (schedule.graph().memories.size() != n_) {
+    *this = FetchPathFinder(schedule);
+    return;
+  }
+  clear();
+}
+
 // b's memo for m, reset when b's holders changed since it was taken.
 FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
   const auto bi = static_cast<std::size_t>(b);

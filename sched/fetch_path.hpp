@@ -69,6 +69,9 @@ class FetchPathFinder {
   // Schedule's resource versions, so this has nothing left to do.
   void resource_changed(ResourceId) {}
   void clear();                         // after reproject(): everything may have moved
+  // Search another Schedule on the same platform (same memory devices and channels),
+  // keeping the buffers; nothing cached survives.
+  void rebind(const Schedule& schedule);
   // Transfers cannot start in the past: a holder's edge from S weighs max(ready, now).
   void set_now(Time now) { if (now != now_) { now_ = now; clear(); } }
   // Baselines that never send scene data between nodes (GraviT compiles SEND_DOMS out):

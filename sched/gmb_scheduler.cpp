@@ -1,10 +1,10 @@
 #include "sched/gmb_scheduler.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <queue>
 #include <set>
 
 namespace rayline {
@@ -18,6 +18,28 @@ std::string GmbScheduler::describe() const {
   return "gmb{k=" + std::to_string(opt_.horizon) + "s; aging=" + (a == kNever ? std::string("off") : std::to_string(a) + "s") +
          "; granularity_tiebreak=" + (opt_.granularity_tiebreak ? "1" : "0") +
          "; completion_aware=" + (opt_.completion_aware ? "1" : "0") + "}";
+}
+
+// What the graph-only structures depend on: memory devices (capacities), channels (Eq. 1
+// coefficients, endpoints, resources). FNV-1a over their values.
+std::uint64_t GmbScheduler::fingerprint(const DeviceGraph& g) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](std::uint64_t v) {
+    h ^= v;
+    h *= 1099511628211ull;
+  };
+  auto mixd = [&mix](double v) { mix(std::bit_cast<std::uint64_t>(v)); };
+  mix(g.memories.size());
+  for (const MemoryDevice& m : g.memories) mix(static_cast<std::uint64_t>(m.capacity));
+  mix(g.channels.size());
+  for (const Channel& c : g.channels) {
+    mix(static_cast<std::uint64_t>(c.from) << 32 | static_cast<std::uint32_t>(c.to));
+    mixd(c.latency);
+    mixd(c.bandwidth);
+    for (ResourceId r : c.resources) mix(static_cast<std::uint64_t>(r));
+  }
+  mix(g.computes.size());
+  return h;
 }
 
 Time GmbScheduler::aging_threshold() const {
@@ -87,6 +109,10 @@ GmbScheduler::Choice GmbScheduler::select(DeviceId d, Time ready, Time now, cons
 }
 
 void GmbScheduler::build_index(Time now, const JobPool& pool) {
+  for (Bucket& bk : buckets_) {
+    bk.jobs.clear();
+    spare_jobs_.push_back(std::move(bk.jobs));
+  }
   buckets_.clear();
   bucket_of_block_.assign(pool.block_count(), -1);
   bucket_of_job_.assign(pool.job_count(), -1);
@@ -103,6 +129,10 @@ void GmbScheduler::build_index(Time now, const JobPool& pool) {
     if (bucket_of_block_[key] < 0) {
       bucket_of_block_[key] = static_cast<std::int32_t>(buckets_.size());
       buckets_.push_back({key, {}, 0});
+      if (!spare_jobs_.empty()) {
+        buckets_.back().jobs = std::move(spare_jobs_.back());
+        spare_jobs_.pop_back();
+      }
     }
     Bucket& bk = buckets_[static_cast<std::size_t>(bucket_of_block_[key])];
     bk.jobs.push_back(j);
@@ -218,7 +248,8 @@ void GmbScheduler::build_classes(const Schedule& s) {
     }
     return true;
   };
-  std::vector<DeviceId> reps;
+  std::vector<DeviceId>& reps = class_reps_;
+  reps.clear();
   class_of_device_.assign(g.computes.size(), -1);
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
     const auto dd = static_cast<DeviceId>(d);
@@ -568,12 +599,16 @@ bool GmbScheduler::commit(const Choice& c, DeviceId d, Time ready, Time now, Job
 PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   const auto t0 = std::chrono::steady_clock::now();
   PlanStats st;
-  if (bound_ != &s || !placer_) {
+  const std::uint64_t print = fingerprint(s.graph());
+  if (!placer_ || print != graph_print_) {
     placer_ = std::make_unique<Placer>(s);
     bound_time_ = std::make_unique<FetchBound>(s.graph());
     arrival_bound_ = std::make_unique<ArrivalBound>(s.graph());
-    bound_ = &s;
+  } else if (bound_ != &s) {
+    placer_->rebind(s);  // same platform: keep the buffers (every cache is reset below)
   }
+  bound_ = &s;
+  graph_print_ = print;
   s.reproject(now);
   const DeviceGraph& g = s.graph();
   placer_->finder().clear();
@@ -594,18 +629,29 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     else no_key_bucket_ = static_cast<std::int32_t>(i);
   }
   build_classes(s);
-  sorted_.assign(buckets_.size() * static_cast<std::size_t>(classes_), Sorted{});
+  const std::size_t n_sorted = buckets_.size() * static_cast<std::size_t>(classes_);
+  if (sorted_.size() < n_sorted) sorted_.resize(n_sorted);
+  for (std::size_t k = 0; k < n_sorted; ++k) {
+    sorted_[k].built = false;
+    sorted_[k].monotone = true;
+    sorted_[k].jobs.clear();
+  }
   const std::uint64_t searches0 = placer_->finder().searches(), hits0 = placer_->finder().hits();
   const std::uint64_t cut0 = placer_->finder().cut_searches();
   now_ = now;
   const Time end = now + opt_.horizon;
-  using Item = std::pair<Time, DeviceId>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> devices;
-  for (std::size_t d = 0; d < g.computes.size(); ++d)
-    devices.emplace(std::max(now, s.device_timeline(static_cast<DeviceId>(d)).busy_until), static_cast<DeviceId>(d));
+  // Sec. 4.2 device selection: the device whose timeline ends first (a min-heap on the
+  // ready time, then the device id, as std::priority_queue with std::greater<> would).
+  auto& devices = device_queue_;
+  devices.clear();
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    devices.emplace_back(std::max(now, s.device_timeline(static_cast<DeviceId>(d)).busy_until), static_cast<DeviceId>(d));
+    std::push_heap(devices.begin(), devices.end(), std::greater<>{});
+  }
   while (!devices.empty() && pool.queued_count() > 0) {
-    const auto [ready, d] = devices.top();
-    devices.pop();
+    std::pop_heap(devices.begin(), devices.end(), std::greater<>{});
+    const auto [ready, d] = devices.back();
+    devices.pop_back();
     if (ready >= end) break;  // every device is planned up to now + k
     deferred_.clear();
     for (;;) {
@@ -620,7 +666,8 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       const bool placed = commit(c, d, ready, now, pool, s, st);
       after_commit(activities_before, evictions_before, pool, s);
       if (placed) {
-        devices.emplace(std::max(now, s.device_timeline(d).busy_until), d);
+        devices.emplace_back(std::max(now, s.device_timeline(d).busy_until), d);
+        std::push_heap(devices.begin(), devices.end(), std::greater<>{});
         break;
       }
     }

@@ -61,6 +61,11 @@ class GmbScheduler final : public Scheduler {
 
   GmbOptions opt_;
   const Schedule* bound_ = nullptr;
+  // The platform the graph-only parts (FetchBound's all-pairs minima, ArrivalBound's
+  // bandwidths, the finder's buffers) were built for: kept while one GmbScheduler plans
+  // successive Schedules of the same platform (the runtime loop's steady state).
+  std::uint64_t graph_print_ = 0;
+  static std::uint64_t fingerprint(const DeviceGraph& g);
   std::unique_ptr<Placer> placer_;
   std::unique_ptr<FetchBound> bound_time_;
   std::vector<std::pair<JobId, MemId>> blocked_pairs_;  // sorted: infeasible this round (capacity)
@@ -74,6 +79,7 @@ class GmbScheduler final : public Scheduler {
     int queued = 0;           // of them still queued
   };
   std::vector<Bucket> buckets_;
+  std::vector<std::vector<JobId>> spare_jobs_;  // buckets' job lists of earlier plans (capacity kept)
   std::vector<std::int32_t> bucket_of_block_, bucket_of_job_;
   std::vector<std::pair<Time, std::int32_t>> order_;
   std::vector<std::pair<Time, std::size_t>> by_bound_;  // evaluate_bucket(): jobs by a lower bound on their start
@@ -122,7 +128,9 @@ class GmbScheduler final : public Scheduler {
     bool monotone = true;  // no two granularities within nearly_equal but different
     std::vector<std::pair<double, JobId>> jobs;
   };
-  std::vector<Sorted> sorted_;  // bucket x class
+  std::vector<Sorted> sorted_;  // bucket x class (never shrunk: the lists keep their capacity)
+  std::vector<DeviceId> class_reps_;  // build_classes(): one device per class
+  std::vector<std::pair<Time, DeviceId>> device_queue_;  // plan(): devices by ready time (a min-heap)
   void build_classes(const Schedule& s);
   const Sorted& sorted_jobs(std::int32_t i, DeviceId d, const JobPool& pool, const Schedule& s);
   double granularity(JobId j, DeviceId d, const JobPool& pool, const Schedule& s);

@@ -15,6 +15,8 @@ class Placer {
  public:
   explicit Placer(const Schedule& s) : finder_(s) {}
   FetchPathFinder& finder() { return finder_; }
+  // Plan on another Schedule of the same platform, keeping the buffers.
+  void rebind(const Schedule& s) { finder_.rebind(s); }
 
   // Sec. 5.1: framebuffers move only for AdditiveCompose; every other block may be fetched.
   static bool may_fetch(const Job& j, BlockId b, const Schedule& s);

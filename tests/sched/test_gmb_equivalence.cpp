@@ -23,6 +23,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -271,12 +272,15 @@ GmbOptions gmb_options(std::uint64_t variant, bool reference) {
   return o;
 }
 
-// One plan call at `now` (after one plan at 0 executed up to `now` when now > 0).
-std::uint64_t run_plan(std::uint64_t seed, std::uint64_t variant, bool reference) {
+// One plan call at `now` (after one plan at 0 executed up to `now` when now > 0). With
+// `kept`, that scheduler plans (it must have been made with gmb_options(variant, reference)).
+std::uint64_t run_plan(std::uint64_t seed, std::uint64_t variant, bool reference, GmbScheduler* kept = nullptr) {
   Instance inst = random_instance(seed);
   JobPool pool = inst.pool;
   auto s = make_schedule(inst, pool);
-  GmbScheduler gmb(gmb_options(variant, reference));
+  std::optional<GmbScheduler> fresh;
+  if (!kept) fresh.emplace(gmb_options(variant, reference));
+  GmbScheduler& gmb = kept ? *kept : *fresh;
   gmb.plan(0, pool, *s);
   if (variant % 2 == 1 && pool.queued_count() > 0) {
     // Let part of the plan happen, then plan again from a later `now` (reprojection).
@@ -319,7 +323,7 @@ std::uint64_t run_loop(std::uint64_t seed, std::uint64_t variant, bool reference
 }
 
 std::uint64_t run_bench_instance(const char* platform, int blocks, int jobs, std::uint64_t seed, Time horizon,
-                                 bool reference) {
+                                 bool reference, GmbScheduler* kept = nullptr) {
   const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/" + platform);
   JobSet set = synthetic_ray_batching(g, blocks, jobs, seed);
   Schedule s(g, set.pool);
@@ -327,7 +331,9 @@ std::uint64_t run_bench_instance(const char* platform, int blocks, int jobs, std
   GmbOptions o;
   o.horizon = horizon;
   o.reference_selection = reference;
-  GmbScheduler gmb(o);
+  std::optional<GmbScheduler> fresh;
+  if (!kept) fresh.emplace(o);
+  GmbScheduler& gmb = kept ? *kept : *fresh;
   gmb.plan(0, set.pool, s);
   return digest(s, set.pool);
 }
@@ -550,4 +556,33 @@ TEST(GmbEquivalence, CachedSelectionMatchesReferenceOnRandomInstances) {
     }
   }
   std::printf("[equivalence] %d instances: cached selection == reference selection\n", compared);
+}
+
+// One GmbScheduler kept across plans of other Schedules (the bench's *_warm cases, a
+// runtime loop's scheduler outliving its Schedule): what it reuses (buffers, the
+// graph-only bounds while the platform is the same) must not change any plan. Random
+// platforms change from one plan to the next; the bench instances repeat and alternate.
+TEST(GmbEquivalence, OneSchedulerAcrossSchedulesPlansLikeFreshOnes) {
+  int compared = 0;
+  for (std::uint64_t variant = 0; variant < 12; ++variant) {
+    GmbScheduler kept(gmb_options(variant, false));
+    for (std::uint64_t seed = 0; seed < 12; ++seed) {
+      // Each random instance twice in a row (same platform, a fresh Schedule), then the next.
+      for (int rep = 0; rep < 2; ++rep) {
+        EXPECT_EQ(run_plan(60000 + seed, variant, false, &kept), run_plan(60000 + seed, variant, false))
+            << "variant " << variant << " seed " << seed << " rep " << rep;
+        ++compared;
+      }
+    }
+    if (HasFailure()) return;
+  }
+  GmbScheduler kept({.horizon = 2.0});
+  const auto golden = [](const char* name) { return kGolden.at(name); };
+  for (int rep = 0; rep < 2; ++rep) {
+    EXPECT_EQ(run_bench_instance("paper-cluster.json", 129, 1000, 42, 2.0, false, &kept), golden("bench/cluster/2s"));
+    EXPECT_EQ(run_bench_instance("paper-A.json", 129, 1000, 42, 2.0, false, &kept), golden("bench/A/2s"));
+    EXPECT_EQ(run_bench_instance("paper-cluster.json", 129, 1000, 42, 2.0, false, &kept), golden("bench/cluster/2s"));
+    compared += 3;
+  }
+  std::printf("[equivalence] %d plans by kept schedulers == plans by fresh ones\n", compared);
 }
