@@ -47,7 +47,16 @@ class FetchBound {
   static constexpr ChannelId kSeveral = -2;
   const double* latency_to(MemId m) const { return lat_to_.data() + static_cast<std::size_t>(m) * n_; }
   const double* inv_bw_to(MemId m) const { return inv_bw_to_.data() + static_cast<std::size_t>(m) * n_; }
-  const std::vector<ChannelId>& relay_in(MemId m) const { return relay_in_[static_cast<std::size_t>(m)]; }
+  //    Each with what Eq. 1 and the capacity check need, stored contiguously (the search
+  //    scans them for every destination it is asked about).
+  struct Relay {
+    ChannelId channel;
+    MemId from;
+    Bytes from_capacity;
+    Time latency;      // T_LAT
+    double bandwidth;  // T_BW
+  };
+  const std::vector<Relay>& relay_in(MemId m) const { return relay_in_[static_cast<std::size_t>(m)]; }
   const ChannelId* direct_to(MemId m) const { return direct_to_.data() + static_cast<std::size_t>(m) * n_; }
 
  private:
@@ -60,7 +69,7 @@ class FetchBound {
   std::size_t n_;
   std::vector<double> lat_, inv_bw_;  // n x n, +inf where unreachable
   std::vector<double> lat_to_, inv_bw_to_;  // the same, transposed (rows by destination)
-  std::vector<std::vector<ChannelId>> relay_in_;
+  std::vector<std::vector<Relay>> relay_in_;
   std::vector<ChannelId> direct_to_;  // [m * n + q]
   struct Memo {
     Time value = 0;

@@ -17,7 +17,8 @@ FetchPathFinder::FetchPathFinder(const Schedule& schedule)
 
 void FetchPathFinder::clear() {
   for (Tree& t : trees_) t.valid = false;
-  std::fill(memo_head_.begin(), memo_head_.end(), -1);
+  std::fill(memo_slot_.begin(), memo_slot_.end(), -1);
+  memo_index_.clear();
   memos_.clear();
   // About one memo per block is typical: one allocation, not a chain of doublings.
   memos_.reserve(std::max(memos_.capacity(), schedule_->pool().block_count()));
@@ -35,37 +36,37 @@ void FetchPathFinder::rebind(const Schedule& schedule) {
 // b's memo for m, reset when b's holders changed since it was taken.
 FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
   const auto bi = static_cast<std::size_t>(b);
-  if (bi >= memo_head_.size()) memo_head_.resize(std::max(schedule_->pool().block_count(), bi + 1), -1);
+  if (bi >= memo_slot_.size()) memo_slot_.resize(std::max(schedule_->pool().block_count(), bi + 1), -1);
+  std::int32_t& slot = memo_slot_[bi];
+  if (slot < 0) {
+    slot = static_cast<std::int32_t>(memo_index_.size() / n_);
+    memo_index_.resize(memo_index_.size() + n_, -1);
+  }
+  std::int32_t& k = memo_index_[static_cast<std::size_t>(slot) * n_ + static_cast<std::size_t>(m)];
   const std::uint64_t hv = schedule_->holders_version(b);
-  for (std::int32_t k = memo_head_[bi]; k >= 0; k = memos_[static_cast<std::size_t>(k)].next) {
+  if (k >= 0) {
     Memo& e = memos_[static_cast<std::size_t>(k)];
-    if (e.m != m) continue;
     if (e.holders != hv) {
-      const std::int32_t next = e.next;
       e = Memo{};
       e.m = m;
-      e.next = next;
       e.holders = hv;
     }
     return e;
   }
-  Memo e;
+  k = static_cast<std::int32_t>(memos_.size());
+  Memo& e = memos_.emplace_back();
   e.m = m;
-  e.next = memo_head_[bi];
   e.holders = hv;
-  memo_head_[bi] = static_cast<std::int32_t>(memos_.size());
-  memos_.push_back(e);
-  return memos_.back();
+  return e;
 }
 
 Time FetchPathFinder::known_lower_bound(BlockId b, MemId m) const {
   const auto bi = static_cast<std::size_t>(b);
-  if (bi >= memo_head_.size()) return -kNever;
-  for (std::int32_t k = memo_head_[bi]; k >= 0; k = memos_[static_cast<std::size_t>(k)].next) {
-    const Memo& e = memos_[static_cast<std::size_t>(k)];
-    if (e.m == m) return e.holders == schedule_->holders_version(b) ? e.lb : -kNever;
-  }
-  return -kNever;
+  if (bi >= memo_slot_.size() || memo_slot_[bi] < 0) return -kNever;
+  const std::int32_t k = memo_index_[static_cast<std::size_t>(memo_slot_[bi]) * n_ + static_cast<std::size_t>(m)];
+  if (k < 0) return -kNever;
+  const Memo& e = memos_[static_cast<std::size_t>(k)];
+  return e.holders == schedule_->holders_version(b) ? e.lb : -kNever;
 }
 
 bool FetchPathFinder::memo_exact(const Memo& e) const {

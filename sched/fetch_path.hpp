@@ -128,7 +128,6 @@ class FetchPathFinder {
   std::vector<Open> open_;
   struct Memo {
     MemId m = kNone;
-    std::int32_t next = -1;      // next memo of the same block
     std::uint64_t holders = 0;   // holders_version(b) when taken
     Time lb = -kNever;           // at most the arrival; the arrival itself while `path` is valid
     std::uint64_t stamp = 0;     // sum of the resource versions along `path` when taken
@@ -144,7 +143,10 @@ class FetchPathFinder {
   template <class Lost, bool Ties, bool Funnel = true>
   Time cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped);
   int via_hops(MemId m, MemId* root) const;  // cut_search's path to m (kMemoHops + 1: longer)
-  std::vector<std::int32_t> memo_head_;  // per block
+  // Memo lookup in O(1): per block asked about this pass, a slot of n_ indices into
+  // memos_ (-1: none yet), one per memory device.
+  std::vector<std::int32_t> memo_slot_;   // per block (-1: no slot this pass)
+  std::vector<std::int32_t> memo_index_;  // slot x memory device
   std::vector<Memo> memos_;
   Memo& memo(BlockId b, MemId m);
   bool memo_exact(const Memo& e) const;
@@ -248,11 +250,9 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
   // (nothing is routed through a holder) nor the label's own (its direct channel).
   Time relay_end = kNever;
   if (rest)
-    for (ChannelId c : rest->relay_in(m)) {
-      const auto p = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c)].from);
-      if (!holder_[p] && g.memories[p].capacity >= bytes)
-        relay_end = std::min(relay_end, schedule_->channel_finish(c) + g.transfer_time(c, bytes));
-    }
+    for (const FetchBound::Relay& r : rest->relay_in(m))
+      if (!holder_[static_cast<std::size_t>(r.from)] && r.from_capacity >= bytes)  // (Eq. 1 as transfer_time())
+        relay_end = std::min(relay_end, schedule_->channel_finish(r.channel) + (r.latency + wbytes / r.bandwidth));
   // A destination reached by one channel only (a GPU behind its host memory): its arrival
   // is Eq. 3 on that hop after the arrival at the channel's source (every path to m ends
   // with it), and its best paths are those to the source, extended.

@@ -196,6 +196,11 @@ ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time
   const Time start = std::max({not_before, copy_ready(*src), channel_finish(c), adm.at});
   a.start = a.planned_start = start;
   a.end = a.planned_end = start + a.duration;
+  // One allocation per list (sizes known up front).
+  a.deps.reserve((src->producer != kNone ? 1 : 0) + adm.wait_for.size());
+  std::size_t prev = 0;
+  for (ResourceId r : ch.resources) prev += resource_tl_[r].items.empty() ? 0 : 1;
+  a.timeline_prev.reserve(prev);
   if (src->producer != kNone) a.deps.push_back(src->producer);
   a.deps.insert(a.deps.end(), adm.wait_for.begin(), adm.wait_for.end());
   for (ResourceId r : ch.resources) {
