@@ -9,7 +9,9 @@
 #     (scene parsed, BVH built) to exit.
 # Usage: scripts/bench_render.sh [TRIANGLES=10000000] [RES=256] [SPP=16] [DEPTH=5]
 # Environment: RAYLINE_BIN (another rayline binary), RENDER_FLAGS (extra render flags, e.g.
-# "--paths 131072 --read-ahead off"), BENCH_DIR (work folder, default out/bench-render).
+# "--paths 131072 --read-ahead off"), BENCH_DIR (work folder, default out/bench-render),
+# REPS (default 1): REPS > 1 then renders in core (1 block) and at 25 % REPS more times, in
+# turn, and prints the medians of the whole-run times and of the ratios of each pair.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TRIS="${1:-10000000}"; RES="${2:-256}"; SPP="${3:-16}"; DEPTH="${4:-5}"
@@ -69,3 +71,22 @@ base = m["in-core-1"]["samples_per_second"]
 for k in ("in-core-16", "budget-25", "budget-10"):
     print(f"{k}: {m[k]['samples_per_second']/base:.2f}x in core (1 block), whole runs")
 PY
+REPS="${REPS:-1}"
+if [ "$REPS" -gt 1 ]; then
+  for i in $(seq 1 "$REPS"); do
+    for r in in-core-1 budget-25; do
+      if [ $r = in-core-1 ]; then b=1; extra=(); else b=16; extra=(--memory-budget "$((SCENE_BYTES / 4))"); fi
+      "$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-$b" --resolution "${RES}x${RES}" --spp "$SPP" \
+        --max-depth "$DEPTH" "${extra[@]}" ${RENDER_FLAGS:-} --out "$WORK/rep-$r-$i.exr"
+    done
+  done
+  /usr/bin/python3 - "$WORK" "$REPS" <<'PY'
+import json, statistics, sys
+w, n = sys.argv[1], int(sys.argv[2])
+t = {r: [json.load(open(f"{w}/rep-{r}-{i}.metrics.json"))["seconds"] for i in range(1, n + 1)] for r in ("in-core-1", "budget-25")}
+ratios = [a / b for a, b in zip(t["in-core-1"], t["budget-25"])]
+print(f"\n{n} alternating pairs: in core {statistics.median(t['in-core-1']):.2f} s (" + ", ".join(f"{x:.2f}" for x in t["in-core-1"]) +
+      f"), 25 % {statistics.median(t['budget-25']):.2f} s (" + ", ".join(f"{x:.2f}" for x in t["budget-25"]) +
+      f"); 25 % / in core, median of pairs: {statistics.median(ratios):.2f}x (" + ", ".join(f"{x:.2f}" for x in ratios) + ")")
+PY
+fi

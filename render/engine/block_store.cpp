@@ -23,7 +23,6 @@ struct BlockStore::TimedRead {
 
 struct BlockStore::Staged {
   std::uint32_t block = 0;
-  bool guess = false;  // started by read_ahead_guess()
   std::future<TimedRead> read;  // std::async: its destructor waits for the read
 };
 
@@ -76,20 +75,6 @@ void BlockStore::read_ahead(std::uint32_t block) {
   // `old` (never used: its load was withdrawn or found the block resident) waits here.
 }
 
-void BlockStore::read_ahead_guess(std::uint32_t block) {
-  if (block >= resident_.size() || resident(block)) return;
-  {
-    std::lock_guard lk(stage_mu_);
-    if (staged_) return;  // a read-ahead (planned or guessed) is pending: keep it
-    staged_ = std::make_unique<Staged>();
-    staged_->block = block;
-    staged_->guess = true;
-    staged_->read = std::async(std::launch::async, [this, block] { return timed_read(block); });
-  }
-  std::lock_guard lk(mu_);
-  ++stats_.guessed_reads;
-}
-
 std::string BlockStore::path(std::uint32_t block) const {
   return (std::filesystem::path(dir_) / index_.blocks.at(block).file).string();
 }
@@ -135,7 +120,6 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t bloc
   (raw.mode == ReadMode::Direct ? stats_.direct_reads : stats_.buffered_reads) += 1;
   stats_.read_seconds += read_s;
   if (staged) ++stats_.read_aheads;
-  if (staged && staged->guess) ++stats_.guessed_hits;
   busy(tr.t0, tr.t1, true);
   busy(std::max(t_begin, tr.t1), t_end, false);  // waiting for a read-ahead is in the read's interval
   stats_.build_seconds += build_s;

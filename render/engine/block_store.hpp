@@ -27,7 +27,6 @@ struct BlockStoreStats {
   std::uint64_t bytes_read = 0;
   std::uint64_t direct_reads = 0, buffered_reads = 0;
   std::uint64_t read_aheads = 0, wasted_read_aheads = 0;  // loads served by a read-ahead; reads never used
-  std::uint64_t guessed_reads = 0, guessed_hits = 0;     // read_ahead_guess() reads started; loads they served
   std::uint64_t recycled_arrays = 0;  // block arrays taken from the ArrayPool (no fresh pages)
   double read_seconds = 0, build_seconds = 0;
   // Seconds the disk->RAM channel was busy (reading or building; the union, since a
@@ -56,9 +55,6 @@ class BlockStore {
   // part of the documented overhead); a newer read-ahead replaces an unused one. Errors
   // surface in load(). Does nothing for a resident block.
   void read_ahead(std::uint32_t block);
-  // A guess (RenderWorkload::speculate): read `block` ahead only when nothing is staged,
-  // so a guess never displaces a read-ahead of a planned load, nor thrashes another guess.
-  void read_ahead_guess(std::uint32_t block);
   // The resident geometry; when the block is not resident (a plan violation, counted) it
   // is loaded on the spot so the image stays right.
   std::shared_ptr<const trace::BlockGeometry> get(std::uint32_t block);

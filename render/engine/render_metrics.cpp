@@ -86,8 +86,6 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
              {"read_aheads", r.store.read_aheads},
              {"recycled_arrays", r.store.recycled_arrays},
              {"wasted_read_aheads", r.store.wasted_read_aheads},
-             {"guessed_reads", r.store.guessed_reads},
-             {"guessed_hits", r.store.guessed_hits},
              {"disk_read_fraction", r.store.disk_read_busy_seconds / secs},
              {"disk_busy_fraction", disk_busy / secs}};
   // Cache hits: E-jobs whose SceneData was already in RAM (no T-job fetched it for them).

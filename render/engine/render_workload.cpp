@@ -24,10 +24,6 @@ RenderWorkload::RenderWorkload(const trace::TraceSettings& ts, const trace::Pinh
   if (type_[2] == kNone || type_[3] == kNone) type_[2] = type_[0], type_[3] = type_[1];
   for (std::size_t m = 0; m < g.memories.size(); ++m)
     if (!g.computes_on(MemId(m)).empty()) near_.push_back(MemId(m));
-  for (std::size_t c = 0; c < g.channels.size(); ++c)
-    if (g.channels[c].to == ram && !g.channels[c].resources.empty() &&
-        g.memories[static_cast<std::size_t>(g.channels[c].from)].kind == MemoryKind::Disk)
-      loads_in_.push_back(ChannelId(c));
   total_camera_ = std::uint64_t(camera.width()) * std::uint64_t(camera.height()) * std::uint64_t(opt_.spp);
 }
 
@@ -177,45 +173,6 @@ void RenderWorkload::flush(Time now, JobPool& pool, Schedule& s, bool all) {
     if (!best_res && pool.queued_count() > 0) break;
     make_job(bk, bc, staging_[bc][bk], std::min<std::size_t>(best, opt_.max_batch), now, pool, s);
   }
-  guess_next_load(pool, s);
-}
-
-// Is a load into RAM planned and not yet started?
-bool RenderWorkload::load_waiting(const Schedule& s) const {
-  for (ChannelId c : loads_in_) {
-    const auto& items = s.resource_timeline(g_.channels[static_cast<std::size_t>(c)].resources.front()).items;
-    for (auto it = items.rbegin(); it != items.rend(); ++it) {
-      const Activity& a = s.activity(*it);
-      if (a.state == ActivityState::Done || a.state == ActivityState::Failed) break;  // in order on a channel
-      if (a.state == ActivityState::Planned && !a.cancelled && a.kind == ActivityKind::Transfer &&
-          g_.channels[static_cast<std::size_t>(a.channel)].to == ram_)
-        return true;
-    }
-  }
-  return false;
-}
-
-// Out of core a load is a read and a BVH build on one channel; the read of a load the plan
-// already holds overlaps the build before it (LocalExecutor's hints). A load is planned
-// only once its job exists, often just as the channel falls idle, so then its read would
-// not overlap anything. With no load planned and waiting, the cell that is neither in RAM
-// nor arriving and has the most rays waiting (staged or in unplanned jobs) is the likely
-// next load: its file is read now. A wrong guess costs one read (never a plan change).
-void RenderWorkload::guess_next_load(const JobPool& pool, const Schedule& s) {
-  if (!opt_.guess_next_load || loads_in_.empty() || load_waiting(s)) return;
-  std::size_t best = 0;
-  std::uint32_t best_cell = 0;
-  for (std::uint32_t c = 0; c < staging_.size(); ++c) {
-    if (s.copy_at(scene_blocks_[c], ram_)) continue;
-    std::size_t n = 0;
-    for (int k = 0; k < kSlots; ++k) {
-      n += staging_[c][k].size();
-      const JobId j = open_[c][k];
-      if (j != kNone && pool.state(j) == JobState::Queued) n += job(j).rays.size();
-    }
-    if (n > best) best = n, best_cell = c;
-  }
-  if (best > 0) opt_.guess_next_load(best_cell);
 }
 
 void RenderWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedule& s) {

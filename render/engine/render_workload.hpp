@@ -9,7 +9,6 @@
 #include <array>
 #include <cstdint>
 #include <deque>
-#include <functional>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -30,9 +29,6 @@ struct RenderWorkloadOptions {
   // Issue 4: per-cell statistics / replay log of every ray (profile_recorder.hpp); the
   // renderer then runs CPU kernels ray by ray and uses no GPU.
   ProfileRecorder* recorder = nullptr;
-  // Read-ahead guess (renderer.cpp: BlockStore::read_ahead_guess): called with the cell
-  // most likely to be loaded next whenever no load is planned and waiting. Changes no plan.
-  std::function<void(std::uint32_t cell)> guess_next_load;
 };
 
 // The rays of one E-job and what it produced (written by the worker that runs it, read by
@@ -60,7 +56,6 @@ class RenderWorkload final : public Workload {
   void on_idle(Time now, JobPool& pool, Schedule& schedule) override;
   bool finished() const override;
 
-  void set_guess_next_load(std::function<void(std::uint32_t cell)> f) { opt_.guess_next_load = std::move(f); }
   // Stop making work (a job failed): finished() turns true.
   void abort() { aborted_ = true; }
   RayJob& job(JobId j) { return *jobs_.at(static_cast<std::size_t>(j)); }
@@ -80,8 +75,6 @@ class RenderWorkload final : public Workload {
   void generate();  // camera rays into staging
   void stage(std::vector<trace::RayRecord>& rays);
   void flush(Time now, JobPool& pool, Schedule& s, bool all);
-  bool load_waiting(const Schedule& s) const;
-  void guess_next_load(const JobPool& pool, const Schedule& s);
   void make_job(int slot, std::uint32_t cell, std::vector<trace::RayRecord>& rays, std::size_t n, Time now,
                 JobPool& pool, Schedule& s);
 
@@ -90,7 +83,6 @@ class RenderWorkload final : public Workload {
   const DeviceGraph& g_;
   MemId ram_;
   std::vector<MemId> near_;  // memories compute devices work from (RAM, GPU memories)
-  std::vector<ChannelId> loads_in_;  // disk -> RAM channels
   std::vector<BlockId> scene_blocks_;
   RenderWorkloadOptions opt_;
   // Slots: 0 path, 1 shadow, 2 and 3 the same kinds flagged kRayCpuOnly (doubtful on a GPU,

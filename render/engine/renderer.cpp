@@ -353,8 +353,6 @@ RenderResult render(const RenderOptions& opt) {
     if (it == cell_of.end()) return {};
     return [&store, cell = it->second] { store.read_ahead(cell); };
   };
-  if (opt.read_ahead && opt.memory_budget > 0)
-    workload.set_guess_next_load([&store](std::uint32_t cell) { store.read_ahead_guess(cell); });
   LocalExecutor executor(g, task_for, hint_for);
   RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
   auto last = std::chrono::steady_clock::now();

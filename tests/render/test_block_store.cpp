@@ -123,25 +123,6 @@ TEST_F(BlockStoreTest, ReadAheadServesTheLoadAndGivesTheSameGeometry) {
   EXPECT_GE(sa.channel_busy_seconds + 1e-9, sa.disk_read_busy_seconds);
 }
 
-TEST_F(BlockStoreTest, GuessedReadNeverDisplacesAPendingReadAndServesItsLoad) {
-  auto s = store();
-  s->read_ahead(1);        // the planned next load
-  s->read_ahead_guess(2);  // a guess while a read is staged: ignored
-  s->load(1);              // served by the planned read-ahead
-  s->read_ahead_guess(0);  // nothing staged now: read
-  s->read_ahead_guess(2);  // a second guess does not replace the first
-  s->read_ahead_guess(1);  // resident: nothing to read
-  s->load(2);              // read directly (the guess was block 0)
-  s->load(0);              // from the guessed read
-  const auto st = s->stats();
-  EXPECT_EQ(st.loads, 3u);
-  EXPECT_EQ(st.guessed_reads, 1u);
-  EXPECT_EQ(st.guessed_hits, 1u);
-  EXPECT_EQ(st.read_aheads, 2u);
-  EXPECT_EQ(st.wasted_read_aheads, 0u);
-  EXPECT_EQ(st.unplanned_loads, 0u);
-}
-
 TEST_F(BlockStoreTest, ReadAheadOfAResidentBlockOrAnotherBlockIsNotUsed) {
   auto s = store();
   s->load(0);
