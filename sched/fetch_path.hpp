@@ -247,12 +247,20 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
   for (const Copy& c : schedule_->copies(b)) holder_[static_cast<std::size_t>(c.mem)] = 1;
   if (!holder_[mi] && g.memories[mi].capacity < bytes) return kNever;  // never routed into m
   // The earliest a relayed last hop can land on m: from a device that is neither a holder
-  // (nothing is routed through a holder) nor the label's own (its direct channel).
-  Time relay_end = kNever;
-  if (rest)
-    for (const FetchBound::Relay& r : rest->relay_in(m))
-      if (!holder_[static_cast<std::size_t>(r.from)] && r.from_capacity >= bytes)  // (Eq. 1 as transfer_time())
-        relay_end = std::min(relay_end, schedule_->channel_finish(r.channel) + (r.latency + wbytes / r.bandwidth));
+  // (nothing is routed through a holder) nor the label's own (its direct channel). Only
+  // needed past the funnel below. A hop is skipped without Eq. 1's division when
+  // FinishTime + T_LAT alone does not beat the minimum so far: |w|/T_BW >= 0 and rounding
+  // is monotone, so its Eq. 1 sum would not either (the minimum is bit-identical).
+  auto relay_end_in = [&] {
+    Time end = kNever;
+    for (const FetchBound::Relay& r : rest->relay_in(m)) {
+      if (holder_[static_cast<std::size_t>(r.from)] || r.from_capacity < bytes) continue;
+      const Time finish = schedule_->channel_finish(r.channel);
+      if (r.bandwidth > 0 && !(finish + r.latency < end)) continue;
+      end = std::min(end, finish + (r.latency + wbytes / r.bandwidth));  // (Eq. 1 as transfer_time())
+    }
+    return end;
+  };
   // A destination reached by one channel only (a GPU behind its host memory): its arrival
   // is Eq. 3 on that hop after the arrival at the channel's source (every path to m ends
   // with it), and its best paths are those to the source, extended.
@@ -276,6 +284,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       return am;
     }
   }
+  const Time relay_end = rest ? relay_end_in() : kNever;
   // Every path to m is one direct hop from a holder or ends with a relayed hop. When the
   // best direct hop lands no later than any relayed one can, it is the arrival (Ties: and
   // when it lands strictly first and no other direct hop ties, the only best path).
