@@ -7,6 +7,7 @@ namespace rayline {
 void BucketHeap::reset(std::size_t buckets) {
   heap_.clear();
   gen_.assign(buckets, 0);
+  deferred_.clear();
 }
 
 void BucketHeap::pop() {
@@ -19,6 +20,11 @@ void BucketHeap::push(std::int32_t bucket, Time key, std::uint64_t stamp) {
   const std::uint32_t g = ++gen_[static_cast<std::size_t>(bucket)];
   heap_.push_back({key, bucket, g, stamp});
   std::push_heap(heap_.begin(), heap_.end(), later);
+}
+
+void BucketHeap::defer(std::int32_t bucket) {
+  if (static_cast<std::size_t>(bucket) >= gen_.size()) gen_.resize(static_cast<std::size_t>(bucket) + 1, 0);
+  deferred_.emplace_back(bucket, ++gen_[static_cast<std::size_t>(bucket)]);
 }
 
 void BucketHeap::restore(const Entry& e) {

@@ -13,6 +13,7 @@
 // supersedes every older entry of that bucket.
 #pragma once
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "types.hpp"
@@ -35,6 +36,17 @@ class BucketHeap {
   void push(std::int32_t bucket, Time key, std::uint64_t stamp = 0);
   // Put back an entry taken off by pop() that is still its bucket's newest.
   void restore(const Entry& e);
+  // push(bucket, -inf) without the heap work: the bucket's entry is superseded now and
+  // its key computed by the next settle(). An entry keyed -inf would leave the top only
+  // to be re-keyed, before any finite key is looked at, so this orders the same.
+  void defer(std::int32_t bucket);
+  // Every bucket deferred since (and not superseded again) enters with key_of(bucket).
+  template <class KeyOf>
+  void settle(const KeyOf& key_of, std::uint64_t stamp) {
+    for (const auto& [bucket, gen] : deferred_)
+      if (gen_[static_cast<std::size_t>(bucket)] == gen) push(bucket, key_of(bucket), stamp);
+    deferred_.clear();
+  }
   bool current(const Entry& e) const { return gen_[static_cast<std::size_t>(e.bucket)] == e.gen; }
 
  private:
@@ -44,6 +56,7 @@ class BucketHeap {
   static constexpr Later later{};
   std::vector<Entry> heap_;
   std::vector<std::uint32_t> gen_;
+  std::vector<std::pair<std::int32_t, std::uint32_t>> deferred_;  // (bucket, gen)
 };
 
 }  // namespace rayline

@@ -502,12 +502,14 @@ GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time n
     mi.built = true;
     mi.heap.reset(arrival_bound_->group_count());
     for (std::size_t g = 0; g < arrival_bound_->group_count(); ++g)
-      mi.heap.push(static_cast<std::int32_t>(g), -std::numeric_limits<Time>::infinity());
+      mi.heap.defer(static_cast<std::int32_t>(g));
   }
   Choice best;
   near_tie_ = false;
   if (no_key_bucket_ >= 0 && open(no_key_bucket_, m) > 0)
     evaluate_bucket(no_key_bucket_, d, m, ready, now, pool, s, best);
+  // Groups re-entered since the last selection here get their keys (bucket_heap.hpp).
+  mi.heap.settle([&](std::int32_t g) { return group_key(g, m, now, s); }, s.activity_count() + 1);
   auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
   mi.visited.clear();
   while (!mi.heap.empty()) {
@@ -543,7 +545,7 @@ void GmbScheduler::after_commit(std::size_t activities_before, std::size_t evict
     if (arrival_bound_->group(s, b) != kNone) return;  // holders as before (or seen already)
     const std::int32_t g = arrival_bound_->assign(s, b);
     for (MemIndex& mi : mem_index_)
-      if (mi.built) mi.heap.push(g, -std::numeric_limits<Time>::infinity());
+      if (mi.built) mi.heap.defer(g);
   };
   for (std::size_t a = activities_before; a < s.activity_count(); ++a) {
     const Activity& act = s.activity(static_cast<ActivityId>(a));
