@@ -169,6 +169,11 @@ void add_render(CLI::App& app, std::function<int()>& action) {
                 "block's BVH (one staged file outside the budget); off = read and build in turn")
       ->default_val(opt->read_ahead)
       ->check(CLI::IsMember({"on", "off"}));
+  r->add_option("--loaders", opt->loaders,
+                "disk->RAM channels: block loads (read + BVH build) in flight at once; 0 = the platform's "
+                "(one with --platform auto)")
+      ->default_val(opt->loaders)
+      ->check(CLI::Range(0, 16));
   r->add_option("--gpu", opt->gpu,
                 "Vulkan device: none | auto (first non-CPU device, else none) | index | name substring (see `rayline devices`)")
       ->default_val(opt->gpu);

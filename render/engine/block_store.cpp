@@ -32,12 +32,12 @@ BlockStore::BlockStore(const partition::BlockIndex& index, std::string dir, std:
       quality_(quality), device_(build_threads), resident_(index.blocks.size()), copies_(index.blocks.size(), 0) {}
 
 BlockStore::~BlockStore() {
-  std::unique_ptr<Staged> s;
+  std::vector<std::unique_ptr<Staged>> s;
   {
     std::lock_guard lk(stage_mu_);
     s.swap(staged_);
   }
-  // `s` waits here for a read still in flight (its result, or error, is dropped).
+  // `s` waits here for reads still in flight (their results, or errors, are dropped).
 }
 
 double BlockStore::since_start() const {
@@ -62,11 +62,16 @@ void BlockStore::read_ahead(std::uint32_t block) {
   std::unique_ptr<Staged> old;
   {
     std::lock_guard lk(stage_mu_);
-    if (staged_ && staged_->block == block) return;
-    old.swap(staged_);
-    staged_ = std::make_unique<Staged>();
-    staged_->block = block;
-    staged_->read = std::async(std::launch::async, [this, block] { return timed_read(block); });
+    for (const auto& st : staged_)
+      if (st->block == block) return;
+    if (staged_.size() >= slots_) {
+      old = std::move(staged_.front());
+      staged_.erase(staged_.begin());
+    }
+    auto st = std::make_unique<Staged>();
+    st->block = block;
+    st->read = std::async(std::launch::async, [this, block] { return timed_read(block); });
+    staged_.push_back(std::move(st));
   }
   if (old) {
     std::lock_guard lk(mu_);
@@ -85,7 +90,12 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t bloc
   std::unique_ptr<Staged> staged;
   {
     std::lock_guard lk(stage_mu_);
-    if (staged_ && staged_->block == block) staged.swap(staged_);
+    for (auto it = staged_.begin(); it != staged_.end(); ++it)
+      if ((*it)->block == block) {
+        staged = std::move(*it);
+        staged_.erase(it);
+        break;
+      }
   }
   // A read-ahead of this block: wait for it (errors are thrown here, as a direct read's).
   TimedRead tr = staged ? staged->read.get() : timed_read(block);
@@ -105,13 +115,18 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t bloc
                                           " but the scene has " + std::to_string(materials_));
   }
   const std::int64_t embree_before = device_.embree_bytes();
+  const std::uint64_t started_before = builds_started_.fetch_add(1);
+  const bool alone_at_start = builds_active_.fetch_add(1) == 0;
   auto t0 = std::chrono::steady_clock::now();
   auto g = std::make_shared<const trace::BlockGeometry>(device_, block, raw.payload, raw.header.triangle_count, quality_,
                                                         &pool_);
   const double build_s = seconds_since(t0);
+  // Another loader's build overlapping this one would blur the Embree delta below.
+  const bool alone = alone_at_start && builds_started_.load() == started_before + 1;
+  builds_active_.fetch_sub(1);
   const double t_end = since_start();
-  // Single loader thread per channel: the Embree delta is this block's BVH (an estimate
-  // when several loaders build at once).
+  // The Embree delta is this block's BVH when no other build overlapped it (several
+  // loaders); overlapped builds are not measured.
   const auto measured = static_cast<double>(g->array_bytes()) +
                         static_cast<double>(std::max<std::int64_t>(0, device_.embree_bytes() - embree_before));
   std::lock_guard lk(mu_);
@@ -123,7 +138,7 @@ std::shared_ptr<const trace::BlockGeometry> BlockStore::build(std::uint32_t bloc
   busy(tr.t0, tr.t1, true);
   busy(std::max(t_begin, tr.t1), t_end, false);  // waiting for a read-ahead is in the read's interval
   stats_.build_seconds += build_s;
-  if (footprint_[block] > 0)
+  if (footprint_[block] > 0 && alone)
     stats_.worst_footprint_ratio = std::max(stats_.worst_footprint_ratio, measured / double(footprint_[block]));
   return g;
 }

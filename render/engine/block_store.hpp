@@ -53,8 +53,11 @@ class BlockStore {
   // load() of it only builds the BVH (a T-job's disk half overlapping its predecessor's CPU
   // half). Touches no memory the plan accounts for: one staged file at most (its bytes are
   // part of the documented overhead); a newer read-ahead replaces an unused one. Errors
-  // surface in load(). Does nothing for a resident block.
+  // surface in load(). Does nothing for a resident block. With several loaders (disk->RAM
+  // channels, set_staging_slots) each may have one staged file: the oldest unused one is
+  // replaced.
   void read_ahead(std::uint32_t block);
+  void set_staging_slots(std::size_t n) { slots_ = n < 1 ? 1 : n; }
   // The resident geometry; when the block is not resident (a plan violation, counted) it
   // is loaded on the spot so the image stays right.
   std::shared_ptr<const trace::BlockGeometry> get(std::uint32_t block);
@@ -95,7 +98,10 @@ class BlockStore {
   // future's destructor waits for it).
   struct Staged;
   mutable std::mutex stage_mu_;
-  std::unique_ptr<Staged> staged_;
+  std::vector<std::unique_ptr<Staged>> staged_;  // oldest first, at most slots_
+  std::size_t slots_ = 1;
+  std::atomic<std::uint64_t> builds_started_{0};
+  std::atomic<int> builds_active_{0};
 };
 
 }  // namespace rayline::engine

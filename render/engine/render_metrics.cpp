@@ -75,6 +75,7 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   // union of reads and builds (BlockStore), which the T-jobs' own time undercounts.
   disk_busy = std::max(disk_busy, r.store.channel_busy_seconds);
   m["io"] = {{"loads", r.store.loads},
+             {"loaders", r.loaders},
              {"evictions", r.store.evictions},
              {"unplanned_loads", r.store.unplanned_loads},
              {"bytes_read", r.store.bytes_read},

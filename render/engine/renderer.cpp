@@ -181,6 +181,8 @@ RenderResult render(const RenderOptions& opt) {
   WorkstationModel wm = workstation_model(opt.platform);
   wm.threads = threads;
   wm.ram_capacity = ram_capacity;
+  if (opt.loaders > 0) wm.loaders = opt.loaders;
+  res.loaders = wm.loaders;
   set_gpu(wm, 0);
   if (gpu_ctx) {
     const Bytes budget = gpu_memory_budget(gpu_ctx->info(), opt.gpu_memory_budget);
@@ -253,6 +255,7 @@ RenderResult render(const RenderOptions& opt) {
   BlockStore store(index, dir, footprint, static_cast<std::uint32_t>(sc.materials.size()), quality,
                    opt.build_threads > 0 ? opt.build_threads : threads);
 
+  store.set_staging_slots(static_cast<std::size_t>(wm.loaders));  // one read-ahead per loader
   std::unique_ptr<GpuStore> gpu_store;
   if (gpu_ctx) gpu_store = std::make_unique<GpuStore>(*gpu_ctx, store);
   if (gpu_store) gpu_store->set_resolve_doubtful(opt.gpu_resolve_doubtful);
@@ -341,10 +344,12 @@ RenderResult render(const RenderOptions& opt) {
   // What the run may add beyond the budget (README, "Memory"): the film, ray records in
   // flight twice over (staged and in jobs), and a fixed allowance for thread stacks,
   // Embree's and the allocator's own state.
-  // Loading adds, outside the budget, one staged block file (read-ahead) and one block's
-  // idle recycled arrays (ArrayPool): 40 + 52 bytes per triangle of the largest block.
+  // Loading adds, outside the budget, one staged block file (read-ahead) per loader and one
+  // block's idle recycled arrays (ArrayPool): 40 per loader + 52 bytes per triangle of the
+  // largest block.
   res.overhead_bound_bytes = Bytes(res.width) * Bytes(res.height) * 28 + 2 * Bytes(wo.path_cap) * per_path +
-                             largest_triangles * 92 + partition::kBlockHeaderBytes + (Bytes(64) << 20);
+                             largest_triangles * (40 * Bytes(wm.loaders) + 52) +
+                             Bytes(wm.loaders) * partition::kBlockHeaderBytes + (Bytes(64) << 20);
   // Read-ahead (LocalExecutor's hints): the next disk->RAM load reads its block file while
   // the channel still builds the previous block's BVH or waits for its dependencies.
   auto hint_for = [&](ActivityId, const Activity& a) -> LocalExecutor::Task {

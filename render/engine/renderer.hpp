@@ -27,6 +27,7 @@ struct RenderOptions {
   int threads = 0;                 // compute devices; 0 = hardware threads
   int build_threads = 0;           // threads of one BVH build (the disk->RAM channel); 0 = `threads`
   bool read_ahead = true;          // read the next planned block file during the current build
+  int loaders = 0;                 // disk->RAM channels (loads at once); 0 = the platform's (auto: 1)
   std::uint64_t seed = 1;
   Time horizon = 2.0;              // k of GMB (Sec. 4.2)
   // BVH builder: "auto" = low (fast low-quality build) under a memory budget, where blocks are
@@ -52,6 +53,7 @@ struct RenderOptions {
 
 struct RenderResult {
   int width = 0, height = 0, spp = 0, max_depth = 0, threads = 0;
+  int loaders = 1;  // disk->RAM channels of the platform driven
   std::uint64_t seed = 0;
   std::uint32_t blocks = 0;
   std::string scene_name, scheduler, scheduler_parameters, platform, bvh_quality;

@@ -44,6 +44,11 @@ std::string workstation_json(const WorkstationModel& m, const std::string& descr
   s += "      \"channels\": [\n        {\"name\": \"disk\", \"kind\": \"disk\", \"between\": [\"disk\", \"ram\"], "
        "\"duplex\": \"half\", \"latency\": " +
        us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) + "}";
+  // More loaders: more disk->RAM channels, each a lane of T-jobs (its own loader thread in
+  // LocalExecutor), so that one block's BVH builds while another's does.
+  for (int k = 1; k < m.loaders; ++k)
+    s += ",\n        {\"name\": \"disk" + std::to_string(k + 1) + "\", \"kind\": \"disk\", \"between\": [\"disk\", \"ram\"], "
+         "\"duplex\": \"half\", \"latency\": " + us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) + "}";
   for (std::size_t i = 0; i < m.gpus.size(); ++i)
     s += ",\n        {\"name\": \"pcie" + std::to_string(i) + "\", \"kind\": \"pcie\", \"between\": [\"ram\", \"gpu" +
          std::to_string(i) + "mem\"], \"duplex\": \"full\", \"latency\": " + us(m.gpus[i].pcie_latency) +
@@ -83,14 +88,19 @@ WorkstationModel load_workstation_model(const std::string& path) {
   if (ram == kNone) throw InputError(path, "memory", "the renderer needs a memory device of kind host");
   if (g.nodes.size() != 1) throw InputError(path, "nodes", "the renderer drives one machine: exactly one node");
   const Channel* dc = nullptr;
+  int loaders = 0;
   for (const Channel& c : g.channels)
-    if (c.from == disk && c.to == ram) dc = &c;
+    if (c.from == disk && c.to == ram) {
+      if (!dc) dc = &c;
+      ++loaders;
+    }
   if (!dc) throw InputError(path, "channels", "no channel from the disk to host memory");
   const JobTypeId ri = g.job_type("RayIntersect"), si = g.job_type("ShadowIntersect");
   WorkstationModel m;
   m.threads = 0;
   m.ram_capacity = g.memories[ram].capacity;
   m.disk_capacity = g.memories[disk].capacity;
+  m.loaders = loaders;
   m.disk_latency = dc->latency;
   m.disk_bandwidth = dc->bandwidth;
   // Both job types with a rate on their ray queue, per compute device model.

@@ -30,6 +30,7 @@ struct WorkstationModel {
   int threads = 2;
   Bytes ram_capacity = Bytes(1) << 40;
   Bytes disk_capacity = Bytes(1) << 50;
+  int loaders = 1;                     // disk->RAM channels: loads (read + BVH build) in flight at once
   Time disk_latency = 1e-3;            // s per block: open, first read, BVH build setup
   double disk_bandwidth = 150e6;       // footprint bytes/s: read + BVH build
   Time intersect_setup = 20e-6;        // RayIntersect, per job

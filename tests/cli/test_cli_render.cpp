@@ -75,16 +75,21 @@ TEST_F(CliRender, MemoryStaysWithinBudgetPlusDocumentedOverhead) {
   const auto in_core = metrics("in");
   const auto scene_bytes = in_core.at("memory").at("scene_block_bytes").get<std::uint64_t>();
   const std::uint64_t budget = scene_bytes / 4;
-  r = rayline_cli("render -q --scene " + path("museum.ply") + " --blocks-dir " + path("blocks") +
-                  " --resolution 64x64 --spp 1 --memory-budget " + std::to_string(budget) + " --out " + path("b.exr"));
-  ASSERT_EQ(r.code, 0) << r.all;
-  const auto m = metrics("b").at("memory");
-  EXPECT_LE(m.at("peak_resident_block_bytes").get<std::uint64_t>(), budget);
-  const auto grown = m.at("peak_rss_bytes").get<double>() - m.at("rss_at_start_bytes").get<double>();
-  EXPECT_LE(grown, double(budget + m.at("overhead_bound_bytes").get<std::uint64_t>()))
-      << "RSS grew by " << grown << " bytes; budget " << budget;
-  EXPECT_LE(m.at("worst_footprint_ratio").get<double>(), 1.0) << "a block used more RAM than the plan charged";
-  EXPECT_GT(metrics("b").at("io").at("evictions").get<int>(), 0);
+  for (const std::string loaders : {"1", "2"}) {  // one or two loads in flight
+    const std::string name = "b" + loaders;
+    r = rayline_cli("render -q --scene " + path("museum.ply") + " --blocks-dir " + path("blocks") +
+                    " --resolution 64x64 --spp 1 --loaders " + loaders + " --memory-budget " + std::to_string(budget) +
+                    " --out " + path(name + ".exr"));
+    ASSERT_EQ(r.code, 0) << r.all;
+    const auto m = metrics(name).at("memory");
+    EXPECT_LE(m.at("peak_resident_block_bytes").get<std::uint64_t>(), budget);
+    const auto grown = m.at("peak_rss_bytes").get<double>() - m.at("rss_at_start_bytes").get<double>();
+    EXPECT_LE(grown, double(budget + m.at("overhead_bound_bytes").get<std::uint64_t>()))
+        << "RSS grew by " << grown << " bytes; budget " << budget << "; loaders " << loaders;
+    EXPECT_LE(m.at("worst_footprint_ratio").get<double>(), 1.0) << "a block used more RAM than the plan charged";
+    EXPECT_GT(metrics(name).at("io").at("evictions").get<int>(), 0);
+    EXPECT_EQ(metrics(name).at("io").at("loaders").get<int>(), std::stoi(loaders));
+  }
 }
 
 TEST_F(CliRender, PathsInFlightAutoAndExplicit) {

@@ -123,6 +123,22 @@ TEST_F(BlockStoreTest, ReadAheadServesTheLoadAndGivesTheSameGeometry) {
   EXPECT_GE(sa.channel_busy_seconds + 1e-9, sa.disk_read_busy_seconds);
 }
 
+TEST_F(BlockStoreTest, OneStagedReadPerLoader) {
+  auto s = store();
+  s->set_staging_slots(2);
+  s->read_ahead(0);
+  s->read_ahead(1);  // two loaders: both stay staged
+  s->read_ahead(2);  // a third replaces the oldest (block 0)
+  s->load(1);
+  s->load(2);
+  s->load(0);  // read directly
+  const auto st = s->stats();
+  EXPECT_EQ(st.loads, 3u);
+  EXPECT_EQ(st.read_aheads, 2u);
+  EXPECT_EQ(st.wasted_read_aheads, 1u);
+  EXPECT_LE(st.worst_footprint_ratio, 1.0);
+}
+
 TEST_F(BlockStoreTest, ReadAheadOfAResidentBlockOrAnotherBlockIsNotUsed) {
   auto s = store();
   s->load(0);

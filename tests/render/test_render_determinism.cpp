@@ -113,6 +113,24 @@ TEST(RenderDeterminism, BvhQualitySameImage) {
   EXPECT_EQ(ra.sums, rb.sums);
 }
 
+TEST(RenderDeterminism, TwoLoadersSameImage) {
+  // Two disk->RAM channels: two blocks load (read + BVH build) at once; timing only.
+  RenderOptions a = base();
+  RenderOptions b = base();
+  const RenderResult in_core = render(base());
+  a.memory_budget = b.memory_budget = in_core.scene_block_bytes / 4;
+  a.loaders = 1;
+  b.loaders = 2;
+  const RenderResult ra = render(a), rb = render(b);
+  expect_sane(ra);
+  expect_sane(rb);
+  EXPECT_EQ(ra.loaders, 1);
+  EXPECT_EQ(rb.loaders, 2);
+  EXPECT_EQ(rb.store.unplanned_loads, 0u);
+  EXPECT_EQ(ra.sums, rb.sums);
+  EXPECT_EQ(rb.sums, in_core.sums);
+}
+
 TEST(RenderDeterminism, ReadAheadSameImage) {
   // Reading the next block during the previous build changes timing only.
   RenderOptions a = base();
