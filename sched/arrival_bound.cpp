@@ -136,6 +136,11 @@ Time ArrivalBound::from(const Rec& r, Bytes bytes, MemId m) const {
 }
 
 Time ArrivalBound::bound(const Schedule& s, BlockId b, MemId m) const {
+  const std::int32_t g = group(s, b);
+  return bound(s, b, m, g, g == kNone ? kNone : smallest(s, g));
+}
+
+Time ArrivalBound::bound(const Schedule& s, BlockId b, MemId m, std::int32_t g, BlockId first) const {
   Time lb = -std::numeric_limits<Time>::infinity();
   if (static_cast<std::size_t>(b) >= blocks_.size()) return lb;
   const BlockState& bs = blocks_[static_cast<std::size_t>(b)];
@@ -143,14 +148,12 @@ Time ArrivalBound::bound(const Schedule& s, BlockId b, MemId m) const {
     const Rec& own = own_[static_cast<std::size_t>(bs.slot) * n_ + static_cast<std::size_t>(m)];
     if (valid(s, own)) lb = own.at;
   }
-  const std::int32_t g = group(s, b);
   if (g == kNone) return lb;
   // A holder's arrival is its copy's ready time: the same for every member.
   if (s.copy_at(b, m)) return lb;
   const Bytes bytes = s.pool().block(b).bytes;
   const Rec& big = groups_[static_cast<std::size_t>(g)].largest[static_cast<std::size_t>(m)];
   if (valid(s, big) && group(s, big.block) == g && big.bytes <= bytes) lb = std::max(lb, from(big, bytes, m));
-  const BlockId first = smallest(s, g);
   if (first != kNone && first != b) {
     const BlockState& fs = blocks_[static_cast<std::size_t>(first)];
     if (fs.slot >= 0) {

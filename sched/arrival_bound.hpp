@@ -38,6 +38,9 @@ class ArrivalBound {
   void record(const Schedule& s, BlockId b, MemId m, Time lb);
   // A lower bound on the SDC arrival of b at m from the records; -inf if none applies.
   Time bound(const Schedule& s, BlockId b, MemId m) const;
+  // The same, given b's current group g (kNone: none) and g's smallest current member
+  // (smallest(s, g)), for a caller scanning g's members.
+  Time bound(const Schedule& s, BlockId b, MemId m, std::int32_t g, BlockId first) const;
 
  private:
   struct Rec {

@@ -175,23 +175,20 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     }
     return answer(arrival(b, m));
   }
-  {
-    Memo& e = memo(b, m);
-    if (e.hops >= 0 && memo_exact(e)) {
-      ++hits_;
-      if (hops) *hops = e.hops;
-      return answer(e.lb);
-    }
-    if (e.lb > enough && lost(e.lb)) {
-      ++hits_;
-      if (proven) *proven = e.lb;
-      return kNever;
-    }
+  Memo& f = memo(b, m);  // (cut_search() leaves memos_ alone: the reference stays valid)
+  if (f.hops >= 0 && memo_exact(f)) {
+    ++hits_;
+    if (hops) *hops = f.hops;
+    return answer(f.lb);
+  }
+  if (f.lb > enough && lost(f.lb)) {
+    ++hits_;
+    if (proven) *proven = f.lb;
+    return kNever;
   }
   ++cut_searches_;
   Time dropped = kNever;
   const Time a = cut_search<Lost, false>(b, m, enough, lost, dropped);
-  Memo& f = memo(b, m);
   if (a < kNever && label_[static_cast<std::size_t>(m)] == a) {
     // Exact: memoise it with its path (labels only improve, so the path through the
     // recorded channels evaluates to exactly this label).

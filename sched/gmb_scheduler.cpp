@@ -343,13 +343,16 @@ bool GmbScheduler::visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, 
   auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
   bool any = false;
   const auto& members = arrival_bound_->members(g);
-  for (std::size_t k = arrival_bound_->first_current(s, g); k < members.size(); ++k) {
+  // (No commit happens while selecting: g's smallest current member stays the same.)
+  const std::size_t k0 = arrival_bound_->first_current(s, g);
+  const BlockId first = k0 < members.size() ? members[k0].second : kNone;
+  for (std::size_t k = k0; k < members.size(); ++k) {
     const BlockId b = members[k].second;
     if (arrival_bound_->group(s, b) != g) continue;  // left the group
     const std::int32_t i = bucket_of_block_[b];
     if (i < 0 || open(i, m) == 0) continue;  // every job planned, or infeasible on m
     any = true;
-    const Time lb = std::max(bound_time_->lower_bound(s, b, m, now), arrival_bound_->bound(s, b, m));
+    const Time lb = std::max(bound_time_->lower_bound(s, b, m, now), arrival_bound_->bound(s, b, m, g, first));
     if (loses(std::max(ready, lb))) break;
     evaluate_bucket(i, d, m, ready, now, pool, s, best);
   }

@@ -244,6 +244,7 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   std::vector<InputSize> many;
   std::size_t n_sizes = 0;
   Time ready = 0;
+  a.deps.reserve(job.inputs.size() + job.after.size() + out_adm.wait_for.size());  // one allocation (at most that many)
   for (BlockId b : job.inputs) {
     const Copy* c = copy_at(b, m);
     if (!c) throw std::logic_error("E-job committed before input " + pool_->block(b).name + " is on its memory");
