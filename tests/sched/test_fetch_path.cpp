@@ -126,6 +126,25 @@ RandomState random_state(std::mt19937& rng, int inst) {
   return r;
 }
 
+// Every block of r initially on one random memory device of r.
+void place_blocks_randomly(const RandomState& r, Schedule& s, std::mt19937& rng) {
+  for (BlockId blk : r.blocks) s.put_initial(blk, r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)]);
+}
+
+// One random hop committed (more contention and a new holder), when the block is on the
+// channel's source and not yet on its destination. `at` gives the T-job's earliest start.
+template <class At>
+void commit_random_hop(const RandomState& r, Schedule& s, std::mt19937& rng, const At& at) {
+  std::uniform_real_distribution<double> u(0, 1);
+  const ChannelId c = static_cast<ChannelId>(u(rng) * static_cast<double>(r.g.channels.size()));
+  const BlockId blk = r.blocks[static_cast<std::size_t>(u(rng) * static_cast<double>(r.blocks.size()))];
+  const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
+  if (s.copy_at(blk, ch.from) && !s.copy_at(blk, ch.to)) {
+    const auto adm = s.admission(ch.to, r.pool.block(blk).bytes, {});
+    if (adm.at != kNever) s.commit_transfer(blk, c, kNone, at(), adm);
+  }
+}
+
 // Eq. 3 along a path from its source holder (what committing it would achieve).
 Time chain(const Schedule& s, BlockId b, const std::vector<ChannelId>& p, Time now) {
   const DeviceGraph& g = s.graph();
@@ -209,13 +228,7 @@ TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomGraphs) {
       cut += static_cast<int>(cached.cut_searches());
       // More contention and new holders: commit a few hops.
       for (int k = 0; k < 3; ++k) {
-        const ChannelId c = static_cast<ChannelId>(u(rng) * static_cast<double>(r.g.channels.size()));
-        const BlockId blk = r.blocks[static_cast<std::size_t>(u(rng) * static_cast<double>(r.blocks.size()))];
-        const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
-        if (s.copy_at(blk, ch.from) && !s.copy_at(blk, ch.to)) {
-          const auto adm = s.admission(ch.to, r.pool.block(blk).bytes, {});
-          if (adm.at != kNever) s.commit_transfer(blk, c, kNone, now, adm);
-        }
+        commit_random_hop(r, s, rng, [&] { return now; });
       }
     }
   }
@@ -231,7 +244,7 @@ TEST(FetchBound, MemoisedLowerBoundEqualsFreshOne) {
   for (int inst = 0; inst < 150; ++inst) {
     RandomState r = random_state(rng, inst);
     Schedule s(r.g, r.pool);
-    for (BlockId blk : r.blocks) s.put_initial(blk, r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)]);
+    place_blocks_randomly(r, s, rng);
     FetchBound memoised(r.g);
     const Time now = u(rng);
     for (int step = 0; step < 12; ++step) {
@@ -241,13 +254,7 @@ TEST(FetchBound, MemoisedLowerBoundEqualsFreshOne) {
           EXPECT_EQ(std::bit_cast<std::uint64_t>(memoised.lower_bound(s, blk, dst, now)),
                     std::bit_cast<std::uint64_t>(fresh.lower_bound_once(s, blk, dst, now)))
               << "instance " << inst << " step " << step;
-      const ChannelId c = static_cast<ChannelId>(u(rng) * static_cast<double>(r.g.channels.size()));
-      const BlockId blk = r.blocks[static_cast<std::size_t>(u(rng) * static_cast<double>(r.blocks.size()))];
-      const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
-      if (s.copy_at(blk, ch.from) && !s.copy_at(blk, ch.to)) {
-        const auto adm = s.admission(ch.to, r.pool.block(blk).bytes, {});
-        if (adm.at != kNever) s.commit_transfer(blk, c, kNone, now, adm);
-      }
+      commit_random_hop(r, s, rng, [&] { return now; });
     }
   }
 }
@@ -260,7 +267,7 @@ TEST(Schedule, ChannelFinishAndHoldersStayInStepWithTimelines) {
   for (int inst = 0; inst < 100; ++inst) {
     RandomState r = random_state(rng, inst);
     Schedule s(r.g, r.pool);
-    for (BlockId blk : r.blocks) s.put_initial(blk, r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)]);
+    place_blocks_randomly(r, s, rng);
     auto check = [&] {
       for (std::size_t c = 0; c < r.g.channels.size(); ++c) {
         Time t = 0;
@@ -276,13 +283,7 @@ TEST(Schedule, ChannelFinishAndHoldersStayInStepWithTimelines) {
         }
     };
     for (int step = 0; step < 10; ++step) {
-      const ChannelId c = static_cast<ChannelId>(u(rng) * static_cast<double>(r.g.channels.size()));
-      const BlockId blk = r.blocks[static_cast<std::size_t>(u(rng) * static_cast<double>(r.blocks.size()))];
-      const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
-      if (s.copy_at(blk, ch.from) && !s.copy_at(blk, ch.to)) {
-        const auto adm = s.admission(ch.to, r.pool.block(blk).bytes, {});
-        if (adm.at != kNever) s.commit_transfer(blk, c, kNone, u(rng), adm);
-      }
+      commit_random_hop(r, s, rng, [&] { return u(rng); });
       check();
     }
     for (std::size_t a = 0; a < s.activity_count(); ++a)
