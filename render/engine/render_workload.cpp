@@ -49,30 +49,24 @@ void RenderWorkload::generate() {
   while (next_camera_ < total_camera_ && paths_alive_ < opt_.path_cap) {
     const std::uint64_t n = std::min<std::uint64_t>(total_camera_ - next_camera_, opt_.path_cap - paths_alive_);
     const std::size_t chunks = static_cast<std::size_t>((n + kChunk - 1) / kChunk);
-    fresh_.resize(std::max(fresh_.size(), chunks));
-    chunk_counts_.assign(chunks, trace::RayCounts{});
+    std::vector<std::vector<RayRecord>> fresh(chunks);
+    std::vector<trace::RayCounts> counts(chunks);
     const std::uint64_t first = next_camera_;
-    auto make = [&](std::size_t k) {
-      const std::uint64_t b = first + k * kChunk, e = std::min(first + n, b + kChunk);
-      fresh_[k].clear();
-      for (std::uint64_t i = b; i < e; ++i) {
+    auto begin = [&](std::size_t k) { return first + k * kChunk; };
+    auto end = [&](std::size_t k) { return std::min(first + n, begin(k) + kChunk); };
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t k) {
+      for (std::uint64_t i = begin(k); i < end(k); ++i) {
         const auto pixel = static_cast<std::uint32_t>(i % pixels), sample = static_cast<std::uint32_t>(i / pixels);
         trace::generate_camera_ray(ts_, camera_.position(), camera_.direction(pixel, sample, ts_.seed), pixel, sample,
-                                   fresh_[k], chunk_counts_[k]);
+                                   fresh[k], counts[k]);
       }
-    };
-    if (chunks > 1) {
-      tbb::parallel_for(std::size_t(0), chunks, make);
-    } else {
-      make(0);
-    }
+    });
     for (std::size_t k = 0; k < chunks; ++k) {
-      const std::uint64_t b = first + k * kChunk, e = std::min(first + n, b + kChunk);
-      if (opt_.recorder) opt_.recorder->camera_rays(fresh_[k], b, e - b, pixels);
+      if (opt_.recorder) opt_.recorder->camera_rays(fresh[k], begin(k), end(k) - begin(k), pixels);
       // Camera rays that never meet the scene bounds end at once (escaped).
-      paths_alive_ += (e - b) - chunk_counts_[k].paths_ended;
-      counts_ += chunk_counts_[k];
-      stage(fresh_[k]);
+      paths_alive_ += (end(k) - begin(k)) - counts[k].paths_ended;
+      counts_ += counts[k];
+      stage(fresh[k]);
     }
     next_camera_ += n;
   }

@@ -95,8 +95,6 @@ class RenderWorkload final : public Workload {
   JobTypeId type_[kSlots];
   std::vector<std::array<std::vector<trace::RayRecord>, kSlots>> staging_;  // per cell, per slot
   std::vector<std::array<JobId, kSlots>> open_;                               // queued job per cell, slot
-  std::vector<std::vector<trace::RayRecord>> fresh_;  // generate(): camera rays per chunk
-  std::vector<trace::RayCounts> chunk_counts_;
   std::vector<std::unique_ptr<RayJob>> jobs_;                            // by JobId
   std::unordered_map<BlockId, JobId> consumer_;                          // ray queue -> its job
   trace::RayCounts counts_;

@@ -1,5 +1,6 @@
 #include "render/engine/workstation.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <string>
 
@@ -41,14 +42,13 @@ std::string workstation_json(const WorkstationModel& m, const std::string& descr
          std::to_string(i) + "mem\", " + timing(gm.intersect_setup, gm.intersect_rate, gm.shadow_setup, gm.shadow_rate);
   }
   s += "\n      ],\n";
-  s += "      \"channels\": [\n        {\"name\": \"disk\", \"kind\": \"disk\", \"between\": [\"disk\", \"ram\"], "
-       "\"duplex\": \"half\", \"latency\": " +
-       us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) + "}";
-  // More loaders: more disk->RAM channels, each a lane of T-jobs (its own loader thread in
-  // LocalExecutor), so that one block's BVH builds while another's does.
-  for (int k = 1; k < m.loaders; ++k)
-    s += ",\n        {\"name\": \"disk" + std::to_string(k + 1) + "\", \"kind\": \"disk\", \"between\": [\"disk\", \"ram\"], "
-         "\"duplex\": \"half\", \"latency\": " + us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) + "}";
+  // One disk->RAM channel per loader ("disk", "disk2", ...), each a lane of T-jobs (its own
+  // loader thread in LocalExecutor), so that one block's BVH builds while another's does.
+  s += "      \"channels\": [";
+  for (int k = 0; k < std::max(1, m.loaders); ++k)
+    s += std::string(k ? "," : "") + "\n        {\"name\": \"disk" + (k ? std::to_string(k + 1) : "") +
+         "\", \"kind\": \"disk\", \"between\": [\"disk\", \"ram\"], \"duplex\": \"half\", \"latency\": " +
+         us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) + "}";
   for (std::size_t i = 0; i < m.gpus.size(); ++i)
     s += ",\n        {\"name\": \"pcie" + std::to_string(i) + "\", \"kind\": \"pcie\", \"between\": [\"ram\", \"gpu" +
          std::to_string(i) + "mem\"], \"duplex\": \"full\", \"latency\": " + us(m.gpus[i].pcie_latency) +
