@@ -93,10 +93,17 @@ Time FetchBound::lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Tim
   const Bytes bytes = s.pool().block(b).bytes;
   Time best = kNever;
   for (ChannelId c : g.in_channels(m)) {
-    const Time at_src = memoised_holders ? holders_bound(s, b, g.channels[c].from, now)
-                                         : holders_bound_uncached(s, b, g.channels[c].from, now);
+    // A hop whose start bound + T_LAT already does not beat the minimum is skipped before
+    // the holders term and Eq. 1's division: |w|/T_BW >= 0 and rounding is monotone, so
+    // its sum would not beat it either (the minimum and its channel are bit-identical).
+    const Channel& ch = g.channels[static_cast<std::size_t>(c)];
+    const Time finish = s.channel_finish(c);
+    if (!(finish + ch.latency < best)) continue;
+    const Time at_src = memoised_holders ? holders_bound(s, b, ch.from, now) : holders_bound_uncached(s, b, ch.from, now);
     if (at_src == kNever) continue;
-    const Time t = std::max(at_src, s.channel_finish(c)) + g.transfer_time(c, bytes);
+    const Time start = std::max(at_src, finish);
+    if (!(start + ch.latency < best)) continue;
+    const Time t = start + g.transfer_time(c, bytes);
     if (t < best) {
       best = t;
       if (arg) *arg = c;
