@@ -352,22 +352,25 @@ bool GmbScheduler::visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, 
     const std::int32_t i = bucket_of_block_[b];
     if (i < 0 || open(i, m) == 0) continue;  // every job planned, or infeasible on m
     any = true;
-    const Time lb = std::max(bound_time_->lower_bound(s, b, m, now), arrival_bound_->bound(s, b, m, g, first));
-    if (loses(std::max(ready, lb))) break;
-    evaluate_bucket(i, d, m, ready, now, pool, s, best);
+    // The cheaper bound first (the group's records); FetchBound's last hop only if needed.
+    if (loses(std::max(ready, arrival_bound_->bound(s, b, m, g, first)))) break;
+    const Time key_lb = bound_time_->lower_bound(s, b, m, now);
+    if (loses(std::max(ready, key_lb))) break;
+    evaluate_bucket(i, d, m, ready, now, pool, s, best, key_lb);
   }
   return any;
 }
 
 // The body of select_pruned()'s bucket loop, for one bucket.
 void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
-                                   const Schedule& s, Choice& best) {
+                                   const Schedule& s, Choice& best, Time key_lb) {
   const DeviceGraph& g = s.graph();
   const Bucket& bk = buckets_[static_cast<std::size_t>(i)];
   auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
   const bool has_key = static_cast<std::size_t>(bk.key) < pool.block_count();
   Time blb = ready;
-  if (has_key) blb = std::max(blb, bound_time_->lower_bound(s, bk.key, m, now));
+  // (key_lb: FetchBound's lower bound on the key block, when the caller has just computed it.)
+  if (has_key) blb = std::max(blb, std::isnan(key_lb) ? bound_time_->lower_bound(s, bk.key, m, now) : key_lb);
   if (blb == kNever || loses(blb)) return;
   Time key_at = ready;
   const Copy* key_copy = has_key ? s.copy_at(bk.key, m) : nullptr;
