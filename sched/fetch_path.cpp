@@ -8,11 +8,12 @@ FetchPathFinder::FetchPathFinder(const Schedule& schedule)
     : schedule_(&schedule),
       n_(schedule.graph().memories.size()),
       done_(n_),
-      holder_(n_),
-      label_(n_),
-      label_via_(n_),
-      tie_(n_) {
+      holder_(n_, 0),
+      label_(n_, kNever),
+      label_via_(n_, kNone),
+      tie_(n_, 0) {
   open_.reserve(4 * n_ + 8);
+  touched_.reserve(4 * n_ + 8);
 }
 
 void FetchPathFinder::clear() {
@@ -131,7 +132,7 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
   done_.assign(nm, 0);
   heap_.clear();
   // Virtual source S: one edge per holder, weighted by the copy's ready time.
-  holder_.assign(nm, 0);
+  reset_labels();  // holder_ is all 0 after it
   t.node = restrict_node_;
   // scene_local_: a rank loads from its own node when the node holds the block, else from
   // the storage that does (a central scene database); never from another node's cache.
@@ -140,6 +141,7 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
     for (const Copy& c : schedule_->copies(b)) node_has_copy = node_has_copy || g.memories[c.mem].node == restrict_node_;
   for (const Copy& c : schedule_->copies(b)) {
     holder_[c.mem] = 1;
+    touched_.push_back(c.mem);  // (cut_search() resets what it finds marked)
     if (restrict_node_ != kNone) {
       const bool local = g.memories[c.mem].node == restrict_node_;
       if (node_has_copy ? !local : !c.origin) continue;

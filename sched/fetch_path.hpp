@@ -137,6 +137,20 @@ class FetchPathFinder {
   };
   const FetchBound* rest_ = nullptr;
   std::vector<char> tie_;  // cut_search(): another admissible path reaches q with its label
+  // Memory devices whose label_, label_via_, holder_ or tie_ entry may differ from the reset
+  // state (kNever, kNone, 0, 0): a search resets only what the last one touched (its setup
+  // is O(touched), not O(memory devices); most searches touch a handful).
+  std::vector<MemId> touched_;
+  void reset_labels() {
+    for (const MemId q : touched_) {
+      const auto qi = static_cast<std::size_t>(q);
+      label_[qi] = kNever;
+      label_via_[qi] = kNone;
+      holder_[qi] = 0;
+      tie_[qi] = 0;
+    }
+    touched_.clear();
+  }
   bool cut_unique_ = false;  // cut_search()'s result came with a proof that its path is the only best one
   // Branch and bound for b's arrival at m (arrival_within()). Ties: also explores paths
   // that tie with the best (for path()) and flags nodes reached by two of them.
@@ -230,10 +244,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
   const DataBlock& blk = schedule_->pool().block(b);
   const auto mi = static_cast<std::size_t>(m);
   cut_unique_ = false;
-  std::fill_n(label_.data(), n_, kNever);  // (sized n_ by the constructor)
-  std::fill_n(label_via_.data(), n_, kNone);
-  std::fill_n(holder_.data(), n_, 0);
-  if constexpr (Ties) std::fill_n(tie_.data(), n_, 0);
+  reset_labels();
   open_.clear();
   const auto bytes = blk.bytes;
   const double wbytes = static_cast<double>(bytes);
@@ -241,7 +252,10 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
   const double* rest_lat = rest ? rest->latency_to(m) : nullptr;
   const double* rest_inv_bw = rest ? rest->inv_bw_to(m) : nullptr;
   const ChannelId* direct = rest ? rest->direct_to(m) : nullptr;
-  for (const Copy& c : schedule_->copies(b)) holder_[static_cast<std::size_t>(c.mem)] = 1;
+  for (const Copy& c : schedule_->copies(b)) {
+    holder_[static_cast<std::size_t>(c.mem)] = 1;
+    touched_.push_back(c.mem);
+  }
   if (!holder_[mi] && g.memories[mi].capacity < bytes) return kNever;  // never routed into m
   // The earliest a relayed last hop can land on m: from a device that is neither a holder
   // (nothing is routed through a holder) nor the label's own (its direct channel). Only
@@ -277,6 +291,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       const Time am = hop(ap);
       label_[mi] = am;
       label_via_[mi] = c;
+      touched_.push_back(m);
       if constexpr (Ties) tie_[mi] = 0;
       return am;
     }
@@ -315,6 +330,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       }
       label_[mi] = best;
       label_via_[mi] = best_c;
+      touched_.push_back(m);
       cut_unique_ = best < relay_end && n_best == 1;
       return best;
     }
@@ -346,6 +362,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
         continue;
       }
       label_[qi] = r;
+      touched_.push_back(c.mem);
       open_.push_back({x, r, c.mem});
       std::push_heap(open_.begin(), open_.end(), OpenAfter{});
     }
@@ -376,6 +393,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       }
       label_[qi] = lq;
       label_via_[qi] = c;
+      touched_.push_back(q);
       if constexpr (Ties) tie_[qi] = 0;
       if (q != m) {
         open_.push_back({x, lq, q});
