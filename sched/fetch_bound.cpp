@@ -29,6 +29,7 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
   relax(lat_);
   relax(inv_bw_);
   relay_in_.resize(n_);
+  own_in_.resize(n_);
   direct_to_.assign(n_ * n_, kNone);
   for (std::size_t c = 0; c < g.channels.size(); ++c) {
     const Channel& ch = g.channels[c];
@@ -36,6 +37,9 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
     d = d == kNone ? static_cast<ChannelId>(c) : kSeveral;
     bool relay = false;
     for (ChannelId in : g.in_channels(ch.from)) relay = relay || g.channels[in].from != ch.to;
+    if (!relay)
+      own_in_[static_cast<std::size_t>(ch.to)].push_back(
+          {static_cast<ChannelId>(c), ch.from, g.memories[static_cast<std::size_t>(ch.from)].capacity, ch.latency, ch.bandwidth});
     if (relay)
       relay_in_[static_cast<std::size_t>(ch.to)].push_back(
           {static_cast<ChannelId>(c), ch.from, g.memories[static_cast<std::size_t>(ch.from)].capacity, ch.latency, ch.bandwidth});
@@ -130,6 +134,23 @@ Time FetchBound::direct_upper_bound(const Schedule& s, BlockId b, MemId m, Time 
       for (ChannelId c2 : g.out_channels(p))
         if (g.channels[c2].to == m) best = std::min(best, std::max(t1, s.channel_finish(c2)) + g.transfer_time(c2, bytes));
     }
+  return best;
+}
+
+Time FetchBound::last_hop_floor(const Schedule& s, BlockId b, MemId m) const {
+  const double w = static_cast<double>(s.pool().block(b).bytes);
+  Time best = kNever;
+  // A term whose FinishTime + T_LAT does not beat the minimum so far is skipped without
+  // Eq. 1's division (|w|/T_BW >= 0, rounding is monotone: its sum would not beat it).
+  auto term = [&](ChannelId c, Time latency, double bandwidth) {
+    const Time finish = s.channel_finish(c);
+    if (!(finish + latency < best)) return;
+    best = std::min(best, finish + (latency + w / bandwidth));  // (Eq. 1 as transfer_time())
+  };
+  for (const Relay& r : relay_in_[static_cast<std::size_t>(m)]) term(r.channel, r.latency, r.bandwidth);
+  // A holder's own channel into m that is no relay channel (from m's GPU memory or disk).
+  for (const Relay& r : own_in_[static_cast<std::size_t>(m)])
+    if (s.copy_at(b, r.from)) term(r.channel, r.latency, r.bandwidth);
   return best;
 }
 

@@ -45,6 +45,13 @@ class FetchBound {
   //    p != q into m is one of them;
   //  * the channel q -> m (kNone: none; kSeveral: more than one).
   static constexpr ChannelId kSeveral = -2;
+  // A lower bound on the SDC arrival of b at m, b not on m, from the last hop alone. A
+  // simple path from a holder ends with a channel c = p -> m that is a relay channel
+  // (relay_in(m): p is reached from a device other than m) or leaves a holder, and by
+  // Eq. 3 it ends at max(l_p, FinishTime(c)) + T_TRANS(c, |b|) >= FinishTime(c) +
+  // T_TRANS(c, |b|) (rounding is monotone). The minimum of that over those channels; not
+  // memoised (it moves with every booking of them), O(in-degree of m), no search.
+  Time last_hop_floor(const Schedule& s, BlockId b, MemId m) const;
   const double* latency_to(MemId m) const { return lat_to_.data() + static_cast<std::size_t>(m) * n_; }
   const double* inv_bw_to(MemId m) const { return inv_bw_to_.data() + static_cast<std::size_t>(m) * n_; }
   //    Each with what Eq. 1 and the capacity check need, stored contiguously (the search
@@ -71,6 +78,9 @@ class FetchBound {
   std::vector<double> lat_to_, inv_bw_to_;  // the same, transposed (rows by destination)
   std::vector<std::vector<Relay>> relay_in_;
   std::vector<ChannelId> direct_to_;  // [m * n + q]
+  // Per destination m: its incoming channels that are no relay channel (their source is
+  // reached only through m, e.g. m's GPU memory or disk), with what Eq. 1 needs.
+  std::vector<std::vector<Relay>> own_in_;
   struct Memo {
     Time value = 0;
     std::uint64_t holders = 0;  // holders_version(b) when taken

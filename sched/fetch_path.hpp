@@ -200,6 +200,17 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     if (proven) *proven = f.lb;
     return kNever;
   }
+  // Before any search: the last hop's floor (FetchBound::last_hop_floor) often loses
+  // already; it is a lower bound on the arrival, memoised as one.
+  if (rest_ && !schedule_->copy_at(b, m)) {
+    const Time floor = rest_->last_hop_floor(*schedule_, b, m);
+    if (floor > enough && lost(floor)) {
+      ++hits_;
+      f.lb = std::max(f.lb, floor);
+      if (proven) *proven = floor;
+      return kNever;
+    }
+  }
   ++cut_searches_;
   Time dropped = kNever;
   const Time a = cut_search<Lost, false>(b, m, enough, lost, dropped);

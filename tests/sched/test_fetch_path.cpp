@@ -136,6 +136,7 @@ void place_blocks_randomly(const RandomState& r, Schedule& s, std::mt19937& rng)
 template <class At>
 void commit_random_hop(const RandomState& r, Schedule& s, std::mt19937& rng, const At& at) {
   std::uniform_real_distribution<double> u(0, 1);
+  if (r.g.channels.empty()) return;
   const ChannelId c = static_cast<ChannelId>(u(rng) * static_cast<double>(r.g.channels.size()));
   const BlockId blk = r.blocks[static_cast<std::size_t>(u(rng) * static_cast<double>(r.blocks.size()))];
   const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
@@ -261,6 +262,45 @@ TEST(FetchBound, MemoisedLowerBoundEqualsFreshOne) {
 
 // Schedule keeps FinishTime(c) per channel and a holder mask per block: both equal what
 // they summarise, through commits and reproject().
+// FetchBound::last_hop_floor() (the pre-search cut of arrival_within) never exceeds the
+// SDC arrival, bit for bit (no tolerance: it is the last hop's Eq. 3 with max(l, F) >= F),
+// on random graphs with shared resources, small memories, several holders (some of them
+// sources reached only through the destination) and growing contention.
+TEST(FetchBound, LastHopFloorNeverExceedsTheArrival) {
+  std::mt19937 rng(4242);
+  std::uniform_real_distribution<double> u(0, 1);
+  int checked = 0, above_free = 0;
+  for (int inst = 0; inst < 300; ++inst) {
+    RandomState r = random_state(rng, inst);
+    Schedule s(r.g, r.pool);
+    for (BlockId blk : r.blocks) {
+      const int holders = 1 + static_cast<int>(u(rng) * 3);
+      for (int h = 0; h < holders; ++h) {
+        const MemId at = r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)];
+        if (!s.copy_at(blk, at)) s.put_initial(blk, at, u(rng) < 0.3 ? u(rng) : 0.0, h == 0);
+      }
+    }
+    const Time now = u(rng) * 0.5;
+    FetchBound fb(r.g);
+    for (int round = 0; round < 5; ++round) {
+      FetchPathFinder full(s);
+      full.set_now(now);
+      for (BlockId blk : r.blocks)
+        for (MemId dst : r.m) {
+          if (s.copy_at(blk, dst)) continue;
+          const Time a = full.arrival(blk, dst);
+          const Time floor = fb.last_hop_floor(s, blk, dst);
+          EXPECT_LE(floor, a) << "instance " << inst << " round " << round;
+          if (a < kNever && floor > fb.free_run_bound(s, blk, dst, now)) ++above_free;
+          ++checked;
+        }
+      for (int k = 0; k < 4; ++k) commit_random_hop(r, s, rng, [&] { return now + u(rng); });
+    }
+  }
+  EXPECT_GT(checked, 5000);
+  EXPECT_GT(above_free, 100);  // contention makes it bite where the uncontended bound does not
+}
+
 TEST(Schedule, ChannelFinishAndHoldersStayInStepWithTimelines) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0, 1);
