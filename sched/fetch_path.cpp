@@ -206,6 +206,7 @@ void FetchPathFinder::path(BlockId b, MemId m, std::vector<ChannelId>& out) {
     // search for ties can drop every label that cannot end at it.
     const Time best = arrival_within(b, m, -kNever, [](Time) { return false; });
     if (best == kNever) return;
+    bool relayed = false;
     {
       const Memo& e = memo(b, m);
       if (e.hops >= 0 && e.unique && memo_exact(e)) {  // proved the only best path when found
@@ -213,25 +214,31 @@ void FetchPathFinder::path(BlockId b, MemId m, std::vector<ChannelId>& out) {
         out.assign(e.path, e.path + e.hops);
         return;
       }
+      relayed = e.hops >= 2 && memo_exact(e);
     }
-    Time dropped = kNever;
-    const auto beyond = [best](Time x) { return x > best; };
-    const Time a = cut_search<decltype(beyond), true>(b, m, -kNever, beyond, dropped);
-    if (a == kNever) return;
-    const DeviceGraph& g = schedule_->graph();
-    bool unique = true;
-    MemId q = m;
-    for (std::size_t k = 0; unique && label_via_[static_cast<std::size_t>(q)] != kNone; ++k) {
-      if (k > n_ || tie_[static_cast<std::size_t>(q)]) unique = false;
-      out.push_back(label_via_[static_cast<std::size_t>(q)]);
-      q = g.channels[static_cast<std::size_t>(label_via_[static_cast<std::size_t>(q)])].from;
+    // A best path through a relay usually ties with others (interchangeable relays give
+    // equal Eq. 3 labels), and then only the tree answers: go there directly (the same
+    // path either way, see above; on the bench instance nine in ten such searches tie).
+    if (!relayed) {
+      Time dropped = kNever;
+      const auto beyond = [best](Time x) { return x > best; };
+      const Time a = cut_search<decltype(beyond), true>(b, m, -kNever, beyond, dropped);
+      if (a == kNever) return;
+      const DeviceGraph& g = schedule_->graph();
+      bool unique = true;
+      MemId q = m;
+      for (std::size_t k = 0; unique && label_via_[static_cast<std::size_t>(q)] != kNone; ++k) {
+        if (k > n_ || tie_[static_cast<std::size_t>(q)]) unique = false;
+        out.push_back(label_via_[static_cast<std::size_t>(q)]);
+        q = g.channels[static_cast<std::size_t>(label_via_[static_cast<std::size_t>(q)])].from;
+      }
+      if (unique && holder_[static_cast<std::size_t>(q)] && !tie_[static_cast<std::size_t>(q)]) {
+        ++cut_searches_;
+        std::reverse(out.begin(), out.end());
+        return;
+      }
+      out.clear();
     }
-    if (unique && holder_[static_cast<std::size_t>(q)] && !tie_[static_cast<std::size_t>(q)]) {
-      ++cut_searches_;
-      std::reverse(out.begin(), out.end());
-      return;
-    }
-    out.clear();
   }
   const Tree& t = tree(b, m);
   if (arrival_of(t)[m] == kNever) return;
