@@ -301,7 +301,9 @@ Time GmbScheduler::group_key(std::int32_t g, MemId m, Time now, const Schedule& 
   const BlockId ref = arrival_bound_->smallest(s, g);
   if (ref == kNone) return kNever;
   if (const Copy* c = s.copy_at(ref, m)) return std::max(now, s.copy_ready(*c));
-  return std::max({bound_time_->free_run_bound(s, ref, m, now), arrival_bound_->bound(s, ref, m),
+  // (ref is g's smallest current member: ArrivalBound::bound(s, ref, m) without finding
+  // its group and smallest member again.)
+  return std::max({bound_time_->free_run_bound(s, ref, m, now), arrival_bound_->bound(s, ref, m, g, ref),
                    placer_->finder().known_lower_bound(ref, m)});
 }
 
@@ -331,8 +333,12 @@ Time GmbScheduler::fold_input(BlockId b, MemId m, Time start, Time now, const Sc
 bool GmbScheduler::input_by(BlockId b, MemId m, Time t, Time now, const Schedule& s) {
   if (const Copy* c = s.copy_at(b, m)) return std::max(now, s.copy_ready(*c)) <= t;
   const DataBlock& blk = s.pool().block(b);
-  if (blk.movable && s.graph().memories[static_cast<std::size_t>(m)].capacity >= blk.bytes)
+  if (blk.movable && s.graph().memories[static_cast<std::size_t>(m)].capacity >= blk.bytes) {
+    // A proven lower bound past t answers first (arrival_within() would return the same
+    // from its memo, at the cost of a lookup that may create one).
+    if (placer_->finder().known_lower_bound(b, m) > t) return false;
     return placer_->finder().arrival_within(b, m, t, [t](Time x) { return x > t; }) <= t;
+  }
   return bound_time_->direct_upper_bound(s, b, m, now) <= t;
 }
 
