@@ -108,11 +108,11 @@ FetchPathFinder::Tree& FetchPathFinder::tree(BlockId b, MemId m) {
     ++hits_;
     return t;
   }
-  search(b, t);
+  search(b, t, m);
   return t;
 }
 
-void FetchPathFinder::search(BlockId b, Tree& t) {
+void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
   ++searches_;
   const DeviceGraph& g = schedule_->graph();
   const DataBlock& blk = schedule_->pool().block(b);
@@ -162,6 +162,14 @@ void FetchPathFinder::search(BlockId b, Tree& t) {
       done_[p] = 1;
       // p's tree path is final now, and its parent's stamp was taken before.
       if (via[p] != kNone) stamp[p] = stamp[g.channels[via[p]].from] + channel_stamp(via[p]);
+      if (p == stop) {
+        // The asked destination is final (so is every device settled before it, the path
+        // to it included): stop. The others are left unsettled, their stamps set to a
+        // value no path's sum of versions takes, so tree_valid() never answers for them.
+        for (std::size_t q = 0; q < nm; ++q)
+          if (!done_[q]) stamp[q] = kUnsettled;
+        break;
+      }
       for (ChannelId c : g.out_channels(p)) {
         const MemId q = g.channels[c].to;
         // A holder never receives a second copy (its own copy may still be in flight).

@@ -98,7 +98,10 @@ class FetchPathFinder {
   Tree& tree(BlockId b, MemId m);
   bool tree_valid(BlockId b, MemId m);  // a cached tree answers for (b, m)
   NodeId restrict_node_ = kNone;  // with scene_local_: the destination's node
-  void search(BlockId b, Tree& t);
+  // Dijkstra from b's holders, stopped once `stop` is settled (the rest of the tree is
+  // marked unsettled: a later question about it searches again).
+  void search(BlockId b, Tree& t, MemId stop);
+  static constexpr std::uint64_t kUnsettled = ~std::uint64_t{0};
   std::uint64_t path_stamp(const Tree& t, MemId m) const;
   std::uint64_t channel_stamp(ChannelId c) const;
   Time* arrival_of(const Tree& t) { return arrival_.data() + static_cast<std::size_t>(t.slot) * n_; }
