@@ -61,6 +61,7 @@ std::int32_t ArrivalBound::find_or_add_group(std::uint64_t h) {
   grp.members.clear();
   grp.largest.assign(n_, Rec{});
   grp.first = 0;
+  grp.unsorted = false;
   grp.hash = h;
   grp.sig_at = sigs_.size();
   grp.sig_size = sig_.size();
@@ -70,7 +71,22 @@ std::int32_t ArrivalBound::find_or_add_group(std::uint64_t h) {
 
 // The class of blocks with exactly b's SDC sources: movability, and every holder with its
 // root weight max(now, ready) (fetch_path.cpp).
-std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b) {
+std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b) { return assign(s, b, true); }
+
+void ArrivalBound::assign_all(const Schedule& s, std::span<const BlockId> blocks) {
+  touched_groups_.clear();
+  for (BlockId b : blocks) assign(s, b, false);
+  // Each group's members sorted once: the same ordered set that inserting one by one builds.
+  for (const std::int32_t g : touched_groups_) {
+    Group& grp = groups_[static_cast<std::size_t>(g)];
+    std::sort(grp.members.begin(), grp.members.end());
+    grp.members.erase(std::unique(grp.members.begin(), grp.members.end()), grp.members.end());
+    grp.first = 0;
+    grp.unsorted = false;
+  }
+}
+
+std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b, bool sorted) {
   if (static_cast<std::size_t>(b) >= blocks_.size()) blocks_.resize(s.pool().block_count());
   BlockState& bs = blocks_[static_cast<std::size_t>(b)];
   const std::uint64_t hv = s.holders_version(b);
@@ -83,6 +99,15 @@ std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b) {
   Group& grp = groups_[static_cast<std::size_t>(id)];
   auto& mem = grp.members;
   const std::pair<Bytes, BlockId> me{s.pool().block(b).bytes, b};
+  if (!sorted) {  // assign_all(): appended now, sorted at its end
+    if (!grp.unsorted) touched_groups_.push_back(id);
+    grp.unsorted = true;
+    mem.push_back(me);
+    bs.group = id;
+    bs.holders = hv;
+    bs.epoch = epoch_;
+    return id;
+  }
   const auto pos = std::lower_bound(mem.begin(), mem.end(), me);
   grp.first = std::min(grp.first, static_cast<std::size_t>(pos - mem.begin()));
   if (pos == mem.end() || *pos != me) mem.insert(pos, me);

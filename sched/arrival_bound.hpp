@@ -14,6 +14,7 @@
 // not reported is merely bounded less tightly. The bounds only order and prune; a job's
 // start is always computed exactly (fetch_path.hpp) before it can be chosen.
 #pragma once
+#include <span>
 #include <vector>
 
 #include "schedule.hpp"
@@ -26,6 +27,9 @@ class ArrivalBound {
   void reset(Time now);  // a new planning pass (after reproject())
   // b's holders changed, or b is new: (re)compute its group; returns it.
   std::int32_t assign(const Schedule& s, BlockId b);
+  // assign() for each of `blocks` (a new pass: in that order, so group ids are the same),
+  // each group's members sorted once at the end instead of inserted one by one.
+  void assign_all(const Schedule& s, std::span<const BlockId> blocks);
   // b's group if it is still current (kNone otherwise).
   std::int32_t group(const Schedule& s, BlockId b) const;
   std::size_t group_count() const { return n_groups_; }
@@ -64,7 +68,10 @@ class ArrivalBound {
     mutable std::size_t first = 0;
     std::uint64_t hash = 0;       // of its signature,
     std::size_t sig_at = 0, sig_size = 0;  // sigs_[sig_at, sig_at + sig_size)
+    bool unsorted = false;  // inside assign_all(): members appended, not yet sorted
   };
+  std::int32_t assign(const Schedule& s, BlockId b, bool sorted);
+  std::vector<std::int32_t> touched_groups_;  // assign_all(): groups with appended members
   bool valid(const Schedule& s, const Rec& r) const {
     return r.epoch == epoch_ && r.block != kNone && r.holders == s.holders_version(r.block);
   }

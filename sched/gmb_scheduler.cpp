@@ -638,10 +638,12 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   for (std::size_t i = 0; i < buckets_.size(); ++i)
     std::fill_n(open_.begin() + static_cast<std::ptrdiff_t>(i * g.memories.size()), g.memories.size(), buckets_[i].queued);
   no_key_bucket_ = -1;
+  keys_.clear();
   for (std::size_t i = 0; i < buckets_.size(); ++i) {
-    if (static_cast<std::size_t>(buckets_[i].key) < pool.block_count()) arrival_bound_->assign(s, buckets_[i].key);
+    if (static_cast<std::size_t>(buckets_[i].key) < pool.block_count()) keys_.push_back(buckets_[i].key);
     else no_key_bucket_ = static_cast<std::int32_t>(i);
   }
+  arrival_bound_->assign_all(s, keys_);
   build_classes(s);
   const std::size_t n_sorted = buckets_.size() * static_cast<std::size_t>(classes_);
   if (sorted_.size() < n_sorted) sorted_.resize(n_sorted);

@@ -106,6 +106,7 @@ class GmbScheduler final : public Scheduler {
   void after_commit(std::size_t activities_before, std::size_t evictions_before, const JobPool& pool,
                     const Schedule& s);
   std::int32_t no_key_bucket_ = -1;  // jobs without inputs
+  std::vector<BlockId> keys_;        // plan(): the buckets' key blocks, for ArrivalBound
   // Per bucket and memory device: queued jobs not blocked there (blocked is for the plan).
   std::vector<std::int32_t> open_;
   std::int32_t open(std::int32_t i, MemId m) const {

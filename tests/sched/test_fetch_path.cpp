@@ -3,10 +3,12 @@
 // planning-speed caches (issue 2) answer exactly what a fresh computation answers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
 #include <random>
 
 #include "dcg_fixture.hpp"
+#include "sched/arrival_bound.hpp"
 #include "sched/fetch_bound.hpp"
 #include "sched/fetch_path.hpp"
 
@@ -299,6 +301,52 @@ TEST(FetchBound, LastHopFloorNeverExceedsTheArrival) {
   }
   EXPECT_GT(checked, 5000);
   EXPECT_GT(above_free, 100);  // contention makes it bite where the uncontended bound does not
+}
+
+// ArrivalBound::assign_all() (members sorted once) builds exactly the groups that one
+// assign() per block builds: the same ids, members in the same order, the same smallest
+// current member, also with repeated blocks and after holders change.
+TEST(ArrivalBound, AssignAllEqualsOneByOne) {
+  std::mt19937 rng(515);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int inst = 0; inst < 200; ++inst) {
+    RandomState r = random_state(rng, inst);
+    for (int k = 0; k < 20; ++k) {  // more blocks, so that groups have several members
+      DataBlock d;
+      d.name = "x" + std::to_string(k);
+      d.kind = DataKind::SceneData;
+      d.bytes = static_cast<Bytes>(u(rng) * 4) * 10'000'000 + 1;  // repeated sizes too
+      r.blocks.push_back(r.pool.add_block(d));
+    }
+    Schedule s(r.g, r.pool);
+    for (BlockId blk : r.blocks) {
+      const int holders = 1 + static_cast<int>(u(rng) * 2);
+      for (int h = 0; h < holders; ++h) {
+        const MemId at = r.m[static_cast<std::size_t>(u(rng) * 2) % r.m.size()];  // few signatures
+        if (!s.copy_at(blk, at)) s.put_initial(blk, at, 0.0, h == 0);
+      }
+    }
+    for (int round = 0; round < 3; ++round) {
+      std::vector<BlockId> keys;
+      for (BlockId blk : r.blocks)
+        if (u(rng) < 0.7) keys.push_back(blk);
+      if (!keys.empty()) keys.push_back(keys[static_cast<std::size_t>(u(rng) * static_cast<double>(keys.size()))]);
+      std::shuffle(keys.begin(), keys.end(), rng);
+      ArrivalBound one(r.g), all(r.g);
+      one.reset(0);
+      all.reset(0);
+      for (BlockId k : keys) one.assign(s, k);
+      all.assign_all(s, keys);
+      ASSERT_EQ(one.group_count(), all.group_count());
+      for (BlockId k : keys) EXPECT_EQ(one.group(s, k), all.group(s, k));
+      for (std::size_t g = 0; g < one.group_count(); ++g) {
+        const auto gi = static_cast<std::int32_t>(g);
+        EXPECT_EQ(one.members(gi), all.members(gi)) << "instance " << inst;
+        EXPECT_EQ(one.smallest(s, gi), all.smallest(s, gi));
+      }
+      commit_random_hop(r, s, rng, [] { return 0.0; });
+    }
+  }
 }
 
 TEST(Schedule, ChannelFinishAndHoldersStayInStepWithTimelines) {
