@@ -10,7 +10,8 @@
 # Usage: scripts/bench_render.sh [TRIANGLES=10000000] [RES=256] [SPP=16] [DEPTH=5]
 # Environment: RAYLINE_BIN (another rayline binary), RENDER_FLAGS (extra render flags, e.g.
 # "--paths 131072 --read-ahead off"), BENCH_DIR (work folder, default out/bench-render),
-# REPS (default 1): REPS > 1 then renders in core (1 block) and at 25 % REPS more times, in
+# OOC_BLOCKS (blocks of the budget runs, default 63: what `rayline render` picks for 10 M
+# triangles at these budgets), REPS (default 1): REPS > 1 then renders in core (1 block) and at 25 % REPS more times, in
 # turn, and prints the medians of the whole-run times and of the ratios of each pair.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,19 +40,22 @@ m = json.load(open(sys.argv[1])); io = m["io"]
 print(f"| {sys.argv[2]} | {m['blocks']} | {m['memory']['budget_bytes']/2**20:.0f} MiB | {m['bvh_quality']} | {m['seconds']:.2f} s | "
       f"{m['rays_per_second']/1e6:.2f} M | {m['samples_per_second']/1e3:.1f} k | {io['loads']} | "
       f"{io['bytes_read']/1e6:.0f} MB | {io['bvh_build_seconds']:.1f} s | {io['disk_busy_fraction']*100:.0f} % | "
-      f"{io.get('disk_read_fraction', 0)*100:.0f} % | {m['memory']['paths_in_flight_cap']} | {m['memory']['peak_rss_bytes']/2**20:.0f} MiB | {io['mode']} |")
+      f"{io.get('disk_read_fraction', 0)*100:.0f} % | {io.get('disk_busy_when_io_bound', 0)*100:.0f} % of {io.get('io_bound_seconds', 0):.1f} s | {m['memory']['paths_in_flight_cap']} | {m['memory']['peak_rss_bytes']/2**20:.0f} MiB | {io['mode']} |")
 PY
 }
+OOC="${OOC_BLOCKS:-63}"
 part 16
-"$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-16" --resolution 8x8 --spp 1 --bvh-quality low --out "$WORK/probe.exr"
+part "$OOC"
+# The budgets are shares of the block bytes of the partition the budget runs use.
+"$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-$OOC" --resolution 8x8 --spp 1 --bvh-quality low --out "$WORK/probe.exr"
 SCENE_BYTES=$(/usr/bin/python3 -c "import json;print(json.load(open('$WORK/probe.metrics.json'))['memory']['scene_block_bytes'])")
 echo "scene: $TRIS triangles, $((SCENE_BYTES / 1048576)) MiB of blocks in RAM (low-quality BVH); ${RES}x${RES}, $SPP spp, max depth $DEPTH, $(nproc) threads"
-echo "| run | blocks | budget | BVH | wall | rays/s | samples/s | loads | read | BVH builds | channel busy | disk reading | paths | peak RSS | I/O |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| run | blocks | budget | BVH | wall | rays/s | samples/s | loads | read | BVH builds | channel busy | disk reading | channel busy when I/O-bound | paths | peak RSS | I/O |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 run in-core-1 1 ""
 run in-core-16 16 ""
-run budget-25 16 "$((SCENE_BYTES / 4))"
-run budget-10 32 "$((SCENE_BYTES / 10))"
+run budget-25 "$OOC" "$((SCENE_BYTES / 4))"
+run budget-10 "$OOC" "$((SCENE_BYTES / 10))"
 LOG="$WORK/embree.log"
 T0=$(date +%s.%N)
 pathtracer -i "$PLY" --vp "$PX" "$PY" "$PZ" --vi "$LX" "$LY" "$LZ" --vu "$UX" "$UY" "$UZ" --fov "$FOV" \
@@ -75,7 +79,7 @@ REPS="${REPS:-1}"
 if [ "$REPS" -gt 1 ]; then
   for i in $(seq 1 "$REPS"); do
     for r in in-core-1 budget-25; do
-      if [ $r = in-core-1 ]; then b=1; extra=(); else b=16; extra=(--memory-budget "$((SCENE_BYTES / 4))"); fi
+      if [ $r = in-core-1 ]; then b=1; extra=(); else b=$OOC; extra=(--memory-budget "$((SCENE_BYTES / 4))"); fi
       "$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-$b" --resolution "${RES}x${RES}" --spp "$SPP" \
         --max-depth "$DEPTH" "${extra[@]}" ${RENDER_FLAGS:-} --out "$WORK/rep-$r-$i.exr"
     done

@@ -18,6 +18,67 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
 }
+
+using Intervals = std::vector<std::pair<double, double>>;
+// Sorted, disjoint union of intervals.
+Intervals merged(Intervals v) {
+  std::sort(v.begin(), v.end());
+  Intervals out;
+  for (auto [a, b] : v) {
+    if (b <= a) continue;
+    if (!out.empty() && a <= out.back().second) out.back().second = std::max(out.back().second, b);
+    else out.emplace_back(a, b);
+  }
+  return out;
+}
+double length(const Intervals& v) {
+  double t = 0;
+  for (auto [a, b] : v) t += b - a;
+  return t;
+}
+// [lo, hi] minus a sorted disjoint union.
+Intervals complement(const Intervals& v, double lo, double hi) {
+  Intervals out;
+  double at = lo;
+  for (auto [a, b] : v) {
+    if (b <= at) continue;
+    if (a >= hi) break;
+    if (a > at) out.emplace_back(at, a);
+    at = std::max(at, b);
+  }
+  if (at < hi) out.emplace_back(at, hi);
+  return out;
+}
+double overlap(const Intervals& x, const Intervals& y) {  // both sorted and disjoint
+  double t = 0;
+  for (std::size_t i = 0, j = 0; i < x.size() && j < y.size();) {
+    t += std::max(0.0, std::min(x[i].second, y[j].second) - std::max(x[i].first, y[j].first));
+    (x[i].second < y[j].second ? i : j) += 1;
+  }
+  return t;
+}
+
+// Issue 6: "disk channel busy >= 80 % of the time whenever the run is I/O-bound". The run
+// is I/O-bound while no compute device runs an E-job: every device then waits for data the
+// disk->RAM channel brings (or for nothing, at the very start and end, which the window
+// [first disk T-job start, last disk T-job end] leaves out). Returns (I/O-bound seconds,
+// share of them the channel spent on T-jobs). T-jobs alone undercount the channel (a
+// read-ahead runs before its T-job starts), so the share is a lower bound.
+std::pair<double, double> io_bound_busy(const Schedule& s) {
+  const DeviceGraph& g = s.graph();
+  Intervals exec, disk;
+  for (ActivityId a = 0; a < ActivityId(s.activity_count()); ++a) {
+    const Activity& x = s.activity(a);
+    if (x.state != ActivityState::Done || x.cancelled) continue;
+    if (x.kind == ActivityKind::Exec) exec.emplace_back(x.start, x.end);
+    else if (g.memories[g.channels[x.channel].from].kind == MemoryKind::Disk) disk.emplace_back(x.start, x.end);
+  }
+  if (disk.empty()) return {0.0, 0.0};
+  disk = merged(std::move(disk));
+  const Intervals bound = complement(merged(std::move(exec)), disk.front().first, disk.back().second);
+  const double t = length(bound);
+  return {t, t > 0 ? overlap(bound, disk) / t : 0.0};
+}
 }  // namespace
 
 std::string render_metrics_json(const RenderResult& r, const Schedule& s, const std::vector<double>& lane_busy) {
@@ -74,6 +135,7 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   // With read-ahead a block's read overlaps the previous T-job: the channel is busy for the
   // union of reads and builds (BlockStore), which the T-jobs' own time undercounts.
   disk_busy = std::max(disk_busy, r.store.channel_busy_seconds);
+  const auto [io_bound_s, busy_when_io_bound] = io_bound_busy(s);
   m["io"] = {{"loads", r.store.loads},
              {"loaders", r.loaders},
              {"evictions", r.store.evictions},
@@ -88,7 +150,9 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
              {"recycled_arrays", r.store.recycled_arrays},
              {"wasted_read_aheads", r.store.wasted_read_aheads},
              {"disk_read_fraction", r.store.disk_read_busy_seconds / secs},
-             {"disk_busy_fraction", disk_busy / secs}};
+             {"disk_busy_fraction", disk_busy / secs},
+             {"io_bound_seconds", io_bound_s},
+             {"disk_busy_when_io_bound", busy_when_io_bound}};
   // Cache hits: E-jobs whose SceneData was already in RAM (no T-job fetched it for them).
   std::set<JobId> fetched_for;
   std::uint64_t execs = 0;

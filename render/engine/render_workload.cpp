@@ -73,14 +73,24 @@ void RenderWorkload::generate() {
 }
 
 void RenderWorkload::stage(std::vector<RayRecord>& rays) {
-  for (const RayRecord& r : rays) staging_[r.cell][slot_of(r)].push_back(r);
+  // Count first so a queue grows at most once per call, geometrically (a wave of ~1 M camera
+  // rays would otherwise reallocate each queue ~20 times, page faults included).
+  std::vector<std::uint32_t> add(staging_.size() * kSlots, 0);
+  for (const RayRecord& r : rays) ++add[std::size_t(r.cell) * kSlots + std::size_t(slot_of(r))];
+  for (std::size_t c = 0; c < staging_.size(); ++c)
+    for (int k = 0; k < kSlots; ++k)
+      if (const std::uint32_t n = add[c * kSlots + std::size_t(k)]) {
+        auto& v = staging_[c][k].v;
+        if (v.capacity() < v.size() + n) v.reserve(std::max(v.size() + n, 2 * v.capacity()));
+      }
+  for (const RayRecord& r : rays) staging_[r.cell][slot_of(r)].v.push_back(r);
   staged_ += rays.size();
   rays.clear();
   rays.shrink_to_fit();
 }
 
-void RenderWorkload::make_job(int k, std::uint32_t cell, std::vector<RayRecord>& rays, std::size_t n, Time now,
-                              JobPool& pool, Schedule& s) {
+void RenderWorkload::make_job(int k, std::uint32_t cell, Staged& rays, std::size_t n, Time now, JobPool& pool,
+                              Schedule& s) {
   const RayKind kind = static_cast<RayKind>(k % 2);
   DataBlock q;
   q.name = std::string(kind == RayKind::Path ? "rays" : "shadow") + std::to_string(cell) + "." +
@@ -118,12 +128,25 @@ void RenderWorkload::make_job(int k, std::uint32_t cell, std::vector<RayRecord>&
     open_[cell][k] = id;
     ++jobs_created_;
   }
-  // Move the first n staged rays (FIFO keeps the order deterministic; order does not
-  // change the image anyway).
-  target->rays.insert(target->rays.end(), rays.begin(), rays.begin() + static_cast<std::ptrdiff_t>(n));
+  // Take the first n staged rays (FIFO keeps the order deterministic; order does not
+  // change the image anyway). A whole queue into a fresh job moves without a copy.
+  if (target->rays.empty() && rays.head == 0 && n == rays.v.size()) {
+    target->rays = std::move(rays.v);
+    rays.v = {};
+  } else {
+    const auto first = rays.v.begin() + static_cast<std::ptrdiff_t>(rays.head);
+    target->rays.insert(target->rays.end(), first, first + static_cast<std::ptrdiff_t>(n));
+    rays.head += n;
+    if (rays.head == rays.v.size()) {
+      rays.v.clear();
+      rays.head = 0;
+    } else if (2 * rays.head >= rays.v.size()) {
+      rays.v.erase(rays.v.begin(), rays.v.begin() + static_cast<std::ptrdiff_t>(rays.head));
+      rays.head = 0;
+    }
+  }
   target->input += n;
   target->parts.emplace_back(qb, static_cast<std::uint32_t>(n));
-  rays.erase(rays.begin(), rays.begin() + static_cast<std::ptrdiff_t>(n));
   staged_ -= n;
   in_jobs_ += n;
 }

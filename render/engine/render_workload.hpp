@@ -75,8 +75,15 @@ class RenderWorkload final : public Workload {
   void generate();  // camera rays into staging
   void stage(std::vector<trace::RayRecord>& rays);
   void flush(Time now, JobPool& pool, Schedule& s, bool all);
-  void make_job(int slot, std::uint32_t cell, std::vector<trace::RayRecord>& rays, std::size_t n, Time now,
-                JobPool& pool, Schedule& s);
+  // Staged rays of one (cell, slot): a FIFO whose taken front is skipped by `head` and
+  // dropped once it is half the vector (each ray is copied O(1) times, not once per job).
+  struct Staged {
+    std::vector<trace::RayRecord> v;
+    std::size_t head = 0;
+    std::size_t size() const { return v.size() - head; }
+    bool empty() const { return v.size() == head; }
+  };
+  void make_job(int slot, std::uint32_t cell, Staged& rays, std::size_t n, Time now, JobPool& pool, Schedule& s);
 
   trace::TraceSettings ts_;
   const trace::PinholeCamera& camera_;
@@ -93,7 +100,7 @@ class RenderWorkload final : public Workload {
     return static_cast<int>(r.kind) + ((r.flags & trace::kRayCpuOnly) ? 2 : 0);
   }
   JobTypeId type_[kSlots];
-  std::vector<std::array<std::vector<trace::RayRecord>, kSlots>> staging_;  // per cell, per slot
+  std::vector<std::array<Staged, kSlots>> staging_;  // per cell, per slot
   std::vector<std::array<JobId, kSlots>> open_;                               // queued job per cell, slot
   std::vector<std::unique_ptr<RayJob>> jobs_;                            // by JobId
   std::unordered_map<BlockId, JobId> consumer_;                          // ray queue -> its job

@@ -59,8 +59,15 @@ struct TempDir {
 std::uint32_t auto_blocks(std::uint64_t triangles, Bytes budget) {
   const double fp = double(BlockStore::footprint_of(triangles, trace::BvhQuality::Low));
   if (budget == 0) return std::uint32_t(std::clamp<double>(std::ceil(double(triangles) / 4e6), 1, 64));
-  // At least four blocks resident at once, and a few cells to balance the threads.
-  return std::uint32_t(std::clamp<double>(std::ceil(4 * fp / double(budget)), 8, 1024));
+  // At least four blocks resident at once, and a few cells to balance the threads. Blocks
+  // of at most ~160 k triangles: every load pays a BVH build (≈ 12 ms for 160 k triangles
+  // with the low-quality builder on the 2-core development VM), and out of core the last
+  // seconds are many loads for a few straggling rays each (README, "Performance"). On the
+  // 10 M-triangle museum at a 25 % budget: 16 blocks (four resident) 14.5 s, 32 blocks
+  // ≈ 13.4 s, 64 blocks ≈ 11.5 s, 128 blocks no better, 256 blocks much worse (1 800 loads,
+  // per-job overhead); at 10 %: 32 blocks 23.8 s, 64 blocks ≈ 18.6 s.
+  const double by_size = std::ceil(double(triangles) / 160e3);
+  return std::uint32_t(std::clamp<double>(std::max(std::ceil(4 * fp / double(budget)), by_size), 8, 1024));
 }
 
 // The Vulkan device of --gpu (issue 7), with the test hook of RenderOptions.

@@ -87,9 +87,26 @@ TEST_F(CliRender, MemoryStaysWithinBudgetPlusDocumentedOverhead) {
     EXPECT_LE(grown, double(budget + m.at("overhead_bound_bytes").get<std::uint64_t>()))
         << "RSS grew by " << grown << " bytes; budget " << budget << "; loaders " << loaders;
     EXPECT_LE(m.at("worst_footprint_ratio").get<double>(), 1.0) << "a block used more RAM than the plan charged";
-    EXPECT_GT(metrics(name).at("io").at("evictions").get<int>(), 0);
-    EXPECT_EQ(metrics(name).at("io").at("loaders").get<int>(), std::stoi(loaders));
+    const auto io = metrics(name).at("io");
+    EXPECT_GT(io.at("evictions").get<int>(), 0);
+    EXPECT_EQ(io.at("loaders").get<int>(), std::stoi(loaders));
+    // I/O-bound time (no E-job running, between the first and the last load) is part of
+    // the run, and the channel's share of it is a fraction.
+    EXPECT_GT(io.at("io_bound_seconds").get<double>(), 0.0);
+    EXPECT_LE(io.at("io_bound_seconds").get<double>(), metrics(name).at("seconds").get<double>());
+    EXPECT_GT(io.at("disk_busy_when_io_bound").get<double>(), 0.0);
+    EXPECT_LE(io.at("disk_busy_when_io_bound").get<double>(), 1.0 + 1e-12);
   }
+  // In core with one block the only T-job is its load, during which no E-job can run: the
+  // whole window is I/O-bound and the channel busy all of it.
+  r = rayline_cli("partition -q --scene " + path("museum.ply") + " --blocks 1 --out " + path("one"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  r = rayline_cli("render -q --scene " + path("museum.ply") + " --blocks-dir " + path("one") +
+                  " --resolution 16x16 --spp 1 --out " + path("one.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto one = metrics("one").at("io");
+  EXPECT_GT(one.at("io_bound_seconds").get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(one.at("disk_busy_when_io_bound").get<double>(), 1.0);
 }
 
 TEST_F(CliRender, PathsInFlightAutoAndExplicit) {
