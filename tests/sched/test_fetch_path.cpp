@@ -224,6 +224,10 @@ TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomGraphs) {
               for (std::size_t k = 1; k < p.size(); ++k)
                 EXPECT_EQ(r.g.channels[static_cast<std::size_t>(p[k])].from, r.g.channels[static_cast<std::size_t>(p[k - 1])].to);
               EXPECT_EQ(chain(s, blk, p, now), a) << "instance " << inst;
+              // The same channels as the plain Dijkstra tree's path (its tie-breaking).
+              std::vector<ChannelId> tree_path;
+              full.path(blk, dst, tree_path);
+              EXPECT_EQ(p, tree_path) << "instance " << inst << " round " << round;
             }
           }
           ++checked;
