@@ -38,19 +38,26 @@ bool RenderWorkload::finished() const {
 
 // Camera rays in sample-major scanline order (coherent waves), while paths_alive < cap.
 // A round generates what the cap allows, in chunks of 8192 rays on oneTBB's threads (each
-// chunk its own vector and counts; the film's sample counts are atomic), then stages the
-// chunks in order: the same rays in the same order as one thread would make. Out of core
-// the first wave is every path that fits (renderer.cpp), 844 k rays at 10 M triangles and
-// a 25 % budget: on one thread ≈ 0.5 s before the first load could start.
+// chunk its own vector and counts, and its rays' indices grouped by queue; the film's
+// sample counts are atomic), then stages them queue by queue, also on oneTBB's threads:
+// each queue appends its rays chunk by chunk in order, so every queue holds the same rays
+// in the same order as one thread would make. Out of core the first wave is every path
+// that fits (renderer.cpp), all 1 M rays at 10 M triangles and a 25 % budget: ≈ 1 s before
+// the first load could start when staged on one thread, most of it first touches of the
+// queues' pages.
 void RenderWorkload::generate() {
   if (aborted_) return;
   const std::uint64_t pixels = std::uint64_t(camera_.width()) * std::uint64_t(camera_.height());
   constexpr std::uint64_t kChunk = 8192;
+  const std::size_t queues = staging_.size() * kSlots;
   while (next_camera_ < total_camera_ && paths_alive_ < opt_.path_cap) {
     const std::uint64_t n = std::min<std::uint64_t>(total_camera_ - next_camera_, opt_.path_cap - paths_alive_);
     const std::size_t chunks = static_cast<std::size_t>((n + kChunk - 1) / kChunk);
     std::vector<std::vector<RayRecord>> fresh(chunks);
     std::vector<trace::RayCounts> counts(chunks);
+    // Per chunk: its rays' indices grouped by queue (cell * kSlots + slot), in ray order
+    // within a queue, and each queue's start in that list (queues + 1 entries).
+    std::vector<std::vector<std::uint32_t>> order(chunks), start(chunks);
     const std::uint64_t first = next_camera_;
     auto begin = [&](std::size_t k) { return first + k * kChunk; };
     auto end = [&](std::size_t k) { return std::min(first + n, begin(k) + kChunk); };
@@ -60,14 +67,31 @@ void RenderWorkload::generate() {
         trace::generate_camera_ray(ts_, camera_.position(), camera_.direction(pixel, sample, ts_.seed), pixel, sample,
                                    fresh[k], counts[k]);
       }
+      auto& st = start[k];
+      st.assign(queues + 1, 0);
+      for (const RayRecord& r : fresh[k]) ++st[std::size_t(r.cell) * kSlots + std::size_t(slot_of(r)) + 1];
+      for (std::size_t q = 0; q < queues; ++q) st[q + 1] += st[q];
+      std::vector<std::uint32_t> next(st.begin(), st.end() - 1);
+      order[k].resize(fresh[k].size());
+      for (std::uint32_t j = 0; j < fresh[k].size(); ++j)
+        order[k][next[std::size_t(fresh[k][j].cell) * kSlots + std::size_t(slot_of(fresh[k][j]))]++] = j;
     });
     for (std::size_t k = 0; k < chunks; ++k) {
       if (opt_.recorder) opt_.recorder->camera_rays(fresh[k], begin(k), end(k) - begin(k), pixels);
       // Camera rays that never meet the scene bounds end at once (escaped).
       paths_alive_ += (end(k) - begin(k)) - counts[k].paths_ended;
       counts_ += counts[k];
-      stage(fresh[k]);
+      staged_ += fresh[k].size();
     }
+    tbb::parallel_for(std::size_t(0), queues, [&](std::size_t q) {
+      std::size_t add = 0;
+      for (std::size_t k = 0; k < chunks; ++k) add += start[k][q + 1] - start[k][q];
+      if (add == 0) return;
+      auto& v = staging_[q / kSlots][q % kSlots].v;
+      if (v.capacity() < v.size() + add) v.reserve(std::max(v.size() + add, 2 * v.capacity()));
+      for (std::size_t k = 0; k < chunks; ++k)
+        for (std::uint32_t j = start[k][q]; j < start[k][q + 1]; ++j) v.push_back(fresh[k][order[k][j]]);
+    });
     next_camera_ += n;
   }
 }
