@@ -80,6 +80,7 @@ int run_render(const RenderCliOptions& opt) {
   ro.batching.path_cap = opt.paths;
   ro.bvh_quality = opt.bvh_quality;
   ro.read_ahead = opt.read_ahead == "on";
+  ro.skip_empty = opt.skip_empty == "on";
   ro.loaders = opt.loaders;
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!opt.memory_budget.empty()) ro.memory_budget = parse_bytes(opt.memory_budget, "--memory-budget");

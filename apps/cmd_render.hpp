@@ -20,6 +20,7 @@ struct RenderCliOptions {
   std::uint32_t paths = 0;           // paths in flight at most; 0 = auto
   std::string bvh_quality = "auto";
   std::string read_ahead = "on";     // --read-ahead on|off
+  std::string skip_empty = "on";     // --skip-empty on|off
   int loaders = 0;                   // --loaders N (0 = the platform's)
   std::string gpu = "auto";          // none | auto | index | name (issue 7)
   std::string gpu_memory_budget;     // "4GiB"; empty: half of the device's memory

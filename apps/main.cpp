@@ -169,6 +169,11 @@ void add_render(CLI::App& app, std::function<int()>& action) {
                 "block's BVH (one staged file outside the budget); off = read and build in turn")
       ->default_val(opt->read_ahead)
       ->check(CLI::IsMember({"on", "off"}));
+  r->add_option("--skip-empty", opt->skip_empty,
+                "on = a ray goes past a cell whose occupancy grid (blocks.json) its segment misses, without a "
+                "visit or a load; off = every cell along the ray is visited; the image is the same")
+      ->default_val(opt->skip_empty)
+      ->check(CLI::IsMember({"on", "off"}));
   r->add_option("--loaders", opt->loaders,
                 "disk->RAM channels: block loads (read + BVH build) in flight at once; 0 = the platform's "
                 "(one with --platform auto)")

@@ -105,6 +105,7 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   const double secs = r.seconds > 0 ? r.seconds : 1e-9;
   // A ray is counted once (created); `cell_visits` counts it once per cell it was tested in.
   m["rays"] = {{"cell_visits", r.counts.traced},
+               {"cells_skipped", r.counts.skipped},
                {"camera", r.camera_rays},
                {"created", r.counts.created},
                {"escaped", r.counts.escaped},

@@ -255,6 +255,7 @@ RenderResult render(const RenderOptions& opt) {
   ts.film = &film;
   ts.seed = opt.seed;
   ts.max_depth = res.max_depth;
+  ts.skip_empty = opt.skip_empty;
   const trace::PinholeCamera camera(cam, res.width, res.height);
   RenderWorkload workload(ts, camera, g, ram, scene_blocks, wo);
   // BVH builds may use every core: out of core the compute threads mostly wait for them

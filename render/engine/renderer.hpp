@@ -27,6 +27,7 @@ struct RenderOptions {
   int threads = 0;                 // compute devices; 0 = hardware threads
   int build_threads = 0;           // threads of one BVH build (the disk->RAM channel); 0 = `threads`
   bool read_ahead = true;          // read the next planned block file during the current build
+  bool skip_empty = true;          // rays go past cells whose occupancy grid they miss (cell_walk.hpp)
   int loaders = 0;                 // disk->RAM channels (loads at once); 0 = the platform's (auto: 1)
   std::uint64_t seed = 1;
   Time horizon = 2.0;              // k of GMB (Sec. 4.2)

@@ -18,6 +18,31 @@
 
 namespace rayline::partition {
 namespace fs = std::filesystem;
+
+// Sec. 6 / cell_walk.hpp: the occupancy grid a ray tests before it visits a cell.
+void mark_occupancy(const Bounds& cell, const Bounds& tb, BlockInfo& b) {
+  constexpr int R = BlockInfo::kOccupancyRes;
+  int lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    const float ext = cell.hi[a] - cell.lo[a];
+    if (!(ext > 0)) {  // a flat cell: the whole axis
+      lo[a] = 0, hi[a] = R - 1;
+      continue;
+    }
+    const float inv = float(R) / ext;
+    const float f0 = std::floor((tb.lo[a] - cell.lo[a]) * inv), f1 = std::floor((tb.hi[a] - cell.lo[a]) * inv);
+    lo[a] = int(std::clamp(f0 - 1.0f, 0.0f, float(R - 1)));
+    hi[a] = int(std::clamp(f1 + 1.0f, 0.0f, float(R - 1)));
+  }
+  for (int z = lo[2]; z <= hi[2]; ++z)
+    for (int y = lo[1]; y <= hi[1]; ++y)
+      for (int x = lo[0]; x <= hi[0]; ++x) {
+        const int bit = x + R * (y + R * z);
+        b.occupancy[std::size_t(bit / 64)] |= std::uint64_t(1) << (bit % 64);
+      }
+  b.has_occupancy = true;
+}
+
 using scene::ImportStats;
 using scene::TriangleBatchFn;
 
@@ -130,6 +155,8 @@ struct BlockWriter {
   std::uint64_t triangles = 0;
   std::uint32_t crc = 0;
   Bounds geometry;
+  Bounds cell;
+  BlockInfo occ;  // only its occupancy is used
 
   void flush() {
     if (buf.empty()) return;
@@ -317,6 +344,15 @@ std::string block_index_to_json(const BlockIndex& idx) {
     blocks.push_back({{"id", b.id}, {"file", b.file}, {"triangles", b.triangles}, {"bytes", b.file_bytes},
                       {"payload_crc32", b.payload_crc32}, {"cell", bounds_json(b.cell)},
                       {"geometry_bounds", bounds_json(b.geometry)}, {"neighbours", nb}});
+    if (b.has_occupancy) {
+      char hex[17];
+      std::string bits;
+      for (std::uint64_t word : b.occupancy) {
+        std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(word));
+        bits += hex;
+      }
+      blocks.back()["occupancy"] = {{"resolution", BlockInfo::kOccupancyRes}, {"bits", bits}};
+    }
   }
   j["blocks"] = blocks;
   return j.dump(1) + "\n";
@@ -369,6 +405,20 @@ BlockIndex load_block_index(const std::string& dir) {
       bi.payload_crc32 = b.at("payload_crc32").get<std::uint32_t>();
       bi.cell = get_bounds(b.at("cell"));
       bi.geometry = get_bounds(b.at("geometry_bounds"));
+      if (b.contains("occupancy")) {
+        const json& o = b.at("occupancy");
+        if (o.at("resolution").get<int>() != BlockInfo::kOccupancyRes)
+          throw InputError(file, field + ".occupancy.resolution",
+                           "must be " + std::to_string(BlockInfo::kOccupancyRes));
+        const std::string bits = o.at("bits").get<std::string>();
+        if (bits.size() != bi.occupancy.size() * 16 ||
+            bits.find_first_not_of("0123456789abcdef") != std::string::npos)
+          throw InputError(file, field + ".occupancy.bits",
+                           "must be " + std::to_string(bi.occupancy.size() * 16) + " lower-case hex digits");
+        for (std::size_t k = 0; k < bi.occupancy.size(); ++k)
+          bi.occupancy[k] = std::stoull(bits.substr(k * 16, 16), nullptr, 16);
+        bi.has_occupancy = true;
+      }
       for (const json& n : b.at("neighbours")) {
         Neighbour x{n.at("block").get<std::uint32_t>(), n.at("axis").get<int>(), n.at("area").get<double>()};
         if (x.block >= blocks.size() || x.axis < 0 || x.axis > 2)
@@ -502,6 +552,8 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
       write_text(w[b].path, std::string(placeholder.begin(), placeholder.end()));
       w[b].buf.reserve(std::size_t(per_block));
     }
+    for (const KdNode& n : idx.nodes)
+      if (n.leaf()) w[n.block].cell = n.cell;
     std::uint64_t routed = 0;
     prog = {2, 0, seen};
     source([&](std::span<const Triangle> batch) {
@@ -511,6 +563,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
           BlockWriter& bw = w[leaf];
           encode_records(std::span<const Triangle>(&t, 1), bw.buf);
           bw.geometry.extend(tb);
+          mark_occupancy(bw.cell, tb, bw.occ);
           ++bw.triangles;
           if (bw.buf.size() + kRecordBytes > per_block) bw.flush();
         });
@@ -532,6 +585,8 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
       bi.file = fs::path(bw.path).filename().string();
       bi.triangles = bw.triangles;
       bi.geometry = bw.geometry;
+      bi.has_occupancy = true;  // an empty block: no voxel set
+      bi.occupancy = bw.occ.occupancy;
       bi.payload_crc32 = bw.crc;
       bi.file_bytes = kBlockHeaderBytes + bw.triangles * kRecordBytes;
       idx.references += bw.triangles;

@@ -21,6 +21,7 @@
 //   block_00000.rlb … one block file per cell (format in block_file.hpp)
 //   blocks.json        the always-resident top level (schema in block_index_to_json).
 #pragma once
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -60,7 +61,17 @@ struct BlockInfo {
   std::uint64_t file_bytes = 0;  // header + payload
   std::uint32_t payload_crc32 = 0;
   std::vector<Neighbour> neighbours;  // sorted by block id
+  // Empty-space skipping (cell_walk.hpp): the cell split into kOccupancyRes^3 voxels, bit
+  // x + R·(y + R·z) set where a triangle's bounds, grown by one voxel, reach. A ray whose
+  // segment in the cell meets no set voxel cannot hit anything there. Absent in older
+  // block folders (has_occupancy false: every cell is visited).
+  static constexpr int kOccupancyRes = 32;
+  bool has_occupancy = false;
+  std::array<std::uint64_t, kOccupancyRes * kOccupancyRes * kOccupancyRes / 64> occupancy{};
 };
+
+// Sets the voxels of `cell` that the triangle bounds `tb`, grown by one voxel, reach.
+void mark_occupancy(const Bounds& cell, const Bounds& tb, BlockInfo& b);
 
 struct BlockIndex {
   std::string scene;                  // scene source it was partitioned from

@@ -1,6 +1,8 @@
 #include "render/trace/cell_walk.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <utility>
 
 namespace rayline::trace {
@@ -47,6 +49,52 @@ bool enter_cell(const partition::BlockIndex& index, scene::Float3 o, scene::Floa
   // computed a few ulps outside the slab test's interval (a wall on the boundary) is kept.
   out.tenter = lo == root_lo ? tmin : lo;
   out.texit = hi == root_hi ? tmax : hi;
+  return true;
+}
+
+bool segment_may_hit(const partition::BlockInfo& block, scene::Float3 o, scene::Float3 d, float t0, float t1) {
+  if (!block.has_occupancy) return true;
+  constexpr int R = partition::BlockInfo::kOccupancyRes;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const partition::Bounds& c = block.cell;
+  float vs[3];
+  float lo = t0, hi = t1;
+  for (int a = 0; a < 3; ++a) {
+    const float ext = c.hi[a] - c.lo[a];
+    if (!(ext > 0)) return true;
+    vs[a] = ext / float(R);
+    const float glo = c.lo[a] - vs[a], ghi = c.hi[a] + vs[a];  // the cell grown by a voxel
+    if (d[a] == 0) {
+      if (o[a] < glo || o[a] > ghi) return true;  // cannot be in this cell: do not decide
+      continue;
+    }
+    float ta = (glo - o[a]) / d[a], tb = (ghi - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    lo = std::max(lo, ta), hi = std::min(hi, tb);
+  }
+  if (!(lo <= hi) || !std::isfinite(lo) || !std::isfinite(hi)) return true;
+  // 3D DDA (Amanatides & Woo) from the clipped segment's start, indices clamped to the grid.
+  int i[3], step[3];
+  float next[3];
+  for (int a = 0; a < 3; ++a) {
+    const float p = o[a] + d[a] * lo;
+    i[a] = int(std::clamp(std::floor((p - c.lo[a]) / vs[a]), 0.0f, float(R - 1)));
+    step[a] = d[a] > 0 ? 1 : (d[a] < 0 ? -1 : 0);
+    next[a] = step[a] == 0 ? kInf : (c.lo[a] + float(i[a] + (step[a] > 0 ? 1 : 0)) * vs[a] - o[a]) / d[a];
+  }
+  for (int guard = 0; guard < 4 * R; ++guard) {
+    const int bit = i[0] + R * (i[1] + R * i[2]);
+    if ((block.occupancy[std::size_t(bit / 64)] >> (bit % 64)) & 1) return true;
+    const int a = next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2) : (next[1] <= next[2] ? 1 : 2);
+    if (next[a] > hi) return false;  // the rest of the segment stays in this voxel
+    i[a] += step[a];
+    if (i[a] < 0 || i[a] >= R) {  // into the grown border: those points count in the border voxel
+      i[a] = std::clamp(i[a], 0, R - 1);
+      next[a] = kInf;
+      continue;
+    }
+    next[a] = (c.lo[a] + float(i[a] + (step[a] > 0 ? 1 : 0)) * vs[a] - o[a]) / d[a];
+  }
   return true;
 }
 

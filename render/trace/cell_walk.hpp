@@ -25,4 +25,14 @@ struct CellSpan {
 bool enter_cell(const partition::BlockIndex& index, scene::Float3 o, scene::Float3 d, float tmin, float tmax,
                 CellSpan& out);
 
+// Empty-space skipping: false only when the segment o + t·d, t in [t0, t1], meets no set
+// voxel of the block's occupancy grid (partition.hpp), so no triangle of the block can be
+// hit there and the ray may go on to the next cell without the block being loaded: the
+// image is the same (the skipped cell would have reported no hit), only fewer cell visits
+// and loads. Conservative: voxels are grown by one around each triangle's bounds, the
+// segment is clipped to the cell grown by one voxel and points outside the grid count in
+// its border voxels, so float error smaller than a voxel can only answer true. True for a
+// block without a grid.
+bool segment_may_hit(const partition::BlockInfo& block, scene::Float3 o, scene::Float3 d, float t0, float t1);
+
 }  // namespace rayline::trace

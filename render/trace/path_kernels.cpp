@@ -55,7 +55,19 @@ constexpr std::uint8_t kFirstCell = 1;  // RayRecord::flags: the ray's first cel
 // Continue `r` after its current cell (texit), or finish it. New rays come with texit = 0.
 void advance(const TraceSettings& ts, RayRecord r, std::vector<RayRecord>& out, RayCounts& counts, bool fresh = false) {
   CellSpan span;
-  if (r.texit < r.tfar && enter_cell(*ts.cells, r.org, r.dir, r.texit, r.tfar, span)) {
+  while (r.texit < r.tfar && enter_cell(*ts.cells, r.org, r.dir, r.texit, r.tfar, span)) {
+    if (ts.skip_empty) {
+      // The cell's query interval (query_interval: widened by delta(t) on both sides).
+      const float w0 = ts.overlap_rel * std::fabs(span.tenter) + ts.overlap_abs;
+      const float w1 = ts.overlap_rel * std::fabs(span.texit) + ts.overlap_abs;
+      if (!segment_may_hit(ts.cells->blocks[span.cell], r.org, r.dir, span.tenter - w0, span.texit + w1)) {
+        // As if traced there without a hit: on to the next cell, no longer the first.
+        ++counts.skipped;
+        r.texit = span.texit;
+        fresh = false;
+        continue;
+      }
+    }
     r.flags = fresh ? kFirstCell : std::uint8_t(0);
     r.cell = span.cell;
     r.tnear = span.tenter;

@@ -32,6 +32,9 @@ struct TraceSettings {
   // Overlap of successive cell intervals in the Embree query, delta(t) = rel·t + abs (see
   // ray_interval in path_kernels.cpp). abs is set from the scene bounds by set_bounds().
   float overlap_rel = 1e-6f, overlap_abs = 0;
+  // Empty-space skipping (cell_walk.hpp, segment_may_hit): a ray skips cells whose
+  // occupancy grid its segment misses. The image is the same either way (tested).
+  bool skip_empty = true;
   void set_bounds(const scene::Bounds& b);
 };
 
@@ -45,11 +48,13 @@ struct RayCounts {
   std::uint64_t occluded = 0;        // shadow rays blocked
   std::uint64_t unoccluded = 0;      // shadow rays reaching their light
   std::uint64_t paths_ended = 0;     // paths with no continuation (escaped, depth, roulette)
+  std::uint64_t skipped = 0;         // cells a ray went past without a visit (empty space)
   std::uint64_t ended() const { return escaped + terminated + occluded + unoccluded; }
   RayCounts& operator+=(const RayCounts& o) {
     traced += o.traced, created += o.created, escaped += o.escaped, terminated += o.terminated;
     occluded += o.occluded, unoccluded += o.unoccluded;
     paths_ended += o.paths_ended;
+    skipped += o.skipped;
     return *this;
   }
 };
