@@ -30,6 +30,26 @@ void expect_sane(const RenderResult& r) {
   EXPECT_GT(sum, 0.0);
 }
 
+// The in-core render and two at a quarter of its block bytes that differ only by what
+// `vary(a, b)` sets; all three sane.
+struct QuarterPair {
+  RenderResult in_core, a, b;
+};
+template <class Vary>
+QuarterPair quarter_budget_pair(const Vary& vary) {
+  RenderOptions a = base();
+  RenderOptions b = base();
+  QuarterPair r;
+  r.in_core = render(base());
+  a.memory_budget = b.memory_budget = r.in_core.scene_block_bytes / 4;
+  vary(a, b);
+  r.a = render(a);
+  r.b = render(b);
+  expect_sane(r.a);
+  expect_sane(r.b);
+  return r;
+}
+
 }  // namespace
 
 TEST(RenderDeterminism, InCoreVsQuarterBudgetSameImage) {
@@ -115,15 +135,10 @@ TEST(RenderDeterminism, BvhQualitySameImage) {
 
 TEST(RenderDeterminism, TwoLoadersSameImage) {
   // Two disk->RAM channels: two blocks load (read + BVH build) at once; timing only.
-  RenderOptions a = base();
-  RenderOptions b = base();
-  const RenderResult in_core = render(base());
-  a.memory_budget = b.memory_budget = in_core.scene_block_bytes / 4;
-  a.loaders = 1;
-  b.loaders = 2;
-  const RenderResult ra = render(a), rb = render(b);
-  expect_sane(ra);
-  expect_sane(rb);
+  const auto [in_core, ra, rb] = quarter_budget_pair([](RenderOptions& a, RenderOptions& b) {
+    a.loaders = 1;
+    b.loaders = 2;
+  });
   EXPECT_EQ(ra.loaders, 1);
   EXPECT_EQ(rb.loaders, 2);
   EXPECT_EQ(rb.store.unplanned_loads, 0u);
@@ -134,15 +149,10 @@ TEST(RenderDeterminism, TwoLoadersSameImage) {
 TEST(RenderDeterminism, EmptySpaceSkippingSameImage) {
   // Going past cells whose occupancy grid a ray misses changes which cells are visited and
   // loaded, never a hit: the same image, with fewer visits.
-  RenderOptions a = base();
-  RenderOptions b = base();
-  const RenderResult in_core = render(base());
-  a.memory_budget = b.memory_budget = in_core.scene_block_bytes / 4;
-  a.skip_empty = true;
-  b.skip_empty = false;
-  const RenderResult ra = render(a), rb = render(b);
-  expect_sane(ra);
-  expect_sane(rb);
+  const auto [in_core, ra, rb] = quarter_budget_pair([](RenderOptions& a, RenderOptions& b) {
+    a.skip_empty = true;
+    b.skip_empty = false;
+  });
   EXPECT_EQ(rb.counts.skipped, 0u);
   EXPECT_GT(ra.counts.skipped, 0u) << "the built-in room has empty space to skip";
   EXPECT_LT(ra.counts.traced, rb.counts.traced);
@@ -153,15 +163,10 @@ TEST(RenderDeterminism, EmptySpaceSkippingSameImage) {
 
 TEST(RenderDeterminism, ReadAheadSameImage) {
   // Reading the next block during the previous build changes timing only.
-  RenderOptions a = base();
-  RenderOptions b = base();
-  const RenderResult in_core = render(base());
-  a.memory_budget = b.memory_budget = in_core.scene_block_bytes / 4;
-  a.read_ahead = true;
-  b.read_ahead = false;
-  const RenderResult ra = render(a), rb = render(b);
-  expect_sane(ra);
-  expect_sane(rb);
+  const auto [in_core, ra, rb] = quarter_budget_pair([](RenderOptions& a, RenderOptions& b) {
+    a.read_ahead = true;
+    b.read_ahead = false;
+  });
   EXPECT_EQ(rb.store.read_aheads, 0u);
   EXPECT_GT(ra.store.read_aheads, 0u) << "out of core, loads must be read ahead";
   EXPECT_GT(ra.store.recycled_arrays, 0u) << "evicted blocks' arrays must be reused";

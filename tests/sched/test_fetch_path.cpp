@@ -133,6 +133,19 @@ void place_blocks_randomly(const RandomState& r, Schedule& s, std::mt19937& rng)
   for (BlockId blk : r.blocks) s.put_initial(blk, r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)]);
 }
 
+// Every block of r on 1-3 random memory devices of r (the first its origin), 30 % of the
+// copies ready only later.
+void place_holders_randomly(const RandomState& r, Schedule& s, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  for (BlockId blk : r.blocks) {
+    const int holders = 1 + static_cast<int>(u(rng) * 3);
+    for (int h = 0; h < holders; ++h) {
+      const MemId at = r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)];
+      if (!s.copy_at(blk, at)) s.put_initial(blk, at, u(rng) < 0.3 ? u(rng) : 0.0, h == 0);
+    }
+  }
+}
+
 // One random hop committed (more contention and a new holder), when the block is on the
 // channel's source and not yet on its destination. `at` gives the T-job's earliest start.
 template <class At>
@@ -171,13 +184,7 @@ TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomGraphs) {
   for (int inst = 0; inst < 300; ++inst) {
     RandomState r = random_state(rng, inst);
     Schedule s(r.g, r.pool);
-    for (BlockId blk : r.blocks) {
-      const int holders = 1 + static_cast<int>(u(rng) * 3);
-      for (int h = 0; h < holders; ++h) {
-        const MemId at = r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)];
-        if (!s.copy_at(blk, at)) s.put_initial(blk, at, u(rng) < 0.3 ? u(rng) : 0.0, h == 0);
-      }
-    }
+    place_holders_randomly(r, s, rng);
     const Time now = u(rng) * 0.5;
     FetchBound fb(r.g);
     FetchPathFinder cached(s);  // lives through the commits: its memo must stay right
@@ -266,8 +273,6 @@ TEST(FetchBound, MemoisedLowerBoundEqualsFreshOne) {
   }
 }
 
-// Schedule keeps FinishTime(c) per channel and a holder mask per block: both equal what
-// they summarise, through commits and reproject().
 // FetchBound::last_hop_floor() (the pre-search cut of arrival_within) never exceeds the
 // SDC arrival, bit for bit (no tolerance: it is the last hop's Eq. 3 with max(l, F) >= F),
 // on random graphs with shared resources, small memories, several holders (some of them
@@ -279,13 +284,7 @@ TEST(FetchBound, LastHopFloorNeverExceedsTheArrival) {
   for (int inst = 0; inst < 300; ++inst) {
     RandomState r = random_state(rng, inst);
     Schedule s(r.g, r.pool);
-    for (BlockId blk : r.blocks) {
-      const int holders = 1 + static_cast<int>(u(rng) * 3);
-      for (int h = 0; h < holders; ++h) {
-        const MemId at = r.m[std::uniform_int_distribution<std::size_t>(0, r.m.size() - 1)(rng)];
-        if (!s.copy_at(blk, at)) s.put_initial(blk, at, u(rng) < 0.3 ? u(rng) : 0.0, h == 0);
-      }
-    }
+    place_holders_randomly(r, s, rng);
     const Time now = u(rng) * 0.5;
     FetchBound fb(r.g);
     for (int round = 0; round < 5; ++round) {
@@ -353,6 +352,8 @@ TEST(ArrivalBound, AssignAllEqualsOneByOne) {
   }
 }
 
+// Schedule keeps FinishTime(c) per channel and a holder mask per block: both equal what
+// they summarise, through commits and reproject().
 TEST(Schedule, ChannelFinishAndHoldersStayInStepWithTimelines) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0, 1);
