@@ -37,12 +37,8 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
     d = d == kNone ? static_cast<ChannelId>(c) : kSeveral;
     bool relay = false;
     for (ChannelId in : g.in_channels(ch.from)) relay = relay || g.channels[in].from != ch.to;
-    if (!relay)
-      own_in_[static_cast<std::size_t>(ch.to)].push_back(
-          {static_cast<ChannelId>(c), ch.from, g.memories[static_cast<std::size_t>(ch.from)].capacity, ch.latency, ch.bandwidth});
-    if (relay)
-      relay_in_[static_cast<std::size_t>(ch.to)].push_back(
-          {static_cast<ChannelId>(c), ch.from, g.memories[static_cast<std::size_t>(ch.from)].capacity, ch.latency, ch.bandwidth});
+    (relay ? relay_in_ : own_in_)[static_cast<std::size_t>(ch.to)].push_back(
+        {static_cast<ChannelId>(c), ch.from, g.memories[static_cast<std::size_t>(ch.from)].capacity, ch.latency, ch.bandwidth});
   }
   lat_to_.resize(n_ * n_);
   inv_bw_to_.resize(n_ * n_);

@@ -69,12 +69,12 @@ void RenderWorkload::generate() {
       }
       auto& st = start[k];
       st.assign(queues + 1, 0);
-      for (const RayRecord& r : fresh[k]) ++st[std::size_t(r.cell) * kSlots + std::size_t(slot_of(r)) + 1];
+      for (const RayRecord& r : fresh[k]) ++st[queue_of(r) + 1];
       for (std::size_t q = 0; q < queues; ++q) st[q + 1] += st[q];
       std::vector<std::uint32_t> next(st.begin(), st.end() - 1);
       order[k].resize(fresh[k].size());
       for (std::uint32_t j = 0; j < fresh[k].size(); ++j)
-        order[k][next[std::size_t(fresh[k][j].cell) * kSlots + std::size_t(slot_of(fresh[k][j]))]++] = j;
+        order[k][next[queue_of(fresh[k][j])]++] = j;
     });
     for (std::size_t k = 0; k < chunks; ++k) {
       if (opt_.recorder) opt_.recorder->camera_rays(fresh[k], begin(k), end(k) - begin(k), pixels);
@@ -87,27 +87,23 @@ void RenderWorkload::generate() {
       std::size_t add = 0;
       for (std::size_t k = 0; k < chunks; ++k) add += start[k][q + 1] - start[k][q];
       if (add == 0) return;
-      auto& v = staging_[q / kSlots][q % kSlots].v;
-      if (v.capacity() < v.size() + add) v.reserve(std::max(v.size() + add, 2 * v.capacity()));
+      Staged& st = queue(q);
+      st.reserve_more(add);
       for (std::size_t k = 0; k < chunks; ++k)
-        for (std::uint32_t j = start[k][q]; j < start[k][q + 1]; ++j) v.push_back(fresh[k][order[k][j]]);
+        for (std::uint32_t j = start[k][q]; j < start[k][q + 1]; ++j) st.v.push_back(fresh[k][order[k][j]]);
     });
     next_camera_ += n;
   }
 }
 
 void RenderWorkload::stage(std::vector<RayRecord>& rays) {
-  // Count first so a queue grows at most once per call, geometrically (a wave of ~1 M camera
-  // rays would otherwise reallocate each queue ~20 times, page faults included).
+  // Count first so a queue grows at most once per call (a job's output would otherwise
+  // reallocate its queues many times, page faults included).
   std::vector<std::uint32_t> add(staging_.size() * kSlots, 0);
-  for (const RayRecord& r : rays) ++add[std::size_t(r.cell) * kSlots + std::size_t(slot_of(r))];
-  for (std::size_t c = 0; c < staging_.size(); ++c)
-    for (int k = 0; k < kSlots; ++k)
-      if (const std::uint32_t n = add[c * kSlots + std::size_t(k)]) {
-        auto& v = staging_[c][k].v;
-        if (v.capacity() < v.size() + n) v.reserve(std::max(v.size() + n, 2 * v.capacity()));
-      }
-  for (const RayRecord& r : rays) staging_[r.cell][slot_of(r)].v.push_back(r);
+  for (const RayRecord& r : rays) ++add[queue_of(r)];
+  for (std::size_t q = 0; q < add.size(); ++q)
+    if (add[q]) queue(q).reserve_more(add[q]);
+  for (const RayRecord& r : rays) queue(queue_of(r)).v.push_back(r);
   staged_ += rays.size();
   rays.clear();
   rays.shrink_to_fit();

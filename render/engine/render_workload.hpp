@@ -6,6 +6,7 @@
 // on arrival, Sec. 5.1) or become a new job once there are `min_batch` of them, or
 // whenever fewer jobs are queued than there are compute devices.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <deque>
@@ -82,6 +83,10 @@ class RenderWorkload final : public Workload {
     std::size_t head = 0;
     std::size_t size() const { return v.size() - head; }
     bool empty() const { return v.size() == head; }
+    // Room for n more, growing geometrically (a queue grows at most once per staging).
+    void reserve_more(std::size_t n) {
+      if (v.capacity() < v.size() + n) v.reserve(std::max(v.size() + n, 2 * v.capacity()));
+    }
   };
   void make_job(int slot, std::uint32_t cell, Staged& rays, std::size_t n, Time now, JobPool& pool, Schedule& s);
 
@@ -99,6 +104,11 @@ class RenderWorkload final : public Workload {
   static int slot_of(const trace::RayRecord& r) {
     return static_cast<int>(r.kind) + ((r.flags & trace::kRayCpuOnly) ? 2 : 0);
   }
+  // The ray's queue as one index: cell * kSlots + slot.
+  static std::size_t queue_of(const trace::RayRecord& r) {
+    return std::size_t(r.cell) * kSlots + std::size_t(slot_of(r));
+  }
+  Staged& queue(std::size_t q) { return staging_[q / kSlots][q % kSlots]; }
   JobTypeId type_[kSlots];
   std::vector<std::array<Staged, kSlots>> staging_;  // per cell, per slot
   std::vector<std::array<JobId, kSlots>> open_;                               // queued job per cell, slot

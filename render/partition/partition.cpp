@@ -20,7 +20,7 @@ namespace rayline::partition {
 namespace fs = std::filesystem;
 
 // Sec. 6 / cell_walk.hpp: the occupancy grid a ray tests before it visits a cell.
-void mark_occupancy(const Bounds& cell, const Bounds& tb, BlockInfo& b) {
+void mark_occupancy(const Bounds& cell, const Bounds& tb, BlockInfo::Occupancy& bits) {
   constexpr int R = BlockInfo::kOccupancyRes;
   int lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
@@ -38,9 +38,8 @@ void mark_occupancy(const Bounds& cell, const Bounds& tb, BlockInfo& b) {
     for (int y = lo[1]; y <= hi[1]; ++y)
       for (int x = lo[0]; x <= hi[0]; ++x) {
         const int bit = x + R * (y + R * z);
-        b.occupancy[std::size_t(bit / 64)] |= std::uint64_t(1) << (bit % 64);
+        bits[std::size_t(bit / 64)] |= std::uint64_t(1) << (bit % 64);
       }
-  b.has_occupancy = true;
 }
 
 using scene::ImportStats;
@@ -156,7 +155,7 @@ struct BlockWriter {
   std::uint32_t crc = 0;
   Bounds geometry;
   Bounds cell;
-  BlockInfo occ;  // only its occupancy is used
+  BlockInfo::Occupancy occupancy{};
 
   void flush() {
     if (buf.empty()) return;
@@ -563,7 +562,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
           BlockWriter& bw = w[leaf];
           encode_records(std::span<const Triangle>(&t, 1), bw.buf);
           bw.geometry.extend(tb);
-          mark_occupancy(bw.cell, tb, bw.occ);
+          mark_occupancy(bw.cell, tb, bw.occupancy);
           ++bw.triangles;
           if (bw.buf.size() + kRecordBytes > per_block) bw.flush();
         });
@@ -586,7 +585,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
       bi.triangles = bw.triangles;
       bi.geometry = bw.geometry;
       bi.has_occupancy = true;  // an empty block: no voxel set
-      bi.occupancy = bw.occ.occupancy;
+      bi.occupancy = bw.occupancy;
       bi.payload_crc32 = bw.crc;
       bi.file_bytes = kBlockHeaderBytes + bw.triangles * kRecordBytes;
       idx.references += bw.triangles;

@@ -66,12 +66,13 @@ struct BlockInfo {
   // segment in the cell meets no set voxel cannot hit anything there. Absent in older
   // block folders (has_occupancy false: every cell is visited).
   static constexpr int kOccupancyRes = 32;
+  using Occupancy = std::array<std::uint64_t, kOccupancyRes * kOccupancyRes * kOccupancyRes / 64>;
   bool has_occupancy = false;
-  std::array<std::uint64_t, kOccupancyRes * kOccupancyRes * kOccupancyRes / 64> occupancy{};
+  Occupancy occupancy{};
 };
 
 // Sets the voxels of `cell` that the triangle bounds `tb`, grown by one voxel, reach.
-void mark_occupancy(const Bounds& cell, const Bounds& tb, BlockInfo& b);
+void mark_occupancy(const Bounds& cell, const Bounds& tb, BlockInfo::Occupancy& bits);
 
 struct BlockIndex {
   std::string scene;                  // scene source it was partitioned from

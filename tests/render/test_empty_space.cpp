@@ -55,6 +55,7 @@ Case make_case(std::mt19937& rng) {
     c.cell.hi[a] = c.cell.lo[a] + 0.5f + 6 * u(rng);
   }
   c.block.cell = c.cell;
+  c.block.has_occupancy = true;
   const int n = 1 + int(u(rng) * 12);
   for (int k = 0; k < n; ++k) {
     // Small triangles anywhere in the cell grown by 20 % (some straddle its faces), now and
@@ -74,7 +75,7 @@ Case make_case(std::mt19937& rng) {
       v = d3(p);
       tb.extend(p);
     }
-    mark_occupancy(c.cell, tb, c.block);
+    mark_occupancy(c.cell, tb, c.block.occupancy);
     c.tris.push_back(t);
   }
   return c;
@@ -146,7 +147,8 @@ TEST(EmptySpace, NoGridOrFullGridNeverSkips) {
   b.cell.hi = {1, 1, 1};
   const Float3 o{-1, 0.5f, 0.5f}, d{1, 0, 0};
   EXPECT_TRUE(segment_may_hit(b, o, d, 1, 2)) << "a block without a grid (older partitions)";
-  mark_occupancy(b.cell, b.cell, b);
+  b.has_occupancy = true;
+  mark_occupancy(b.cell, b.cell, b.occupancy);
   EXPECT_TRUE(segment_may_hit(b, o, d, 1, 2));
   BlockInfo e;  // a grid with no voxel set: an empty block
   e.cell = b.cell;
@@ -161,7 +163,8 @@ TEST(EmptySpace, CornerTriangleMarksItsVoxelAndItsNeighbours) {
   Bounds tb;  // inside the corner voxel (2 / kOccupancyRes wide)
   tb.extend(Float3{0.01f, 0.01f, 0.01f});
   tb.extend(Float3{0.02f, 0.02f, 0.02f});
-  mark_occupancy(b.cell, tb, b);
+  b.has_occupancy = true;
+  mark_occupancy(b.cell, tb, b.occupancy);
   int set = 0;
   for (auto w : b.occupancy) set += std::popcount(w);
   EXPECT_EQ(set, 8) << "grown by one voxel, clamped to the grid: 2x2x2 at the corner";
