@@ -371,4 +371,22 @@ TEST_F(PartitionTest, BadInputsAreInputErrors) {
   EXPECT_FALSE(fs::exists(path("p/block_00007.rlb")));
   for (const auto& e : fs::directory_iterator(dir_))
     EXPECT_EQ(e.path().filename().string().find(".partial."), std::string::npos) << e.path();
+  // A damaged occupancy grid in blocks.json names the block and the field.
+  const std::string index = path("p/blocks.json");
+  std::string text;
+  {
+    std::ifstream in(index);
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const auto at = text.find("\"bits\"");
+  ASSERT_NE(at, std::string::npos) << "the partitioner writes occupancy grids";
+  const auto digit = text.find('"', text.find(':', at)) + 1;
+  text[digit] = 'z';
+  std::ofstream(index) << text;
+  try {
+    load_block_index(path("p"));
+    ADD_FAILURE() << "a bad occupancy grid was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "blocks[0].occupancy.bits") << e.what();
+  }
 }
