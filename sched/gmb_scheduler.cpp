@@ -10,7 +10,12 @@
 namespace rayline {
 
 namespace {
-bool nearly_equal(Time a, Time b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(a)); }
+// (An infinite time is equal only to itself: without that, kNever would tie with every
+// best start, and a bound of kNever would never lose.)
+bool nearly_equal(Time a, Time b) {
+  if (std::isinf(a) || std::isinf(b)) return a == b;
+  return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(a));
+}
 }  // namespace
 
 std::string GmbScheduler::describe() const {
