@@ -76,6 +76,18 @@ bool FetchPathFinder::memo_exact(const Memo& e) const {
   return v == e.stamp;
 }
 
+// The operations cut_search() and search() use (root label max(now, ready), then Eq. 3 per
+// hop), so the value is bit-identical to the label this path would get.
+Time FetchPathFinder::memo_path_now(const Memo& e, BlockId b) const {
+  const DeviceGraph& g = schedule_->graph();
+  const Bytes bytes = schedule_->pool().block(b).bytes;
+  const Copy* src = schedule_->copy_at(b, g.channels[static_cast<std::size_t>(e.path[0])].from);
+  if (!src) return kNever;
+  Time l = std::max(now_, schedule_->copy_ready(*src));
+  for (int h = 0; h < e.hops; ++h) l = std::max(l, schedule_->channel_finish(e.path[h])) + g.transfer_time(e.path[h], bytes);
+  return l;
+}
+
 std::uint64_t FetchPathFinder::channel_stamp(ChannelId c) const {
   std::uint64_t v = 0;
   for (ResourceId r : schedule_->graph().channels[c].resources) v += schedule_->resource_version(r);

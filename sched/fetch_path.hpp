@@ -167,6 +167,8 @@ class FetchPathFinder {
   std::vector<Memo> memos_;
   Memo& memo(BlockId b, MemId m);
   bool memo_exact(const Memo& e) const;
+  // Eq. 3 along the memo's path as the Schedule stands now (e.hops > 0).
+  Time memo_path_now(const Memo& e, BlockId b) const;
   std::uint64_t searches_ = 0, hits_ = 0, cut_searches_ = 0;
   Time now_ = 0;
   bool scene_local_ = false;
@@ -202,6 +204,26 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     ++hits_;
     if (proven) *proven = f.lb;
     return kNever;
+  }
+  // A booking on the memoised path often does not delay it (a busier hop the data reaches
+  // only after it is free again). Within a pass every path only gets slower, so when the
+  // path still evaluates to (at most) the proven lower bound it is a best path again, and
+  // the only one if it was: re-stamp it instead of searching. Otherwise its value is an
+  // upper bound, which may already answer "by `enough`".
+  if (f.hops > 0) {
+    const Time v = memo_path_now(f, b);
+    if (v <= f.lb) {
+      ++hits_;
+      f.lb = v;
+      f.stamp = 0;
+      for (int h = 0; h < f.hops; ++h) f.stamp += channel_stamp(f.path[h]);
+      if (hops) *hops = f.hops;
+      return answer(v);
+    }
+    if (v <= enough) {
+      ++hits_;
+      return v;
+    }
   }
   // Before any search: the last hop's floor (FetchBound::last_hop_floor) often loses
   // already; it is a lower bound on the arrival, memoised as one.
