@@ -11,6 +11,7 @@ PACKAGES=(
   libgtest-dev libbenchmark-dev libcli11-dev libeigen3-dev libassimp-dev zlib1g-dev
   libvulkan-dev mesa-vulkan-drivers glslc
   python3-matplotlib python3-pandas jupyter-nbconvert python3-nbformat python3-ipykernel python3-imath
+  valgrind  # scripts/count_plan_instructions.sh (GMB planning cost, deterministic)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do
