@@ -10,8 +10,8 @@
 
 #include <optional>
 
+#include "bench/gmb_bench_instance.hpp"
 #include "sched/gmb_scheduler.hpp"
-#include "sched/job_set.hpp"
 #include "sched/platform_loader.hpp"
 
 using namespace rayline;
@@ -21,15 +21,13 @@ namespace {
 void plan_horizon(benchmark::State& state, const char* platform, int blocks, int jobs, Time horizon,
                   bool reference = false, bool warm = false) {
   const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/" + platform);
-  const JobSet base = synthetic_ray_batching(g, blocks, jobs, 42);
+  const JobSet base = bench::gmb_bench_jobs(g, blocks, jobs);
   double placements = 0, execs = 0, searches = 0, hits = 0, cut = 0, plan_seconds = 0;
   const GmbOptions opt{.horizon = horizon, .reference_selection = reference};
   GmbScheduler kept(opt);
   for (auto _ : state) {
     state.PauseTiming();
-    auto set = std::make_unique<JobSet>(base);
-    auto s = std::make_unique<Schedule>(g, set->pool);
-    for (auto [b, m] : set->initial) s->put_initial(b, m);
+    auto [set, s] = bench::fresh_plan(g, base);
     std::optional<GmbScheduler> fresh;
     if (!warm) fresh.emplace(opt);
     GmbScheduler& gmb = warm ? kept : *fresh;

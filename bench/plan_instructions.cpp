@@ -12,9 +12,9 @@
 #include <memory>
 #include <string>
 
+#include "bench/gmb_bench_instance.hpp"
 #include "sched/error.hpp"
 #include "sched/gmb_scheduler.hpp"
-#include "sched/job_set.hpp"
 #include "sched/platform_loader.hpp"
 
 using namespace rayline;
@@ -43,13 +43,11 @@ int main(int argc, char** argv) {
   }
   try {
     const DeviceGraph g = load_platform(platform);
-    const JobSet base = synthetic_ray_batching(g, 129, 1000, 42);
+    const JobSet base = bench::gmb_bench_jobs(g);
     GmbScheduler kept(GmbOptions{.horizon = horizon});
     double placements = 0;
     for (long i = 0; i <= plans; ++i) {  // plan 0 warms the kept scheduler up
-      auto set = std::make_unique<JobSet>(base);
-      auto s = std::make_unique<Schedule>(g, set->pool);
-      for (auto [b, m] : set->initial) s->put_initial(b, m);
+      auto [set, s] = bench::fresh_plan(g, base);
       if (i > 0) CALLGRIND_TOGGLE_COLLECT;
       const PlanStats st = kept.plan(0, set->pool, *s);
       if (i > 0) CALLGRIND_TOGGLE_COLLECT;

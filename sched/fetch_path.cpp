@@ -70,11 +70,13 @@ Time FetchPathFinder::known_lower_bound(BlockId b, MemId m) const {
   return e.holders == schedule_->holders_version(b) ? e.lb : -kNever;
 }
 
-bool FetchPathFinder::memo_exact(const Memo& e) const {
+std::uint64_t FetchPathFinder::memo_stamp(const Memo& e) const {
   std::uint64_t v = 0;
   for (int h = 0; h < e.hops; ++h) v += channel_stamp(e.path[h]);
-  return v == e.stamp;
+  return v;
 }
+
+bool FetchPathFinder::memo_exact(const Memo& e) const { return memo_stamp(e) == e.stamp; }
 
 // The operations cut_search() and search() use (root label max(now, ready), then Eq. 3 per
 // hop), so the value is bit-identical to the label this path would get.

@@ -166,6 +166,7 @@ class FetchPathFinder {
   std::vector<std::int32_t> memo_index_;  // slot x memory device
   std::vector<Memo> memos_;
   Memo& memo(BlockId b, MemId m);
+  std::uint64_t memo_stamp(const Memo& e) const;  // resource versions along e.path now
   bool memo_exact(const Memo& e) const;
   // Eq. 3 along the memo's path as the Schedule stands now (e.hops > 0).
   Time memo_path_now(const Memo& e, BlockId b) const;
@@ -195,7 +196,8 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     return answer(arrival(b, m));
   }
   Memo& f = memo(b, m);  // (cut_search() leaves memos_ alone: the reference stays valid)
-  if (f.hops >= 0 && memo_exact(f)) {
+  const std::uint64_t stamp_now = f.hops > 0 ? memo_stamp(f) : 0;
+  if (f.hops >= 0 && stamp_now == f.stamp) {
     ++hits_;
     if (hops) *hops = f.hops;
     return answer(f.lb);
@@ -215,8 +217,7 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     if (v <= f.lb) {
       ++hits_;
       f.lb = v;
-      f.stamp = 0;
-      for (int h = 0; h < f.hops; ++h) f.stamp += channel_stamp(f.path[h]);
+      f.stamp = stamp_now;
       if (hops) *hops = f.hops;
       return answer(v);
     }
