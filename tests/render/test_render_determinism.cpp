@@ -105,7 +105,9 @@ TEST(RenderDeterminism, SchedulersSameImage) {
 // BVH (its width, leaf layout and ISA) must not change the image — so in core (medium
 // quality) and out of core (low quality, the Morton builder) agree too.
 TEST(RenderDeterminism, BvhQualitySameImageOnZFighting) {
-  const std::string scene = rayline::testing::z_fighting_scene();
+  rayline::testing::ZFightingScene zf;
+  rayline::testing::write_z_fighting_scene(zf);
+  const std::string& scene = zf.path;
   std::vector<std::vector<std::int64_t>> sums;
   for (const char* q : {"medium", "low", "high"}) {
     RenderOptions o = rayline::testing::small_render(48, 48, 4, 5, 4096, "none");

@@ -93,7 +93,9 @@ RenderOptions z_fighting(const std::string& scene, const std::string& gpu) {
 // (no unplanned load).
 TEST(RenderGpu, DoubtfulRaysMakeTheSameImageOnACrackingScene) {
   REQUIRE_GPU(gpu);
-  const std::string scene = rayline::testing::z_fighting_scene();
+  rayline::testing::ZFightingScene zf;
+  rayline::testing::write_z_fighting_scene(zf);
+  const std::string& scene = zf.path;
   const RenderResult cpu = render(z_fighting(scene, "none"));
   expect_complete(cpu);
 
