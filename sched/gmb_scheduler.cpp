@@ -100,17 +100,37 @@ bool GmbScheduler::prefer(const Choice& c, const Choice& best) const {
 
 GmbScheduler::Choice GmbScheduler::select(DeviceId d, Time ready, Time now, const JobPool& pool,
                                           const Schedule& s) {
-  if (!any_aged_) {
-    if (opt_.reference_selection) return select_pruned(d, ready, now, pool, s);
-    return select_indexed(d, ready, now, pool, s);
+  if (any_aged_ && opt_.reference_selection) {  // the plain scan: prefer() over every queued job
+    Choice best;
+    for (JobId j : pool.queued()) {
+      if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
+      const Choice c = evaluate(j, d, ready, now, pool, s);
+      if (c.job != kNone && prefer(c, best)) best = c;
+    }
+    return best;
   }
-  Choice best;
-  for (JobId j : pool.queued()) {
-    if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
-    const Choice c = evaluate(j, d, ready, now, pool, s);
-    if (c.job != kNone && prefer(c, best)) best = c;
+  if (any_aged_) {
+    // Sec. 4.3 aging: an aged job beats every other, an older one every younger one, so
+    // the scan's choice is the prefer() fold over the oldest aged jobs that can run on d,
+    // in queue order (aged_ is stably sorted by age, and planning keeps queue order).
+    // Only when no aged job can run on d does the choice fall to the non-aged jobs, where
+    // the aged ones (all unable) change nothing: the usual selection.
+    while (aged_head_ < aged_.size() && pool.state(aged_[aged_head_]) != JobState::Queued) ++aged_head_;
+    for (std::size_t k = aged_head_; k < aged_.size();) {
+      const Time created = pool.job(aged_[k]).created;
+      Choice best;
+      for (; k < aged_.size() && pool.job(aged_[k]).created == created; ++k) {
+        const JobId j = aged_[k];
+        if (pool.state(j) != JobState::Queued) continue;
+        if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
+        const Choice c = evaluate(j, d, ready, now, pool, s);
+        if (c.job != kNone && prefer(c, best)) best = c;
+      }
+      if (best.job != kNone) return best;
+    }
   }
-  return best;
+  if (opt_.reference_selection) return select_pruned(d, ready, now, pool, s);
+  return select_indexed(d, ready, now, pool, s);
 }
 
 void GmbScheduler::build_index(Time now, const JobPool& pool) {
@@ -122,10 +142,11 @@ void GmbScheduler::build_index(Time now, const JobPool& pool) {
   bucket_of_block_.assign(pool.block_count(), -1);
   bucket_of_job_.assign(pool.job_count(), -1);
   const Time aging = aging_threshold();
-  any_aged_ = false;
+  aged_.clear();
+  aged_head_ = 0;
   for (JobId j : pool.queued()) {
     const Job& job = pool.job(j);
-    any_aged_ = any_aged_ || (aging != kNever && now - job.created >= aging);
+    if (aging != kNever && now - job.created >= aging) aged_.push_back(j);
     BlockId key = kNone;
     for (BlockId b : job.inputs)
       if (key == kNone || pool.block(b).bytes > pool.block(key).bytes) key = b;
@@ -144,6 +165,9 @@ void GmbScheduler::build_index(Time now, const JobPool& pool) {
     ++bk.queued;
     bucket_of_job_[j] = bucket_of_block_[key];
   }
+  any_aged_ = !aged_.empty();
+  // Oldest first; equally old ones in queue order.
+  std::stable_sort(aged_.begin(), aged_.end(), [&](JobId a, JobId b) { return pool.job(a).created < pool.job(b).created; });
 }
 
 // Same choice as the full scan, visiting buckets in order of a lower bound on their start

@@ -85,6 +85,8 @@ class GmbScheduler final : public Scheduler {
   std::vector<std::pair<Time, std::int32_t>> order_;
   std::vector<std::pair<Time, std::size_t>> by_bound_;  // evaluate_bucket(): jobs by a lower bound on their start
   bool any_aged_ = false;
+  std::vector<JobId> aged_;     // build_index(): queued jobs past the aging threshold, oldest first
+  std::size_t aged_head_ = 0;   // aged_[0, aged_head_) are planned
   void build_index(Time now, const JobPool& pool);
   // Reference selection: every bucket's bound recomputed and sorted at every step.
   Choice select_pruned(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
