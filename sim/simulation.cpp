@@ -38,6 +38,12 @@ double percentile(std::vector<double> v, double q) {
   return v[static_cast<std::size_t>(std::min<double>(static_cast<double>(v.size() - 1), q * static_cast<double>(v.size())))];
 }
 
+double mean_of(const std::vector<double>& v) {
+  double t = 0;
+  for (double x : v) t += x;
+  return v.empty() ? 0.0 : t / static_cast<double>(v.size());
+}
+
 std::uint64_t work_of(const PathTraceWorkload& pt) {
   std::uint64_t w = 0;
   for (const auto& [t, n] : pt.traced()) w += n;
@@ -113,6 +119,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   if (cfg.scheduler != "gmb" && cfg.scheduler != "gmb-ca" && cfg.scheduler != "loadanyonce" && cfg.scheduler != "budge")
     throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca, loadanyonce, budge)");
   if (!(cfg.horizon > 0)) throw InputError("--horizon", "", "must be > 0");
+  if (std::isnan(cfg.aging)) throw InputError("--aging", "", "must be a duration, 'auto' or 'off'");
   if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
   if (cfg.exec_noise < 0 || cfg.exec_noise >= 1) throw InputError("--exec-noise", "", "must be in [0, 1)");
   const DeviceGraph g = load_platform(cfg.platform_file);
@@ -184,7 +191,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     for (auto [b, m] : set->initial) s.put_initial(b, m);
     wl = std::make_unique<StaticWorkload>();
   }
-  std::unique_ptr<Scheduler> scheduler = make_scheduler(cfg.scheduler, cfg.horizon);
+  std::unique_ptr<Scheduler> scheduler = make_scheduler(cfg.scheduler, cfg.horizon, cfg.aging);
   SimExecutorOptions xo;
   if (cfg.exec_noise > 0) {
     const double n = cfg.exec_noise;
@@ -268,6 +275,19 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
       err_transfer.push_back(rel);
     }
   }
+  // How long E-jobs waited in the global queue before they ran (start - created; Sec. 4.3's
+  // starvation shows as a long tail), and the longest wait of a job still queued at the end.
+  std::vector<double> waits;
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.kind == ActivityKind::Exec && !a.cancelled && a.state == ActivityState::Done)
+      waits.push_back(std::max(0.0, a.start - pool.job(a.job).created));
+  }
+  double oldest_queued = 0;
+  for (JobId j : pool.queued()) oldest_queued = std::max(oldest_queued, end - pool.job(j).created);
+  m["queue_wait_s"] = {{"mean", mean_of(waits)}, {"p50", percentile(waits, 0.5)}, {"p95", percentile(waits, 0.95)},
+                       {"max", waits.empty() ? 0.0 : *std::max_element(waits.begin(), waits.end())},
+                       {"oldest_queued_at_end", oldest_queued}};
   m["work_units_done"] = work_done;
   m["rays_per_second"] = end > 0 ? work_done / end : 0;
   m["rays_per_second_series"] = per_second;

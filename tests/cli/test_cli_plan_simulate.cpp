@@ -79,6 +79,37 @@ TEST(CliPlan, BadInputExitsTwoNamingFileAndField) {
   fs::remove(bad);
 }
 
+// --aging reaches GMB (Sec. 4.3) and changes what it does on a saturating stream, and
+// metrics.json reports how long E-jobs waited in the queue.
+TEST(CliSimulate, AgingFlagReachesGmbAndQueueWaitsAreReported) {
+  auto run = [](const std::string& aging) {
+    const fs::path out = scratch("sim-aging-" + aging);
+    const auto r = rayline_cli("simulate --duration 20s --no-progress --aging " + aging + " --out " + out.string());
+    EXPECT_EQ(r.code, 0) << r.all;
+    std::ifstream f(out / "metrics.json");
+    auto m = nlohmann::json::parse(f);
+    std::ifstream jobs(out / "jobs.csv");
+    m["jobs_csv"] = std::string(std::istreambuf_iterator<char>(jobs), {});
+    fs::remove_all(out);
+    return m;
+  };
+  const auto off = run("off"), two = run("2s");
+  EXPECT_NE(off["scheduler_parameters"].get<std::string>().find("aging=off"), std::string::npos) << off["scheduler_parameters"];
+  EXPECT_NE(two["scheduler_parameters"].get<std::string>().find("aging=2.0"), std::string::npos) << two["scheduler_parameters"];
+  EXPECT_NE(off["jobs_csv"], two["jobs_csv"]) << "aging after 2 s must change the schedule of a saturating 20 s stream";
+  for (const auto* m : {&off, &two}) {
+    const auto& w = (*m)["queue_wait_s"];
+    const double p50 = w["p50"], p95 = w["p95"], mx = w["max"], mean = w["mean"], oldest = w["oldest_queued_at_end"];
+    EXPECT_GT(p50, 0);
+    EXPECT_LE(p50, p95);
+    EXPECT_LE(p95, mx);
+    EXPECT_LE(mean, mx);
+    EXPECT_LE(mx, 20.0);
+    EXPECT_GT(oldest, 0);
+    EXPECT_LE(oldest, 20.0);
+  }
+}
+
 TEST(CliSimulate, ShortRunWritesCompleteResults) {
   const fs::path out = scratch("sim");
   const auto r = rayline_cli("simulate --platform paper-A --duration 5s --no-progress --out " + out.string());
@@ -116,7 +147,8 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   fs::remove(bad_platform);
   fs::remove(bad_jobs);
   for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
-                                 "--platform /nonexistent.json", "--exec-noise 2", "--blocks 1"}) {
+                                 "--platform /nonexistent.json", "--exec-noise 2", "--blocks 1", "--aging soon",
+                                 "--aging -2s"}) {
     const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
     EXPECT_EQ(r.code, 2) << args << ": " << r.all;
     EXPECT_FALSE(fs::exists(out)) << args;
