@@ -74,6 +74,7 @@ int run_simulate(const SimulateOptions& opt) {
   cfg.scheduler = opt.scheduler;
   cfg.horizon = duration_flag("--horizon", opt.horizon);
   if (opt.aging == "off") cfg.aging = kNever;
+  else if (opt.aging == "adaptive") cfg.adaptive_aging = true;
   else if (opt.aging != "auto") {
     cfg.aging = duration_flag("--aging", opt.aging);
     if (!(cfg.aging >= 0)) throw InputError("--aging", "", "must be >= 0, 'auto' or 'off'");

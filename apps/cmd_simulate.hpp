@@ -10,7 +10,7 @@ struct SimulateOptions {
   std::string workload = "ray-stream";
   std::string scheduler = "gmb";
   std::string horizon = "2s";
-  std::string aging = "auto";      // GMB (Sec. 4.3): auto (5k, at least 1 s), off, or a duration
+  std::string aging = "auto";      // GMB (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration
   std::string duration = "60s";
   std::uint64_t seed = 1;
   double exec_noise = 0.0;

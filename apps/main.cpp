@@ -54,7 +54,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--workload", opt->workload, "'ray-stream', a job-set JSON file, or path tracing on a scene profile: boeing, museum or FILE.profile.json")->default_val(opt->workload);
   sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014) or budge (Budge 2009)")->default_val(opt->scheduler);
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
-  sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), off, or a duration")->default_val(opt->aging);
+  sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->default_val(opt->aging);
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->default_val(opt->duration);
   sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed);
   sim->add_option("--exec-noise", opt->exec_noise, "Actual E-job time = predicted x U[1-n,1+n]")->default_val(opt->exec_noise);
@@ -94,7 +94,7 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--platform", o.platform, "Platform JSON or built-in name (default: paper-cluster)");
   c->add_option("--workload", o.workload, "'ray-stream', a job-set JSON file, or boeing, museum, FILE.profile.json")->default_val(o.workload);
   c->add_option("--horizon,-k", o.horizon, "GMB horizon k (Sec. 4.2)")->default_val(o.horizon);
-  c->add_option("--aging", o.aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), off, or a duration")->default_val(o.aging);
+  c->add_option("--aging", o.aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(o.aging);
   c->add_option("--duration", o.duration, "Simulated time")->default_val(o.duration);
   c->add_option("--seed", o.seed, "Workload seed")->default_val(o.seed);
   c->add_option("--clients", o.clients, "Path tracing: clients requesting frames")->default_val(o.clients);

@@ -21,6 +21,7 @@ bool nearly_equal(Time a, Time b) {
 std::string GmbScheduler::describe() const {
   const Time a = aging_threshold();
   return "gmb{k=" + std::to_string(opt_.horizon) + "s; aging=" + (a == kNever ? std::string("off") : std::to_string(a) + "s") +
+         (opt_.adaptive_aging ? "; adaptive_aging=1" : "") +
          "; granularity_tiebreak=" + (opt_.granularity_tiebreak ? "1" : "0") +
          "; completion_aware=" + (opt_.completion_aware ? "1" : "0") + "}";
 }
@@ -77,7 +78,7 @@ GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Tim
   c.job = j;
   c.start = start;
   c.created = job.created;
-  const Time aging = aging_threshold();
+  const Time aging = aging_now_;
   c.aged = aging != kNever && now - job.created >= aging;
   if (opt_.granularity_tiebreak) {
     const Time exec = exec_estimate(j, d, pool, s);
@@ -141,7 +142,19 @@ void GmbScheduler::build_index(Time now, const JobPool& pool) {
   buckets_.clear();
   bucket_of_block_.assign(pool.block_count(), -1);
   bucket_of_job_.assign(pool.job_count(), -1);
-  const Time aging = aging_threshold();
+  aging_now_ = aging_threshold();
+  if (opt_.adaptive_aging && aging_now_ != kNever && pool.queued_count() > 0) {
+    // Adaptive aging (Rayline's option): a job is aged only once it has also waited twice
+    // as long as the median queued job, so under saturation, where every job waits, only
+    // the outliers jump the queue and GMB keeps its locality.
+    ages_.clear();
+    for (JobId j : pool.queued()) ages_.push_back(now - pool.job(j).created);
+    // (The lower median: with two queued jobs, the younger one's wait.)
+    auto mid = ages_.begin() + static_cast<std::ptrdiff_t>((ages_.size() - 1) / 2);
+    std::nth_element(ages_.begin(), mid, ages_.end());
+    aging_now_ = std::max(aging_now_, 2 * *mid);
+  }
+  const Time aging = aging_now_;
   aged_.clear();
   aged_head_ = 0;
   for (JobId j : pool.queued()) {
@@ -191,7 +204,7 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
   std::sort(order_.begin(), order_.end());
   Choice best;
   auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
-  const Time aging = aging_threshold();
+  const Time aging = aging_now_;
   for (const auto& [blb, i] : order_) {
     if (loses(blb)) break;
     const Bucket& bk = buckets_[static_cast<std::size_t>(i)];
@@ -444,7 +457,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     }
   }
   if (key_at == kNever || loses(key_at)) return;
-  const Time aging = aging_threshold();
+  const Time aging = aging_now_;
   const Sorted& so = sorted_jobs(i, d, pool, s);
   const bool in_order = so.monotone;  // else: every job, no early stop
   const std::size_t n = in_order ? so.jobs.size() : bk.jobs.size();

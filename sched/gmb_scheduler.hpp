@@ -25,6 +25,9 @@ namespace rayline {
 struct GmbOptions {
   Time horizon = 2.0;         // k, seconds (the paper uses 2000 ms)
   Time aging = -1;            // seconds a job may wait before it jumps the queue; <0: 5k (min 1 s); kNever: off
+  // Rayline's option: the aging threshold is at least twice the median wait of the queued
+  // jobs at each plan (only outliers jump the queue when every job waits).
+  bool adaptive_aging = false;
   bool granularity_tiebreak = true;
   // Rayline's refinement (off = the paper's GMB): a job that would have to wait for a
   // fetch on the chosen device is left for another device that would *finish* it sooner
@@ -85,6 +88,8 @@ class GmbScheduler final : public Scheduler {
   std::vector<std::pair<Time, std::int32_t>> order_;
   std::vector<std::pair<Time, std::size_t>> by_bound_;  // evaluate_bucket(): jobs by a lower bound on their start
   bool any_aged_ = false;
+  Time aging_now_ = kNever;     // build_index(): the aging threshold of this plan
+  std::vector<Time> ages_;
   std::vector<JobId> aged_;     // build_index(): queued jobs past the aging threshold, oldest first
   std::size_t aged_head_ = 0;   // aged_[0, aged_head_) are planned
   void build_index(Time now, const JobPool& pool);

@@ -191,7 +191,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     for (auto [b, m] : set->initial) s.put_initial(b, m);
     wl = std::make_unique<StaticWorkload>();
   }
-  std::unique_ptr<Scheduler> scheduler = make_scheduler(cfg.scheduler, cfg.horizon, cfg.aging);
+  std::unique_ptr<Scheduler> scheduler = make_scheduler(cfg.scheduler, cfg.horizon, cfg.aging, cfg.adaptive_aging);
   SimExecutorOptions xo;
   if (cfg.exec_noise > 0) {
     const double n = cfg.exec_noise;

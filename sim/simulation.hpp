@@ -15,6 +15,7 @@ struct SimulationConfig {
   std::string scheduler = "gmb";        // gmb | gmb-ca (completion-aware)
   Time horizon = 2.0;
   Time aging = -1;                      // GMB, Sec. 4.3: <0 its default (5k, at least 1 s); kNever: off
+  bool adaptive_aging = false;          // GMB: also at least twice the queue's median wait
   Time duration = 60.0;                 // simulated seconds (ray-stream); static sets run to the end
   std::uint64_t seed = 1;
   double exec_noise = 0.0;              // actual E-job time = predicted x U[1-n, 1+n]

@@ -17,7 +17,7 @@ trap 'rm -rf "$OUT"' EXIT
 echo "| k | aging | rays/s | queue wait p50 | p95 | oldest queued at end | CPU time fetching |"
 echo "|---|---|---|---|---|---|---|"
 for k in 2s 10s; do
-  for aging in auto off 30s 5s; do
+  for aging in auto off 30s 5s adaptive; do
     for seed in $(seq "$SEEDS"); do
       "$BIN" simulate --platform "$PLATFORM" --duration "$DURATION" -k "$k" --aging "$aging" --seed "$seed" \
         --no-progress --out "$OUT/$k-$aging-$seed" > /dev/null

@@ -93,11 +93,13 @@ TEST(CliSimulate, AgingFlagReachesGmbAndQueueWaitsAreReported) {
     fs::remove_all(out);
     return m;
   };
-  const auto off = run("off"), two = run("2s");
+  const auto off = run("off"), two = run("2s"), adaptive = run("adaptive");
+  EXPECT_NE(adaptive["scheduler_parameters"].get<std::string>().find("adaptive_aging=1"), std::string::npos)
+      << adaptive["scheduler_parameters"];
   EXPECT_NE(off["scheduler_parameters"].get<std::string>().find("aging=off"), std::string::npos) << off["scheduler_parameters"];
   EXPECT_NE(two["scheduler_parameters"].get<std::string>().find("aging=2.0"), std::string::npos) << two["scheduler_parameters"];
   EXPECT_NE(off["jobs_csv"], two["jobs_csv"]) << "aging after 2 s must change the schedule of a saturating 20 s stream";
-  for (const auto* m : {&off, &two}) {
+  for (const auto* m : {&off, &two, &adaptive}) {
     const auto& w = (*m)["queue_wait_s"];
     const double p50 = w["p50"], p95 = w["p95"], mx = w["max"], mean = w["mean"], oldest = w["oldest_queued_at_end"];
     EXPECT_GT(p50, 0);

@@ -268,6 +268,8 @@ GmbOptions gmb_options(std::uint64_t variant, bool reference) {
   o.completion_aware = (variant / 4) % 3 == 2;
   o.granularity_tiebreak = (variant / 4) % 5 != 3;
   if ((variant / 12) % 4 == 1) o.aging = 0.3;
+  // (Variants below 120, the golden ones, keep plain aging.)
+  o.adaptive_aging = (variant / 120) % 3 == 1;
   o.reference_selection = reference;
   return o;
 }
