@@ -1,7 +1,9 @@
 // The paper's worked examples: Fig. 4 (chained T-jobs feeding an E-job), Fig. 5 (indirect
 // fetch path chosen over a slower direct one), Eq. 3 with a busy channel, and the
-// starvation case of Sec. 4.3 (tiny k) with and without aging.
+// starvation case of Sec. 4.3 (tiny k) with and without aging, and adaptive aging.
 #include <gtest/gtest.h>
+
+#include <memory>
 
 #include "dcg_fixture.hpp"
 #include "sched/exact_executor.hpp"
@@ -188,19 +190,33 @@ struct FetchFreeStream final : Workload {
   bool finished() const override { return remaining <= 0; }
 };
 
-Time run_starvation_case(Time aging, Time* stream_end, bool adaptive = false) {
-  DcgBuilder b;
-  const MemId m0 = b.mem("m0"), m1 = b.mem("m1");
-  b.dev("d0", m0);
-  b.channel(m1, m0, 100 * MB);  // the remote block takes 1 s
-  b.timing(0, DataKind::SceneData, 200 * MB);
-  DeviceGraph g = b.build();
+// One device d0 on m0; a "local" block on m0 (0.05 s jobs) and a "remote" one on m1, behind
+// a channel that takes 1 s to bring it.
+struct LocalRemote {
+  DeviceGraph g;
   JobPool pool;
-  const BlockId local = rayline::testing::add_block(pool, "local", DataKind::SceneData, 10 * MB);    // 0.05 s jobs
-  const BlockId remote = rayline::testing::add_block(pool, "remote", DataKind::SceneData, 100 * MB);
-  Schedule s(g, pool);
-  s.put_initial(local, m0);
-  s.put_initial(remote, m1);
+  BlockId local = kNone, remote = kNone;
+  std::unique_ptr<Schedule> s;
+  LocalRemote() {
+    DcgBuilder b;
+    const MemId m0 = b.mem("m0"), m1 = b.mem("m1");
+    b.dev("d0", m0);
+    b.channel(m1, m0, 100 * MB);
+    b.timing(0, DataKind::SceneData, 200 * MB);
+    g = b.build();
+    local = rayline::testing::add_block(pool, "local", DataKind::SceneData, 10 * MB);
+    remote = rayline::testing::add_block(pool, "remote", DataKind::SceneData, 100 * MB);
+    s = std::make_unique<Schedule>(g, pool);
+    s->put_initial(local, m0);
+    s->put_initial(remote, m1);
+  }
+};
+
+Time run_starvation_case(Time aging, Time* stream_end, bool adaptive = false) {
+  LocalRemote lr;
+  JobPool& pool = lr.pool;
+  Schedule& s = *lr.s;
+  const BlockId local = lr.local, remote = lr.remote;
   add_job(pool, "f", 0, {local});
   const JobId r = add_job(pool, "remote", 0, {remote});
   FetchFreeStream wl;
@@ -237,23 +253,14 @@ TEST(PaperExamples, StarvationWithTinyHorizonAndAgingCure) {
 // adaptive aging also requires twice the median wait, so locality decides again, while a
 // job that waited far longer than the rest still goes first.
 namespace {
-// One device on m0; "local" jobs read a block on m0, "remote" ones a block behind a 1 s
-// channel. Returns the name of the first E-job GMB plans.
+// LocalRemote; "local*" jobs read the local block, the others the remote one. Returns the
+// name of the first E-job GMB plans.
 std::string first_planned(const std::vector<std::pair<std::string, Time>>& jobs, bool adaptive) {
-  DcgBuilder b;
-  const MemId m0 = b.mem("m0"), m1 = b.mem("m1");
-  b.dev("d0", m0);
-  b.channel(m1, m0, 100 * MB);
-  b.timing(0, DataKind::SceneData, 200 * MB);
-  DeviceGraph g = b.build();
-  JobPool pool;
-  const BlockId local = rayline::testing::add_block(pool, "local", DataKind::SceneData, 10 * MB);
-  const BlockId remote = rayline::testing::add_block(pool, "remote", DataKind::SceneData, 100 * MB);
-  Schedule s(g, pool);
-  s.put_initial(local, m0);
-  s.put_initial(remote, m1);
+  LocalRemote lr;
+  JobPool& pool = lr.pool;
+  Schedule& s = *lr.s;
   for (const auto& [name, created] : jobs) {
-    const JobId j = add_job(pool, name, 0, {name.starts_with("local") ? local : remote});
+    const JobId j = add_job(pool, name, 0, {name.starts_with("local") ? lr.local : lr.remote});
     pool.job(j).created = created;
   }
   GmbScheduler gmb({.horizon = 0.01, .aging = 1.0, .adaptive_aging = adaptive});
