@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "sched/error.hpp"
+#include "sched/units.hpp"
 
 namespace rayline::cli {
 
@@ -20,6 +21,26 @@ int guarded(const std::function<int()>& body) {
     std::cerr << "rayline: error: " << e.what() << "\n";
     return kExitFailure;
   }
+}
+
+AgingSetting parse_aging(const std::string& text, const std::string& flag) {
+  AgingSetting a;
+  if (text == "auto") return a;
+  if (text == "adaptive") {
+    a.adaptive = true;
+    return a;
+  }
+  if (text == "off") {
+    a.aging = kNever;
+    return a;
+  }
+  try {
+    a.aging = units::parse_duration(text);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(flag, "", std::string(e.what()) + " (or auto, adaptive, off)");
+  }
+  if (!(a.aging >= 0)) throw InputError(flag, "", "must be >= 0, auto, adaptive or off");
+  return a;
 }
 
 void ensure_parent_dir(const std::string& path, const std::string& flag) {

@@ -3,6 +3,8 @@
 #include <functional>
 #include <string>
 
+#include "sched/types.hpp"
+
 namespace rayline::cli {
 
 inline constexpr int kExitOk = 0;
@@ -16,6 +18,15 @@ int guarded(const std::function<int()>& body);
 // Users expect `--out out/x` to work in a fresh checkout: create the missing parent
 // folders of an output path; InputError(path, flag, ...) when they cannot be created.
 void ensure_parent_dir(const std::string& path, const std::string& flag);
+
+// --aging (GMB, Sec. 4.3): "auto" (GMB's default, 5k and at least 1 s), "adaptive" (auto,
+// and at least twice the queue's median wait), "off", or a duration >= 0. InputError naming
+// `flag` otherwise.
+struct AgingSetting {
+  Time aging = -1;  // GmbOptions::aging
+  bool adaptive = false;
+};
+AgingSetting parse_aging(const std::string& text, const std::string& flag);
 
 // Write `content` to `path` atomically (temporary name in the same folder, then rename).
 void write_file_atomic(const std::string& path, const std::string& content);

@@ -17,6 +17,7 @@ struct RenderCliOptions {
   std::string memory_budget;         // "512MiB"; empty: unlimited (in core)
   std::uint64_t seed = 1;
   double horizon = 2.0;
+  std::string aging = "auto";        // --aging auto|adaptive|off|DURATION (GMB, Sec. 4.3)
   std::uint32_t paths = 0;           // paths in flight at most; 0 = auto
   std::string bvh_quality = "auto";
   std::string read_ahead = "on";     // --read-ahead on|off

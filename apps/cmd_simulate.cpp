@@ -73,12 +73,9 @@ int run_simulate(const SimulateOptions& opt) {
   cfg.workload = resolve_workload(opt.workload);
   cfg.scheduler = opt.scheduler;
   cfg.horizon = duration_flag("--horizon", opt.horizon);
-  if (opt.aging == "off") cfg.aging = kNever;
-  else if (opt.aging == "adaptive") cfg.adaptive_aging = true;
-  else if (opt.aging != "auto") {
-    cfg.aging = duration_flag("--aging", opt.aging);
-    if (!(cfg.aging >= 0)) throw InputError("--aging", "", "must be >= 0, 'auto' or 'off'");
-  }
+  const AgingSetting aging = parse_aging(opt.aging, "--aging");
+  cfg.aging = aging.aging;
+  cfg.adaptive_aging = aging.adaptive;
   cfg.duration = duration_flag("--duration", opt.duration);
   cfg.seed = opt.seed;
   cfg.exec_noise = opt.exec_noise;

@@ -243,7 +243,7 @@ RenderResult render(const RenderOptions& opt) {
     cell_of[scene_blocks[b]] = b;
     schedule.put_initial(scene_blocks[b], disk, 0, true);
   }
-  auto scheduler = make_scheduler(opt.scheduler, opt.horizon);
+  auto scheduler = make_scheduler(opt.scheduler, opt.horizon, opt.aging, opt.adaptive_aging);
   res.scheduler = opt.scheduler;
   res.scheduler_parameters = scheduler->describe();
 

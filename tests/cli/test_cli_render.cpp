@@ -125,6 +125,16 @@ TEST_F(CliRender, PathsInFlightAutoAndExplicit) {
   r = rayline_cli(args + "--read-ahead maybe --out " + path("bad.exr"));
   EXPECT_EQ(r.code, 2) << r.all;
   EXPECT_NE(r.err.find("read-ahead"), std::string::npos) << r.err;
+  r = rayline_cli(args + "--aging soon --out " + path("bad.exr"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--aging"), std::string::npos) << r.err;
+  // --aging reaches the scheduler.
+  r = rayline_cli(args + "--aging adaptive --out " + path("adaptive.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(metrics("adaptive").at("scheduler_parameters").get<std::string>().find("adaptive_aging=1"), std::string::npos);
+  r = rayline_cli(args + "--aging off --out " + path("off.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(metrics("off").at("scheduler_parameters").get<std::string>().find("aging=off"), std::string::npos);
   EXPECT_FALSE(fs::exists(path("bad.exr")));
 }
 
