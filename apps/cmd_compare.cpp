@@ -84,6 +84,7 @@ int run_compare(const CompareOptions& opt) {
       throw InputError("--schedulers", "", "unknown scheduler '" + s + "' (gmb, gmb-ca, budge, loadanyonce)");
   if (opt.sim.clients.find(',') != std::string::npos)
     throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
+  check_simulate_flags(opt.sim);
   ensure_parent_dir(opt.out + "/x", "--out");
   std::vector<Row> rows;
   for (const auto& s : scheds) {

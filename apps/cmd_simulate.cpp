@@ -67,6 +67,13 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out) {
 }
 }  // namespace
 
+void check_simulate_flags(const SimulateOptions& opt) {
+  duration_flag("--horizon", opt.horizon);
+  duration_flag("--duration", opt.duration);
+  parse_aging(opt.aging, "--aging");
+  if (!opt.warmup.empty()) duration_flag("--warmup", opt.warmup);
+}
+
 int run_simulate(const SimulateOptions& opt) {
   sim::SimulationConfig cfg;
   cfg.platform_file = resolve_platform(opt.platform);

@@ -160,3 +160,30 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
     EXPECT_FALSE(partial) << args;
   }
 }
+
+// `rayline compare`: one run per scheduler, a table, compare.csv and compare.json; a bad
+// flag is reported before any scheduler runs, and nothing is written.
+TEST(CliCompare, RunsEverySchedulerAndRejectsBadFlagsBeforeRunning) {
+  const fs::path out = scratch("compare");
+  auto r = rayline_cli("compare --schedulers gmb,budge --platform paper-A --duration 3s --aging adaptive --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.out.find("== gmb =="), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("== budge =="), std::string::npos) << r.out;
+  std::ifstream csv(out / "compare.csv");
+  std::string line;
+  int rows = 0;
+  std::getline(csv, line);  // header
+  while (std::getline(csv, line)) rows += !line.empty();
+  EXPECT_EQ(rows, 2);
+  std::ifstream js(out / "compare.json");
+  EXPECT_EQ(nlohmann::json::parse(js).size(), 2u);
+  std::ifstream m(out / "gmb" / "metrics.json");
+  EXPECT_NE(nlohmann::json::parse(m)["scheduler_parameters"].get<std::string>().find("adaptive_aging=1"), std::string::npos);
+  fs::remove_all(out);
+  for (const std::string args : {"--aging soon", "--horizon 2x", "--duration -5s", "--schedulers gmb,teleport"}) {
+    r = rayline_cli("compare --platform paper-A --duration 3s --out " + out.string() + " " + args);
+    EXPECT_EQ(r.code, 2) << args << ": " << r.all;
+    EXPECT_EQ(r.out.find("== gmb =="), std::string::npos) << args << ": nothing should run: " << r.out;
+    EXPECT_FALSE(fs::exists(out)) << args;
+  }
+}
