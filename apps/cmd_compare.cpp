@@ -32,6 +32,7 @@ struct Row {
   std::string scheduler, status;
   int exit_code = 0;
   double rays = 0, steady = -1, lan = -1, busy = 0, fetching = 0, idle = 0, sched_wall = 0, sched_share = 0, wall = 0;
+  double wait_p50 = -1, wait_p95 = -1;  // E-jobs' waits in the queue (s)
   std::string parameters;
 };
 
@@ -70,6 +71,10 @@ Row read_row(const std::string& sched, const std::string& dir, int rc) {
     r.sched_share = num(m["scheduler_cost"], "share_of_simulated_time", 0);
   }
   if (m.contains("simulator")) r.wall = num(m["simulator"], "wall_s", 0);
+  if (m.contains("queue_wait_s")) {
+    r.wait_p50 = num(m["queue_wait_s"], "p50", -1);
+    r.wait_p95 = num(m["queue_wait_s"], "p95", -1);
+  }
   r.parameters = m.value("scheduler_parameters", "");
   return r;
 }
@@ -112,30 +117,32 @@ int run_compare(const CompareOptions& opt) {
   for (const Row& r : rows)
     if (r.scheduler == "gmb") ref = &r;
   auto metric = [](const Row& r) { return r.steady >= 0 ? r.steady : r.rays; };
-  std::printf("\n%-12s %-15s %14s %9s %8s %6s %9s %6s %12s\n", "scheduler", "status", "rays/s", "vs gmb", "LAN util",
-              "busy", "fetching", "idle", "sched wall s");
+  std::printf("\n%-12s %-15s %14s %9s %8s %6s %9s %6s %12s %15s\n", "scheduler", "status", "rays/s", "vs gmb", "LAN util",
+              "busy", "fetching", "idle", "sched wall s", "wait p50/p95 s");
   std::ostringstream csv;
   csv << "scheduler,status,exit_code,rays_per_second,steady_rays_per_second,lan_utilisation_mean,busy,fetching,true_idle,"
-         "scheduler_wall_s,scheduler_share,sim_wall_s,scheduler_parameters\n";
+         "scheduler_wall_s,scheduler_share,sim_wall_s,scheduler_parameters,queue_wait_p50_s,queue_wait_p95_s\n";
   nlohmann::json js = nlohmann::json::array();
   for (const Row& r : rows) {
     char rel[32] = "-";
     if (ref && metric(*ref) > 0 && r.status == "ok") std::snprintf(rel, sizeof rel, "%+.1f%%", 100 * (metric(r) / metric(*ref) - 1));
     char lan[32] = "-";
     if (r.lan >= 0) std::snprintf(lan, sizeof lan, "%.1f%%", 100 * r.lan);
-    std::printf("%-12s %-15s %14.4g %9s %8s %5.1f%% %8.1f%% %5.1f%% %12.3f\n", r.scheduler.c_str(), r.status.c_str(), metric(r), rel,
-                lan, 100 * r.busy, 100 * r.fetching, 100 * r.idle, r.sched_wall);
+    char wait[48] = "-";
+    if (r.wait_p50 >= 0) std::snprintf(wait, sizeof wait, "%.2f/%.2f", r.wait_p50, r.wait_p95);
+    std::printf("%-12s %-15s %14.4g %9s %8s %5.1f%% %8.1f%% %5.1f%% %12.3f %15s\n", r.scheduler.c_str(), r.status.c_str(), metric(r), rel,
+                lan, 100 * r.busy, 100 * r.fetching, 100 * r.idle, r.sched_wall, wait);
     std::string params = r.parameters;
     for (char& c : params)
       if (c == '"') c = '\'';
     csv << r.scheduler << ',' << r.status << ',' << r.exit_code << ',' << r.rays << ',' << r.steady << ',' << r.lan << ','
         << r.busy << ',' << r.fetching << ',' << r.idle << ',' << r.sched_wall << ',' << r.sched_share << ',' << r.wall
-        << ",\"" << params << "\"\n";
+        << ",\"" << params << "\"," << r.wait_p50 << ',' << r.wait_p95 << '\n';
     js.push_back({{"scheduler", r.scheduler}, {"status", r.status}, {"exit_code", r.exit_code},
                   {"rays_per_second", r.rays}, {"steady_rays_per_second", r.steady}, {"lan_utilisation_mean", r.lan},
                   {"busy", r.busy}, {"fetching", r.fetching}, {"true_idle", r.idle}, {"scheduler_wall_s", r.sched_wall},
                   {"scheduler_share", r.sched_share}, {"sim_wall_s", r.wall}, {"scheduler_parameters", r.parameters},
-                  {"out", opt.out + "/" + r.scheduler}});
+                  {"queue_wait_p50_s", r.wait_p50}, {"queue_wait_p95_s", r.wait_p95}, {"out", opt.out + "/" + r.scheduler}});
   }
   std::printf("rays/s: steady state (path tracing) or whole run; results in %s/<scheduler>/, %s/compare.csv, compare.json\n",
               opt.out.c_str(), opt.out.c_str());

@@ -176,7 +176,15 @@ TEST(CliCompare, RunsEverySchedulerAndRejectsBadFlagsBeforeRunning) {
   while (std::getline(csv, line)) rows += !line.empty();
   EXPECT_EQ(rows, 2);
   std::ifstream js(out / "compare.json");
-  EXPECT_EQ(nlohmann::json::parse(js).size(), 2u);
+  const auto rows_json = nlohmann::json::parse(js);
+  EXPECT_EQ(rows_json.size(), 2u);
+  for (const auto& row : rows_json) {  // the queue waits of each run's metrics.json
+    std::ifstream mf(out / row["scheduler"].get<std::string>() / "metrics.json");
+    const auto w = nlohmann::json::parse(mf)["queue_wait_s"];
+    EXPECT_DOUBLE_EQ(row["queue_wait_p50_s"].get<double>(), w["p50"].get<double>()) << row;
+    EXPECT_DOUBLE_EQ(row["queue_wait_p95_s"].get<double>(), w["p95"].get<double>()) << row;
+  }
+  EXPECT_NE(r.out.find("wait p50/p95 s"), std::string::npos) << r.out;
   std::ifstream m(out / "gmb" / "metrics.json");
   EXPECT_NE(nlohmann::json::parse(m)["scheduler_parameters"].get<std::string>().find("adaptive_aging=1"), std::string::npos);
   fs::remove_all(out);
