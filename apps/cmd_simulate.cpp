@@ -67,14 +67,10 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out) {
 }
 }  // namespace
 
-void check_simulate_flags(const SimulateOptions& opt) {
-  duration_flag("--horizon", opt.horizon);
-  duration_flag("--duration", opt.duration);
-  parse_aging(opt.aging, "--aging");
-  if (!opt.warmup.empty()) duration_flag("--warmup", opt.warmup);
-}
-
-int run_simulate(const SimulateOptions& opt) {
+namespace {
+// The flags as a SimulationConfig (clients left at 1): every text flag parsed, InputError
+// naming the flag otherwise.
+sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   sim::SimulationConfig cfg;
   cfg.platform_file = resolve_platform(opt.platform);
   cfg.workload = resolve_workload(opt.workload);
@@ -98,6 +94,14 @@ int run_simulate(const SimulateOptions& opt) {
   cfg.replay_file = opt.replay;
   cfg.record_replay = opt.record_replay;
   if (!opt.warmup.empty()) cfg.warmup = duration_flag("--warmup", opt.warmup);
+  return cfg;
+}
+}  // namespace
+
+void check_simulate_flags(const SimulateOptions& opt) { simulate_config(opt); }
+
+int run_simulate(const SimulateOptions& opt) {
+  sim::SimulationConfig cfg = simulate_config(opt);
   const std::vector<int> counts = client_counts(opt.clients);
   const bool path_trace = cfg.workload.ends_with(".profile.json");
   if (!path_trace && (counts.size() > 1 || counts[0] != 1 || opt.prediction_depth != 0 || opt.fidelity != "markov" ||

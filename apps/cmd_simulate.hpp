@@ -30,8 +30,9 @@ struct SimulateOptions {
   std::string warmup;               // default: a third of --duration
 };
 int run_simulate(const SimulateOptions& opt);
-// The text flags' syntax (--horizon, --duration, --aging, --warmup): InputError naming the
-// flag, before anything runs (compare checks once for all its schedulers).
+// Every flag run_simulate() parses (platform and workload names, --horizon, --duration,
+// --aging, --warmup): InputError naming the flag, before anything runs (compare checks once
+// for all its schedulers).
 void check_simulate_flags(const SimulateOptions& opt);
 
 }  // namespace rayline::cli

@@ -101,16 +101,17 @@ bool GmbScheduler::prefer(const Choice& c, const Choice& best) const {
 
 GmbScheduler::Choice GmbScheduler::select(DeviceId d, Time ready, Time now, const JobPool& pool,
                                           const Schedule& s) {
-  if (any_aged_ && opt_.reference_selection) {  // the plain scan: prefer() over every queued job
+  const bool any_aged = !aged_.empty();
+  if (any_aged && opt_.reference_selection) {  // the plain scan: prefer() over every queued job
     Choice best;
     for (JobId j : pool.queued()) {
-      if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
+      if (deferred(j)) continue;
       const Choice c = evaluate(j, d, ready, now, pool, s);
       if (c.job != kNone && prefer(c, best)) best = c;
     }
     return best;
   }
-  if (any_aged_) {
+  if (any_aged) {
     // Sec. 4.3 aging: an aged job beats every other, an older one every younger one, so
     // the scan's choice is the prefer() fold over the oldest aged jobs that can run on d,
     // in queue order (aged_ is stably sorted by age, and planning keeps queue order).
@@ -123,7 +124,7 @@ GmbScheduler::Choice GmbScheduler::select(DeviceId d, Time ready, Time now, cons
       for (; k < aged_.size() && pool.job(aged_[k]).created == created; ++k) {
         const JobId j = aged_[k];
         if (pool.state(j) != JobState::Queued) continue;
-        if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
+        if (deferred(j)) continue;
         const Choice c = evaluate(j, d, ready, now, pool, s);
         if (c.job != kNone && prefer(c, best)) best = c;
       }
@@ -178,7 +179,6 @@ void GmbScheduler::build_index(Time now, const JobPool& pool) {
     ++bk.queued;
     bucket_of_job_[j] = bucket_of_block_[key];
   }
-  any_aged_ = !aged_.empty();
   // Oldest first; equally old ones in queue order.
   std::stable_sort(aged_.begin(), aged_.end(), [&](JobId a, JobId b) { return pool.job(a).created < pool.job(b).created; });
 }
@@ -223,7 +223,7 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
     }
     if (key_at == kNever || loses(key_at)) continue;
     for (JobId j : bk.jobs) {
-      if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) continue;
+      if (deferred(j)) continue;
       const Job& job = pool.job(j);
       if (!g.timing.supports(d, job.type)) continue;
       if (std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) continue;
@@ -465,7 +465,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
   // Can j run on d at all, its key block being fetchable?
   auto eligible = [&](JobId j) {
     if (pool.state(j) != JobState::Queued) return false;
-    if (!deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end()) return false;
+    if (deferred(j)) return false;
     const Job& job = pool.job(j);
     if (!g.timing.supports(d, job.type)) return false;
     if (std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) return false;

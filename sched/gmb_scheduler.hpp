@@ -9,6 +9,7 @@
 //     the queue longer than `aging` is taken before any non-aged job (oldest first),
 //     so no job starves even when tiny k lets fetch-free jobs fill every window.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <memory>
@@ -74,6 +75,9 @@ class GmbScheduler final : public Scheduler {
   std::unique_ptr<FetchBound> bound_time_;
   std::vector<std::pair<JobId, MemId>> blocked_pairs_;  // sorted: infeasible this round (capacity)
   std::vector<JobId> deferred_;  // completion_aware: jobs left to other devices this placement
+  bool deferred(JobId j) const {
+    return !deferred_.empty() && std::find(deferred_.begin(), deferred_.end(), j) != deferred_.end();
+  }
   // Selection index (rebuilt each plan call): queued jobs grouped by their largest input
   // ("key" block). A job cannot start before its key block is on the device's memory, so
   // a bucket whose lower bound already loses to the best candidate is skipped whole.
@@ -87,7 +91,6 @@ class GmbScheduler final : public Scheduler {
   std::vector<std::int32_t> bucket_of_block_, bucket_of_job_;
   std::vector<std::pair<Time, std::int32_t>> order_;
   std::vector<std::pair<Time, std::size_t>> by_bound_;  // evaluate_bucket(): jobs by a lower bound on their start
-  bool any_aged_ = false;
   Time aging_now_ = kNever;     // build_index(): the aging threshold of this plan
   std::vector<Time> ages_;
   std::vector<JobId> aged_;     // build_index(): queued jobs past the aging threshold, oldest first

@@ -119,7 +119,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   if (cfg.scheduler != "gmb" && cfg.scheduler != "gmb-ca" && cfg.scheduler != "loadanyonce" && cfg.scheduler != "budge")
     throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca, loadanyonce, budge)");
   if (!(cfg.horizon > 0)) throw InputError("--horizon", "", "must be > 0");
-  if (std::isnan(cfg.aging)) throw InputError("--aging", "", "must be a duration, 'auto' or 'off'");
+  if (std::isnan(cfg.aging)) throw InputError("--aging", "", "must be a duration, auto, adaptive or off");
   if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
   if (cfg.exec_noise < 0 || cfg.exec_noise >= 1) throw InputError("--exec-noise", "", "must be in [0, 1)");
   const DeviceGraph g = load_platform(cfg.platform_file);
@@ -298,13 +298,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   if (rs) m["activities"]["queue_merges"] = rs->merges();
   SimulationSummary sum;
   if (pt) path_trace_metrics(m, *pt, *profile, cfg, end, sum);
-  auto mean = [](const std::vector<double>& v) {
-    double t = 0;
-    for (double x : v) t += x;
-    return v.empty() ? 0.0 : t / static_cast<double>(v.size());
-  };
-  m["prediction_error"] = {{"exec_mean_rel", mean(err_exec)}, {"exec_p95_rel", percentile(err_exec, 0.95)},
-                           {"transfer_mean_rel", mean(err_transfer)}, {"transfer_p95_rel", percentile(err_transfer, 0.95)}};
+  m["prediction_error"] = {{"exec_mean_rel", mean_of(err_exec)}, {"exec_p95_rel", percentile(err_exec, 0.95)},
+                           {"transfer_mean_rel", mean_of(err_transfer)}, {"transfer_p95_rel", percentile(err_transfer, 0.95)}};
   const Utilisation u = compute_utilisation(s, 0, end);
   json devs = json::array();
   std::map<std::string, DeviceTime> by_kind;
