@@ -17,8 +17,12 @@ FetchPathFinder::FetchPathFinder(const Schedule& schedule)
 }
 
 void FetchPathFinder::clear() {
-  for (Tree& t : trees_) t.valid = false;
-  std::fill(memo_slot_.begin(), memo_slot_.end(), -1);
+  for (BlockId b : valid_trees_) trees_[static_cast<std::size_t>(b)].valid = false;
+  valid_trees_.clear();
+  // Only the slots this pass gave out: a long path-tracing run has ~10^5 blocks (every ray
+  // queue is one), far more than a pass touches, and it plans thousands of times.
+  for (BlockId b : slotted_) memo_slot_[static_cast<std::size_t>(b)] = -1;
+  slotted_.clear();
   memo_index_.clear();
   memos_.clear();
   // About one memo per block is typical: one allocation, not a chain of doublings.
@@ -41,6 +45,7 @@ FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
   std::int32_t& slot = memo_slot_[bi];
   if (slot < 0) {
     slot = static_cast<std::int32_t>(memo_index_.size() / n_);
+    slotted_.push_back(b);
     memo_index_.resize(memo_index_.size() + n_, -1);
   }
   std::int32_t& k = memo_index_[static_cast<std::size_t>(slot) * n_ + static_cast<std::size_t>(m)];
@@ -198,6 +203,7 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
       }
     }
   }
+  if (!t.valid) valid_trees_.push_back(b);
   t.valid = true;
   t.holders_version = schedule_->holders_version(b);
 }

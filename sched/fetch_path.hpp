@@ -111,7 +111,8 @@ class FetchPathFinder {
 
   const Schedule* schedule_;
   std::size_t n_ = 0;  // memory devices
-  std::vector<Tree> trees_;
+  std::vector<Tree> trees_;            // per block
+  std::vector<BlockId> valid_trees_;   // the blocks whose tree is valid (what clear() resets)
   std::vector<Time> arrival_;          // slot x memory device
   std::vector<ChannelId> via_;         // incoming tree channel (kNone at roots)
   std::vector<std::uint64_t> stamp_;   // sum of resource versions on the tree path
@@ -164,6 +165,7 @@ class FetchPathFinder {
   // memos_ (-1: none yet), one per memory device.
   std::vector<std::int32_t> memo_slot_;   // per block (-1: no slot this pass)
   std::vector<std::int32_t> memo_index_;  // slot x memory device
+  std::vector<BlockId> slotted_;          // the blocks with a slot this pass
   std::vector<Memo> memos_;
   Memo& memo(BlockId b, MemId m);
   std::uint64_t memo_stamp(const Memo& e) const;  // resource versions along e.path now

@@ -264,7 +264,20 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
   now_ = now;
   pool_ = &pool;
   if (static_cast<std::size_t>(j) >= info_.size()) return;
-  const JobInfo I = info_[static_cast<std::size_t>(j)];  // copy: info_ grows below
+  // Moved out (info_ grows below, and a finished job's counts are not needed again): the
+  // slot keeps what scan_planned/exec_scale read, and the total for job_rays().
+  const JobInfo I = std::move(info_[static_cast<std::size_t>(j)]);
+  {
+    JobInfo& F = info_[static_cast<std::size_t>(j)];
+    F = JobInfo{};
+    F.kind = I.kind;
+    F.block = I.block;
+    F.mem = I.mem;
+    F.frame = I.frame;
+    F.resolved = I.resolved;
+    F.finished = true;
+    F.processed = I.kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
+  }
   const MemId mem = g_.computes[s.activity(pool.activity(j)).device].memory;
   std::map<std::pair<int, int>, Dest> dests;
   auto dest = [&](PtJob k, int b) -> RayCounts& {
@@ -478,7 +491,8 @@ std::uint64_t PathTraceWorkload::rays_alive() const {
 std::uint64_t PathTraceWorkload::job_rays(JobId j) const {
   if (j < 0 || static_cast<std::size_t>(j) >= info_.size()) return 0;
   const JobInfo& I = info_[static_cast<std::size_t>(j)];
-  return I.kind == PtJob::Accumulate || I.kind == PtJob::Compose ? 0 : total(I.rays);
+  if (I.kind == PtJob::Accumulate || I.kind == PtJob::Compose) return 0;
+  return I.finished ? I.processed : total(I.rays);
 }
 
 // The E-job's duration was computed at commit from the sizes of its inputs then; what it
@@ -486,17 +500,17 @@ std::uint64_t PathTraceWorkload::job_rays(JobId j) const {
 double PathTraceWorkload::exec_scale(JobId j, DeviceId d, const Activity& planned) const {
   if (j < 0 || static_cast<std::size_t>(j) >= info_.size()) return 1.0;
   const JobInfo& I = info_[static_cast<std::size_t>(j)];
-  if (I.kind == PtJob::Generate || I.kind == PtJob::Compose || !I.resolved) return 1.0;
+  if (I.kind == PtJob::Generate || I.kind == PtJob::Compose || !I.resolved || I.finished) return 1.0;
   const std::uint64_t n = I.kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
   if (n == 0) return 0.0;
   const Time actual = exec_time_now(j, d);
   return planned.duration > 0 ? actual / planned.duration : 1.0;
 }
 
-// Eq. 2 for the queue job j holds now on device d.
+// Eq. 2 for the queue job j holds now on device d (a finished job: the queue it processed).
 Time PathTraceWorkload::exec_time_now(JobId j, DeviceId d) const {
   const JobInfo& I = info_[static_cast<std::size_t>(j)];
-  const std::uint64_t n = I.kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
+  const std::uint64_t n = I.finished ? I.processed : I.kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
   std::vector<InputSize> sizes;
   if (I.kind == PtJob::Intersect || I.kind == PtJob::Shadow)
     sizes.push_back({DataKind::SceneData, pool_->block(scene_[static_cast<std::size_t>(I.block)]).bytes});

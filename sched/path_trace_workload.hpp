@@ -96,6 +96,10 @@ class PathTraceWorkload final : public Workload {
     RayCounts records;          // Accumulate: records per frame (key(frame, 0, 0))
     std::uint32_t frame = 0;    // Generate, Compose
     bool resolved = true;       // predicted jobs: false until their parent ended
+    // Finished: the counts above are released (a long run finishes ~10^5 jobs) and only
+    // their total is kept (rays, or records for Accumulate), for job_rays/exec_time_now.
+    bool finished = false;
+    std::uint64_t processed = 0;
   };
   struct Dest {
     PtJob kind;

@@ -1,44 +1,148 @@
 #include "sched/trace_output.hpp"
 
+#include <charconv>
 #include <cstdio>
-#include <nlohmann/json.hpp>
 #include <sstream>
+#include <string_view>
 
 namespace rayline {
 
+namespace {
+
+// A JSON writer for the trace's flat events. The trace of a long path-tracing run holds
+// ~10^6 events; building each as an nlohmann::json object (a std::map per event) took a
+// quarter of such a run, so events are written directly. Strings are escaped per RFC 8259
+// Sec. 7; numbers use the shortest round-trip form (std::to_chars).
+struct JsonOut {
+  std::string s;
+  void str(std::string_view v) {
+    s += '"';
+    for (const char c : v) {
+      const auto u = static_cast<unsigned char>(c);
+      if (c == '"' || c == '\\') {
+        s += '\\';
+        s += c;
+      } else if (u < 0x20) {
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\u%04x", u);
+        s += buf;
+      } else {
+        s += c;
+      }
+    }
+    s += '"';
+  }
+  template <class T>
+  void num(T v) {
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    s.append(buf, r.ptr);
+  }
+  void key(std::string_view k) {  // "k":  (keys are plain identifiers)
+    s += '"';
+    s += k;
+    s += "\":";
+  }
+};
+
+}  // namespace
+
+// Timelines as Chrome trace JSON (the Trace Event Format's "X" complete events and "M"
+// metadata events): one process per node, one per channel group, a track per device and
+// per channel resource.
 std::string chrome_trace_json(const Schedule& s, bool include_actual) {
-  using nlohmann::json;
   const DeviceGraph& g = s.graph();
   const JobPool& pool = s.pool();
-  json events = json::array();
+  JsonOut o;
+  o.s.reserve(256 + s.activity_count() * (include_actual ? 2 : 1) * 260);
+  o.s += "{\"displayTimeUnit\":\"ms\",\"otherData\":{\"platform\":";
+  o.str(g.name);
+  o.s += "},\"traceEvents\":[";
+  bool first = true;
+  auto begin_event = [&] {
+    if (!first) o.s += ',';
+    first = false;
+  };
   const int pid_channels = static_cast<int>(g.nodes.size());
-  auto meta = [&](int pid, int tid, const std::string& what, const std::string& name) {
-    events.push_back({{"ph", "M"}, {"pid", pid}, {"tid", tid}, {"name", what}, {"args", {{"name", name}}}});
+  auto meta = [&](int pid, int tid, const char* what, const std::string& name) {
+    begin_event();
+    o.s += "{\"args\":{\"name\":";
+    o.str(name);
+    o.s += "},\"name\":\"";
+    o.s += what;
+    o.s += "\",\"ph\":\"M\",\"pid\":";
+    o.num(pid);
+    o.s += ",\"tid\":";
+    o.num(tid);
+    o.s += '}';
   };
   for (std::size_t n = 0; n < g.nodes.size(); ++n) meta(static_cast<int>(n), 0, "process_name", g.nodes[n].name + " (compute)");
   meta(pid_channels, 0, "process_name", "channels");
   for (std::size_t d = 0; d < g.computes.size(); ++d)
     meta(std::max(0, g.computes[d].node), static_cast<int>(d), "thread_name", g.computes[d].name);
   for (std::size_t r = 0; r < g.resources.size(); ++r) meta(pid_channels, static_cast<int>(r), "thread_name", g.resources[r].name);
+  // One "X" event; args written by `args` (keys in alphabetical order, like the rest).
+  auto event = [&](auto&& args, const std::string& name, const char* cat, double ts, double dur, int pid, int tid) {
+    begin_event();
+    o.s += "{\"args\":{";
+    args();
+    o.s += "},\"cat\":\"";
+    o.s += cat;
+    o.s += "\",\"dur\":";
+    o.num(dur);
+    o.s += ",\"name\":";
+    o.str(name);
+    o.s += ",\"ph\":\"X\",\"pid\":";
+    o.num(pid);
+    o.s += ",\"tid\":";
+    o.num(tid);
+    o.s += ",\"ts\":";
+    o.num(ts);
+    o.s += '}';
+  };
   auto emit = [&](const Activity& a, ActivityId id, bool actual) {
     const double ts = (actual ? a.start : a.planned_start) * 1e6;
     const double dur = ((actual ? a.end : a.planned_end) - (actual ? a.start : a.planned_start)) * 1e6;
-    const std::string cat = std::string(a.kind == ActivityKind::Exec ? "E-job" : "T-job") + (actual ? ",actual" : ",planned");
-    json args = {{"activity", id}};
-    if (a.job != kNone) args["job"] = pool.job(a.job).name;
-    if (a.kind == ActivityKind::Exec) {
-      args["type"] = g.job_types[pool.job(a.job).type];
-      args["setup_us"] = a.setup * 1e6;
-      events.push_back({{"ph", "X"}, {"name", pool.job(a.job).name}, {"cat", cat}, {"ts", ts}, {"dur", dur},
-                        {"pid", std::max(0, g.computes[a.device].node)}, {"tid", a.device}, {"args", args}});
+    const bool exec = a.kind == ActivityKind::Exec;
+    const char* cat = exec ? (actual ? "E-job,actual" : "E-job,planned") : (actual ? "T-job,actual" : "T-job,planned");
+    auto job_arg = [&] {
+      if (a.job == kNone) return;
+      o.s += ",\"job\":";
+      o.str(pool.job(a.job).name);
+    };
+    if (exec) {
+      event([&] {
+              o.key("activity");
+              o.num(id);
+              job_arg();
+              o.s += ',';
+              o.key("setup_us");
+              o.num(a.setup * 1e6);
+              o.s += ',';
+              o.key("type");
+              o.str(g.job_types[pool.job(a.job).type]);
+            },
+            pool.job(a.job).name, cat, ts, dur, std::max(0, g.computes[a.device].node), a.device);
     } else {
-      args["block"] = pool.block(a.block).name;
-      args["bytes"] = a.bytes;
-      args["channel"] = g.channels[a.channel].name;
-      args["move"] = a.move;
       for (ResourceId r : g.channels[a.channel].resources)
-        events.push_back({{"ph", "X"}, {"name", pool.block(a.block).name}, {"cat", cat}, {"ts", ts}, {"dur", dur},
-                          {"pid", pid_channels}, {"tid", r}, {"args", args}});
+        event([&] {
+                o.key("activity");
+                o.num(id);
+                o.s += ',';
+                o.key("block");
+                o.str(pool.block(a.block).name);
+                o.s += ',';
+                o.key("bytes");
+                o.num(a.bytes);
+                o.s += ',';
+                o.key("channel");
+                o.str(g.channels[a.channel].name);
+                job_arg();
+                o.s += ',';
+                o.key("move");
+                o.s += a.move ? "true" : "false";
+              },
+              pool.block(a.block).name, cat, ts, dur, pid_channels, r);
     }
   };
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
@@ -47,9 +151,24 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
     emit(a, id, false);
     if (include_actual && a.state == ActivityState::Done) emit(a, id, true);
   }
-  json root = {{"traceEvents", events}, {"displayTimeUnit", "ms"}, {"otherData", {{"platform", g.name}}}};
-  return root.dump() + "\n";
+  o.s += "]}\n";
+  return std::move(o.s);
 }
+
+namespace {
+
+// RFC 4180: a field with a comma, quote or line break is quoted, its quotes doubled.
+std::string csv_field(const std::string& v) {
+  if (v.find_first_of(",\"\r\n") == std::string::npos) return v;
+  std::string q = "\"";
+  for (const char c : v) {
+    if (c == '"') q += '"';
+    q += c;
+  }
+  return q + '"';
+}
+
+}  // namespace
 
 std::string jobs_csv(const Schedule& s) {
   const DeviceGraph& g = s.graph();
@@ -64,10 +183,10 @@ std::string jobs_csv(const Schedule& s) {
     if (a.kind == ActivityKind::Exec)
       for (BlockId b : pool.job(a.job).inputs) bytes += pool.block(b).bytes;
     out << id << ',' << (a.kind == ActivityKind::Exec ? "E" : "T") << ','
-        << (a.job == kNone ? std::string() : pool.job(a.job).name) << ','
-        << (a.kind == ActivityKind::Exec ? g.job_types[pool.job(a.job).type] : std::string("transfer")) << ','
-        << (a.kind == ActivityKind::Exec ? g.computes[a.device].name : g.channels[a.channel].name) << ','
-        << (a.block == kNone ? std::string() : pool.block(a.block).name) << ',' << bytes << ',';
+        << (a.job == kNone ? std::string() : csv_field(pool.job(a.job).name)) << ','
+        << csv_field(a.kind == ActivityKind::Exec ? g.job_types[pool.job(a.job).type] : std::string("transfer")) << ','
+        << csv_field(a.kind == ActivityKind::Exec ? g.computes[a.device].name : g.channels[a.channel].name) << ','
+        << (a.block == kNone ? std::string() : csv_field(pool.block(a.block).name)) << ',' << bytes << ',';
     std::snprintf(buf, sizeof buf, "%.9f,%.9f,", a.planned_start, a.planned_end);
     out << buf;
     if (done) {

@@ -104,6 +104,10 @@ TEST(JobSet, BadInputNamesTheField) {
 TEST(JobSet, PlannedSetProducesTraceCsvAndUtilisation) {
   const DeviceGraph g = two_node_graph();
   JobSet set = parse_job_set(kGood, "jobs.json", g);
+  // A name the trace writer has to escape (RFC 8259 Sec. 7): quote, backslash, a control
+  // character, and UTF-8 that passes through.
+  const std::string odd = "ray \"q\" \\ 1\n\t\x01 \xc3\xa9";
+  set.pool.job(0).name = odd;
   Schedule s(g, set.pool);
   for (auto [b, m] : set.initial) s.put_initial(b, m);
   GmbScheduler gmb({.horizon = 2.0});
@@ -117,17 +121,38 @@ TEST(JobSet, PlannedSetProducesTraceCsvAndUtilisation) {
   EXPECT_TRUE(check.errors.empty()) << check.errors.front();
   // Chrome trace: valid JSON, one complete event per E-job, one per T-job and resource.
   const auto trace = nlohmann::json::parse(chrome_trace_json(s, true));
-  int execs = 0, transfers = 0;
+  int execs = 0, transfers = 0, odd_named = 0;
   for (const auto& e : trace["traceEvents"]) {
     if (e["ph"] != "X") continue;
     const std::string cat = e["cat"];
     if (cat.starts_with("E-job")) ++execs;
     if (cat.starts_with("T-job")) ++transfers;
+    // Times round-trip exactly (shortest round-trip digits).
+    const Activity& a = s.activity(e["args"]["activity"].get<ActivityId>());
+    const bool actual = cat.ends_with(",actual");
+    EXPECT_EQ(e["ts"].get<double>(), (actual ? a.start : a.planned_start) * 1e6);
+    EXPECT_EQ(e["dur"].get<double>(), ((actual ? a.end : a.planned_end) - (actual ? a.start : a.planned_start)) * 1e6);
+    if (cat.starts_with("E-job")) {
+      EXPECT_EQ(e["name"], set.pool.job(a.job).name);
+      odd_named += e["name"] == odd;
+    }
   }
+  EXPECT_EQ(odd_named, 2);  // planned + actual
   EXPECT_EQ(execs, 6);  // 3 planned + 3 actual
   EXPECT_GT(transfers, 0);
   const std::string csv = jobs_csv(s);
-  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), static_cast<long>(s.activity_count() + 1));
+  // RFC 4180 records: line breaks outside quotes; every record has the header's 12 fields.
+  std::vector<int> fields{1};
+  bool quoted = false;
+  for (const char c : csv) {
+    if (c == '"') quoted = !quoted;
+    else if (!quoted && c == ',') ++fields.back();
+    else if (!quoted && c == '\n') fields.push_back(1);
+  }
+  fields.pop_back();  // after the last line break
+  EXPECT_EQ(fields.size(), s.activity_count() + 1);
+  for (int f : fields) EXPECT_EQ(f, 12);
+  EXPECT_NE(csv.find(",\"ray \"\"q\"\" \\ 1\n"), std::string::npos);  // the odd name, quoted
   EXPECT_NE(csv.find("n1.cpu0"), std::string::npos);
   // Time split adds up to the span on every device.
   const Utilisation u = compute_utilisation(s, 0, st.makespan);
