@@ -258,12 +258,12 @@ void RayFlowModel::sample(const std::vector<double>& p, std::uint64_t n, std::ve
   double mass = 0;
   for (double x : p) mass += x;
   std::uint64_t left = n;
+  // The last category with probability takes the rest (exact conservation).
+  std::size_t last = p.size();
+  while (last > 0 && p[last - 1] <= 0) --last;
   for (std::size_t i = 0; i < p.size() && left > 0; ++i) {
     if (p[i] <= 0) continue;
-    // The last category with probability takes the rest (exact conservation).
-    bool last = true;
-    for (std::size_t j = i + 1; j < p.size(); ++j) last = last && p[j] <= 0;
-    const std::uint64_t k = last ? left : binomial(left, std::min(1.0, p[i] / mass));
+    const std::uint64_t k = i + 1 == last ? left : binomial(left, std::min(1.0, p[i] / mass));
     out[i] = k;
     left -= k;
     mass -= p[i];
@@ -344,6 +344,7 @@ void RayFlowModel::replay(const SplitContext& ctx, std::uint64_t n, std::vector<
   if (take < n) {
     fallback_ += n - take;
     probabilities(ctx, p_);
+    p_cached_ = false;
     std::vector<std::uint64_t> extra;
     sample(p_, n - take, extra);
     for (std::size_t i = 0; i < cats; ++i) out[i] += extra[i];
@@ -354,7 +355,16 @@ void RayFlowModel::split(const SplitContext& ctx, std::uint64_t n, std::vector<s
   if (fidelity_ == Fidelity::Replay) {
     replay(ctx, n, out);
   } else {
-    probabilities(ctx, p_);
+    // A job's keys share stage and block (and Shade's probabilities also depend on the
+    // bounce): consecutive splits mostly reuse the last probabilities.
+    const int bounce = ctx.stage == RayStage::Shade ? ctx.bounce : -1;
+    if (!p_cached_ || ctx.stage != p_stage_ || ctx.block != p_block_ || bounce != p_bounce_) {
+      probabilities(ctx, p_);
+      p_cached_ = true;
+      p_stage_ = ctx.stage;
+      p_block_ = ctx.block;
+      p_bounce_ = bounce;
+    }
     sample(p_, n, out);
   }
   if (record_) record_->append(ctx, n, out);

@@ -111,6 +111,9 @@ class RayFlowModel {
   std::shared_ptr<ReplayLog> replay_;
   ReplayLog* record_ = nullptr;
   std::vector<double> p_;
+  bool p_cached_ = false;  // p_ holds probabilities(stage, block, bounce) below
+  RayStage p_stage_{};
+  int p_block_ = -1, p_bounce_ = -1;
   std::uint64_t replayed_ = 0, fallback_ = 0, exact_pieces_ = 0;
 };
 

@@ -143,6 +143,7 @@ class PathTraceWorkload final : public Workload {
   Time now_ = 0;
   JobPool* pool_ = nullptr;  // for exec_scale
   std::vector<std::uint64_t> scratch_;
+  std::vector<RayCounts*> dest_cache_;  // on_job_finished: its destinations, by slot
 };
 
 }  // namespace rayline
