@@ -50,7 +50,7 @@ std::vector<int> client_counts(const std::string& text) {
   return out;
 }
 
-void print_summary(const sim::SimulationSummary& s, const std::string& out) {
+void print_summary(const sim::SimulationSummary& s, const std::string& out, bool timeline) {
   std::printf("simulated %.3f s in %.3f s wall (%.0fx), %.4g rays/s, %llu activities, scheduler %.3f s (%.2f%% of simulated time)\n",
               s.simulated, s.wall_seconds, s.wall_seconds > 0 ? s.simulated / s.wall_seconds : 0.0, s.rays_per_second,
               static_cast<unsigned long long>(s.activities), s.scheduler_seconds,
@@ -63,7 +63,7 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out) {
       std::printf("prediction accuracy %.1f%% (jobs), %.1f%% (rays)\n", 100 * s.prediction_accuracy,
                   100 * s.prediction_ray_accuracy);
   }
-  std::printf("results: %s/metrics.json, jobs.csv, timeline.json\n", out.c_str());
+  std::printf("results: %s/metrics.json, jobs.csv%s\n", out.c_str(), timeline ? ", timeline.json" : "");
 }
 }  // namespace
 
@@ -85,6 +85,7 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.blocks = opt.blocks;
   cfg.out_dir = opt.out;
   cfg.paje = opt.paje;
+  cfg.timeline = !opt.no_timeline;
   cfg.progress = !opt.no_progress && ::isatty(2);
   cfg.prediction_depth = opt.prediction_depth;
   cfg.merge_planned = opt.merge_planned == "on";
@@ -111,7 +112,7 @@ int run_simulate(const SimulateOptions& opt) {
   if (counts.size() == 1) {
     cfg.clients = counts[0];
     const sim::SimulationSummary s = sim::run_simulation(cfg);
-    print_summary(s, opt.out);
+    print_summary(s, opt.out, cfg.timeline);
     if (s.stalled) {
       std::fprintf(stderr, "rayline: %zu queued job(s) could not be placed on any device (capacity or no path)\n",
                    s.queued_at_end);

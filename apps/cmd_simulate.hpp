@@ -17,6 +17,7 @@ struct SimulateOptions {
   int blocks = 129;
   std::string out = "out/simulate";
   bool paje = false;
+  bool no_timeline = false;
   bool no_progress = false;
   // Path-tracing workload (--workload boeing|museum|FILE.profile.json).
   std::string clients = "1";        // N, or a list "1,2,4,8": one run per value, peak reported

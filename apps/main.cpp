@@ -61,6 +61,8 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--blocks", opt->blocks, "Scene blocks of the ray stream")->default_val(opt->blocks)->check(CLI::Range(1, 1000000));
   sim->add_option("--out", opt->out, "Output directory (metrics.json, jobs.csv, timeline.json)")->default_val(opt->out);
   sim->add_flag("--paje", opt->paje, "Also write SimGrid's Paje trace (simgrid.trace)");
+  sim->add_flag("--no-timeline", opt->no_timeline,
+                "Skip timeline.json (the Chrome trace; ~250 B per activity, so ~0.25 GB for a long path-tracing run)");
   sim->add_flag("--no-progress", opt->no_progress, "No progress line");
   sim->add_option("--clients", opt->clients, "Path tracing: clients requesting frames (N, or N1,N2,... for a sweep reporting the peak)")->default_val(opt->clients);
   sim->add_option("--prediction-depth", opt->prediction_depth, "Path tracing: job prediction depth (Sec. 5.2; 0 = off)")->default_val(opt->prediction_depth)->check(CLI::Range(0, 16));

@@ -356,7 +356,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
 
   write_text(partial / "metrics.json", m.dump(2) + "\n");
   write_text(partial / "jobs.csv", jobs_csv(s));
-  write_text(partial / "timeline.json", chrome_trace_json(s, true));
+  if (cfg.timeline) write_text(partial / "timeline.json", chrome_trace_json(s, true));
   if (cfg.record_replay)
     recording.save((partial / "replay.log").string(), "scene=" + profile->name + " fidelity=" + cfg.fidelity + " seed=" +
                                                           std::to_string(cfg.seed) + " clients=" + std::to_string(cfg.clients));

@@ -22,6 +22,7 @@ struct SimulationConfig {
   int blocks = 129;
   std::string out_dir = "out/simulate";
   bool paje = false;                    // SimGrid's own trace as OUT/simgrid.trace
+  bool timeline = true;                 // OUT/timeline.json (Chrome trace)
   bool progress = false;                // a progress line on stderr
   // Path-tracing workload (a scene profile; docs/scene-profiles.md).
   int clients = 1;

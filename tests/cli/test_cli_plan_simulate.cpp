@@ -126,6 +126,13 @@ TEST(CliSimulate, ShortRunWritesCompleteResults) {
   EXPECT_TRUE(fs::exists(out / "jobs.csv"));
   std::ifstream t(out / "timeline.json");
   EXPECT_TRUE(nlohmann::json::parse(t).contains("traceEvents"));
+  // --no-timeline: the same results without the trace.
+  const auto nt = rayline_cli("simulate --platform paper-A --duration 5s --no-progress --no-timeline --out " + out.string());
+  ASSERT_EQ(nt.code, 0) << nt.all;
+  EXPECT_TRUE(fs::exists(out / "metrics.json"));
+  EXPECT_TRUE(fs::exists(out / "jobs.csv"));
+  EXPECT_FALSE(fs::exists(out / "timeline.json"));
+  EXPECT_EQ(nt.out.find("timeline.json"), std::string::npos) << nt.out;
   fs::remove_all(out);
 }
 
