@@ -136,13 +136,18 @@ GmbScheduler::Choice GmbScheduler::select(DeviceId d, Time ready, Time now, cons
 }
 
 void GmbScheduler::build_index(Time now, const JobPool& pool) {
+  // Only the last pass's entries are reset: a long path-tracing run has ~10^6 jobs and
+  // blocks (every ray queue is one) and plans every time a device runs dry.
   for (Bucket& bk : buckets_) {
+    bucket_of_block_[static_cast<std::size_t>(bk.key)] = -1;
     bk.jobs.clear();
     spare_jobs_.push_back(std::move(bk.jobs));
   }
   buckets_.clear();
-  bucket_of_block_.assign(pool.block_count(), -1);
-  bucket_of_job_.assign(pool.job_count(), -1);
+  for (JobId j : indexed_jobs_) bucket_of_job_[static_cast<std::size_t>(j)] = -1;
+  indexed_jobs_.clear();
+  if (bucket_of_block_.size() < pool.block_count()) bucket_of_block_.resize(pool.block_count(), -1);
+  if (bucket_of_job_.size() < pool.job_count()) bucket_of_job_.resize(pool.job_count(), -1);
   aging_now_ = aging_threshold();
   if (opt_.adaptive_aging && aging_now_ != kNever && pool.queued_count() > 0) {
     // Adaptive aging (Rayline's option): a job is aged only once it has also waited twice
@@ -178,6 +183,7 @@ void GmbScheduler::build_index(Time now, const JobPool& pool) {
     bk.jobs.push_back(j);
     ++bk.queued;
     bucket_of_job_[j] = bucket_of_block_[key];
+    indexed_jobs_.push_back(j);
   }
   // Oldest first; equally old ones in queue order.
   std::stable_sort(aged_.begin(), aged_.end(), [&](JobId a, JobId b) { return pool.job(a).created < pool.job(b).created; });

@@ -89,6 +89,7 @@ class GmbScheduler final : public Scheduler {
   std::vector<Bucket> buckets_;
   std::vector<std::vector<JobId>> spare_jobs_;  // buckets' job lists of earlier plans (capacity kept)
   std::vector<std::int32_t> bucket_of_block_, bucket_of_job_;
+  std::vector<JobId> indexed_jobs_;  // the jobs bucket_of_job_ holds this pass
   std::vector<std::pair<Time, std::int32_t>> order_;
   std::vector<std::pair<Time, std::size_t>> by_bound_;  // evaluate_bucket(): jobs by a lower bound on their start
   Time aging_now_ = kNever;     // build_index(): the aging threshold of this plan

@@ -212,6 +212,7 @@ ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time
   }
   for (ResourceId r : ch.resources) resource_busy_changed(r);
   acts_.push_back(std::move(a));
+  pending_.push_back(id);
   ++unfinished_;
   if (for_job >= 0) {
     if (static_cast<std::size_t>(for_job) >= job_transfers_.size()) job_transfers_.resize(static_cast<std::size_t>(for_job) + 1);
@@ -280,6 +281,7 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   tl.items.push_back(id);
   tl.busy_until = a.end;
   acts_.push_back(std::move(a));
+  pending_.push_back(id);
   ++unfinished_;
   ++device_pending_[d];
   apply_evictions(out_adm, m, id, [&] { return "outputs of " + job.name; });
@@ -424,12 +426,15 @@ void Schedule::on_finished(ActivityId id, Time t) {
 }
 
 void Schedule::reproject(Time now) {
-  while (first_unfinished_ < static_cast<ActivityId>(acts_.size()) &&
-         acts_[first_unfinished_].state == ActivityState::Done)
-    ++first_unfinished_;
-  for (ActivityId id = first_unfinished_; id < static_cast<ActivityId>(acts_.size()); ++id) {
+  // Over the activities not done yet, in id order (a dependency and a timeline predecessor
+  // always have a smaller id), dropping the ones that finished since the last call: a long
+  // run keeps a few planned activities from its start while 10^5 others finish after them.
+  std::size_t w = 0;
+  for (std::size_t r = 0; r < pending_.size(); ++r) {
+    const ActivityId id = pending_[r];
     Activity& a = acts_[id];
     if (a.state == ActivityState::Done) continue;
+    pending_[w++] = id;
     if (a.state == ActivityState::Running) {
       a.end = std::max(now, a.start + a.duration);
       continue;
@@ -440,6 +445,7 @@ void Schedule::reproject(Time now) {
     a.start = s;
     a.end = s + a.duration;
   }
+  pending_.resize(w);
   for (Timeline& tl : device_tl_)
     tl.busy_until = tl.items.empty() ? 0 : acts_[tl.items.back()].end;
   for (std::size_t r = 0; r < resource_tl_.size(); ++r) {

@@ -202,7 +202,7 @@ class Schedule {
   std::vector<std::size_t> device_pending_;
   std::size_t unfinished_ = 0;
   EvictionPolicy eviction_policy_ = EvictionPolicy::QueueAware;
-  ActivityId first_unfinished_ = 0;
+  std::vector<ActivityId> pending_;  // activities not known to be done, in id order (reproject)
   friend class ScheduleTestAccess;
 };
 
