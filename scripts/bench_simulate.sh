@@ -2,6 +2,9 @@
 # End-to-end simulation benchmark (issue 3): wall time to simulate DURATION of a platform
 # under the saturating ray stream, for a few settings; prints a Markdown table built from
 # each run's metrics.json. Usage: scripts/bench_simulate.sh [DURATION=60s] [REPEATS=3]
+# The last two rows are a path-tracing run at 14 and 18 simulated seconds (fixed): it turns
+# compute-bound after ~13 s and makes ~10^5 activities per simulated second from then on, so
+# equal activities per wall second in both rows means the cost per event does not grow.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DURATION="${1:-60s}"
@@ -15,7 +18,7 @@ echo "|---|---|---|---|---|---|---|---|---|---|"
 run() {
   local label="$1"; shift
   for i in $(seq "$REPEATS"); do
-    "$BIN" simulate --duration "$DURATION" --no-progress --out "$OUT/r$i" "$@" > /dev/null
+    "$BIN" simulate --duration "${RUN_DURATION:-$DURATION}" --no-progress --out "$OUT/r$i" "$@" > /dev/null
   done
   /usr/bin/python3 - "$OUT" "$REPEATS" "$label" <<'PY'
 import json, statistics, sys
@@ -35,3 +38,5 @@ run "paper cluster, 512 smaller blocks" --blocks 512
 run "paper cluster, k=10s" --horizon 10s
 run "paper cluster, exec noise 20%" --exec-noise 0.2
 run "single node A" --platform paper-A
+RUN_DURATION=14s run "workstation, Boeing, 8 clients, 14 s" --platform workstation-4gpu --workload boeing --clients 8 --no-timeline
+RUN_DURATION=18s run "workstation, Boeing, 8 clients, 18 s" --platform workstation-4gpu --workload boeing --clients 8 --no-timeline
