@@ -84,8 +84,10 @@ TEST_F(CliRender, MemoryStaysWithinBudgetPlusDocumentedOverhead) {
     const auto m = metrics(name).at("memory");
     EXPECT_LE(m.at("peak_resident_block_bytes").get<std::uint64_t>(), budget);
     const auto grown = m.at("peak_rss_bytes").get<double>() - m.at("rss_at_start_bytes").get<double>();
+#if !defined(__SANITIZE_ADDRESS__)  // ASan's quarantine keeps freed blocks resident: RSS says nothing there
     EXPECT_LE(grown, double(budget + m.at("overhead_bound_bytes").get<std::uint64_t>()))
         << "RSS grew by " << grown << " bytes; budget " << budget << "; loaders " << loaders;
+#endif
     EXPECT_LE(m.at("worst_footprint_ratio").get<double>(), 1.0) << "a block used more RAM than the plan charged";
     const auto io = metrics(name).at("io");
     EXPECT_GT(io.at("evictions").get<int>(), 0);
