@@ -43,6 +43,14 @@ struct JsonOut {
     s += k;
     s += "\":";
   }
+  void ph_pid_tid(char ph, int pid, int tid) {  // ,"ph":"X","pid":1,"tid":2
+    s += ",\"ph\":\"";
+    s += ph;
+    s += "\",\"pid\":";
+    num(pid);
+    s += ",\"tid\":";
+    num(tid);
+  }
 };
 
 }  // namespace
@@ -70,10 +78,8 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
     o.str(name);
     o.s += "},\"name\":\"";
     o.s += what;
-    o.s += "\",\"ph\":\"M\",\"pid\":";
-    o.num(pid);
-    o.s += ",\"tid\":";
-    o.num(tid);
+    o.s += '"';
+    o.ph_pid_tid('M', pid, tid);
     o.s += '}';
   };
   for (std::size_t n = 0; n < g.nodes.size(); ++n) meta(static_cast<int>(n), 0, "process_name", g.nodes[n].name + " (compute)");
@@ -92,10 +98,7 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
     o.num(dur);
     o.s += ",\"name\":";
     o.str(name);
-    o.s += ",\"ph\":\"X\",\"pid\":";
-    o.num(pid);
-    o.s += ",\"tid\":";
-    o.num(tid);
+    o.ph_pid_tid('X', pid, tid);
     o.s += ",\"ts\":";
     o.num(ts);
     o.s += '}';
