@@ -66,6 +66,20 @@ NodeId home_node(JobId j, const Job& job, const JobPool& pool, const Schedule& s
 }
 }  // namespace
 
+const BudgeScheduler::Inputs& BudgeScheduler::inputs_of(JobId j, const JobPool& pool) {
+  if (inputs_.size() < pool.job_count()) inputs_.resize(pool.job_count());
+  Inputs& in = inputs_[static_cast<std::size_t>(j)];
+  const std::vector<BlockId>& all = pool.job(j).inputs;  // only ever appended to
+  for (; in.seen < all.size(); ++in.seen) {
+    const BlockId b = all[in.seen];
+    const DataBlock& blk = pool.block(b);
+    if (blk.kind == DataKind::SceneData) in.scene.push_back(b);
+    else if (blk.consumed) in.fixed_rays += blk.bytes;
+    else in.live.push_back(b);
+  }
+  return in;
+}
+
 PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   const auto t0 = std::chrono::steady_clock::now();
   PlanStats st;
@@ -73,6 +87,7 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     placer_ = std::make_unique<Placer>(s);
     bound_ = &s;
     homes_.clear();
+    inputs_.clear();
   }
   s.set_eviction_policy(opt_.lru ? Schedule::EvictionPolicy::Lru : Schedule::EvictionPolicy::QueueAware);
   const DeviceGraph& g = s.graph();
@@ -121,9 +136,9 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     for (JobId j : pool.queued()) {
       ++pos;
       const NodeId home = home_of(j);
-      Bytes rays = 0;
-      for (BlockId b : pool.job(j).inputs)
-        if (pool.block(b).kind != DataKind::SceneData) rays += pool.block(b).bytes;
+      const Inputs& in = inputs_of(j, pool);
+      Bytes rays = in.fixed_rays;
+      for (BlockId b : in.live) rays += pool.block(b).bytes;
       by_node[home == kNone ? g.nodes.size() : static_cast<std::size_t>(home)].push_back({j, rays, pos});
     }
   }
@@ -146,11 +161,10 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
         if (!g.timing.supports(d, job.type)) continue;
         bool resident = true;
         Bytes scene = 0;
-        for (BlockId b : job.inputs)
-          if (pool.block(b).kind == DataKind::SceneData) {
-            resident = resident && s.copy_at(b, m) != nullptr;
-            scene += pool.block(b).bytes;
-          }
+        for (BlockId b : inputs_of(q.job, pool).scene) {
+          resident = resident && s.copy_at(b, m) != nullptr;
+          scene += pool.block(b).bytes;
+        }
         if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
         cand.push_back({q.job, opt_.resident_first && resident, opt_.largest_queue ? q.rays : 0, q.pos});
       }

@@ -51,6 +51,17 @@ class BudgeScheduler final : public Scheduler {
   const Schedule* bound_ = nullptr;
   std::unique_ptr<Placer> placer_;
   std::vector<NodeId> homes_;  // per job: its node under the image-space decomposition
+  // Per job, what its inputs say, kept up to date as merges append inputs (a queued job of
+  // a long run can hold thousands of merged ray queues): its scene blocks, the bytes of its
+  // consumed (real) queues, which never change, and the other inputs, whose bytes can
+  // (a prediction's placeholder is rescaled), summed at each use.
+  struct Inputs {
+    std::size_t seen = 0;
+    Bytes fixed_rays = 0;
+    std::vector<BlockId> scene, live;
+  };
+  std::vector<Inputs> inputs_;
+  const Inputs& inputs_of(JobId j, const JobPool& pool);
 };
 
 }  // namespace rayline
