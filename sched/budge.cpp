@@ -168,17 +168,24 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
         if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
         cand.push_back({q.job, opt_.resident_first && resident, opt_.largest_queue ? q.rays : 0, q.pos});
       }
-    std::sort(cand.begin(), cand.end(), [](const Cand& a, const Cand& b) {
-      if (a.resident != b.resident) return a.resident;
-      if (a.rays != b.rays) return a.rays > b.rays;
-      return a.pos < b.pos;
-    });
+    // Candidates in priority order until one is feasible: a heap, since usually the first
+    // one is (a full sort of thousands of queued jobs per idle device was most of a plan).
+    // `pos` is unique, so the order is total and the same as sorting.
+    auto after = [](const Cand& a, const Cand& b) {  // a comes after b
+      if (a.resident != b.resident) return b.resident;
+      if (a.rays != b.rays) return a.rays < b.rays;
+      return a.pos > b.pos;
+    };
+    std::make_heap(cand.begin(), cand.end(), after);
     JobId best = kNone;
-    for (const Cand& c : cand)
+    for (auto end = cand.end(); end != cand.begin(); --end) {
+      std::pop_heap(cand.begin(), end, after);
+      const Cand& c = *(end - 1);
       if (placer_->earliest_start(c.job, d, now, s) != kNever) {
         best = c.job;
         break;
       }
+    }
     if (best != kNone) placer_->place(best, d, std::max(now, s.device_timeline(d).busy_until), now, pool, s, st);
   }
   st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
