@@ -279,20 +279,17 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
     F.processed = I.kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
   }
   const MemId mem = g_.computes[s.activity(pool.activity(j)).device].memory;
+  // The rays going to (kind, block), routed below. Every key of the job sends to the same
+  // few destinations, so each caller slot looks its destination up once, at first use
+  // (exactly the destinations used are created; map references stay valid).
   std::map<std::pair<int, int>, Dest> dests;
-  auto dest = [&](PtJob k, int b) -> RayCounts& {
-    auto [it, fresh] = dests.try_emplace({static_cast<int>(k), b}, Dest{k, b, {}});
-    return it->second.rays;
-  };
-  // The same few destinations for every key of the job: looked up once, at first use (so
-  // exactly the destinations used before exist; map references stay valid).
   std::vector<RayCounts*>& to = dest_cache_;
-  auto cached = [&](std::size_t slot, PtJob k, int b) -> RayCounts& {
+  to.assign(to.size(), nullptr);
+  auto dest = [&](std::size_t slot, PtJob k, int b) -> RayCounts& {
     if (slot >= to.size()) to.resize(slot + 1, nullptr);
-    if (!to[slot]) to[slot] = &dest(k, b);
+    if (!to[slot]) to[slot] = &dests.try_emplace({static_cast<int>(k), b}, Dest{k, b, {}}).first->second.rays;
     return *to[slot];
   };
-  to.assign(to.size(), nullptr);
   RayCounts recs, samples;
   std::uint64_t ended = 0;
   std::vector<std::uint64_t>& out = scratch_;
@@ -307,7 +304,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
         ended += out[0];
         f.alive -= out[0];
         sample_records(recs, samples, I.frame, key_tile(key), out[0], out[0]);
-        for (std::size_t b = 1; b < out.size(); ++b) add_count(cached(b, PtJob::Intersect, static_cast<int>(b - 1)), key, out[b]);
+        for (std::size_t b = 1; b < out.size(); ++b) add_count(dest(b, PtJob::Intersect, static_cast<int>(b - 1)), key, out[b]);
       }
       break;
     }
@@ -323,9 +320,9 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
         ended += out[kHit] + out[kEscape];
         frames_[key_frame(key)].alive -= out[kEscape];  // hits stay alive as hit records
         sample_records(recs, samples, key_frame(key), key_tile(key), out[kEscape], out[kEscape]);
-        add_count(cached(0, PtJob::Shade, I.block), key, out[kHit]);
+        add_count(dest(0, PtJob::Shade, I.block), key, out[kHit]);
         for (std::size_t i = 0; i < blk.neighbours.size(); ++i)
-          add_count(cached(1 + i, PtJob::Intersect, blk.neighbours[i].block), key, out[kFirstNeighbour + i]);
+          add_count(dest(1 + i, PtJob::Intersect, blk.neighbours[i].block), key, out[kFirstNeighbour + i]);
       }
       if (rays) traced_.emplace_back(now, rays);
       if (predictor_) predictor_->observe_intersect(I.block, rays, hits);
@@ -342,8 +339,8 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
         FrameState& f = frames_[key_frame(key)];
         f.alive += out[kSurvive];  // n hit records become n shadow rays, plus the survivors
         sample_records(recs, samples, key_frame(key), key_tile(key), out[kTerminate], 0);
-        add_count(cached(0, PtJob::Shadow, I.block), key, n);
-        if (out[kSurvive]) add_count(cached(1, PtJob::Intersect, I.block), key + 1, out[kSurvive]);  // bounce + 1
+        add_count(dest(0, PtJob::Shadow, I.block), key, n);
+        if (out[kSurvive]) add_count(dest(1, PtJob::Intersect, I.block), key + 1, out[kSurvive]);  // bounce + 1
       }
       if (predictor_) predictor_->observe_shade(I.block, hits, survived);
       break;
@@ -360,7 +357,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
         frames_[key_frame(key)].alive -= out[kOccluded] + out[kLit];
         sample_records(recs, samples, key_frame(key), key_tile(key), 0, out[kLit]);
         for (std::size_t i = 0; i < blk.neighbours.size(); ++i)
-          add_count(cached(i, PtJob::Shadow, blk.neighbours[i].block), key, out[kFirstNeighbour + i]);
+          add_count(dest(i, PtJob::Shadow, blk.neighbours[i].block), key, out[kFirstNeighbour + i]);
       }
       if (rays) traced_.emplace_back(now, rays);
       break;

@@ -38,7 +38,8 @@ struct JsonOut {
     const auto r = std::to_chars(buf, buf + sizeof buf, v);
     s.append(buf, r.ptr);
   }
-  void key(std::string_view k) {  // "k":  (keys are plain identifiers)
+  void key(std::string_view k, bool first = false) {  // ,"k":  (keys are plain identifiers)
+    if (!first) s += ',';
     s += '"';
     s += k;
     s += "\":";
@@ -87,11 +88,11 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
   for (std::size_t d = 0; d < g.computes.size(); ++d)
     meta(std::max(0, g.computes[d].node), static_cast<int>(d), "thread_name", g.computes[d].name);
   for (std::size_t r = 0; r < g.resources.size(); ++r) meta(pid_channels, static_cast<int>(r), "thread_name", g.resources[r].name);
-  // One "X" event; args written by `args` (keys in alphabetical order, like the rest).
-  auto event = [&](auto&& args, const std::string& name, const char* cat, double ts, double dur, int pid, int tid) {
+  // One "X" event; `args` is the inside of its args object (keys in alphabetical order, like the rest).
+  auto event = [&](std::string_view args, const std::string& name, const char* cat, double ts, double dur, int pid, int tid) {
     begin_event();
     o.s += "{\"args\":{";
-    args();
+    o.s += args;
     o.s += "},\"cat\":\"";
     o.s += cat;
     o.s += "\",\"dur\":";
@@ -103,49 +104,39 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
     o.num(ts);
     o.s += '}';
   };
+  JsonOut args_out;
   auto emit = [&](const Activity& a, ActivityId id, bool actual) {
     const double ts = (actual ? a.start : a.planned_start) * 1e6;
     const double dur = ((actual ? a.end : a.planned_end) - (actual ? a.start : a.planned_start)) * 1e6;
     const bool exec = a.kind == ActivityKind::Exec;
     const char* cat = exec ? (actual ? "E-job,actual" : "E-job,planned") : (actual ? "T-job,actual" : "T-job,planned");
-    auto job_arg = [&] {
-      if (a.job == kNone) return;
-      o.s += ",\"job\":";
-      o.str(pool.job(a.job).name);
-    };
+    // The args once per activity (a T-job is shown on each resource of its channel).
+    JsonOut& w = args_out;
+    w.s.clear();
+    w.key("activity", true);
+    w.num(id);
     if (exec) {
-      event([&] {
-              o.key("activity");
-              o.num(id);
-              job_arg();
-              o.s += ',';
-              o.key("setup_us");
-              o.num(a.setup * 1e6);
-              o.s += ',';
-              o.key("type");
-              o.str(g.job_types[pool.job(a.job).type]);
-            },
-            pool.job(a.job).name, cat, ts, dur, std::max(0, g.computes[a.device].node), a.device);
+      w.key("job");
+      w.str(pool.job(a.job).name);
+      w.key("setup_us");
+      w.num(a.setup * 1e6);
+      w.key("type");
+      w.str(g.job_types[pool.job(a.job).type]);
+      event(w.s, pool.job(a.job).name, cat, ts, dur, std::max(0, g.computes[a.device].node), a.device);
     } else {
-      for (ResourceId r : g.channels[a.channel].resources)
-        event([&] {
-                o.key("activity");
-                o.num(id);
-                o.s += ',';
-                o.key("block");
-                o.str(pool.block(a.block).name);
-                o.s += ',';
-                o.key("bytes");
-                o.num(a.bytes);
-                o.s += ',';
-                o.key("channel");
-                o.str(g.channels[a.channel].name);
-                job_arg();
-                o.s += ',';
-                o.key("move");
-                o.s += a.move ? "true" : "false";
-              },
-              pool.block(a.block).name, cat, ts, dur, pid_channels, r);
+      w.key("block");
+      w.str(pool.block(a.block).name);
+      w.key("bytes");
+      w.num(a.bytes);
+      w.key("channel");
+      w.str(g.channels[a.channel].name);
+      if (a.job != kNone) {
+        w.key("job");
+        w.str(pool.job(a.job).name);
+      }
+      w.key("move");
+      w.s += a.move ? "true" : "false";
+      for (ResourceId r : g.channels[a.channel].resources) event(w.s, pool.block(a.block).name, cat, ts, dur, pid_channels, r);
     }
   };
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
