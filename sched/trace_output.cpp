@@ -15,6 +15,15 @@ namespace {
 // Sec. 7; numbers use the shortest round-trip form (std::to_chars).
 struct JsonOut {
   std::string s;
+  std::ostream* sink = nullptr;  // where full buffers go (nullptr: s keeps everything)
+  // Between events: hand the buffer on once it holds 1 MiB, so a long run's trace is never
+  // in memory whole (the 16 s workstation run's is 0.24 GB).
+  void drain(bool all = false) {
+    if (sink && (all || s.size() >= (std::size_t{1} << 20))) {
+      sink->write(s.data(), static_cast<std::streamsize>(s.size()));
+      s.clear();
+    }
+  }
   void str(std::string_view v) {
     s += '"';
     for (const char c : v) {
@@ -59,11 +68,12 @@ struct JsonOut {
 // Timelines as Chrome trace JSON (the Trace Event Format's "X" complete events and "M"
 // metadata events): one process per node, one per channel group, a track per device and
 // per channel resource.
-std::string chrome_trace_json(const Schedule& s, bool include_actual) {
+void write_chrome_trace(const Schedule& s, bool include_actual, std::ostream& out) {
   const DeviceGraph& g = s.graph();
   const JobPool& pool = s.pool();
   JsonOut o;
-  o.s.reserve(256 + s.activity_count() * (include_actual ? 2 : 1) * 260);
+  o.sink = &out;
+  o.s.reserve((std::size_t{1} << 20) + 4096);
   o.s += "{\"displayTimeUnit\":\"ms\",\"otherData\":{\"platform\":";
   o.str(g.name);
   o.s += "},\"traceEvents\":[";
@@ -103,6 +113,7 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
     o.s += ",\"ts\":";
     o.num(ts);
     o.s += '}';
+    o.drain();
   };
   JsonOut args_out;
   auto emit = [&](const Activity& a, ActivityId id, bool actual) {
@@ -146,7 +157,13 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
     if (include_actual && a.state == ActivityState::Done) emit(a, id, true);
   }
   o.s += "]}\n";
-  return std::move(o.s);
+  o.drain(true);
+}
+
+std::string chrome_trace_json(const Schedule& s, bool include_actual) {
+  std::ostringstream out;
+  write_chrome_trace(s, include_actual, out);
+  return std::move(out).str();
 }
 
 namespace {
@@ -164,10 +181,9 @@ std::string csv_field(const std::string& v) {
 
 }  // namespace
 
-std::string jobs_csv(const Schedule& s) {
+void write_jobs_csv(const Schedule& s, std::ostream& out) {
   const DeviceGraph& g = s.graph();
   const JobPool& pool = s.pool();
-  std::ostringstream out;
   out << "activity,kind,job,type,device_or_channel,block,bytes,planned_start,planned_end,actual_start,actual_end,state\n";
   char buf[256];
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
@@ -191,7 +207,12 @@ std::string jobs_csv(const Schedule& s) {
     }
     out << (a.cancelled ? "cancelled" : done ? "done" : "planned") << '\n';
   }
-  return out.str();
+}
+
+std::string jobs_csv(const Schedule& s) {
+  std::ostringstream out;
+  write_jobs_csv(s, out);
+  return std::move(out).str();
 }
 
 }  // namespace rayline

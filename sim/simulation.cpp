@@ -26,10 +26,17 @@ namespace rayline::sim {
 
 namespace {
 
-void write_text(const std::filesystem::path& p, const std::string& text) {
+// (Into the run's partial folder, renamed only once every file is complete.)
+template <class Write>
+void write_file(const std::filesystem::path& p, const Write& write) {
   std::ofstream out(p, std::ios::binary | std::ios::trunc);
-  out << text;
+  write(out);
+  out.flush();
   if (!out) throw std::runtime_error("cannot write " + p.string());
+}
+
+void write_text(const std::filesystem::path& p, const std::string& text) {
+  write_file(p, [&](std::ostream& out) { out << text; });
 }
 
 double percentile(std::vector<double> v, double q) {
@@ -355,8 +362,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
                     {"activities_per_wall_s", wall > 0 ? static_cast<double>(done_exec + done_transfer) / wall : 0}};
 
   write_text(partial / "metrics.json", m.dump(2) + "\n");
-  write_text(partial / "jobs.csv", jobs_csv(s));
-  if (cfg.timeline) write_text(partial / "timeline.json", chrome_trace_json(s, true));
+  write_file(partial / "jobs.csv", [&](std::ostream& out) { write_jobs_csv(s, out); });
+  if (cfg.timeline) write_file(partial / "timeline.json", [&](std::ostream& out) { write_chrome_trace(s, true, out); });
   if (cfg.record_replay)
     recording.save((partial / "replay.log").string(), "scene=" + profile->name + " fidelity=" + cfg.fidelity + " seed=" +
                                                           std::to_string(cfg.seed) + " clients=" + std::to_string(cfg.clients));

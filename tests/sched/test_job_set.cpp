@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "dcg_fixture.hpp"
 #include "sched/error.hpp"
@@ -157,6 +158,44 @@ TEST(JobSet, PlannedSetProducesTraceCsvAndUtilisation) {
   // Time split adds up to the span on every device.
   const Utilisation u = compute_utilisation(s, 0, st.makespan);
   for (const DeviceTime& t : u.devices) EXPECT_NEAR(t.busy + t.setup + t.fetching + t.idle, st.makespan, 1e-9);
+}
+
+// A long run's trace is streamed in pieces (write_chrome_trace drains its buffer at 1 MiB),
+// never held whole; the pieces concatenate to exactly the string form.
+TEST(JobSet, LargeTraceIsStreamedInPiecesThatFormTheSameDocument) {
+  struct CountingBuf : std::stringbuf {
+    int writes = 0;
+    std::streamsize xsputn(const char* p, std::streamsize n) override {
+      ++writes;
+      return std::stringbuf::xsputn(p, n);
+    }
+  };
+  const DeviceGraph g = two_node_graph();
+  JobSet set = synthetic_ray_batching(g, 16, 3000, 5);
+  // Long names that need escaping make the trace large (a snapshot holds a few hundred jobs).
+  for (JobId j = 0; j < static_cast<JobId>(set.pool.job_count()); ++j)
+    set.pool.job(j).name = "job" + std::to_string(j) + " \"" + std::string(3000, 'x') + "\"";
+  Schedule s(g, set.pool);
+  for (auto [b, m] : set.initial) s.put_initial(b, m);
+  GmbScheduler gmb({.horizon = 2.0});
+  ExactExecutor ex(s);
+  StaticWorkload wl;
+  RuntimeLoop loop(gmb, ex, wl, set.pool, s);
+  ASSERT_FALSE(loop.run().stalled);
+  const std::string whole = chrome_trace_json(s, true);
+  ASSERT_GT(whole.size(), std::size_t{3} << 20) << s.activity_count() << " activities";  // several pieces
+  CountingBuf buf;
+  std::ostream out(&buf);
+  write_chrome_trace(s, true, out);
+  EXPECT_GE(buf.writes, 3);
+  EXPECT_EQ(buf.str(), whole);
+  const auto trace = nlohmann::json::parse(whole);
+  std::size_t events = 0;
+  for (const auto& e : trace["traceEvents"]) events += e["ph"] == "X";
+  EXPECT_GE(events, 2 * s.activity_count() - 1);  // planned + actual of each (all done)
+  std::ostringstream csv;
+  write_jobs_csv(s, csv);
+  EXPECT_EQ(csv.str(), jobs_csv(s));
 }
 
 TEST(JobSet, SyntheticIsDeterministicAndPlacesQueuesInHostMemory) {
