@@ -24,9 +24,7 @@ void FetchPathFinder::clear() {
   for (BlockId b : slotted_) memo_slot_[static_cast<std::size_t>(b)] = -1;
   slotted_.clear();
   memo_index_.clear();
-  memos_.clear();
-  // About one memo per block is typical: one allocation, not a chain of doublings.
-  memos_.reserve(std::max(memos_.capacity(), schedule_->pool().block_count()));
+  memos_.clear();  // (keeps its capacity: a pass asks about as many as the last one)
 }
 
 void FetchPathFinder::rebind(const Schedule& schedule) {
