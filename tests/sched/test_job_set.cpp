@@ -102,6 +102,18 @@ TEST(JobSet, BadInputNamesTheField) {
   EXPECT_NE(error_of(with("\"created\": \"0s\"", "\"created\": \"-3s\"")).find("jobs[2].created"), std::string::npos);
 }
 
+namespace {
+// The set planned and run to the end: GMB (k = 2 s), executed exactly as predicted.
+RunStats run_to_completion(JobSet& set, Schedule& s) {
+  for (auto [b, m] : set.initial) s.put_initial(b, m);
+  GmbScheduler gmb({.horizon = 2.0});
+  ExactExecutor ex(s);
+  StaticWorkload wl;
+  RuntimeLoop loop(gmb, ex, wl, set.pool, s);
+  return loop.run();
+}
+}  // namespace
+
 TEST(JobSet, PlannedSetProducesTraceCsvAndUtilisation) {
   const DeviceGraph g = two_node_graph();
   JobSet set = parse_job_set(kGood, "jobs.json", g);
@@ -110,12 +122,7 @@ TEST(JobSet, PlannedSetProducesTraceCsvAndUtilisation) {
   const std::string odd = "ray \"q\" \\ 1\n\t\x01 \xc3\xa9";
   set.pool.job(0).name = odd;
   Schedule s(g, set.pool);
-  for (auto [b, m] : set.initial) s.put_initial(b, m);
-  GmbScheduler gmb({.horizon = 2.0});
-  ExactExecutor ex(s);
-  StaticWorkload wl;
-  RuntimeLoop loop(gmb, ex, wl, set.pool, s);
-  const RunStats st = loop.run();
+  const RunStats st = run_to_completion(set, s);
   ASSERT_FALSE(st.stalled);
   for (JobId j = 0; j < 3; ++j) EXPECT_EQ(set.pool.state(j), JobState::Done);
   const auto check = rayline::testing::check_schedule(s, set.pool);
@@ -176,12 +183,7 @@ TEST(JobSet, LargeTraceIsStreamedInPiecesThatFormTheSameDocument) {
   for (JobId j = 0; j < static_cast<JobId>(set.pool.job_count()); ++j)
     set.pool.job(j).name = "job" + std::to_string(j) + " \"" + std::string(3000, 'x') + "\"";
   Schedule s(g, set.pool);
-  for (auto [b, m] : set.initial) s.put_initial(b, m);
-  GmbScheduler gmb({.horizon = 2.0});
-  ExactExecutor ex(s);
-  StaticWorkload wl;
-  RuntimeLoop loop(gmb, ex, wl, set.pool, s);
-  ASSERT_FALSE(loop.run().stalled);
+  ASSERT_FALSE(run_to_completion(set, s).stalled);
   const std::string whole = chrome_trace_json(s, true);
   ASSERT_GT(whole.size(), std::size_t{3} << 20) << s.activity_count() << " activities";  // several pieces
   CountingBuf buf;
