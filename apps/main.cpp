@@ -2,6 +2,11 @@
 // every subcommand registers here and runs from its own cmd_*.cpp.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <cstdio>
+#include <string>
+#include <vector>
+
 #include "apps/cli_common.hpp"
 #include "apps/cmd_compare.hpp"
 #include "apps/cmd_generate.hpp"
@@ -235,6 +240,54 @@ void add_devices(CLI::App& app, std::function<int()>& action) {
 }
 #endif  // RAYLINE_WITH_RENDER
 
+// Edit distance, for "did you mean" (names are a few letters long).
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// CLI11 answers a mistyped subcommand ("rayline simualte") with "A subcommand is required".
+// Name the word, the subcommands there are, and the closest one. False: nothing unknown.
+bool unknown_subcommand(const CLI::App& app, int argc, char** argv) {
+  const CLI::App* at = &app;
+  std::string path = "rayline";
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    const auto subs = at->get_subcommands(std::function<bool(const CLI::App*)>{});
+    if (subs.empty() || word.empty() || word[0] == '-') return false;
+    const CLI::App* next = nullptr;
+    std::string names, closest;
+    std::size_t best = 3;  // suggest only within two edits
+    for (const CLI::App* sub : subs) {
+      if (sub->get_name() == word) next = sub;
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+      if (const std::size_t d = edit_distance(word, sub->get_name()); d < best) {
+        best = d;
+        closest = sub->get_name();
+      }
+    }
+    if (!next) {
+      std::fprintf(stderr, "%s: unknown subcommand '%s'%s (expected one of: %s; see %s --help)\n", path.c_str(),
+                   word.c_str(), closest.empty() ? "" : (", did you mean '" + closest + "'?").c_str(), names.c_str(),
+                   path.c_str());
+      return true;
+    }
+    at = next;
+    path += " " + word;
+  }
+  return false;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -257,6 +310,7 @@ int main(int argc, char** argv) {
 #endif
   // New subcommands: add an add_<name>(app, action) above, call it here, and list its
   // cmd_<name>.cpp in apps/CMakeLists.txt.
+  if (unknown_subcommand(app, argc, argv)) return kExitBadInput;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
