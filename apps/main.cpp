@@ -256,21 +256,29 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
-// CLI11 answers a mistyped subcommand ("rayline simualte") with "A subcommand is required".
-// Name the word, the subcommands there are, and the closest one. False: nothing unknown.
-bool unknown_subcommand(const CLI::App& app, int argc, char** argv) {
+std::string subcommand_names(const CLI::App& app) {
+  std::string names;
+  for (const CLI::App* sub : app.get_subcommands(std::function<bool(const CLI::App*)>{}))
+    names += (names.empty() ? "" : ", ") + sub->get_name();
+  return names;
+}
+
+// CLI11 answers a mistyped subcommand ("rayline simualte"), and a missing one, with "A
+// subcommand is required". Name the word, the subcommands there are, and the closest one.
+// False: every word names a subcommand (or none is needed), so CLI11 parses.
+bool bad_subcommand(const CLI::App& app, int argc, char** argv) {
   const CLI::App* at = &app;
   std::string path = "rayline";
-  for (int i = 1; i < argc; ++i) {
+  int i = 1;
+  for (; i < argc; ++i) {
     const std::string word = argv[i];
     const auto subs = at->get_subcommands(std::function<bool(const CLI::App*)>{});
     if (subs.empty() || word.empty() || word[0] == '-') return false;
     const CLI::App* next = nullptr;
-    std::string names, closest;
+    std::string closest;
     std::size_t best = 3;  // suggest only within two edits
     for (const CLI::App* sub : subs) {
       if (sub->get_name() == word) next = sub;
-      names += (names.empty() ? "" : ", ") + sub->get_name();
       if (const std::size_t d = edit_distance(word, sub->get_name()); d < best) {
         best = d;
         closest = sub->get_name();
@@ -278,14 +286,17 @@ bool unknown_subcommand(const CLI::App& app, int argc, char** argv) {
     }
     if (!next) {
       std::fprintf(stderr, "%s: unknown subcommand '%s'%s (expected one of: %s; see %s --help)\n", path.c_str(),
-                   word.c_str(), closest.empty() ? "" : (", did you mean '" + closest + "'?").c_str(), names.c_str(),
-                   path.c_str());
+                   word.c_str(), closest.empty() ? "" : (", did you mean '" + closest + "'?").c_str(),
+                   subcommand_names(*at).c_str(), path.c_str());
       return true;
     }
     at = next;
     path += " " + word;
   }
-  return false;
+  if (at->get_require_subcommand_min() == 0) return false;
+  std::fprintf(stderr, "%s: a subcommand is required, one of: %s (see %s --help)\n", path.c_str(),
+               subcommand_names(*at).c_str(), path.c_str());
+  return true;
 }
 
 }  // namespace
@@ -310,7 +321,7 @@ int main(int argc, char** argv) {
 #endif
   // New subcommands: add an add_<name>(app, action) above, call it here, and list its
   // cmd_<name>.cpp in apps/CMakeLists.txt.
-  if (unknown_subcommand(app, argc, argv)) return kExitBadInput;
+  if (bad_subcommand(app, argc, argv)) return kExitBadInput;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

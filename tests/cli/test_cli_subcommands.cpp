@@ -1,5 +1,6 @@
 // The top level of `rayline` (apps/main.cpp): a mistyped subcommand is named, with the
-// closest existing one, exit code 2; known subcommands and their arguments pass through.
+// closest existing one, and a missing one gets the list, exit code 2; known subcommands and
+// their arguments pass through.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -39,7 +40,16 @@ TEST(CliSubcommands, KnownSubcommandsAndPositionalsPassThrough) {
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.err.find("unknown subcommand"), std::string::npos) << r.err;
   EXPECT_EQ(rayline("--version").code, 0);
-  EXPECT_EQ(rayline("").code, 2);  // none given: CLI11's own message
+}
+
+TEST(CliSubcommands, MissingSubcommandListsTheChoices) {
+  const auto none = rayline("");
+  EXPECT_EQ(none.code, 2);
+  EXPECT_NE(none.err.find("rayline: a subcommand is required, one of: platform, plan"), std::string::npos) << none.err;
+  const auto nested = rayline("platform");
+  EXPECT_EQ(nested.code, 2);
+  EXPECT_NE(nested.err.find("rayline platform: a subcommand is required, one of: check"), std::string::npos)
+      << nested.err;
 }
 
 }  // namespace
