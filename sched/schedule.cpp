@@ -196,13 +196,13 @@ ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time
   const Time start = std::max({not_before, copy_ready(*src), channel_finish(c), adm.at});
   a.start = a.planned_start = start;
   a.end = a.planned_end = start + a.duration;
-  // One allocation per list (sizes known up front).
+  // Sizes known up front: at most one allocation, and none for a short list.
   a.deps.reserve((src->producer != kNone ? 1 : 0) + adm.wait_for.size());
   std::size_t prev = 0;
   for (ResourceId r : ch.resources) prev += resource_tl_[r].items.empty() ? 0 : 1;
   a.timeline_prev.reserve(prev);
   if (src->producer != kNone) a.deps.push_back(src->producer);
-  a.deps.insert(a.deps.end(), adm.wait_for.begin(), adm.wait_for.end());
+  a.deps.append(adm.wait_for.begin(), adm.wait_for.end());
   for (ResourceId r : ch.resources) {
     Timeline& tl = resource_tl_[r];
     if (!tl.items.empty()) a.timeline_prev.push_back(tl.items.back());
@@ -245,7 +245,7 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   std::vector<InputSize> many;
   std::size_t n_sizes = 0;
   Time ready = 0;
-  a.deps.reserve(job.inputs.size() + job.after.size() + out_adm.wait_for.size());  // one allocation (at most that many)
+  a.deps.reserve(job.inputs.size() + job.after.size() + out_adm.wait_for.size());  // (at most that many)
   for (BlockId b : job.inputs) {
     const Copy* c = copy_at(b, m);
     if (!c) throw std::logic_error("E-job committed before input " + pool_->block(b).name + " is on its memory");
@@ -266,7 +266,7 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
     a.deps.push_back(pa);
     ready = std::max(ready, acts_[pa].end);
   }
-  a.deps.insert(a.deps.end(), out_adm.wait_for.begin(), out_adm.wait_for.end());
+  a.deps.append(out_adm.wait_for.begin(), out_adm.wait_for.end());
   ready = std::max(ready, out_adm.at);
   a.data_ready = ready;
   const std::span<const InputSize> sizes = n_sizes <= few.size() ? std::span<const InputSize>(few.data(), n_sizes)

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "activity_list.hpp"
 #include "device_graph.hpp"
 #include "job_pool.hpp"
 
@@ -33,8 +34,8 @@ struct Activity {
   Time start = 0, end = 0;     // projected; the measured values once known
   Time data_ready = 0;         // Exec: when every input was resident (fetching idle, Sec. 4.2)
   bool cancelled = false;      // withdrawn by Schedule::cancel: runs for 0 s, moves nothing
-  std::vector<ActivityId> deps;      // data / eviction / job-job dependencies
-  std::vector<ActivityId> timeline_prev;  // predecessor on each of its timelines
+  ActivityList deps;           // data / eviction / job-job dependencies
+  ActivityList timeline_prev;  // predecessor on each of its timelines
 };
 
 // A copy of a block on a memory device (the holders of Sec. 4.4).

@@ -25,7 +25,7 @@ Time LocalExecutor::now() const {
 }
 
 void LocalExecutor::dispatch(ActivityId id, const Activity& a) {
-  Item it{id, a.deps, factory_(id, a), hint_factory_ ? hint_factory_(id, a) : Task{}};
+  Item it{id, {a.deps.begin(), a.deps.end()}, factory_(id, a), hint_factory_ ? hint_factory_(id, a) : Task{}};
   it.wait.insert(it.wait.end(), a.timeline_prev.begin(), a.timeline_prev.end());
   const std::size_t lane = a.kind == ActivityKind::Exec
                                ? static_cast<std::size_t>(a.device)
