@@ -2,8 +2,9 @@
 // scene blocks, 1 000 queued RayIntersect jobs) planned N times by one kept GmbScheduler,
 // each on a fresh Schedule, after one warm-up plan; under valgrind's callgrind, collection is
 // toggled around plan() alone, so "instructions / N" is the instruction count of one warm
-// plan, free of this shared machine's timing noise. Run it through
-// scripts/count_plan_instructions.sh; without valgrind it just plans.
+// plan, free of this shared machine's timing noise. --cold builds a new scheduler for every
+// plan instead (bench_sched_gmb's cold cases; the construction is counted too). Run it
+// through scripts/count_plan_instructions.sh; without valgrind it just plans.
 #include <valgrind/callgrind.h>
 
 #include <cstdio>
@@ -20,12 +21,18 @@
 using namespace rayline;
 
 int main(int argc, char** argv) {
+  const bool cold = argc > 1 && std::string(argv[1]) == "--cold";
+  if (cold) {
+    --argc;
+    ++argv;
+  }
   const std::string arg1 = argc > 1 ? argv[1] : "";
   if (arg1 == "--help" || arg1 == "-h" || argc > 4) {
-    std::printf("usage: plan_instructions [PLATFORM.json] [HORIZON_S] [PLANS]\n"
+    std::printf("usage: plan_instructions [--cold] [PLATFORM.json] [HORIZON_S] [PLANS]\n"
                 "  defaults: %s/paper-cluster.json 2 10\n"
                 "  Plans the bench_sched_gmb instance PLANS times with one kept scheduler (after one\n"
-                "  warm-up plan), collecting callgrind events around plan() only.\n",
+                "  warm-up plan), collecting callgrind events around plan() only. --cold: a new\n"
+                "  scheduler for every plan, its construction and plan() counted.\n",
                 RAYLINE_PLATFORMS);
     return argc > 4 ? 2 : 0;
   }
@@ -49,8 +56,10 @@ int main(int argc, char** argv) {
     for (long i = 0; i <= plans; ++i) {  // plan 0 warms the kept scheduler up
       auto [set, s] = bench::fresh_plan(g, base);
       if (i > 0) CALLGRIND_TOGGLE_COLLECT;
-      const PlanStats st = kept.plan(0, set->pool, *s);
+      std::unique_ptr<GmbScheduler> fresh = cold ? std::make_unique<GmbScheduler>(GmbOptions{.horizon = horizon}) : nullptr;
+      const PlanStats st = (cold ? *fresh : kept).plan(0, set->pool, *s);
       if (i > 0) CALLGRIND_TOGGLE_COLLECT;
+      fresh.reset();  // (its teardown is not counted)
       if (i > 0) placements += st.execs + st.transfers;
     }
     std::printf("plans %ld\nplacements/plan %.1f\n", plans, placements / static_cast<double>(plans));
