@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
     for (long i = 0; i <= plans; ++i) {  // plan 0 warms the kept scheduler up
       auto [set, s] = bench::fresh_plan(g, base);
       if (i > 0) CALLGRIND_TOGGLE_COLLECT;
-      std::unique_ptr<GmbScheduler> fresh = cold ? std::make_unique<GmbScheduler>(GmbOptions{.horizon = horizon}) : nullptr;
+      std::unique_ptr<GmbScheduler> fresh = cold ? std::make_unique<GmbScheduler>(kept.options()) : nullptr;
       const PlanStats st = (cold ? *fresh : kept).plan(0, set->pool, *s);
       if (i > 0) CALLGRIND_TOGGLE_COLLECT;
       fresh.reset();  // (its teardown is not counted)
