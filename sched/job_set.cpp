@@ -1,5 +1,6 @@
 #include "sched/job_set.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -78,9 +79,11 @@ JobSet parse_job_set(const std::string& text, const std::string& file, const Dev
     b.consumed = is_consumed_by_use(b.kind);
     const BlockId id = set.pool.add_block(b);
     blocks[b.name] = id;
+    std::set<MemId> at;
     for (const std::string& m : string_list(jb[i], "at", file, f)) {
       const MemId mem = g.find_memory(m);
       if (mem == kNone) throw InputError(file, f + ".at", "unknown memory device '" + m + "' (not in " + g.source_file + ")");
+      if (!at.insert(mem).second) throw InputError(file, f + ".at", "memory device '" + m + "' listed twice");
       if (g.memories[mem].capacity < b.bytes) throw InputError(file, f + ".size", "larger than memory device '" + m + "'");
       set.initial.emplace_back(id, mem);
     }
@@ -98,6 +101,7 @@ JobSet parse_job_set(const std::string& text, const std::string& file, const Dev
   std::map<std::string, JobId> jobs;
   std::vector<std::vector<std::string>> after_names;
   std::set<BlockId> produced;
+  std::map<BlockId, std::size_t> consumer;  // consumed-by-use blocks: the job reading each
   std::vector<Job> parsed;
   for (std::size_t i = 0; i < jj.size(); ++i) {
     const std::string f = "jobs[" + std::to_string(i) + "]";
@@ -114,11 +118,24 @@ JobSet parse_job_set(const std::string& text, const std::string& file, const Dev
     for (const std::string& n : string_list(jj[i], "inputs", file, f)) {
       auto it = blocks.find(n);
       if (it == blocks.end()) throw InputError(file, f + ".inputs", "unknown block '" + n + "'");
+      if (std::find(j.inputs.begin(), j.inputs.end(), it->second) != j.inputs.end())
+        throw InputError(file, f + ".inputs", "block '" + n + "' listed twice");
+      // A ray queue is consumed by the job that reads it (Sec. 5.1): a second reader could
+      // never run.
+      if (set.pool.block(it->second).consumed) {
+        auto [reader, fresh] = consumer.emplace(it->second, i);
+        if (!fresh)
+          throw InputError(file, f + ".inputs", "block '" + n + "' (" + std::string(to_string(set.pool.block(it->second).kind)) +
+                                                    ") is consumed by use and already read by jobs[" +
+                                                    std::to_string(reader->second) + "]");
+      }
       j.inputs.push_back(it->second);
     }
     for (const std::string& n : string_list(jj[i], "outputs", file, f)) {
       auto it = blocks.find(n);
       if (it == blocks.end()) throw InputError(file, f + ".outputs", "unknown block '" + n + "'");
+      if (std::find(j.outputs.begin(), j.outputs.end(), it->second) != j.outputs.end())
+        throw InputError(file, f + ".outputs", "block '" + n + "' listed twice");
       for (auto [b, m] : set.initial)
         if (b == it->second) throw InputError(file, f + ".outputs", "block '" + n + "' is placed initially and produced by a job");
       if (!produced.insert(it->second).second) throw InputError(file, f + ".outputs", "block '" + n + "' is produced by two jobs");
