@@ -1,7 +1,9 @@
 #include "sched/path_trace_model.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <limits>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -98,7 +100,27 @@ void ReplayLog::save(const std::string& path, const std::string& header) const {
   if (!out) throw std::runtime_error("cannot write " + path);
 }
 
-ReplayLog ReplayLog::load(const std::string& path) {
+namespace {
+// A whole token as an unsigned integer (no sign, no trailing characters).
+template <class T>
+bool parse_uint(std::string_view t, T& out) {
+  if (t.empty() || t[0] == '-') return false;  // from_chars takes a sign for int
+  const auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), out);
+  return ec == std::errc() && p == t.data() + t.size();
+}
+}  // namespace
+
+std::size_t outcome_categories(const SceneProfile& profile, RayStage stage, int block) {
+  switch (stage) {
+    case RayStage::Entry: return 1 + profile.blocks.size();
+    case RayStage::Shade: return 2;
+    case RayStage::Intersect:
+    case RayStage::Shadow: return kFirstNeighbour + profile.blocks[static_cast<std::size_t>(block)].neighbours.size();
+  }
+  return 0;
+}
+
+ReplayLog ReplayLog::load(const std::string& path, const SceneProfile* profile) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open replay log");
   ReplayLog log;
@@ -108,42 +130,55 @@ ReplayLog ReplayLog::load(const std::string& path) {
     throw InputError(path, "line 1", "expected 'rayline-replay 1' (optionally followed by ' per-keyframe')");
   log.per_keyframe_ = line != "rayline-replay 1";
   ++lineno;
+  std::vector<std::string> w;
   while (std::getline(in, line)) {
     ++lineno;
     if (line.empty() || line[0] == '#') continue;
     const std::string f = "line " + std::to_string(lineno);
     std::istringstream ss(line);
-    std::string stage;
+    w.clear();
+    for (std::string t; ss >> t;) w.push_back(std::move(t));
     SplitContext c;
     std::uint64_t n = 0;
-    if (!(ss >> stage >> c.client >> c.frame >> c.tile >> c.bounce >> c.block >> n)) throw InputError(path, f, "malformed piece");
+    int* fields[] = {&c.client, &c.frame, &c.tile, &c.bounce, &c.block};
+    bool ok = w.size() >= 7 && parse_uint(w[6], n);
+    for (int k = 0; ok && k < 5; ++k) ok = parse_uint(w[static_cast<std::size_t>(k) + 1], *fields[k]);
+    if (!ok) throw InputError(path, f, "malformed piece (expected STAGE CLIENT FRAME TILE BOUNCE BLOCK N CATEGORY:COUNT...)");
     int s = 0;
-    while (s < 4 && stage != kStageNames[s]) ++s;
-    if (s == 4) throw InputError(path, f, "unknown stage '" + stage + "'");
+    while (s < 4 && w[0] != kStageNames[s]) ++s;
+    if (s == 4) throw InputError(path, f, "unknown stage '" + w[0] + "'");
     c.stage = static_cast<RayStage>(s);
     try {
       (void)c.key();
     } catch (const std::logic_error&) {
       throw InputError(path, f, "context out of range");
     }
+    // Against the profile it will replay (the model indexes its blocks and categories).
+    std::size_t cats = 65537;
+    if (profile) {
+      if (c.stage != RayStage::Entry && static_cast<std::size_t>(c.block) >= profile->blocks.size())
+        throw InputError(path, f, "block " + std::to_string(c.block) + " out of range: profile '" + profile->name + "' has " +
+                                      std::to_string(profile->blocks.size()) + " blocks");
+      cats = outcome_categories(*profile, c.stage, c.block);
+    }
     std::vector<std::uint64_t> out;
-    std::string item;
     std::uint64_t sum = 0;
-    while (ss >> item) {
+    for (std::size_t k = 7; k < w.size(); ++k) {
+      const std::string& item = w[k];
       const auto colon = item.find(':');
       if (colon == std::string::npos) throw InputError(path, f, "expected CATEGORY:COUNT, got '" + item + "'");
       std::size_t cat = 0;
-      std::uint64_t k = 0;
-      try {
-        cat = std::stoul(item.substr(0, colon));
-        k = std::stoull(item.substr(colon + 1));
-      } catch (const std::exception&) {
+      std::uint64_t count = 0;
+      if (!parse_uint(std::string_view(item).substr(0, colon), cat) || !parse_uint(std::string_view(item).substr(colon + 1), count))
         throw InputError(path, f, "bad count '" + item + "'");
-      }
-      if (cat > 65536) throw InputError(path, f, "category out of range");
+      if (cat >= cats)
+        throw InputError(path, f, "category " + std::to_string(cat) + " does not exist here (" + std::to_string(cats) +
+                                      (profile ? " outcome categories for this stage and block in profile '" + profile->name + "')"
+                                               : " at most)"));
       if (out.size() <= cat) out.resize(cat + 1, 0);
-      out[cat] += k;
-      sum += k;
+      if (count > std::numeric_limits<std::uint64_t>::max() - sum) throw InputError(path, f, "counts overflow");
+      out[cat] += count;
+      sum += count;
     }
     if (sum != n) throw InputError(path, f, "outcomes sum to " + std::to_string(sum) + ", not " + std::to_string(n));
     log.append(c, n, out);
@@ -196,15 +231,7 @@ std::uint64_t RayFlowModel::binomial(std::uint64_t n, double p) {
   return static_cast<std::uint64_t>(std::clamp(x, 0.0, nd));
 }
 
-std::size_t RayFlowModel::categories(RayStage stage, int block) const {
-  switch (stage) {
-    case RayStage::Entry: return 1 + profile_.blocks.size();
-    case RayStage::Shade: return 2;
-    case RayStage::Intersect:
-    case RayStage::Shadow: return kFirstNeighbour + profile_.blocks[static_cast<std::size_t>(block)].neighbours.size();
-  }
-  return 0;
-}
+std::size_t RayFlowModel::categories(RayStage stage, int block) const { return outcome_categories(profile_, stage, block); }
 
 void RayFlowModel::probabilities(const SplitContext& ctx, std::vector<double>& p) const {
   p.assign(categories(ctx.stage, ctx.block), 0.0);

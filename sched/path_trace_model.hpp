@@ -39,6 +39,9 @@ struct SplitContext {
   std::uint64_t key() const;  // packed (stage, client < 1024, frame < 65536, tile < 4096, bounce < 256, block < 65536)
 };
 
+// The number of outcome categories of a stage on a block (the table above).
+std::size_t outcome_categories(const SceneProfile& profile, RayStage stage, int block);
+
 enum class Fidelity : std::uint8_t { Analytic, Markov, Replay };
 bool parse_fidelity(const std::string& name, Fidelity& out);
 const char* to_string(Fidelity f);
@@ -70,7 +73,9 @@ class ReplayLog {
   std::size_t groups() const { return groups_.size(); }
   std::size_t pieces() const { return pieces_; }
   void save(const std::string& path, const std::string& header) const;  // text, written as is
-  static ReplayLog load(const std::string& path);                        // InputError on bad lines
+  // InputError on bad lines; with `profile`, also on a block or category it does not have
+  // (the log is replayed against it).
+  static ReplayLog load(const std::string& path, const SceneProfile* profile = nullptr);
 
  private:
   std::map<std::uint64_t, Group> groups_;

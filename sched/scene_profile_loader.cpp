@@ -55,6 +55,13 @@ struct Reader {
     if (!it->is_number_integer() && !it->is_number_unsigned()) throw InputError(file, f, "expected an integer");
     return it->get<std::uint64_t>();
   }
+  // An optional string field ("" when absent).
+  std::string text(const json& obj, const char* key) const {
+    auto it = obj.find(key);
+    if (it == obj.end()) return {};
+    if (!it->is_string()) throw InputError(file, key, "expected a string");
+    return it->get<std::string>();
+  }
   std::array<double, 3> vec3(const json& obj, const char* key, const std::string& field) const {
     auto it = obj.find(key);
     const std::string f = join(field, key);
@@ -91,13 +98,15 @@ SceneProfile parse_scene_profile(const std::string& text, const std::string& fil
   r.keys(root, {"format", "version", "name", "description", "provenance", "image", "batching", "records", "analytic",
                 "block_count", "blocks", "camera_path"},
          "");
-  if (root.value("format", std::string()) != "rayline-scene-profile")
+  if (!root.contains("format") || r.text(root, "format") != "rayline-scene-profile")
     throw InputError(file, "format", "expected \"rayline-scene-profile\"");
-  if (root.value("version", 0) != 1) throw InputError(file, "version", "expected 1");
+  if (auto v = root.find("version"); v == root.end() || !v->is_number_integer() || *v != 1)
+    throw InputError(file, "version", "expected 1");
   SceneProfile p;
   p.file = file;
-  p.name = root.value("name", std::string());
-  p.provenance = root.value("provenance", std::string());
+  p.name = r.text(root, "name");
+  p.provenance = r.text(root, "provenance");
+  (void)r.text(root, "description");
 
   if (auto it = root.find("image"); it != root.end()) {
     r.keys(*it, {"width", "height", "spp", "tiles"}, "image");

@@ -249,10 +249,19 @@ void SgPlatform::Impl::complete(SgActivityId id, Time finish_s, bool ok) {
   try {
     p.done(SgCompletion{p.id, p.start_s, finish_s, ok});
   } catch (...) {
-    // Unwinding through SimGrid's loop would strand half-processed activities: stop the
-    // simulation cleanly instead and rethrow from run().
-    error = std::current_exception();
-    stop_all();
+    // Unwinding through SimGrid's loop would strand half-processed activities, and
+    // cancelling them from inside this signal crashes SimGrid 3.32 when other activities
+    // end at the same instant: their cancelled actions wait for the engine's next round,
+    // by which time the activities are freed (EngineImpl::handle_ended_actions; found by
+    // fuzzing the replay log, test ExceptionFromACallbackAmongSimultaneousCompletions).
+    // Stop starting anything now, cancel the rest from a timer at this instant (outside
+    // the signal), and rethrow from run().
+    if (!error) {
+      error = std::current_exception();
+      stopped = true;
+      Impl* self = this;
+      simgrid::kernel::timer::Timer::set(sg4::Engine::get_clock(), [self] { self->stop_all(); });
+    }
   }
 }
 
@@ -260,6 +269,7 @@ void SgPlatform::Impl::set_timer(SgActivityId id, Time date, bool launch, Bytes 
   Impl* self = this;
   timers[id] = simgrid::kernel::timer::Timer::set(date, [self, id, launch, bytes] {
     self->timers.erase(id);
+    if (self->stopped) return;
     if (launch)
       self->launch_comm(id, bytes);
     else

@@ -143,7 +143,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
       throw InputError("--fidelity", "", "unknown fidelity '" + cfg.fidelity + "' (known: analytic, markov, replay)");
     if (pto.fidelity == Fidelity::Replay) {
       if (cfg.replay_file.empty()) throw InputError("--replay", "", "--fidelity replay needs --replay FILE (a replay log)");
-      pto.replay = std::make_shared<ReplayLog>(ReplayLog::load(cfg.replay_file));
+      pto.replay = std::make_shared<ReplayLog>(ReplayLog::load(cfg.replay_file, profile.get()));
     }
     if (cfg.warmup >= cfg.duration) throw InputError("--warmup", "", "must be shorter than --duration");
     pto.clients = cfg.clients;

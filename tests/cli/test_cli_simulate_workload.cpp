@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 #include <unistd.h>
 
 #include "cli_run.hpp"
@@ -76,6 +78,37 @@ TEST(CliSimulateWorkload, RecordThenReplay) {
   EXPECT_EQ(m["path_trace"]["rays"], metrics(rec)["path_trace"]["rays"]);
   fs::remove_all(rec);
   fs::remove_all(rep);
+}
+
+// A replay log that does not fit the profile (here a shading outcome category that does
+// not exist) is refused before the simulation starts: exit 2, file and line named, no
+// output. It used to fail mid-run and, through SimGrid, crash.
+TEST(CliSimulateWorkload, DamagedReplayLogExits2NamingFileAndLine) {
+  const fs::path rec = scratch("rec-bad"), out = scratch("rep-bad");
+  const std::string base = "simulate --workload " + kData + "/profiles/small.profile.json --platform paper-A --duration 1s --no-progress ";
+  ASSERT_EQ(rayline_cli(base + "--record-replay --no-timeline --out " + rec.string()).code, 0);
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(rec / "replay.log");
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+  }
+  std::size_t shade = 0;
+  while (shade < lines.size() && !lines[shade].starts_with("shade ")) ++shade;
+  ASSERT_LT(shade, lines.size());
+  const std::size_t colon = lines[shade].rfind(':'), space = lines[shade].rfind(' ');
+  lines[shade] = lines[shade].substr(0, space + 1) + "7" + lines[shade].substr(colon);
+  const fs::path bad = rec / "damaged.log";
+  {
+    std::ofstream o(bad);
+    for (const auto& l : lines) o << l << "\n";
+  }
+  const auto r = rayline_cli(base + "--fidelity replay --replay " + bad.string() + " --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find(bad.string()), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("line " + std::to_string(shade + 1)), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("category 7"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  fs::remove_all(rec);
 }
 
 TEST(CliSimulateWorkload, BadProfilesExit2NamingFileAndFieldAndWriteNothing) {

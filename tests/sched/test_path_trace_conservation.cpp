@@ -6,13 +6,17 @@
 // per-job ray counts exactly.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <functional>
+#include <sstream>
 
+#include "sched/error.hpp"
 #include "sched/exact_executor.hpp"
 #include "sched/gmb_scheduler.hpp"
 #include "sched/path_trace_workload.hpp"
 #include "sched/platform_loader.hpp"
 #include "sched/runtime_loop.hpp"
+#include "sched/scene_profile.hpp"
 
 using namespace rayline;
 
@@ -210,6 +214,80 @@ TEST(PathTraceReplay, LogRoundTripsThroughItsFile) {
   EXPECT_EQ(loaded->pieces(), log->pieces());
   const Outcome rep = run(Fidelity::Replay, 0, loaded);
   EXPECT_EQ(rep.job_rays, rec.job_rays);
+}
+
+// A damaged log is refused at load, naming the file and the line, before it can reach the
+// model (a category or block the profile lacks used to fail mid-simulation; found by
+// fuzzing): whole tokens only, categories and blocks checked against the profile.
+TEST(PathTraceReplay, DamagedLogsNameTheFileAndLine) {
+  auto log = recorded();
+  const std::string path = ::testing::TempDir() + "/replay-good.log";
+  log->save(path, "test");
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(path);
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+  }
+  // The first shade piece ("shade CLIENT FRAME TILE BOUNCE BLOCK N 0:a 1:b").
+  std::size_t shade = 0;
+  while (shade < lines.size() && !lines[shade].starts_with("shade ")) ++shade;
+  ASSERT_LT(shade, lines.size());
+  const SceneProfile profile = load_scene_profile(kProfile);
+  const std::string where = "line " + std::to_string(shade + 1);
+  auto words = [&] {
+    std::vector<std::string> w;
+    std::istringstream ss(lines[shade]);
+    for (std::string t; ss >> t;) w.push_back(t);
+    return w;
+  };
+  auto join = [](const std::vector<std::string>& w) {
+    std::string s;
+    for (const auto& t : w) s += (s.empty() ? "" : " ") + t;
+    return s;
+  };
+  std::vector<std::pair<std::string, std::string>> cases;  // damaged line, expected words
+  {
+    auto w = words();
+    w.back() = "2" + w.back().substr(w.back().find(':'));  // shading has categories 0 and 1
+    cases.emplace_back(join(w), "category 2");
+  }
+  {
+    auto w = words();
+    w[5] = std::to_string(profile.blocks.size());
+    cases.emplace_back(join(w), "out of range");
+  }
+  {
+    auto w = words();
+    w.back() = "1:5:5";  // once accepted as 1:5
+    cases.emplace_back(join(w), "bad count");
+  }
+  {
+    auto w = words();
+    w[1] = "-1";
+    cases.emplace_back(join(w), "malformed piece");
+  }
+  {
+    auto w = words();
+    w.back() = "1:18446744073709551615";
+    cases.emplace_back(join(w), "overflow");
+  }
+  for (const auto& [bad, expect] : cases) {
+    const std::string damaged = ::testing::TempDir() + "/replay-damaged.log";
+    {
+      std::ofstream out(damaged);
+      for (std::size_t i = 0; i < lines.size(); ++i) out << (i == shade ? bad : lines[i]) << "\n";
+    }
+    try {
+      (void)ReplayLog::load(damaged, &profile);
+      ADD_FAILURE() << "accepted: " << bad;
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(damaged), std::string::npos) << what;
+      EXPECT_NE(what.find(where), std::string::npos) << what;
+      EXPECT_NE(what.find(expect), std::string::npos) << bad << " -> " << what;
+    }
+  }
+  EXPECT_EQ(ReplayLog::load(path, &profile).pieces(), log->pieces());  // the intact log loads
 }
 
 TEST(PathTraceDeterminism, SameSeedSameRun) {

@@ -92,4 +92,12 @@ TEST(SceneProfile, InlineErrors) {
       R"("alpha":0.5,"beta":0.5,"escape":1,"shadow_occlusion":0.1,"shadow_exit":0,"neighbours":[]}],)"
       R"("camera_path":[{"background":0.5,"entry":[[0,0.4]]}]})";
   EXPECT_NE(err(one).find("camera_path[0].entry: background + entry probabilities sum to"), std::string::npos) << err(one);
+  // Found by mutation fuzzing: wrong types in the header fields escaped as nlohmann's
+  // type_error (exit 1, no file or field).
+  EXPECT_NE(err(R"({"format":"rayline-scene-profile","version":"1"})").find("x.profile.json: version: expected 1"), std::string::npos);
+  EXPECT_NE(err(R"({"format":"rayline-scene-profile","version":1.5})").find("version: expected 1"), std::string::npos);
+  EXPECT_NE(err(R"({"format":7,"version":1})").find("x.profile.json: format: expected a string"), std::string::npos);
+  EXPECT_NE(err(R"({"format":"rayline-scene-profile","version":1,"provenance":-1})").find("provenance: expected a string"),
+            std::string::npos);
+  EXPECT_NE(err(R"({"format":"rayline-scene-profile","version":1,"name":[]})").find("name: expected a string"), std::string::npos);
 }

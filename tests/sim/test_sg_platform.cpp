@@ -450,6 +450,36 @@ TEST(SgPlatform, ExceptionFromACallbackStopsTheRunCleanly) {
   EXPECT_THROW(p.start_exec(cl.a_cpu, 1.0, nullptr), std::logic_error);
 }
 
+// The same, with other activities ending at the very instant the callback throws (what a
+// bad replay log did mid-simulation): cancelling them from inside SimGrid's completion
+// signal crashed SimGrid 3.32 (use after free in EngineImpl::handle_ended_actions), so the
+// rest is cancelled from a timer at that instant. Identical transfers sharing one channel
+// end together and the first callback throws; with a horizon ahead the engine then runs
+// another round, where the old adapter's cancelled activities had already been freed.
+TEST(SgPlatform, ExceptionFromACallbackAmongSimultaneousCompletions) {
+  Cluster cl;
+  SgPlatform p(cl.graph());
+  Done later;
+  int calls = 0;
+  Time thrown_at = -1;
+  auto cb = [&](const SgCompletion& c) {
+    if (calls++ == 0) {
+      thrown_at = c.finish_s;
+      throw std::runtime_error("boom");
+    }
+    p.start_exec(cl.a_cpu, 0.5, record(later));  // throws: the run was stopped
+  };
+  for (int k = 0; k < 4; ++k) {
+    p.start_transfer(cl.disk_to_ram, 1'500'000, cb);
+    p.start_exec(cl.a_gpu, 1.0, cb);
+  }
+  EXPECT_THROW(p.run_until(10.0), std::runtime_error);
+  EXPECT_EQ(later.calls, 0);  // nothing started after the failure completes
+  EXPECT_EQ(p.in_flight(), 0u);
+  EXPECT_GT(thrown_at, 0.0);
+  EXPECT_LT(thrown_at, 1.0);  // the transfers' common finish, long before the horizon
+}
+
 // Thousands of chained, overlapping activities: every one completes once, nothing leaks
 // or is freed early (run under RAYLINE_SANITIZE), and the byte integrals still match.
 TEST(SgPlatform, ManyChainedActivitiesUnderContention) {
