@@ -82,6 +82,7 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.duration = duration_flag("--duration", opt.duration);
   cfg.seed = opt.seed;
   cfg.exec_noise = opt.exec_noise;
+  cfg.transfer_order = opt.transfer_order;
   cfg.blocks = opt.blocks;
   cfg.out_dir = opt.out;
   cfg.paje = opt.paje;

@@ -14,6 +14,7 @@ struct SimulateOptions {
   std::string duration = "60s";
   std::uint64_t seed = 1;
   double exec_noise = 0.0;
+  std::string transfer_order = "channel";  // shared media at run time: channel, resource or exclusive
   int blocks = 129;
   std::string out = "out/simulate";
   bool paje = false;

@@ -63,6 +63,13 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->default_val(opt->duration);
   sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed);
   sim->add_option("--exec-noise", opt->exec_noise, "Actual E-job time = predicted x U[1-n,1+n]")->default_val(opt->exec_noise);
+  sim->add_option("--transfer-order", opt->transfer_order,
+                  "T-jobs on channels that share a medium (a NIC, a half-duplex SATA link): channel = each channel "
+                  "in plan order, several at once sharing the medium; resource = the plan's order on every "
+                  "resource (no contention: reality = plan); exclusive = one at a time per resource, a ready "
+                  "T-job first")
+      ->default_val(opt->transfer_order)
+      ->check(CLI::IsMember({"channel", "resource", "exclusive"}));
   sim->add_option("--blocks", opt->blocks, "Scene blocks of the ray stream")->default_val(opt->blocks)->check(CLI::Range(1, 1000000));
   sim->add_option("--out", opt->out, "Output directory (metrics.json, jobs.csv, timeline.json)")->default_val(opt->out);
   sim->add_flag("--paje", opt->paje, "Also write SimGrid's Paje trace (simgrid.trace)");
@@ -103,6 +110,9 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--horizon,-k", o.horizon, "GMB horizon k (Sec. 4.2)")->default_val(o.horizon);
   c->add_option("--aging", o.aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(o.aging);
   c->add_option("--duration", o.duration, "Simulated time")->default_val(o.duration);
+  c->add_option("--transfer-order", o.transfer_order, "T-jobs on shared media: channel, resource or exclusive (see simulate --help)")
+      ->default_val(o.transfer_order)
+      ->check(CLI::IsMember({"channel", "resource", "exclusive"}));
   c->add_option("--seed", o.seed, "Workload seed")->default_val(o.seed);
   c->add_option("--clients", o.clients, "Path tracing: clients requesting frames")->default_val(o.clients);
   c->add_option("--prediction-depth", o.prediction_depth, "Path tracing: job prediction depth (GMB only)")->default_val(o.prediction_depth)->check(CLI::Range(0, 16));

@@ -1,5 +1,6 @@
 #include "sim/sim_executor.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -7,7 +8,9 @@ namespace rayline::sim {
 
 SimExecutor::SimExecutor(SgPlatform& platform, const Schedule& schedule, SimExecutorOptions opt)
     : platform_(platform), schedule_(schedule), opt_(std::move(opt)),
-      last_on_channel_(schedule.graph().channels.size(), kNone) {}
+      last_on_channel_(schedule.graph().channels.size(), kNone),
+      resource_user_(schedule.graph().resources.size(), kNone),
+      resource_waiters_(schedule.graph().resources.size()) {}
 
 void SimExecutor::dispatch(ActivityId id, const Activity& a) {
   if (static_cast<std::size_t>(id) >= st_.size()) {
@@ -36,12 +39,15 @@ void SimExecutor::try_start(ActivityId id) {
   const Activity& a = schedule_.activity(id);
   for (ActivityId p : a.deps)
     if (!ready(p, id)) return;
-  if (a.kind == ActivityKind::Exec || opt_.order_per_resource) {
+  if (a.kind == ActivityKind::Exec || opt_.transfer_order == TransferOrder::Resource) {
     for (ActivityId p : a.timeline_prev)
       if (!ready(p, id)) return;
   } else if (s.channel_prev != kNone && !ready(s.channel_prev, id)) {
     return;
   }
+  if (a.kind == ActivityKind::Transfer && !a.cancelled && opt_.transfer_order == TransferOrder::Exclusive &&
+      !resources_free(id, a))
+    return;
   s.started = true;
   ++started_count_;
   buffered_.push_back({ExecutorEvent::Type::Started, id, platform_.now()});
@@ -58,9 +64,43 @@ void SimExecutor::try_start(ActivityId id) {
   }
 }
 
+bool SimExecutor::resources_free(ActivityId id, const Activity& a) {
+  const auto& res = schedule_.graph().channels[a.channel].resources;
+  bool free = true;
+  for (ResourceId r : res)
+    if (resource_user_[r] != kNone) {
+      resource_waiters_[r].push_back(id);
+      free = false;
+    }
+  if (free)
+    for (ResourceId r : res) resource_user_[r] = id;
+  return free;
+}
+
+void SimExecutor::release_resources(const Activity& a) {
+  woken_.clear();
+  for (ResourceId r : schedule_.graph().channels[a.channel].resources) {
+    resource_user_[r] = kNone;
+    woken_.insert(woken_.end(), resource_waiters_[r].begin(), resource_waiters_[r].end());
+    resource_waiters_[r].clear();
+  }
+  // Plan order (activity ids are commit order) among the waiters; one waiting on several
+  // freed resources is listed once.
+  std::sort(woken_.begin(), woken_.end());
+  woken_.erase(std::unique(woken_.begin(), woken_.end()), woken_.end());
+}
+
 void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   const auto t0 = std::chrono::steady_clock::now();
   st_[id].done = true;
+  std::vector<ActivityId> freed;
+  if (opt_.transfer_order == TransferOrder::Exclusive) {
+    const Activity& a = schedule_.activity(id);
+    if (a.kind == ActivityKind::Transfer && !a.cancelled) {
+      release_resources(a);
+      freed.swap(woken_);
+    }
+  }
   std::vector<ExecutorEvent> events;
   events.swap(buffered_);
   events.push_back({ok ? ExecutorEvent::Type::Finished : ExecutorEvent::Type::Failed, id, finish});
@@ -69,7 +109,12 @@ void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   // Report first (the loop may re-plan and dispatch at this very instant), then start
   // whatever this completion unblocked.
   if (sink_) (*sink_)(events);
-  for (ActivityId x : w) try_start(x);
+  if (!freed.empty()) {  // Exclusive: what this completion unblocked, in plan order
+    w.insert(w.end(), freed.begin(), freed.end());
+    std::sort(w.begin(), w.end());
+    w.erase(std::unique(w.begin(), w.end()), w.end());
+  }
+  for (ActivityId x : w) try_start(x);  // (one that finds a resource busy again waits on it)
   callback_wall_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 

@@ -1,10 +1,12 @@
 // SimExecutor: the Executor seam on SimGrid (issue 3). Activities are started from
 // maestro as their dependencies allow, each compute device runs its E-jobs in plan order,
 // each channel its T-jobs in plan order (the paper's per-channel timelines, Sec. 4.1).
-// The planner serialises T-jobs per *resource*; SimGrid does not: two channels that share
-// a medium (both directions of a half-duplex SATA link, two LAN channels out of one NIC)
-// may run at once and share its bandwidth. That is where reality departs from the plan;
-// the runtime loop then re-plans from the measured times (Schedule::reproject).
+// The planner serialises T-jobs per *resource*; by default SimGrid does not: two channels
+// that share a medium (both directions of a half-duplex SATA link, two LAN channels out of
+// one NIC) may run at once and share its bandwidth. That is where reality departs from the
+// plan; the runtime loop then re-plans from the measured times (Schedule::reproject).
+// TransferOrder selects the runtime's policy for shared media (Rayline's choice; the paper
+// keeps one timeline per channel, Sec. 4.1, and says nothing of shared media).
 #pragma once
 #include <functional>
 #include <vector>
@@ -14,8 +16,15 @@
 
 namespace rayline::sim {
 
+enum class TransferOrder {
+  Channel,    // each channel in plan order; channels sharing a medium run at once and share it
+  Resource,   // every resource timeline in plan order too: no contention, reality = plan
+  Exclusive,  // one T-job per resource at a time, but a ready T-job may overtake one whose
+              // data is not there yet (work-conserving; waiting T-jobs start in plan order)
+};
+
 struct SimExecutorOptions {
-  bool order_per_resource = false;  // true: follow every resource timeline too (no contention)
+  TransferOrder transfer_order = TransferOrder::Channel;
   // Actual E-job duration = predicted x exec_factor(activity); default exact.
   std::function<double(ActivityId, const Activity&)> exec_factor;
 };
@@ -38,6 +47,9 @@ class SimExecutor final : public Executor {
   void try_start(ActivityId id);
   void on_done(ActivityId id, Time finish, bool ok);
   bool ready(ActivityId dep, ActivityId waiter);
+  // TransferOrder::Exclusive: are all of the channel's resources free? If not, wait on them.
+  bool resources_free(ActivityId id, const Activity& a);
+  void release_resources(const Activity& a);
 
   SgPlatform& platform_;
   const Schedule& schedule_;
@@ -49,6 +61,11 @@ class SimExecutor final : public Executor {
   std::vector<State> st_;
   std::vector<std::vector<ActivityId>> waiters_;
   std::vector<ActivityId> last_on_channel_;
+  // TransferOrder::Exclusive, per resource: the T-job using it (kNone: free), and the
+  // T-jobs waiting for it (tried in plan order when it frees).
+  std::vector<ActivityId> resource_user_;
+  std::vector<std::vector<ActivityId>> resource_waiters_;
+  std::vector<ActivityId> woken_;
   std::vector<ExecutorEvent> buffered_;  // Started events, delivered with the next batch
   const Sink* sink_ = nullptr;
   std::size_t started_count_ = 0;

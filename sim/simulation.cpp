@@ -25,6 +25,12 @@
 namespace rayline::sim {
 
 namespace {
+TransferOrder parse_transfer_order(const std::string& s) {
+  if (s == "channel") return TransferOrder::Channel;
+  if (s == "resource") return TransferOrder::Resource;
+  if (s == "exclusive") return TransferOrder::Exclusive;
+  throw InputError("--transfer-order", "", "unknown order '" + s + "' (known: channel, resource, exclusive)");
+}
 
 // (Into the run's partial folder, renamed only once every file is complete.)
 template <class Write>
@@ -129,6 +135,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   if (std::isnan(cfg.aging)) throw InputError("--aging", "", "must be a duration, auto, adaptive or off");
   if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
   if (cfg.exec_noise < 0 || cfg.exec_noise >= 1) throw InputError("--exec-noise", "", "must be in [0, 1)");
+  const TransferOrder transfer_order = parse_transfer_order(cfg.transfer_order);
   const DeviceGraph g = load_platform(cfg.platform_file);
   const bool path_trace = cfg.workload.ends_with(".profile.json");
   const bool stream = cfg.workload == "ray-stream" || path_trace;  // runs for --duration
@@ -200,6 +207,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   }
   std::unique_ptr<Scheduler> scheduler = make_scheduler(cfg.scheduler, cfg.horizon, cfg.aging, cfg.adaptive_aging);
   SimExecutorOptions xo;
+  xo.transfer_order = transfer_order;
   if (cfg.exec_noise > 0) {
     const double n = cfg.exec_noise;
     const std::uint64_t seed = cfg.seed;
@@ -244,6 +252,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   m["scheduler"] = cfg.scheduler;
   m["scheduler_parameters"] = scheduler->describe();
   m["horizon_s"] = cfg.horizon;
+  m["transfer_order"] = cfg.transfer_order;
   m["seed"] = cfg.seed;
   m["simulated_s"] = end;
   // Plan vs reality for the whole run: the latest planned end of what finished, and when

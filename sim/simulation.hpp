@@ -19,6 +19,10 @@ struct SimulationConfig {
   Time duration = 60.0;                 // simulated seconds (ray-stream); static sets run to the end
   std::uint64_t seed = 1;
   double exec_noise = 0.0;              // actual E-job time = predicted x U[1-n, 1+n]
+  // How T-jobs on channels that share a medium run (sim_executor.hpp, TransferOrder):
+  // channel (at once, sharing it), resource (the plan's order on every resource) or
+  // exclusive (one at a time, ready ones first).
+  std::string transfer_order = "channel";
   int blocks = 129;
   std::string out_dir = "out/simulate";
   bool paje = false;                    // SimGrid's own trace as OUT/simgrid.trace

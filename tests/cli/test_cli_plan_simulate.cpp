@@ -3,6 +3,7 @@
 // leaves no partial result behind.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -157,7 +158,7 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   fs::remove(bad_jobs);
   for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
                                  "--platform /nonexistent.json", "--exec-noise 2", "--blocks 1", "--aging soon",
-                                 "--aging -2s"}) {
+                                 "--aging -2s", "--transfer-order fifo"}) {
     const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
     EXPECT_EQ(r.code, 2) << args << ": " << r.all;
     EXPECT_FALSE(fs::exists(out)) << args;
@@ -166,6 +167,31 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
       partial = partial || e.path().filename().string().starts_with(out.filename().string() + ".partial");
     EXPECT_FALSE(partial) << args;
   }
+}
+
+// --transfer-order: with the plan's order on every resource nothing contends, so on the
+// paper cluster every T-job takes exactly its predicted time and the run ends when the plan
+// said; by default LAN channels out of one NIC run at once and their times depart from it.
+TEST(CliSimulate, TransferOrderResourceMakesThePlanExactOnTheCluster) {
+  auto run = [](const std::string& order) {
+    const fs::path out = scratch("sim-order-" + order);
+    const auto r = rayline_cli("simulate --duration 20s --no-progress --no-timeline --transfer-order " + order +
+                               " --out " + out.string());
+    EXPECT_EQ(r.code, 0) << r.all;
+    std::ifstream f(out / "metrics.json");
+    auto m = nlohmann::json::parse(f);
+    fs::remove_all(out);
+    return m;
+  };
+  const auto channel = run("channel"), resource = run("resource"), exclusive = run("exclusive");
+  EXPECT_EQ(resource["transfer_order"], "resource");
+  EXPECT_EQ(channel["transfer_order"], "channel");
+  EXPECT_LT(resource["prediction_error"]["transfer_mean_rel"].get<double>(), 1e-9);
+  EXPECT_LT(std::abs(resource["makespan_s"]["gap"].get<double>()), 1e-9);
+  EXPECT_GT(channel["prediction_error"]["transfer_mean_rel"].get<double>(), 0.1);
+  // exclusive: one T-job per resource at a time, so durations are exact too; starts are not.
+  EXPECT_LT(exclusive["prediction_error"]["transfer_mean_rel"].get<double>(), 1e-9);
+  for (const auto* m : {&channel, &resource, &exclusive}) EXPECT_GT((*m)["rays_per_second"].get<double>(), 0);
 }
 
 // `rayline compare`: one run per scheduler, a table, compare.csv and compare.json; a bad

@@ -64,7 +64,7 @@ TEST(SimExecutor, NoContentionReproducesThePredictedMakespanExactly) {
   for (auto [b, m] : st.init) s.put_initial(b, m);
   sim::SgPlatform platform(st.g);
   GmbScheduler gmb({.horizon = 1e9});
-  sim::SimExecutor ex(platform, s, {.order_per_resource = true, .exec_factor = {}});
+  sim::SimExecutor ex(platform, s, {.transfer_order = sim::TransferOrder::Resource, .exec_factor = {}});
   StaticWorkload wl;
   RuntimeLoop loop(gmb, ex, wl, st.pool, s);
   const RunStats r = loop.run();
@@ -106,4 +106,132 @@ TEST(SimExecutor, ContentionOnASharedNicMakesRealityDifferAndEveryJobStillComple
   // In parallel the latencies overlap too: 0.2 ms earlier than the serialised plan.
   EXPECT_NEAR(r.makespan, 1e-4 + 3.0 + 1e-5 + 1.0, 1e-6);
   EXPECT_NEAR(planned_makespan(s) - r.makespan, 2e-4, 1e-9);
+}
+
+TEST(SimExecutor, ExclusiveOrderRunsSharedNicTransfersOneAtATimeAsPlanned) {
+  // The three transfers are all ready at once: one at a time they end at 1, 2 and 3 s,
+  // exactly as the plan serialised them on n0's NIC.
+  Star st;
+  Schedule s(st.g, st.pool);
+  for (auto [b, m] : st.init) s.put_initial(b, m);
+  sim::SgPlatform platform(st.g);
+  GmbScheduler gmb({.horizon = 1e9});
+  sim::SimExecutor ex(platform, s, {.transfer_order = sim::TransferOrder::Exclusive, .exec_factor = {}});
+  StaticWorkload wl;
+  RuntimeLoop loop(gmb, ex, wl, st.pool, s);
+  const RunStats r = loop.run();
+  EXPECT_FALSE(r.stalled);
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    EXPECT_NEAR(a.start, a.planned_start, 1e-9) << i;
+    EXPECT_NEAR(a.end, a.planned_end, 1e-9) << i;
+  }
+  EXPECT_NEAR(r.makespan, planned_makespan(s), 1e-9 * r.makespan);
+}
+
+namespace {
+// Head-of-line blocking on a shared NIC. n0's CPU runs P (1 s planned) producing w (50 MB);
+// Q on n1 needs w, R on n2 needs s1 (300 MB), both from n0 through n0's NIC-out. GMB plans
+// w's transfer first (1.0-1.5 s) and s1's after it (1.5-4.5 s). In reality P takes 2 s.
+struct HeadOfLine {
+  DeviceGraph g;
+  JobPool pool;
+  std::vector<std::pair<BlockId, MemId>> init;
+  JobId p = kNone, q = kNone, r = kNone;
+  BlockId w = kNone, s1 = kNone;
+  HeadOfLine() {
+    DcgBuilder b;
+    std::vector<MemId> ram;
+    for (int i = 0; i < 3; ++i) {
+      const NodeId n = b.node("n" + std::to_string(i));
+      ram.push_back(b.mem("n" + std::to_string(i) + ".ram", Bytes(8) << 30, MemoryKind::Host, n));
+      b.dev("n" + std::to_string(i) + ".cpu", ram.back());
+    }
+    const ResourceId out0 = b.resource("n0.nic.out", 100 * MB);
+    for (int i = 1; i < 3; ++i) {
+      const ResourceId in = b.resource("n" + std::to_string(i) + ".nic.in", 100 * MB);
+      b.channel(ram[0], ram[static_cast<std::size_t>(i)], 100 * MB, 1e-4, {out0, in});
+    }
+    b.timing(0, DataKind::SceneData, 100 * MB);  // P: 100 MB of scene, 1 s
+    b.timing(1, DataKind::RayQueue, 100 * MB);   // Q: 50 MB of rays, 0.5 s
+    b.timing(1, DataKind::SceneData, 300 * MB);  // R: 300 MB of scene, 1 s
+    b.g.timing.at(0, 1).supported = false;       // P only on n0, Q and R only on n1, n2
+    b.g.timing.at(1, 0).supported = false;
+    b.g.timing.at(2, 0).supported = false;
+    g = b.build();
+    const BlockId s0 = rayline::testing::add_block(pool, "s0", DataKind::SceneData, Bytes(100 * MB));
+    s1 = rayline::testing::add_block(pool, "s1", DataKind::SceneData, Bytes(300 * MB));
+    w = rayline::testing::add_block(pool, "w", DataKind::RayQueue, Bytes(50 * MB));
+    init = {{s0, ram[0]}, {s1, ram[0]}};
+    p = rayline::testing::add_job(pool, "P", 0, {s0}, {w});
+    q = rayline::testing::add_job(pool, "Q", 1, {w});
+    r = rayline::testing::add_job(pool, "R", 1, {s1});
+  }
+};
+
+struct HolTimes {
+  Time w_start = 0, w_end = 0, s1_start = 0, s1_end = 0, makespan = 0;
+};
+HolTimes run_head_of_line(sim::TransferOrder order) {
+  HeadOfLine h;
+  Schedule s(h.g, h.pool);
+  for (auto [b, m] : h.init) s.put_initial(b, m);
+  sim::SgPlatform platform(h.g);
+  GmbScheduler gmb({.horizon = 1e9});
+  const JobId p = h.p;
+  sim::SimExecutorOptions xo;
+  xo.transfer_order = order;
+  xo.exec_factor = [p](ActivityId, const Activity& a) { return a.job == p ? 2.0 : 1.0; };
+  sim::SimExecutor ex(platform, s, xo);
+  StaticWorkload wl;
+  RuntimeLoop loop(gmb, ex, wl, h.pool, s);
+  const RunStats st = loop.run();
+  EXPECT_FALSE(st.stalled);
+  HolTimes out;
+  out.makespan = st.makespan;
+  int transfers = 0;
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.kind != ActivityKind::Transfer) continue;
+    ++transfers;
+    if (a.block == h.w) {
+      EXPECT_NEAR(a.planned_start, 1.0, 1e-3);  // the plan this test is about
+      out.w_start = a.start, out.w_end = a.end;
+    } else if (a.block == h.s1) {
+      EXPECT_NEAR(a.planned_start, 1.5, 1e-3);
+      out.s1_start = a.start, out.s1_end = a.end;
+    }
+  }
+  EXPECT_EQ(transfers, 2);
+  return out;
+}
+}  // namespace
+
+// (One SgPlatform per process: one order per TEST.)
+TEST(SimExecutor, ResourceOrderKeepsAReadyTransferBehindOneWaitingForItsData) {
+  // s1 waits behind w, which waits for P (2 s): w 2.0-2.5, s1 2.5-5.5.
+  const HolTimes res = run_head_of_line(sim::TransferOrder::Resource);
+  EXPECT_NEAR(res.w_start, 2.0, 1e-3);
+  EXPECT_NEAR(res.s1_start, res.w_end, 1e-9);
+  EXPECT_NEAR(res.s1_end, 5.5, 1e-3);
+  EXPECT_NEAR(res.makespan, 6.5, 1e-3);  // R's 1 s after s1
+}
+
+TEST(SimExecutor, ExclusiveOrderLetsAReadyTransferOvertakeAndThenWaitsForTheNic) {
+  // s1 overtakes (ready, NIC free) 0-3 s; w, ready at 2 s, waits for the NIC: 3.0-3.5.
+  const HolTimes exc = run_head_of_line(sim::TransferOrder::Exclusive);
+  EXPECT_NEAR(exc.s1_start, 0.0, 1e-9);
+  EXPECT_NEAR(exc.s1_end, 3.0, 1e-3);
+  EXPECT_NEAR(exc.w_start, exc.s1_end, 1e-9);
+  EXPECT_NEAR(exc.w_end, 3.5, 1e-3);
+  EXPECT_NEAR(exc.makespan, 4.0, 1e-3);  // max(R 3-4, Q 3.5-4)
+}
+
+TEST(SimExecutor, ChannelOrderRunsBothAtOnceSharingTheNic) {
+  // From 2 s both share the NIC, 50 MB/s each: w's 50 MB end at ~3 s, s1's last 100 MB at ~3.5 s.
+  const HolTimes ch = run_head_of_line(sim::TransferOrder::Channel);
+  EXPECT_NEAR(ch.s1_start, 0.0, 1e-9);
+  EXPECT_NEAR(ch.w_start, 2.0, 1e-3);
+  EXPECT_NEAR(ch.w_end, 3.0, 1e-2);
+  EXPECT_NEAR(ch.s1_end, 3.5, 1e-2);
 }
