@@ -192,6 +192,24 @@ TEST(CliSimulate, TransferOrderResourceMakesThePlanExactOnTheCluster) {
   // exclusive: one T-job per resource at a time, so durations are exact too; starts are not.
   EXPECT_LT(exclusive["prediction_error"]["transfer_mean_rel"].get<double>(), 1e-9);
   for (const auto* m : {&channel, &resource, &exclusive}) EXPECT_GT((*m)["rays_per_second"].get<double>(), 0);
+  // The same on other seeds, a platform subset, and path tracing on the workstation (four
+  // GPUs' PCIe links on one root medium). There rays that join a planned E-job re-time it
+  // (--retime-merged), so only the T-jobs keep their planned times.
+  for (const std::string args : {"--duration 10s --seed 2", "--duration 10s --seed 3 --platform paper-4A+B",
+                                 "--duration 3s --platform workstation-4gpu --workload museum --clients 8"}) {
+    const fs::path out = scratch("sim-order-more");
+    const auto r = rayline_cli("simulate --no-progress --no-timeline --transfer-order resource " + args + " --out " +
+                               out.string());
+    ASSERT_EQ(r.code, 0) << args << ": " << r.all;
+    std::ifstream f(out / "metrics.json");
+    const auto m = nlohmann::json::parse(f);
+    fs::remove_all(out);
+    EXPECT_LT(m["prediction_error"]["transfer_mean_rel"].get<double>(), 1e-9) << args;
+    if (args.find("museum") == std::string::npos) {
+      EXPECT_LT(std::abs(m["makespan_s"]["gap"].get<double>()), 1e-9) << args;
+    }
+    EXPECT_GT(m["activities"]["t_jobs_done"].get<double>(), 10) << args;
+  }
 }
 
 // `rayline compare`: one run per scheduler, a table, compare.csv and compare.json; a bad
