@@ -72,8 +72,10 @@ bool SimExecutor::resources_free(ActivityId id, const Activity& a) {
       resource_waiters_[r].push_back(id);
       free = false;
     }
-  if (free)
+  if (free) {
     for (ResourceId r : res) resource_user_[r] = id;
+    st_[id].holds_resources = true;
+  }
   return free;
 }
 
@@ -94,12 +96,10 @@ void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   const auto t0 = std::chrono::steady_clock::now();
   st_[id].done = true;
   std::vector<ActivityId> freed;
-  if (opt_.transfer_order == TransferOrder::Exclusive) {
-    const Activity& a = schedule_.activity(id);
-    if (a.kind == ActivityKind::Transfer && !a.cancelled) {
-      release_resources(a);
-      freed.swap(woken_);
-    }
+  if (st_[id].holds_resources) {
+    st_[id].holds_resources = false;
+    release_resources(schedule_.activity(id));
+    freed.swap(woken_);
   }
   std::vector<ExecutorEvent> events;
   events.swap(buffered_);

@@ -56,6 +56,7 @@ class SimExecutor final : public Executor {
   SimExecutorOptions opt_;
   struct State {
     bool dispatched = false, started = false, done = false;
+    bool holds_resources = false;  // TransferOrder::Exclusive: running on its channel's resources
     ActivityId channel_prev = kNone;
   };
   std::vector<State> st_;
