@@ -3,6 +3,8 @@
 // every job still completes, and the gap is measured. Each TEST is its own process.
 #include <gtest/gtest.h>
 
+#include <memory>
+
 #include "../sched/dcg_fixture.hpp"
 #include "sched/gmb_scheduler.hpp"
 #include "sched/runtime_loop.hpp"
@@ -56,18 +58,32 @@ Time planned_makespan(const Schedule& s) {
   for (std::size_t i = 0; i < s.activity_count(); ++i) t = std::max(t, s.activity(static_cast<ActivityId>(i)).planned_end);
   return t;
 }
+
+// GMB (horizon beyond the whole job set) planning the job set once, run on SimGrid under
+// the runtime loop with executor options `xo`.
+struct SimRun {
+  Schedule s;
+  std::unique_ptr<sim::SgPlatform> platform;
+  RunStats r;
+  SimRun(const DeviceGraph& g, JobPool& pool, const std::vector<std::pair<BlockId, MemId>>& init,
+         const sim::SimExecutorOptions& xo)
+      : s(g, pool) {
+    for (auto [b, m] : init) s.put_initial(b, m);
+    platform = std::make_unique<sim::SgPlatform>(g);
+    GmbScheduler gmb({.horizon = 1e9});
+    sim::SimExecutor ex(*platform, s, xo);
+    StaticWorkload wl;
+    RuntimeLoop loop(gmb, ex, wl, pool, s);
+    r = loop.run();
+  }
+};
 }  // namespace
 
 TEST(SimExecutor, NoContentionReproducesThePredictedMakespanExactly) {
   Star st;
-  Schedule s(st.g, st.pool);
-  for (auto [b, m] : st.init) s.put_initial(b, m);
-  sim::SgPlatform platform(st.g);
-  GmbScheduler gmb({.horizon = 1e9});
-  sim::SimExecutor ex(platform, s, {.transfer_order = sim::TransferOrder::Resource, .exec_factor = {}});
-  StaticWorkload wl;
-  RuntimeLoop loop(gmb, ex, wl, st.pool, s);
-  const RunStats r = loop.run();
+  SimRun run(st.g, st.pool, st.init, {.transfer_order = sim::TransferOrder::Resource, .exec_factor = {}});
+  const Schedule& s = run.s;
+  const RunStats& r = run.r;
   EXPECT_FALSE(r.stalled);
   for (JobId j = 0; j < 3; ++j) EXPECT_EQ(st.pool.state(j), JobState::Done);
   const Time predicted = planned_makespan(s);
@@ -82,14 +98,9 @@ TEST(SimExecutor, NoContentionReproducesThePredictedMakespanExactly) {
 
 TEST(SimExecutor, ContentionOnASharedNicMakesRealityDifferAndEveryJobStillCompletes) {
   Star st;
-  Schedule s(st.g, st.pool);
-  for (auto [b, m] : st.init) s.put_initial(b, m);
-  sim::SgPlatform platform(st.g);
-  GmbScheduler gmb({.horizon = 1e9});
-  sim::SimExecutor ex(platform, s);  // per-channel order: the three transfers share the NIC
-  StaticWorkload wl;
-  RuntimeLoop loop(gmb, ex, wl, st.pool, s);
-  const RunStats r = loop.run();
+  SimRun run(st.g, st.pool, st.init, {});  // per-channel order: the three transfers share the NIC
+  const Schedule& s = run.s;
+  const RunStats& r = run.r;
   EXPECT_FALSE(r.stalled);
   for (JobId j = 0; j < 3; ++j) EXPECT_EQ(st.pool.state(j), JobState::Done);
   // Run together at a third of the NIC each, all three blocks arrive at ~3 s instead of
@@ -112,14 +123,9 @@ TEST(SimExecutor, ExclusiveOrderRunsSharedNicTransfersOneAtATimeAsPlanned) {
   // The three transfers are all ready at once: one at a time they end at 1, 2 and 3 s,
   // exactly as the plan serialised them on n0's NIC.
   Star st;
-  Schedule s(st.g, st.pool);
-  for (auto [b, m] : st.init) s.put_initial(b, m);
-  sim::SgPlatform platform(st.g);
-  GmbScheduler gmb({.horizon = 1e9});
-  sim::SimExecutor ex(platform, s, {.transfer_order = sim::TransferOrder::Exclusive, .exec_factor = {}});
-  StaticWorkload wl;
-  RuntimeLoop loop(gmb, ex, wl, st.pool, s);
-  const RunStats r = loop.run();
+  SimRun run(st.g, st.pool, st.init, {.transfer_order = sim::TransferOrder::Exclusive, .exec_factor = {}});
+  const Schedule& s = run.s;
+  const RunStats& r = run.r;
   EXPECT_FALSE(r.stalled);
   for (std::size_t i = 0; i < s.activity_count(); ++i) {
     const Activity& a = s.activity(static_cast<ActivityId>(i));
@@ -174,18 +180,13 @@ struct HolTimes {
 };
 HolTimes run_head_of_line(sim::TransferOrder order) {
   HeadOfLine h;
-  Schedule s(h.g, h.pool);
-  for (auto [b, m] : h.init) s.put_initial(b, m);
-  sim::SgPlatform platform(h.g);
-  GmbScheduler gmb({.horizon = 1e9});
   const JobId p = h.p;
   sim::SimExecutorOptions xo;
   xo.transfer_order = order;
   xo.exec_factor = [p](ActivityId, const Activity& a) { return a.job == p ? 2.0 : 1.0; };
-  sim::SimExecutor ex(platform, s, xo);
-  StaticWorkload wl;
-  RuntimeLoop loop(gmb, ex, wl, h.pool, s);
-  const RunStats st = loop.run();
+  SimRun run(h.g, h.pool, h.init, xo);
+  const Schedule& s = run.s;
+  const RunStats& st = run.r;
   EXPECT_FALSE(st.stalled);
   HolTimes out;
   out.makespan = st.makespan;
