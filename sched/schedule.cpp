@@ -139,7 +139,7 @@ void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const
   auto& v = copies_[b];
   auto it = std::find_if(v.begin(), v.end(), [m](const Copy& c) { return c.mem == m; });
   if (it == v.end()) throw std::logic_error("evicting a copy that is not there");
-  std::vector<ActivityId> after = it->users;
+  std::vector<ActivityId> after(it->users.begin(), it->users.end());
   if (it->producer != kNone) after.push_back(it->producer);
   used_[m] -= pool_->block(b).bytes;
   v.erase(it);
@@ -305,7 +305,7 @@ const std::vector<ActivityId>& Schedule::transfers_for(JobId j) const {
 }
 
 void Schedule::forget_user(Copy* c, ActivityId a) {
-  if (c) std::erase(c->users, a);
+  if (c) c->users.erase(a);
 }
 
 // The copy of b on m that `producer` makes leaves the plan now; its bytes stay reserved

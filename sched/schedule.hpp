@@ -43,7 +43,7 @@ struct Copy {
   MemId mem = kNone;
   ActivityId producer = kNone;  // Transfer or Exec that creates it; kNone: present initially
   Time initial_ready = 0;       // for producer == kNone
-  std::vector<ActivityId> users;  // E-jobs reading it and T-jobs sending it
+  ActivityList users;             // E-jobs reading it and T-jobs sending it (usually <= 3)
   bool origin = false;          // the block's home (never evicted)
 };
 

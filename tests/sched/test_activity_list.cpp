@@ -54,7 +54,7 @@ TEST(ActivityList, BehavesLikeAVectorUnderRandomOperations) {
     std::vector<std::vector<ActivityId>> ref(4);
     for (int step = 0; step < 60; ++step) {
       const std::size_t i = rng() % 4, j = rng() % 4;
-      switch (rng() % 7) {
+      switch (rng() % 8) {
         case 0:
         case 1: {
           const ActivityId id = static_cast<ActivityId>(rng() % 1000);
@@ -84,6 +84,13 @@ TEST(ActivityList, BehavesLikeAVectorUnderRandomOperations) {
         case 5:
           lists[i].reserve(rng() % 10);
           break;
+        case 6: {  // an id it holds (often), or one it may not
+          const ActivityId id = !ref[i].empty() && rng() % 4 != 0 ? ref[i][rng() % ref[i].size()]
+                                                                 : static_cast<ActivityId>(rng() % 1000);
+          lists[i].erase(id);
+          std::erase(ref[i], id);
+          break;
+        }
         default: {
           ActivityList moved(std::move(lists[i]));
           lists[i] = moved;  // (a copy back, and `moved` goes out of scope)

@@ -121,7 +121,7 @@ TEST(ScheduleCancel, KeepsATransferWhoseCopyAnotherJobReads) {
   EXPECT_EQ(n.kept_transfers, 1);
   EXPECT_FALSE(s.activity(t).cancelled);
   ASSERT_NE(s.copy_at(a, c.ram0), nullptr);
-  EXPECT_EQ(s.copy_at(a, c.ram0)->users, std::vector<ActivityId>{e2});
+  EXPECT_EQ(s.copy_at(a, c.ram0)->users, ActivityList{e2});
   run_all(s);
   expect_valid(s, pool);
 }
