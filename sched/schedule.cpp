@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <iterator>
 #include <span>
 #include <stdexcept>
 
@@ -298,8 +299,8 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   return id;
 }
 
-const std::vector<ActivityId>& Schedule::transfers_for(JobId j) const {
-  static const std::vector<ActivityId> kNoTransfers;
+const ActivityList& Schedule::transfers_for(JobId j) const {
+  static const ActivityList kNoTransfers;
   return j >= 0 && static_cast<std::size_t>(j) < job_transfers_.size() ? job_transfers_[static_cast<std::size_t>(j)]
                                                                          : kNoTransfers;
 }
@@ -369,8 +370,8 @@ Schedule::CancelCount Schedule::cancel_job(JobId j) {
   CancelCount n;
   const ActivityId e = pool_->activity(j);
   if (e != kNone && cancel(e)) ++n.execs;
-  const std::vector<ActivityId>& ts = transfers_for(j);
-  for (auto it = ts.rbegin(); it != ts.rend(); ++it) {
+  const ActivityList& ts = transfers_for(j);
+  for (auto it = std::make_reverse_iterator(ts.end()); it != std::make_reverse_iterator(ts.begin()); ++it) {
     if (acts_[*it].cancelled) continue;
     if (cancel(*it)) {
       ++n.transfers;

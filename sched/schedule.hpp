@@ -148,7 +148,7 @@ class Schedule {
   // follows it, so the plan stays true to what will run. Returns false unless Planned.
   bool retime(ActivityId a, Time duration);
   // T-jobs committed to fetch inputs for job j (commit order).
-  const std::vector<ActivityId>& transfers_for(JobId j) const;
+  const ActivityList& transfers_for(JobId j) const;
 
   // ---- reality (used by the runtime loop) -------------------------------------------
   void on_started(ActivityId a, Time t);
@@ -199,7 +199,7 @@ class Schedule {
   struct Leaving { BlockId block; MemId mem; ActivityId at; Bytes bytes; };
   std::vector<Leaving> leaving_;
   std::vector<Eviction> evictions_;
-  std::vector<std::vector<ActivityId>> job_transfers_;  // per JobId: its T-jobs
+  std::vector<ActivityList> job_transfers_;  // per JobId: its T-jobs
   std::vector<std::size_t> device_pending_;
   std::size_t unfinished_ = 0;
   EvictionPolicy eviction_policy_ = EvictionPolicy::QueueAware;
