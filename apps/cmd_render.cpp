@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -75,6 +76,9 @@ int run_render(const RenderCliOptions& opt) {
   ro.max_depth = opt.max_depth;
   ro.threads = opt.threads;
   ro.seed = opt.seed;
+  // (CLI11's PositiveNumber lets NaN through, and reports "inf" as a 300-digit number.)
+  if (!(std::isfinite(opt.horizon) && opt.horizon > 0))
+    throw InputError("--horizon", "", "must be a finite number of seconds > 0, e.g. 2 or 0.5");
   ro.horizon = opt.horizon;
   const AgingSetting aging = parse_aging(opt.aging, "--aging");
   ro.aging = aging.aging;

@@ -172,8 +172,7 @@ void add_render(CLI::App& app, std::function<int()>& action) {
   r->add_option("--threads,-j", opt->threads, "Worker threads = compute devices (default: all hardware threads)")
       ->check(CLI::Range(1, 4096));
   r->add_option("--seed", opt->seed, "Random seed (same seed: same image, bit for bit)")->default_val(opt->seed);
-  r->add_option("--horizon", opt->horizon, "GMB horizon k in seconds (Sec. 4.2)")->default_val(opt->horizon)
-      ->check(CLI::PositiveNumber);
+  r->add_option("--horizon", opt->horizon, "GMB horizon k in seconds (Sec. 4.2), > 0")->default_val(opt->horizon);
   r->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(opt->aging);
   r->add_option("--paths", opt->paths,
                 "Paths in flight at most (bounds ray memory); 0 = auto: under --memory-budget all that fit next to "

@@ -716,7 +716,10 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     std::pop_heap(devices.begin(), devices.end(), std::greater<>{});
     const auto [ready, d] = devices.back();
     devices.pop_back();
-    if (ready >= end) break;  // every device is planned up to now + k
+    // Every device is planned up to now + k. A device that is dry now is planned whatever
+    // k is: Sec. 4.2 re-plans when a device runs dry, and a k below the resolution of
+    // `now` (now + k == now) must not leave it idle, or the run would stall.
+    if (ready >= end && ready > now) break;
     deferred_.clear();
     for (;;) {
       const Choice c = select(d, ready, now, pool, s);

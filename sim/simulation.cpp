@@ -134,7 +134,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   if (!(cfg.horizon > 0)) throw InputError("--horizon", "", "must be > 0");
   if (std::isnan(cfg.aging)) throw InputError("--aging", "", "must be a duration, auto, adaptive or off");
   if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
-  if (cfg.exec_noise < 0 || cfg.exec_noise >= 1) throw InputError("--exec-noise", "", "must be in [0, 1)");
+  if (!(cfg.exec_noise >= 0 && cfg.exec_noise < 1)) throw InputError("--exec-noise", "", "must be in [0, 1)");
   const TransferOrder transfer_order = parse_transfer_order(cfg.transfer_order);
   const DeviceGraph g = load_platform(cfg.platform_file);
   const bool path_trace = cfg.workload.ends_with(".profile.json");

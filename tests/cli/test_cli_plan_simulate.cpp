@@ -58,6 +58,16 @@ TEST(CliPlan, JobFileOnAPlatformSubset) {
   EXPECT_NE(r.all.find("E-jobs 2"), std::string::npos) << r.all;
 }
 
+// A horizon below the clock's resolution once the run is under way (now + k == now):
+// every dry device still gets a job, so everything is placed (it used to stall with
+// "could not be placed on any device").
+TEST(CliPlan, HorizonBelowTheClockResolutionPlacesEveryJob) {
+  const auto r = rayline_cli("plan --quiet --synthetic-jobs 200 --horizon 1e-300s");
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(r.err.find("could not be placed"), std::string::npos) << r.err;
+  EXPECT_NE(r.all.find("E-jobs 200"), std::string::npos) << r.all;
+}
+
 TEST(CliPlan, BadInputExitsTwoNamingFileAndField) {
   auto r = rayline_cli("plan --horizon 0s");
   EXPECT_EQ(r.code, 2);
@@ -157,7 +167,7 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   fs::remove(bad_platform);
   fs::remove(bad_jobs);
   for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
-                                 "--platform /nonexistent.json", "--exec-noise 2", "--blocks 1", "--aging soon",
+                                 "--platform /nonexistent.json", "--exec-noise 2", "--exec-noise nan", "--blocks 1", "--aging soon",
                                  "--aging -2s", "--transfer-order fifo"}) {
     const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
     EXPECT_EQ(r.code, 2) << args << ": " << r.all;

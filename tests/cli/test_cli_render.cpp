@@ -200,6 +200,12 @@ TEST_F(CliRender, BadInputsExitTwoAndKeepTheGoodImage) {
   EXPECT_EQ(r.code, 2) << r.all;
   r = rayline_cli(args + "--scheduler fastest");
   EXPECT_EQ(r.code, 2) << r.all;
+  for (const std::string h : {"nan", "inf", "0", "-1"}) {  // NaN used to pass CLI11's PositiveNumber
+    r = rayline_cli(args + "--horizon " + h);
+    EXPECT_EQ(r.code, 2) << h << ": " << r.all;
+    EXPECT_NE(r.err.find("--horizon"), std::string::npos) << r.err;
+    EXPECT_LT(r.err.size(), 200u) << "a short message, not a 300-digit number: " << r.err;
+  }
   r = rayline_cli("render -q --out " + path("img.png"));
   EXPECT_EQ(r.code, 2) << r.all;
 

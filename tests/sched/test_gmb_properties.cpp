@@ -275,6 +275,31 @@ TEST_P(GmbProperty, InvariantsHoldOnRandomInstances) {
 
 INSTANTIATE_TEST_SUITE_P(Modes, GmbProperty, ::testing::Values(0, 1, 2, 3, 4, 5));
 
+// A horizon k below the resolution of the clock (now + k == now once now > 0) still gives
+// every device that runs dry a job (Sec. 4.2 re-plans when one does): the run never
+// stalls, every job is done, and the invariants hold. GMB used to plan nothing then and
+// report queued jobs as unplaceable.
+TEST(GmbHorizon, BelowTheClockResolutionStillPlansEveryDryDevice) {
+  for (int seed = 0; seed < 30; ++seed) {
+    std::mt19937 rng(5000 + seed);
+    Instance inst = random_instance(rng, seed % 2 == 0, seed % 3 == 0);
+    std::function<Time(ActivityId, const Activity&)> perturb;
+    if (seed % 4 == 1) {
+      auto prng = std::make_shared<std::mt19937>(seed);
+      perturb = [prng](ActivityId, const Activity& a) {
+        return a.duration * std::uniform_real_distribution<double>(0.6, 1.6)(*prng);
+      };
+    }
+    const Time lb = lower_bound(inst.g, inst.pool, inst.initial);
+    const RunResult r = run(inst, 1e-300, perturb, seed % 5 == 2);
+    ASSERT_FALSE(r.stalled) << "seed " << seed;
+    if (!perturb) {
+      EXPECT_GE(r.makespan, lb * (1 - 1e-9)) << "seed " << seed;
+    }
+    if (HasFailure()) return;
+  }
+}
+
 // A plan executed with no perturbation reproduces the predicted makespan exactly when it
 // was planned in one pass (k = infinity).
 TEST(GmbExecution, PlanRunsExactlyAsPredicted) {
