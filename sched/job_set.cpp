@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "sched/error.hpp"
+#include "sched/input_file.hpp"
 #include "sched/units.hpp"
 
 namespace rayline {
@@ -193,8 +194,7 @@ JobSet parse_job_set(const std::string& text, const std::string& file, const Dev
 }
 
 JobSet load_job_set(const std::string& path, const DeviceGraph& g) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "", "cannot open job-set file");
+  std::ifstream in = open_input(path, "job-set file");
   std::stringstream ss;
   ss << in.rdbuf();
   return parse_job_set(ss.str(), path, g);

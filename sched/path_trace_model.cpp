@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "sched/error.hpp"
+#include "sched/input_file.hpp"
 
 namespace rayline {
 
@@ -121,8 +122,7 @@ std::size_t outcome_categories(const SceneProfile& profile, RayStage stage, int 
 }
 
 ReplayLog ReplayLog::load(const std::string& path, const SceneProfile* profile) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "", "cannot open replay log");
+  std::ifstream in = open_input(path, "replay log");
   ReplayLog log;
   std::string line;
   int lineno = 0;

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "sched/error.hpp"
+#include "sched/input_file.hpp"
 #include "sched/units.hpp"
 
 namespace rayline {
@@ -506,8 +507,7 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
 }
 
 DeviceGraph load_platform(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "", "cannot open platform file");
+  std::ifstream in = open_input(path, "platform file");
   std::stringstream ss;
   ss << in.rdbuf();
   if (in.bad()) throw InputError(path, "", "cannot read platform file");

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "sched/error.hpp"
+#include "sched/input_file.hpp"
 #include "sched/scene_profile.hpp"
 
 namespace rayline {
@@ -241,8 +242,7 @@ SceneProfile parse_scene_profile(const std::string& text, const std::string& fil
 }
 
 SceneProfile load_scene_profile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "", "cannot open scene profile");
+  std::ifstream in = open_input(path, "scene profile");
   std::ostringstream ss;
   ss << in.rdbuf();
   return parse_scene_profile(ss.str(), path);

@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "sched/error.hpp"
+#include "sched/input_file.hpp"
 
 namespace rayline {
 
@@ -42,8 +43,7 @@ std::vector<std::string_view> split(std::string_view line) {
 }  // namespace
 
 std::vector<TimingSample> read_timing_samples_csv(const std::string& path, const DeviceGraph& g) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, "", "cannot open timing samples file");
+  std::ifstream in = open_input(path, "timing samples file");
 
   auto field = [](long line, int col) {
     return "line " + std::to_string(line) + " column " + std::string(column_name(col));

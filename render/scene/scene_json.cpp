@@ -340,6 +340,7 @@ Scene parse_scene(const std::string& text, const std::string& origin) {
 Scene load_scene(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path, "", "scene file does not exist");
+  if (fs::is_directory(path, ec)) throw InputError(path, "", "is a folder, not a scene file (give the file's path)");
   std::string ext = fs::path(path).extension().string();
   for (auto& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
   if (ext != ".json") {

@@ -192,6 +192,12 @@ TEST_F(CliRender, BadInputsExitTwoAndKeepTheGoodImage) {
   EXPECT_NE(r.err.find("bad.json"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("colour"), std::string::npos) << r.err;
 
+  // A folder where the scene file belongs.
+  fs::create_directories(path("folder.json"));
+  r = rayline_cli(args + "--scene " + path("folder.json"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("is a folder"), std::string::npos) << r.err;
+
   // Unwritable output path (a file where a folder should be), bad resolution, bad flags.
   { std::ofstream f(path("plain")); }
   r = rayline_cli("render -q --resolution 16x16 --spp 1 --out " + path("plain/x.exr"));

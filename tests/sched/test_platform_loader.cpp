@@ -9,7 +9,11 @@
 #include <string>
 
 #include "sched/error.hpp"
+#include "sched/job_set.hpp"
+#include "sched/path_trace_model.hpp"
 #include "sched/platform_loader.hpp"
+#include "sched/scene_profile.hpp"
+#include "sched/timing_samples.hpp"
 
 namespace {
 
@@ -423,6 +427,35 @@ TEST(PlatformLoader, MissingFile) {
     EXPECT_EQ(e.file(), "/nonexistent/platform.json");
     EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos);
   }
+}
+
+// Every loader opens its file through open_input(): a folder given where a file belongs
+// is named as a folder (std::ifstream opens one and reads nothing, which the parsers used
+// to report as "unexpected end of input"), and a missing file says why.
+TEST(InputFiles, FoldersAndMissingFilesAreNamedByEveryLoader) {
+  const std::string dir = ::testing::TempDir() + "rayline-input-folder.json";
+  std::filesystem::create_directories(dir);
+  const DeviceGraph g = load_platform(platform_path("paper-A.json"));
+  const std::vector<std::pair<std::string, std::function<void(const std::string&)>>> loaders = {
+      {"platform file", [](const std::string& p) { load_platform(p); }},
+      {"job-set file", [&](const std::string& p) { load_job_set(p, g); }},
+      {"scene profile", [](const std::string& p) { load_scene_profile(p); }},
+      {"replay log", [](const std::string& p) { ReplayLog::load(p, nullptr); }},
+      {"timing samples file", [&](const std::string& p) { read_timing_samples_csv(p, g); }}};
+  for (const auto& [what, load] : loaders) {
+    for (const std::string& path : {dir, std::string("/nonexistent-rayline/x.json")}) {
+      try {
+        load(path);
+        ADD_FAILURE() << what << ": accepted " << path;
+      } catch (const InputError& e) {
+        EXPECT_EQ(e.file(), path) << what;
+        const std::string msg = e.what();
+        EXPECT_NE(msg.find(what), std::string::npos) << msg;
+        EXPECT_NE(msg.find(path == dir ? "is a folder" : "No such file or directory"), std::string::npos) << msg;
+      }
+    }
+  }
+  std::filesystem::remove(dir);
 }
 
 }  // namespace
