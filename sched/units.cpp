@@ -12,6 +12,11 @@ namespace rayline::units {
 
 namespace {
 
+// Bounds past which a quantity is a typo, not a device: products of sizes, times and
+// inverse bandwidths then stay far from overflow (see parse_bytes / parse_bandwidth).
+constexpr double kMaxBytes = 1152921504606846976.0;  // 1 EiB = 2^60 B
+constexpr double kMaxSeconds = 1e9;                  // about 32 years
+
 struct Split {
   double value;
   std::string_view unit;
@@ -64,7 +69,11 @@ double parse_bytes(std::string_view text) {
   auto [v, unit] = split(text, "size", "\"8GiB\", \"210MB\", \"64B\"");
   double mult;
   prefix(unit, mult);
-  if (unit == "B") return v * mult;
+  if (unit == "B") {
+    // Past 1 EiB the times derived from a size (Eq. 1) stop meaning anything; a typo.
+    if (v * mult > kMaxBytes) throw std::invalid_argument("'" + std::string(text) + "' is not a valid size (larger than 1 EiB; expected e.g. \"8GiB\")");
+    return v * mult;
+  }
   if (unit == "b")  // "8Gb" is almost always a typo for "8GB": sizes are bytes only
     throw std::invalid_argument("'" + std::string(text) + "' is not a valid size (sizes are in bytes: expected B, e.g. \"8GiB\" or \"210MB\"; b = bit is only for bandwidths)");
   throw std::invalid_argument("'" + std::string(text) + "' is not a valid size (unknown unit; expected B with an optional k/M/G/T or Ki/Mi/Gi/Ti prefix, e.g. \"8GiB\", \"210MB\", \"64B\")");
@@ -82,18 +91,24 @@ double parse_bandwidth(std::string_view text) {
   else if (u == "b") bytes = v * mult / 8;
   else throw std::invalid_argument("'" + std::string(text) + "' is not a valid bandwidth (unknown unit; expected e.g. \"150MB/s\" or \"1Gb/s\")");
   if (!(bytes > 0)) throw std::invalid_argument("'" + std::string(text) + "' is not a valid bandwidth (must be > 0; expected e.g. \"150MB/s\")");
+  // Slower than 1 B/s, a block's transfer time (Eq. 1) overflows to infinity or close to
+  // it, and every time printed after it is noise: surely a typo in the unit.
+  if (bytes < 1) throw std::invalid_argument("'" + std::string(text) + "' is not a valid bandwidth (slower than 1 B/s; expected e.g. \"150MB/s\")");
   return bytes;
 }
 
 double parse_duration(std::string_view text) {
   auto [v, unit] = split(text, "duration", "\"8ms\", \"100us\", \"2s\"");
-  if (unit == "s") return v;
-  if (unit == "ms") return v * 1e-3;
-  if (unit == "us") return v * 1e-6;
-  if (unit == "ns") return v * 1e-9;
-  if (unit == "min") return v * 60;
-  if (unit == "h") return v * 3600;
-  throw std::invalid_argument("'" + std::string(text) + "' is not a valid duration (unknown unit; expected s, ms, us, ns, min or h)");
+  double seconds;
+  if (unit == "s") seconds = v;
+  else if (unit == "ms") seconds = v * 1e-3;
+  else if (unit == "us") seconds = v * 1e-6;
+  else if (unit == "ns") seconds = v * 1e-9;
+  else if (unit == "min") seconds = v * 60;
+  else if (unit == "h") seconds = v * 3600;
+  else throw std::invalid_argument("'" + std::string(text) + "' is not a valid duration (unknown unit; expected s, ms, us, ns, min or h)");
+  if (seconds > kMaxSeconds) throw std::invalid_argument("'" + std::string(text) + "' is not a valid duration (longer than 1e9 s, about 32 years; expected e.g. \"2s\")");
+  return seconds;
 }
 
 double parse_rate(std::string_view text) {

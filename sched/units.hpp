@@ -4,7 +4,9 @@
 //   durations  "8ms", "100us", "2s", "50ns"               -> seconds
 // Decimal prefixes k,M,G,T = 10^3..10^12; binary Ki,Mi,Gi,Ti = 2^10..2^40; "b" = bit,
 // "B" = byte. Anything else (missing unit, trailing text, negative, NaN) throws
-// std::invalid_argument with a message that says what was expected.
+// std::invalid_argument with a message that says what was expected, and so do values no
+// device has, whose derived times would overflow: sizes over 1 EiB, bandwidths under
+// 1 B/s, durations over 1e9 s.
 #pragma once
 #include <string_view>
 

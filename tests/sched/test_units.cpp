@@ -79,6 +79,19 @@ TEST(Units, RejectsMalformedDurations) {
     expect_reject(parse_duration, s);
 }
 
+// Values no device has, whose derived times overflow (a 1e-300 B/s rate printed a
+// 300-digit makespan and NaN utilisations): rejected, the bounds themselves accepted.
+TEST(Units, RejectsQuantitiesWhoseTimesWouldOverflow) {
+  for (const char* s : {"1e-300B/s", "1e-320B/s", "0.5B/s", "7b/s"}) expect_reject(parse_bandwidth, s);
+  for (const char* s : {"1e300GB", "1153000TB", "1048577TiB"}) expect_reject(parse_bytes, s);
+  for (const char* s : {"1e300s", "1e10s", "300000h"}) expect_reject(parse_duration, s);
+  EXPECT_DOUBLE_EQ(parse_bandwidth("1B/s"), 1.0);
+  EXPECT_DOUBLE_EQ(parse_bandwidth("8b/s"), 1.0);
+  EXPECT_DOUBLE_EQ(parse_bytes("1048576TiB"), 1152921504606846976.0);
+  EXPECT_DOUBLE_EQ(parse_duration("1e9s"), 1e9);
+  EXPECT_DOUBLE_EQ(parse_duration("1e-300s"), 1e-300);
+}
+
 TEST(Units, RejectsMalformedRates) {
   for (const char* s : {"", "10M", "10Mx/s", "0/s", "-5/s", "10 M/s"}) expect_reject(parse_rate, s);
 }
