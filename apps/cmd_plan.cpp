@@ -15,6 +15,7 @@
 #include "sched/platform_loader.hpp"
 #include "sched/runtime_loop.hpp"
 #include "sched/trace_output.hpp"
+#include "sched/unplaced.hpp"
 #include "sched/units.hpp"
 #include "sched/utilisation.hpp"
 
@@ -39,8 +40,7 @@ int run_plan(const PlanOptions& opt) {
   RuntimeLoop loop(gmb, ex, wl, set.pool, s);
   const RunStats st = loop.run();
   if (st.stalled) {
-    std::fprintf(stderr, "rayline: %zu job(s) could not be placed on any device (capacity or no path)\n",
-                 set.pool.queued_count());
+    std::fprintf(stderr, "rayline: %s\n", unplaced_summary(set.pool, s).c_str());
   }
   const Utilisation u = compute_utilisation(s, 0, st.makespan);
   if (!opt.trace.empty()) write_file_atomic(opt.trace, chrome_trace_json(s, false));

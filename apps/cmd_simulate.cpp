@@ -115,8 +115,7 @@ int run_simulate(const SimulateOptions& opt) {
     const sim::SimulationSummary s = sim::run_simulation(cfg);
     print_summary(s, opt.out, cfg.timeline);
     if (s.stalled) {
-      std::fprintf(stderr, "rayline: %zu queued job(s) could not be placed on any device (capacity or no path)\n",
-                   s.queued_at_end);
+      std::fprintf(stderr, "rayline: %s\n", s.stalled_reason.c_str());
       return kExitFailure;
     }
     return kExitOk;

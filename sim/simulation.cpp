@@ -19,6 +19,7 @@
 #include "sched/runtime_loop.hpp"
 #include "sched/scheduler_factory.hpp"
 #include "sched/trace_output.hpp"
+#include "sched/unplaced.hpp"
 #include "sched/utilisation.hpp"
 #include "sim/sim_executor.hpp"
 
@@ -239,6 +240,10 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   }
   const auto run0 = std::chrono::steady_clock::now();
   const RunStats st = loop.run(stream ? cfg.duration : kNever);
+  // A stream never drains, so the loop cannot see a stall; a queued job that no device can
+  // ever run (too big for every memory device, no path) is one all the same.
+  const bool stalled =
+      st.stalled || (pool.queued_count() > 0 && !why_unplaceable(*pool.queued().begin(), pool, s).empty());
   const double run_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - run0).count();
   if (cfg.progress) std::fprintf(stderr, "\n");
   const Time end = stream ? cfg.duration : st.makespan;
@@ -265,7 +270,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     actual_ms = std::max(actual_ms, a.end);
   }
   m["makespan_s"] = {{"planned", planned_ms}, {"actual", actual_ms}, {"gap", actual_ms - planned_ms}};
-  m["stalled"] = st.stalled;
+  m["stalled"] = stalled;
   std::uint64_t done_exec = 0, done_transfer = 0, cancelled_exec = 0, cancelled_transfer = 0;
   std::vector<double> err_exec, err_transfer;
   double work_done = 0;
@@ -386,8 +391,9 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   sum.scheduler_seconds = st.scheduler_wall_seconds;
   sum.rays_per_second = end > 0 ? work_done / end : 0;
   sum.activities = done_exec + done_transfer;
-  sum.stalled = st.stalled;
+  sum.stalled = stalled;
   sum.queued_at_end = pool.queued_count();
+  if (stalled) sum.stalled_reason = unplaced_summary(pool, s);
   double tot = 0;
   for (const auto& [k, t] : by_kind) tot += t.busy + t.setup + t.fetching + t.idle;
   for (const auto& [k, t] : by_kind) {

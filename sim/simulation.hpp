@@ -48,6 +48,7 @@ struct SimulationSummary {
   std::uint64_t activities = 0;
   bool stalled = false;        // queued jobs that no device could ever take
   std::size_t queued_at_end = 0;
+  std::string stalled_reason;  // when stalled: which job, and why no device can take it (sched/unplaced.hpp)
   // Path-tracing workload only.
   bool path_trace = false;
   double steady_rays_per_second = 0;    // rays intersected per second after the warm-up

@@ -25,6 +25,7 @@
 #include "sched/error.hpp"
 #include "sched/scheduler_factory.hpp"
 #include "sched/trace_output.hpp"
+#include "sched/unplaced.hpp"
 
 namespace rayline::engine {
 
@@ -390,7 +391,7 @@ RenderResult render(const RenderOptions& opt) {
   res.seconds = executor.now();
   res.peak_rss_bytes = rss_peak();
   if (auto err = executor.failure()) std::rethrow_exception(err);
-  if (res.run.stalled) throw std::runtime_error("render stalled: queued jobs no device can run (plan bug)");
+  if (res.run.stalled) throw std::runtime_error("render stalled: " + unplaced_summary(pool, schedule));
 
   res.counts = workload.counts();
   res.camera_rays = workload.camera_rays();

@@ -68,6 +68,16 @@ TEST(CliPlan, HorizonBelowTheClockResolutionPlacesEveryJob) {
   EXPECT_NE(r.all.find("E-jobs 200"), std::string::npos) << r.all;
 }
 
+// Jobs no device can ever run are reported with the reason, not as "capacity or no path":
+// one 27 GB block fits no memory device of the cluster.
+TEST(CliPlan, UnplaceableJobsAreExplained) {
+  const auto r = rayline_cli("plan --quiet --synthetic-blocks 1 --synthetic-jobs 3");
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("3 job(s) could not be placed on any device; job 'ri0': its inputs and outputs need"),
+            std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(D.gpu0mem) holds 12.9 GB"), std::string::npos) << r.err;
+}
+
 TEST(CliPlan, BadInputExitsTwoNamingFileAndField) {
   auto r = rayline_cli("plan --horizon 0s");
   EXPECT_EQ(r.code, 2);
@@ -177,6 +187,25 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
       partial = partial || e.path().filename().string().starts_with(out.filename().string() + ".partial");
     EXPECT_FALSE(partial) << args;
   }
+}
+
+// A ray stream never drains, so the runtime loop cannot see a stall. With 100 MB of RAM on
+// the one node nothing can run (blocks reach the GPU only through RAM): the run says so,
+// exits 1 and records "stalled" in metrics.json (it used to report 0 rays/s and exit 0).
+TEST(CliSimulate, AStreamNoDeviceCanRunIsAStall) {
+  const fs::path out = scratch("sim-stall");
+  const fs::path platform = scratch("small-ram.json");
+  auto p = nlohmann::json::parse(std::ifstream(kPlatforms + "/paper-A.json"));
+  p["node_types"]["A"]["memory"][1]["capacity"] = "100MB";
+  std::ofstream(platform) << p.dump();
+  const auto r = rayline_cli("simulate --no-progress --duration 5s --platform " + platform.string() + " --out " + out.string());
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("on A0.gpu0: no chain of channels"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("leads from its holders to A0.gpu0mem"), std::string::npos) << r.err;
+  const auto m = nlohmann::json::parse(std::ifstream(out / "metrics.json"));
+  EXPECT_TRUE(m.at("stalled").get<bool>());
+  fs::remove_all(out);
+  fs::remove(platform);
 }
 
 // --transfer-order: with the plan's order on every resource nothing contends, so on the

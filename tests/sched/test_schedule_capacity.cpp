@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "dcg_fixture.hpp"
+#include "sched/unplaced.hpp"
 
 using namespace rayline;
 using namespace rayline::testing;
@@ -31,4 +32,42 @@ TEST(ScheduleCapacity, OverfullDeviceAdmitsNothingUntilFreed) {
   EXPECT_EQ(adm.victims[0].first, cached);
   // 200 bytes cannot fit even then: 1300 - 400 + 200 > 1000.
   EXPECT_EQ(s.admission(ram, 200, {}).at, kNever);
+}
+
+// why_unplaceable (sched/unplaced.hpp): the static reason a job can run nowhere, for the
+// device that comes closest; empty when some device could take it.
+TEST(Unplaceable, NamesTheSizeThePathOrTheJobType) {
+  DcgBuilder b;
+  const MemId disk = b.mem("n.disk", Bytes(1) << 40, MemoryKind::Disk);
+  const MemId ram = b.mem("n.ram", 1000);
+  const MemId gpu = b.mem("n.gpumem", 5000, MemoryKind::Gpu);
+  b.dev("n.cpu", ram);
+  b.dev("n.gpu", gpu, ComputeKind::Gpu);
+  b.channel(disk, ram, 1e6);
+  b.channel(ram, gpu, 1e6);  // the GPU is fed through RAM only
+  b.timing(0, DataKind::SceneData, 1e6);
+  b.g.finalize();
+  JobPool pool;
+  const BlockId small = add_block(pool, "small", DataKind::SceneData, 500);
+  const BlockId mid = add_block(pool, "mid", DataKind::SceneData, 3000);
+  const BlockId huge = add_block(pool, "huge", DataKind::SceneData, 9000);
+  const JobId fits = add_job(pool, "fits", 0, {small});
+  const JobId relay = add_job(pool, "relay", 0, {mid});   // fits the GPU, but not RAM on the way
+  const JobId too_big = add_job(pool, "too_big", 0, {huge});
+  const JobId no_type = add_job(pool, "no_type", 1, {small});  // nobody runs job type 1
+  Schedule s(b.g, pool);
+  for (BlockId x : {small, mid, huge}) s.put_initial(x, disk);
+
+  EXPECT_EQ(why_unplaceable(fits, pool, s), "");
+  const std::string r = why_unplaceable(relay, pool, s);
+  EXPECT_NE(r.find("n.gpu:"), std::string::npos) << r;
+  EXPECT_NE(r.find("'mid'"), std::string::npos) << r;
+  EXPECT_NE(r.find("no chain of channels"), std::string::npos) << r;
+  const std::string t = why_unplaceable(too_big, pool, s);
+  EXPECT_NE(t.find("9e-06 GB"), std::string::npos) << t;
+  EXPECT_NE(t.find("(n.gpumem) holds 5e-06 GB"), std::string::npos) << t;
+  EXPECT_NE(why_unplaceable(no_type, pool, s).find("runs job type Compute"), std::string::npos);
+  // Once the mid block is on the GPU's memory already, nothing stands in the way.
+  s.put_initial(mid, gpu);
+  EXPECT_EQ(why_unplaceable(relay, pool, s), "");
 }
