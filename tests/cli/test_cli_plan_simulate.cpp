@@ -278,7 +278,7 @@ TEST(CliCompare, RunsEverySchedulerAndRejectsBadFlagsBeforeRunning) {
   std::ifstream m(out / "gmb" / "metrics.json");
   EXPECT_NE(nlohmann::json::parse(m)["scheduler_parameters"].get<std::string>().find("adaptive_aging=1"), std::string::npos);
   fs::remove_all(out);
-  for (const std::string args : {"--aging soon", "--horizon 2x", "--duration -5s", "--schedulers gmb,teleport"}) {
+  for (const std::string args : {"--aging soon", "--horizon 2x", "--duration -5s", "--schedulers gmb,teleport", "--schedulers gmb,budge,gmb"}) {
     r = rayline_cli("compare --platform paper-A --duration 3s --out " + out.string() + " " + args);
     EXPECT_EQ(r.code, 2) << args << ": " << r.all;
     EXPECT_EQ(r.out.find("== gmb =="), std::string::npos) << args << ": nothing should run: " << r.out;
