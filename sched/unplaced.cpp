@@ -1,5 +1,6 @@
 #include "sched/unplaced.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <vector>
 
@@ -76,7 +77,10 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
         reason = "input '" + bn + "' may not move (a framebuffer moves only for AdditiveCompose, Sec. 5.1) and is not on " + mem.name;
         break;
       }
-      if (!reachable(b, s)[static_cast<std::size_t>(m)]) {
+      const std::vector<bool> reach = reachable(b, s);
+      // No copy anywhere yet: an output of a job still to run (a DAG), not an obstacle.
+      if (std::find(reach.begin(), reach.end(), true) == reach.end()) continue;
+      if (!reach[static_cast<std::size_t>(m)]) {
         reason = "no chain of channels, each hop with room for input '" + bn + "' (" +
                  gb(static_cast<double>(pool.block(b).bytes)) + "), leads from its holders to " + mem.name;
         break;

@@ -70,4 +70,9 @@ TEST(Unplaceable, NamesTheSizeThePathOrTheJobType) {
   // Once the mid block is on the GPU's memory already, nothing stands in the way.
   s.put_initial(mid, gpu);
   EXPECT_EQ(why_unplaceable(relay, pool, s), "");
+  // An input no memory device holds yet is the output of a job still to run: no obstacle.
+  const BlockId later = add_block(pool, "later", DataKind::SceneData, 3000);
+  const JobId consumer = add_job(pool, "consumer", 0, {later});
+  Schedule s2(b.g, pool);
+  EXPECT_EQ(why_unplaceable(consumer, pool, s2), "");
 }
