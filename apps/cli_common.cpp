@@ -52,6 +52,16 @@ void ensure_parent_dir(const std::string& path, const std::string& flag) {
   if (ec || !fs::is_directory(parent)) throw InputError(path, flag, "cannot create folder " + parent.string() + ": " + ec.message());
 }
 
+void ensure_dir(const std::string& dir, const std::string& flag) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(dir, ec)) return;
+  fs::create_directories(dir, ec);
+  std::error_code ignored;
+  if (ec || !fs::is_directory(dir, ignored))
+    throw InputError(dir, flag, "cannot create the folder" + (ec ? ": " + ec.message() : std::string()));
+}
+
 void write_file_atomic(const std::string& path, const std::string& content) {
   namespace fs = std::filesystem;
   ensure_parent_dir(path, "");

@@ -18,6 +18,8 @@ int guarded(const std::function<int()>& body);
 // Users expect `--out out/x` to work in a fresh checkout: create the missing parent
 // folders of an output path; InputError(path, flag, ...) when they cannot be created.
 void ensure_parent_dir(const std::string& path, const std::string& flag);
+// The same for a folder itself (results folders): InputError(dir, flag, ...) naming it.
+void ensure_dir(const std::string& dir, const std::string& flag);
 
 // --aging (GMB, Sec. 4.3): "auto" (GMB's default, 5k and at least 1 s), "adaptive" (auto,
 // and at least twice the queue's median wait), "off", or a duration >= 0. InputError naming

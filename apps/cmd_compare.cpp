@@ -8,7 +8,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -86,24 +85,17 @@ Row read_row(const std::string& sched, const std::string& dir, int rc) {
 int run_compare(const CompareOptions& opt) {
   const std::vector<std::string> scheds = split_list(opt.schedulers);
   if (scheds.empty()) throw InputError("--schedulers", "", "expected a list such as gmb,budge,loadanyonce");
-  for (std::size_t i = 0; i < scheds.size(); ++i) {
-    const std::string& s = scheds[i];
+  for (const std::string& s : scheds) {
     if (s != "gmb" && s != "gmb-ca" && s != "budge" && s != "loadanyonce")
       throw InputError("--schedulers", "", "unknown scheduler '" + s + "' (gmb, gmb-ca, budge, loadanyonce)");
     // Each writes OUT/<name>: a second run of one would overwrite the first.
-    if (std::find(scheds.begin(), scheds.begin() + static_cast<std::ptrdiff_t>(i), s) != scheds.begin() + static_cast<std::ptrdiff_t>(i))
+    if (std::count(scheds.begin(), scheds.end(), s) > 1)
       throw InputError("--schedulers", "", "'" + s + "' is listed twice");
   }
   if (opt.sim.clients.find(',') != std::string::npos)
     throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
   check_simulate_flags(opt.sim);
-  {
-    std::error_code ec;
-    std::filesystem::create_directories(opt.out, ec);
-    std::error_code ec2;
-    if (!std::filesystem::is_directory(opt.out, ec2))
-      throw InputError(opt.out, "--out", "cannot create the results folder" + (ec ? ": " + ec.message() : std::string()));
-  }
+  ensure_dir(opt.out, "--out");
   std::vector<Row> rows;
   for (const auto& s : scheds) {
     std::printf("== %s ==\n", s.c_str());

@@ -52,6 +52,13 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
   double need = 0;
   for (BlockId b : job.inputs) need += static_cast<double>(pool.block(b).bytes);
   for (BlockId o : job.outputs) need += static_cast<double>(pool.block(o).bytes);
+  // Where each input can get to, once for every device. An input no memory device holds
+  // yet is the output of a job still to run (a DAG): it is no obstacle, left empty.
+  std::vector<std::vector<bool>> reach(job.inputs.size());
+  for (std::size_t i = 0; i < job.inputs.size(); ++i) {
+    reach[i] = reachable(job.inputs[i], s);
+    if (std::find(reach[i].begin(), reach[i].end(), true) == reach[i].end()) reach[i].clear();
+  }
   // Reasons by preference: the one of a device whose memory is big enough says more.
   std::string too_small, blocked;
   double largest = -1;
@@ -70,17 +77,15 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
       continue;
     }
     std::string reason;
-    for (BlockId b : job.inputs) {
+    for (std::size_t i = 0; i < job.inputs.size(); ++i) {
+      const BlockId b = job.inputs[i];
       if (s.copy_at(b, m)) continue;
       const std::string& bn = pool.block(b).name;
       if (!Placer::may_fetch(job, b, s)) {
         reason = "input '" + bn + "' may not move (a framebuffer moves only for AdditiveCompose, Sec. 5.1) and is not on " + mem.name;
         break;
       }
-      const std::vector<bool> reach = reachable(b, s);
-      // No copy anywhere yet: an output of a job still to run (a DAG), not an obstacle.
-      if (std::find(reach.begin(), reach.end(), true) == reach.end()) continue;
-      if (!reach[static_cast<std::size_t>(m)]) {
+      if (!reach[i].empty() && !reach[i][static_cast<std::size_t>(m)]) {
         reason = "no chain of channels, each hop with room for input '" + bn + "' (" +
                  gb(static_cast<double>(pool.block(b).bytes)) + "), leads from its holders to " + mem.name;
         break;
