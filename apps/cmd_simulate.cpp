@@ -96,6 +96,28 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.replay_file = opt.replay;
   cfg.record_replay = opt.record_replay;
   if (!opt.warmup.empty()) cfg.warmup = duration_flag("--warmup", opt.warmup);
+  // The path-tracing flags (Sec. 5-6) mean nothing to a ray stream or a job set: a run
+  // that silently ignored one would not be the run the user asked for.
+  if (!cfg.workload.ends_with(".profile.json")) {
+    const std::vector<int> counts = client_counts(opt.clients);
+    std::string given;
+    int n = 0;
+    const auto flag = [&given, &n](bool set, const char* name) {
+      if (set) given += (n++ ? ", " : "") + std::string(name);
+    };
+    flag(counts.size() > 1 || counts[0] != 1, "--clients");
+    flag(opt.prediction_depth != 0, "--prediction-depth");
+    flag(opt.fidelity != "markov", "--fidelity");
+    flag(!opt.replay.empty(), "--replay");
+    flag(opt.record_replay, "--record-replay");
+    flag(!opt.warmup.empty(), "--warmup");
+    flag(opt.merge_planned != "on", "--merge-planned");
+    flag(opt.retime_merged != "on", "--retime-merged");
+    flag(opt.cancel_failed != "on", "--cancel-failed");
+    if (!given.empty())
+      throw InputError("--workload", "", given + (n == 1 ? " applies" : " apply") + " only to path tracing (--workload boeing, museum or "
+                                         "FILE.profile.json), not to '" + opt.workload + "'");
+  }
   return cfg;
 }
 }  // namespace
@@ -105,11 +127,6 @@ void check_simulate_flags(const SimulateOptions& opt) { simulate_config(opt); }
 int run_simulate(const SimulateOptions& opt) {
   sim::SimulationConfig cfg = simulate_config(opt);
   const std::vector<int> counts = client_counts(opt.clients);
-  const bool path_trace = cfg.workload.ends_with(".profile.json");
-  if (!path_trace && (counts.size() > 1 || counts[0] != 1 || opt.prediction_depth != 0 || opt.fidelity != "markov" ||
-                      !opt.replay.empty() || opt.record_replay))
-    throw InputError("--workload", "", "--clients, --prediction-depth, --fidelity, --replay and --record-replay need a "
-                                       "path-tracing workload (boeing, museum or FILE.profile.json)");
   if (counts.size() == 1) {
     cfg.clients = counts[0];
     const sim::SimulationSummary s = sim::run_simulation(cfg);

@@ -21,6 +21,18 @@ namespace {
 
 using namespace rayline::cli;
 
+// A seed is a plain decimal number that fits in 64 bits. CLI11 would take "-1" as
+// 2^64 - 1 and clamp a longer number to it without a word; both are refused here.
+const CLI::Validator kSeed(
+    [](std::string& s) -> std::string {
+      static const std::string kMax = "18446744073709551615";
+      const bool digits = !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+      if (!digits || s.size() > kMax.size() || (s.size() == kMax.size() && s > kMax))
+        return "'" + s + "' is not a seed: expected a whole number from 0 to " + kMax;
+      return {};
+    },
+    "", "SEED");
+
 void add_platform(CLI::App& app, std::function<int()>& action) {
   auto* platform = app.add_subcommand("platform", "Inspect platform (device connectivity graph) files");
   platform->require_subcommand(1);
@@ -46,7 +58,7 @@ void add_plan(CLI::App& app, std::function<int()>& action) {
       ->default_val(opt->synthetic_blocks)->check(CLI::Range(1, 1000000));
   plan->add_option("--synthetic-jobs", opt->synthetic_jobs, "Jobs of the synthetic job set")
       ->default_val(opt->synthetic_jobs)->check(CLI::Range(1, 100000000));
-  plan->add_option("--seed", opt->seed, "Seed of the synthetic job set")->default_val(opt->seed);
+  plan->add_option("--seed", opt->seed, "Seed of the synthetic job set")->default_val(opt->seed)->check(kSeed);
   plan->add_flag("--quiet,-q", opt->quiet, "Print only the summary line");
   plan->callback([opt, &action] { action = [opt] { return run_plan(*opt); }; });
 }
@@ -61,7 +73,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
   sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->default_val(opt->aging);
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->default_val(opt->duration);
-  sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed);
+  sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed)->check(kSeed);
   sim->add_option("--exec-noise", opt->exec_noise, "Actual E-job time = predicted x U[1-n,1+n]")->default_val(opt->exec_noise);
   sim->add_option("--transfer-order", opt->transfer_order,
                   "T-jobs on channels that share a medium (a NIC, a half-duplex SATA link): channel = each channel "
@@ -113,7 +125,7 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--transfer-order", o.transfer_order, "T-jobs on shared media: channel, resource or exclusive (see simulate --help)")
       ->default_val(o.transfer_order)
       ->check(CLI::IsMember({"channel", "resource", "exclusive"}));
-  c->add_option("--seed", o.seed, "Workload seed")->default_val(o.seed);
+  c->add_option("--seed", o.seed, "Workload seed")->default_val(o.seed)->check(kSeed);
   c->add_option("--clients", o.clients, "Path tracing: clients requesting frames")->default_val(o.clients);
   c->add_option("--prediction-depth", o.prediction_depth, "Path tracing: job prediction depth (GMB only)")->default_val(o.prediction_depth)->check(CLI::Range(0, 16));
   c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);
@@ -132,7 +144,7 @@ void add_generate(CLI::App& app, std::function<int()>& action) {
   gen->add_option("name", opt->name, "Generator: museum-like, boeing-like, cornell, furnace, block-crossing");
   gen->add_option("--triangles,-n", opt->triangles, "Triangle count, K/M/G suffixes allowed (default: per generator)");
   gen->add_option("--out,-o", opt->out, "Mesh output path (.ply)");
-  gen->add_option("--seed", opt->seed, "Random seed")->default_val(opt->seed);
+  gen->add_option("--seed", opt->seed, "Random seed")->default_val(opt->seed)->check(kSeed);
   gen->add_option("--scene-out", opt->scene_out, "Companion scene JSON (default: OUT with .json; '-': none)");
   gen->add_flag("--list", opt->list, "List the generators and exit");
   gen->add_flag("--quiet,-q", opt->quiet, "Print only the timing line");
@@ -171,7 +183,7 @@ void add_render(CLI::App& app, std::function<int()>& action) {
   r->add_option("--memory-budget", opt->memory_budget, "RAM for scene blocks and ray queues, e.g. 512MiB (default: unlimited)");
   r->add_option("--threads,-j", opt->threads, "Worker threads = compute devices (default: all hardware threads)")
       ->check(CLI::Range(1, 4096));
-  r->add_option("--seed", opt->seed, "Random seed (same seed: same image, bit for bit)")->default_val(opt->seed);
+  r->add_option("--seed", opt->seed, "Random seed (same seed: same image, bit for bit)")->default_val(opt->seed)->check(kSeed);
   r->add_option("--horizon", opt->horizon, "GMB horizon k in seconds (Sec. 4.2), > 0")->default_val(opt->horizon);
   r->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(opt->aging);
   r->add_option("--paths", opt->paths,

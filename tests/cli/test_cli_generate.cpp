@@ -43,5 +43,16 @@ TEST(CliGenerate, BadInputExitsTwo) {
   r = rayline_cli("generate cornell --triangles 10K --out /proc/rayline-cannot-create/x.ply");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.all.find("--out"), std::string::npos) << r.all;
+  // A seed is a whole number that fits in 64 bits: CLI11 alone would wrap -1 and clamp a
+  // longer number without a word. The largest one is accepted.
+  for (const std::string seed : {"-1", "18446744073709551616", "99999999999999999999", "0x10", "1.5"}) {
+    r = rayline_cli("generate cornell --triangles 100 --seed " + seed + " --out /tmp/rayline-seed.ply");
+    EXPECT_EQ(r.code, 2) << seed << ": " << r.all;
+    EXPECT_NE(r.all.find("is not a seed"), std::string::npos) << r.all;
+  }
+  const fs::path ok = fs::temp_directory_path() / "rayline-seed-max.ply";
+  r = rayline_cli("generate cornell --triangles 100 --seed 18446744073709551615 --scene-out - --out " + ok.string());
+  EXPECT_EQ(r.code, 0) << r.all;
+  fs::remove(ok);
   EXPECT_EQ(rayline_cli("generate --help").code, 0);
 }

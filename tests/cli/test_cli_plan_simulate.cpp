@@ -178,7 +178,8 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   fs::remove(bad_jobs);
   for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
                                  "--platform /nonexistent.json", "--exec-noise 2", "--exec-noise nan", "--blocks 1", "--aging soon",
-                                 "--aging -2s", "--transfer-order fifo"}) {
+                                 "--aging -2s", "--transfer-order fifo", "--seed -1", "--seed 18446744073709551616",
+                                 "--seed 1e3"}) {
     const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
     EXPECT_EQ(r.code, 2) << args << ": " << r.all;
     EXPECT_FALSE(fs::exists(out)) << args;

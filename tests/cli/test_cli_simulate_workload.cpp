@@ -135,5 +135,17 @@ TEST(CliSimulateWorkload, BadFlagsExit2) {
   EXPECT_EQ(rayline_cli("simulate --workload boeing --fidelity replay --no-progress --out " + out.string()).code, 2);
   EXPECT_EQ(rayline_cli("simulate --workload boeing --clients 0 --no-progress --out " + out.string()).code, 2);
   EXPECT_EQ(rayline_cli("simulate --clients 4 --no-progress --out " + out.string()).code, 2);  // ray-stream has no clients
+  // Every path-tracing flag is refused for a ray stream (--warmup and the on/off switches
+  // used to be ignored without a word), and the message names each one given.
+  for (const std::string args : {"--warmup 5s", "--merge-planned off", "--retime-merged off", "--cancel-failed off",
+                                 "--prediction-depth 1", "--fidelity analytic", "--record-replay"}) {
+    const auto r = rayline_cli("simulate --duration 2s --no-progress --out " + out.string() + " " + args);
+    EXPECT_EQ(r.code, 2) << args << ": " << r.all;
+    EXPECT_NE(r.err.find(args.substr(0, args.find(' ')) + " applies only to path tracing"), std::string::npos) << r.err;
+  }
+  const auto two = rayline_cli("simulate --warmup 1s --clients 2 --no-progress --out " + out.string());
+  EXPECT_EQ(two.code, 2) << two.all;
+  EXPECT_NE(two.err.find("--clients, --warmup apply only to path tracing"), std::string::npos) << two.err;
+  EXPECT_EQ(rayline_cli("compare --schedulers gmb --warmup 1s --out " + out.string()).code, 2);
   EXPECT_FALSE(fs::exists(out));
 }
