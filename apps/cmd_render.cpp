@@ -83,7 +83,7 @@ int run_render(const RenderCliOptions& opt) {
   const AgingSetting aging = parse_aging(opt.aging, "--aging");
   ro.aging = aging.aging;
   ro.adaptive_aging = aging.adaptive;
-  if (opt.paths > 0 && opt.paths < 64) throw InputError("--paths", "paths", "must be 0 (auto) or at least 64");
+  if (opt.paths > 0 && opt.paths < 64) throw InputError("--paths", "", "must be 0 (auto) or at least 64");
   ro.batching.path_cap = opt.paths;
   ro.bvh_quality = opt.bvh_quality;
   ro.read_ahead = opt.read_ahead == "on";

@@ -13,7 +13,7 @@ std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon,
         GmbOptions{.horizon = horizon, .aging = aging, .adaptive_aging = adaptive_aging, .completion_aware = name == "gmb-ca"});
   if (name == "budge") return std::make_unique<BudgeScheduler>();
   if (name == "loadanyonce") return std::make_unique<LoadAnyOnceScheduler>();
-  throw InputError("--scheduler", "scheduler", "unknown scheduler '" + name + "' (gmb, gmb-ca, budge, loadanyonce)");
+  throw InputError("--scheduler", "", "unknown scheduler '" + name + "' (gmb, gmb-ca, budge, loadanyonce)");
 }
 
 }  // namespace rayline

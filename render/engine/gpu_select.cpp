@@ -20,7 +20,7 @@ std::unique_ptr<gpu::GpuContext> select_gpu(const std::string& selector, std::st
       return nullptr;
     }
     // The device layer's message names the selector and lists the devices.
-    throw InputError("--gpu", "gpu", std::string(e.what()) + " (see `rayline devices`; --gpu none renders on the CPU)");
+    throw InputError("--gpu", "", std::string(e.what()) + " (see `rayline devices`; --gpu none renders on the CPU)");
   }
 }
 
@@ -29,7 +29,7 @@ Bytes gpu_memory_budget(const gpu::GpuDeviceInfo& info, Bytes requested) {
   Bytes budget = requested > 0 ? requested : local / 2;
   if (budget == 0) budget = Bytes(1) << 30;
   if (local > 0 && budget > local)
-    throw InputError("--gpu-memory-budget", "gpu-memory-budget",
+    throw InputError("--gpu-memory-budget", "",
                      std::to_string(budget) + " bytes is more than the " + std::to_string(local) +
                          " bytes of local memory of '" + info.name + "'");
   return budget;

@@ -97,15 +97,15 @@ RenderResult render(const RenderOptions& opt) {
   res.seed = opt.seed;
   res.memory_budget = opt.memory_budget;
   if (res.width <= 0 || res.height <= 0 || std::uint64_t(res.width) * std::uint64_t(res.height) > (1ull << 28))
-    throw InputError("--resolution", "resolution", "must be positive and at most 2^28 pixels");
+    throw InputError("--resolution", "", "must be positive and at most 2^28 pixels");
   if (std::uint64_t(res.width) * std::uint64_t(res.height) * std::uint64_t(res.spp) >= (1ull << 32))
-    throw InputError("--spp", "spp", "width x height x spp must stay below 2^32 samples");
+    throw InputError("--spp", "", "width x height x spp must stay below 2^32 samples");
   trace::BvhQuality quality = opt.memory_budget > 0 ? trace::BvhQuality::Low : trace::BvhQuality::Medium;
   if (opt.bvh_quality == "low") quality = trace::BvhQuality::Low;
   else if (opt.bvh_quality == "medium") quality = trace::BvhQuality::Medium;
   else if (opt.bvh_quality == "high") quality = trace::BvhQuality::High;
   else if (opt.bvh_quality != "auto" && !opt.bvh_quality.empty())
-    throw InputError("--bvh-quality", "bvh-quality", "unknown quality '" + opt.bvh_quality + "' (auto, low, medium, high)");
+    throw InputError("--bvh-quality", "", "unknown quality '" + opt.bvh_quality + "' (auto, low, medium, high)");
   res.bvh_quality = quality == trace::BvhQuality::Low ? "low" : (quality == trace::BvhQuality::High ? "high" : "medium");
   const int threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
   res.threads = threads;
@@ -122,6 +122,8 @@ RenderResult render(const RenderOptions& opt) {
     const auto t0 = std::chrono::steady_clock::now();
     partition::PartitionOptions po;
     po.blocks = opt.blocks > 0 ? opt.blocks : auto_blocks(scene::scene_stats(sc).triangles, opt.memory_budget);
+    po.out_flag = "--blocks-dir";
+    po.memory_limit_flag.clear();
     partition::partition_scene(sc, dir, po);
     res.partition_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   } else if (opt.blocks > 0) {
@@ -139,7 +141,7 @@ RenderResult render(const RenderOptions& opt) {
     try {
       opt.batching.recorder->begin(index, res.width, res.height, res.spp, res.max_depth);
     } catch (const std::invalid_argument& e) {
-      throw InputError("--record-tiles", "record-tiles", e.what());
+      throw InputError("--record-tiles", "", e.what());
     }
   }
   std::vector<std::uint64_t> footprint(nb);
@@ -172,7 +174,7 @@ RenderResult render(const RenderOptions& opt) {
   if (opt.memory_budget > 0) {
     const Bytes need = largest + 64 * per_path;
     if (opt.memory_budget < need)
-      throw InputError("--memory-budget", "memory-budget",
+      throw InputError("--memory-budget", "",
                        "budget of " + std::to_string(opt.memory_budget) + " bytes is smaller than the largest block (" +
                            std::to_string(largest) + " bytes in RAM) plus room for 64 paths of rays (" +
                            std::to_string(need) + " bytes in all); use more blocks or a larger budget");
@@ -197,7 +199,7 @@ RenderResult render(const RenderOptions& opt) {
     // The largest block and one full ray queue must fit, or a GPU job could never be placed.
     const Bytes need = largest + Bytes(wo.max_batch) * sizeof(trace::RayRecord);
     if (budget < need)
-      throw InputError("--gpu-memory-budget", "gpu-memory-budget",
+      throw InputError("--gpu-memory-budget", "",
                        "budget of " + std::to_string(budget) + " bytes is smaller than the largest block plus one ray queue (" +
                            std::to_string(need) + " bytes); use more blocks or a larger budget");
     set_gpu(wm, budget);

@@ -239,18 +239,18 @@ void publish(const fs::path& partial, const fs::path& target) {
   }
 }
 
-void check_target(const fs::path& target) {
+void check_target(const fs::path& target, const std::string& flag) {
   std::error_code ec;
   if (!fs::exists(target, ec)) {
     const fs::path parent = fs::absolute(target).parent_path();
     if (!fs::is_directory(parent, ec))
-      throw InputError(target.string(), "--out", "parent folder " + parent.string() + " does not exist");
+      throw InputError(target.string(), flag, "parent folder " + parent.string() + " does not exist");
     return;
   }
-  if (!fs::is_directory(target, ec)) throw InputError(target.string(), "--out", "exists and is not a folder");
+  if (!fs::is_directory(target, ec)) throw InputError(target.string(), flag, "exists and is not a folder");
   if (fs::exists(target / "blocks.json", ec)) return;  // an earlier partition: replaced
   if (!fs::is_empty(target, ec))
-    throw InputError(target.string(), "--out", "folder exists, is not empty and holds no blocks.json; not replacing it");
+    throw InputError(target.string(), flag, "folder exists, is not empty and holds no blocks.json; not replacing it");
 }
 
 }  // namespace
@@ -473,16 +473,21 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
   const std::uint64_t min_buffer = 64 * kRecordBytes;
   const std::uint64_t buffer_budget = opt.memory_limit / 2;
   if (std::uint64_t(opt.blocks) * min_buffer > buffer_budget)
-    throw InputError(name, "--memory-limit",
-                     "too small for " + std::to_string(opt.blocks) + " blocks (needs " +
-                         std::to_string(2 * opt.blocks * min_buffer) + " bytes)");
+  {
+    const std::string needs = std::to_string(opt.blocks) + " blocks (needs " +
+                              std::to_string(2 * opt.blocks * min_buffer) + " bytes)";
+    if (!opt.memory_limit_flag.empty()) throw InputError(name, opt.memory_limit_flag, "too small for " + needs);
+    throw InputError(name, "--blocks", "too many: the partition's " + std::to_string(opt.memory_limit) +
+                                           "-byte buffer bound holds at most " +
+                                           std::to_string(buffer_budget / min_buffer) + " blocks, not " + needs);
+  }
   std::uint64_t per_block = std::min<std::uint64_t>(buffer_budget / opt.blocks, std::uint64_t(1) << 20);
   per_block -= per_block % kRecordBytes;
   const std::uint64_t sample_cap =
       std::max<std::uint64_t>(1024, std::min<std::uint64_t>(opt.sample_limit, opt.memory_limit / 8 / sizeof(Float3)));
 
   const fs::path target = fs::path(out_dir);
-  check_target(target);
+  check_target(target, opt.out_flag);
 
   PartitionResult res;
   res.buffer_bytes_per_block = per_block;
@@ -540,7 +545,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
   std::error_code ec;
   fs::remove_all(partial, ec);
   fs::create_directories(partial, ec);
-  if (ec) throw InputError(out_dir, "--out", "cannot create " + partial.string() + ": " + ec.message());
+  if (ec) throw InputError(out_dir, opt.out_flag, "cannot create " + partial.string() + ": " + ec.message());
   try {
     std::vector<BlockWriter> w(opt.blocks);
     const std::vector<unsigned char> placeholder(kBlockHeaderBytes, 0);

@@ -102,6 +102,10 @@ struct PartitionOptions {
   std::uint64_t sample_limit = std::uint64_t(1) << 22;   // centroids sampled at most
   std::uint64_t seed = 0x9e3779b97f4a7c15ull;            // reservoir sampling
   std::function<void(const PartitionProgress&)> progress;  // called once per batch
+  // The flags that set out_dir and memory_limit, as messages name them. `rayline render`
+  // sets "--blocks-dir" and "" (the bound is not its flag: too many --blocks is then the error).
+  std::string out_flag = "--out";
+  std::string memory_limit_flag = "--memory-limit";
 };
 
 struct PartitionResult {

@@ -214,6 +214,22 @@ TEST_F(CliRender, BadInputsExitTwoAndKeepTheGoodImage) {
   }
   r = rayline_cli("render -q --out " + path("img.png"));
   EXPECT_EQ(r.code, 2) << r.all;
+  // Messages name the flag the user gave, once: a new partition's folder is --blocks-dir
+  // (not partition's --out), too many blocks is --blocks (the buffer bound is not a render
+  // flag), and a flag is not repeated as a field ("--paths: paths:").
+  r = rayline_cli(args + "--blocks-dir " + path("plain"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--blocks-dir: exists and is not a folder"), std::string::npos) << r.err;
+  r = rayline_cli(args + "--blocks 1048576 --blocks-dir " + path("many"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--blocks: too many"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("many")));
+  for (const std::string flag : {"--paths 8", "--bvh-quality best", "--gpu-memory-budget 0", "--memory-budget 1KiB"}) {
+    r = rayline_cli(args + flag);
+    EXPECT_EQ(r.code, 2) << flag << ": " << r.all;
+    const std::string name = flag.substr(2, flag.find(' ') - 2);
+    EXPECT_EQ(r.err.find("--" + name + ": " + name + ":"), std::string::npos) << r.err;
+  }
 
   EXPECT_EQ(slurp(path("good.exr")), good) << "a failed run must leave the good image in place";
   for (const auto& e : fs::directory_iterator(dir_))
