@@ -28,6 +28,10 @@ PathTraceWorkload::PathTraceWorkload(const DeviceGraph& g, const SceneProfile& p
   if (!disk) throw InputError(g.source_file, "memory", "the path-tracing workload needs a disk (scene blocks start there)");
   Bytes largest = 0;
   for (const ComputeDevice& d : g.computes) largest = std::max(largest, g.memories[d.memory].capacity);
+  for (std::size_t d = 0; d < g.computes.size(); ++d)
+    for (std::size_t k = 0; k < kPtJobCount; ++k)
+      if (g.timing.supports(static_cast<DeviceId>(d), type_[k]))
+        room_[k] = std::max(room_[k], g.memories[g.computes[d].memory].capacity);
   for (std::size_t b = 0; b < p_.blocks.size(); ++b)
     if (p_.blocks[b].bytes > largest)
       throw InputError(p_.file, "blocks[" + std::to_string(b) + "].bytes",
@@ -74,6 +78,19 @@ BlockId PathTraceWorkload::new_queue(PtJob kind, int block, Bytes bytes, bool pl
   q.movable = kind != PtJob::Accumulate;  // sample records stay where they were made
   if (block >= 0 && kind != PtJob::Accumulate) q.scene_block = scene_[static_cast<std::size_t>(block)];
   return pool.add_block(q);
+}
+
+// Sec. 5.1 merges every queue of a kind and block arriving on a memory device into one
+// job. Unbounded, that job outgrows every memory device once enough clients feed it (the
+// museum with 512 clients asked for 86 GB in one job) and the run stalls. So a job takes
+// merged queues only up to the largest memory device that can run its kind, less its
+// scene block; the next queue opens a new job. Runs that never reach it are unchanged.
+Bytes PathTraceWorkload::merge_cap(PtJob kind, int block) const {
+  const Bytes room = room_[static_cast<std::size_t>(kind)];
+  const Bytes scene = (kind == PtJob::Intersect || kind == PtJob::Shadow) && block >= 0
+                          ? p_.blocks[static_cast<std::size_t>(block)].bytes
+                          : 0;
+  return room > scene ? room - scene : 0;
 }
 
 Job PathTraceWorkload::make_job(PtJob kind, int block, BlockId queue, std::uint64_t work, Time now) const {
@@ -185,7 +202,9 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   const BlockId qb = new_queue(kind, block, n * bytes_per(kind), false, pool);
   s.put_initial(qb, mem, now, false);
   auto it = open_.find(key);
-  if (it != open_.end() && pool.state(it->second) == JobState::Queued) {
+  if (it != open_.end() && pool.state(it->second) == JobState::Queued &&
+      (kind == PtJob::Accumulate ? total(info(it->second).records) : total(info(it->second).rays)) + n <=
+          merge_cap(kind, block) / std::max<Bytes>(1, bytes_per(kind))) {
     const JobId j = it->second;
     JobInfo& I = info(j);
     const std::uint64_t before = kind == PtJob::Accumulate ? total(I.records) : total(I.rays);

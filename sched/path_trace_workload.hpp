@@ -126,6 +126,10 @@ class PathTraceWorkload final : public Workload {
   RayFlowModel model_;
   std::unique_ptr<JobPredictor> predictor_;
   std::array<JobTypeId, kPtJobCount> type_{};
+  // Per kind: the largest memory device a compute device running it works from. A queued
+  // job takes merged queues only while they fit there next to its scene block.
+  std::array<Bytes, kPtJobCount> room_{};
+  Bytes merge_cap(PtJob kind, int block) const;
   std::vector<BlockId> scene_;
   std::vector<ClientState> clients_;
   std::vector<FrameState> frames_;

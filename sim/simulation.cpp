@@ -134,7 +134,9 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca, loadanyonce, budge)");
   if (!(cfg.horizon > 0)) throw InputError("--horizon", "", "must be > 0");
   if (std::isnan(cfg.aging)) throw InputError("--aging", "", "must be a duration, auto, adaptive or off");
-  if (!(cfg.duration > 0)) throw InputError("--duration", "", "must be > 0");
+  // Shorter than a microsecond nothing can happen (the shortest latency modelled is ~1 us),
+  // and per-second rates and shares of such a run run to hundreds of digits.
+  if (!(cfg.duration >= 1e-6)) throw InputError("--duration", "", "must be at least 1us");
   if (!(cfg.exec_noise >= 0 && cfg.exec_noise < 1)) throw InputError("--exec-noise", "", "must be in [0, 1)");
   const TransferOrder transfer_order = parse_transfer_order(cfg.transfer_order);
   const DeviceGraph g = load_platform(cfg.platform_file);

@@ -176,7 +176,7 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   }
   fs::remove(bad_platform);
   fs::remove(bad_jobs);
-  for (const std::string args : {"--scheduler teleport", "--duration 0s", "--horizon -1s", "--workload /nonexistent/jobs.json",
+  for (const std::string args : {"--scheduler teleport", "--duration 0s", "--duration 1e-300s", "--horizon -1s", "--workload /nonexistent/jobs.json",
                                  "--platform /nonexistent.json", "--exec-noise 2", "--exec-noise nan", "--blocks 1", "--aging soon",
                                  "--aging -2s", "--transfer-order fifo", "--seed -1", "--seed 18446744073709551616",
                                  "--seed 1e3"}) {

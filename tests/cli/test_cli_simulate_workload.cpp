@@ -53,6 +53,21 @@ TEST(CliSimulateWorkload, MuseumRunsFromDefaults) {
   fs::remove_all(out);
 }
 
+// Sec. 5.1 merges arriving queues into one queued job per (kind, block, memory device).
+// Unbounded, 512 clients' first frames made one RayIntersect job of 86 GB, larger than any
+// memory device of the cluster, and the run stalled at once (exit 1). A job now takes
+// merged queues only while it fits where its kind can run (path_trace_workload.cpp).
+TEST(CliSimulateWorkload, ManyClientsDoNotMergeIntoAJobNothingCanHold) {
+  const fs::path out = scratch("museum-512");
+  const auto r = rayline_cli("simulate --workload museum --clients 512 --duration 2s --no-timeline --no-progress --out " +
+                             out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(r.err.find("could not be placed"), std::string::npos) << r.err;
+  const auto m = metrics(out);
+  EXPECT_FALSE(m.value("stalled", false)) << m.dump();
+  fs::remove_all(out);
+}
+
 TEST(CliSimulateWorkload, ClientSweepReportsThePeak) {
   const fs::path out = scratch("sweep");
   const auto r = rayline_cli("simulate --workload " + kData + "/profiles/small.profile.json --platform paper-A --clients 1,2 "
