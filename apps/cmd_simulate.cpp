@@ -118,6 +118,10 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
       throw InputError("--workload", "", given + (n == 1 ? " applies" : " apply") + " only to path tracing (--workload boeing, museum or "
                                          "FILE.profile.json), not to '" + opt.workload + "'");
   }
+  // --blocks sizes the synthetic ray stream's scene; a job set and a scene profile bring their own.
+  if (cfg.workload != "ray-stream" && opt.blocks != SimulateOptions{}.blocks)
+    throw InputError("--blocks", "", "applies only to the ray stream (--workload ray-stream): '" + opt.workload +
+                                         "' brings its own blocks");
   return cfg;
 }
 }  // namespace

@@ -162,5 +162,8 @@ TEST(CliSimulateWorkload, BadFlagsExit2) {
   EXPECT_EQ(two.code, 2) << two.all;
   EXPECT_NE(two.err.find("--clients, --warmup apply only to path tracing"), std::string::npos) << two.err;
   EXPECT_EQ(rayline_cli("compare --schedulers gmb --warmup 1s --out " + out.string()).code, 2);
+  const auto blocks = rayline_cli("simulate --workload museum --blocks 50 --no-progress --out " + out.string());
+  EXPECT_EQ(blocks.code, 2) << blocks.all;  // the profile has its own 65 blocks
+  EXPECT_NE(blocks.err.find("--blocks: applies only to the ray stream"), std::string::npos) << blocks.err;
   EXPECT_FALSE(fs::exists(out));
 }
