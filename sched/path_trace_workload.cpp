@@ -202,12 +202,12 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   const BlockId qb = new_queue(kind, block, n * bytes_per(kind), false, pool);
   s.put_initial(qb, mem, now, false);
   auto it = open_.find(key);
+  const auto held = [&](JobId j) { return kind == PtJob::Accumulate ? total(info(j).records) : total(info(j).rays); };
   if (it != open_.end() && pool.state(it->second) == JobState::Queued &&
-      (kind == PtJob::Accumulate ? total(info(it->second).records) : total(info(it->second).rays)) + n <=
-          merge_cap(kind, block) / std::max<Bytes>(1, bytes_per(kind))) {
+      held(it->second) + n <= merge_cap(kind, block) / std::max<Bytes>(1, bytes_per(kind))) {
     const JobId j = it->second;
     JobInfo& I = info(j);
-    const std::uint64_t before = kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
+    const std::uint64_t before = held(j);
     pool.add_input(j, qb);
     merge_into(I.rays, rays);
     merge_into(I.records, records);
