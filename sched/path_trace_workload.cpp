@@ -27,11 +27,12 @@ PathTraceWorkload::PathTraceWorkload(const DeviceGraph& g, const SceneProfile& p
   for (const MemoryDevice& m : g.memories) disk = disk || m.kind == MemoryKind::Disk;
   if (!disk) throw InputError(g.source_file, "memory", "the path-tracing workload needs a disk (scene blocks start there)");
   Bytes largest = 0;
-  for (const ComputeDevice& d : g.computes) largest = std::max(largest, g.memories[d.memory].capacity);
-  for (std::size_t d = 0; d < g.computes.size(); ++d)
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    const Bytes cap = g.memories[g.computes[d].memory].capacity;
+    largest = std::max(largest, cap);
     for (std::size_t k = 0; k < kPtJobCount; ++k)
-      if (g.timing.supports(static_cast<DeviceId>(d), type_[k]))
-        room_[k] = std::max(room_[k], g.memories[g.computes[d].memory].capacity);
+      if (g.timing.supports(static_cast<DeviceId>(d), type_[k])) room_[k] = std::max(room_[k], cap);
+  }
   for (std::size_t b = 0; b < p_.blocks.size(); ++b)
     if (p_.blocks[b].bytes > largest)
       throw InputError(p_.file, "blocks[" + std::to_string(b) + "].bytes",
