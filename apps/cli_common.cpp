@@ -45,6 +45,7 @@ AgingSetting parse_aging(const std::string& text, const std::string& flag) {
 
 void ensure_parent_dir(const std::string& path, const std::string& flag) {
   namespace fs = std::filesystem;
+  if (path.empty()) throw InputError(path, flag, "missing output path");
   const fs::path parent = fs::absolute(fs::path(path)).parent_path();
   std::error_code ec;
   if (fs::is_directory(parent, ec)) return;
@@ -54,6 +55,7 @@ void ensure_parent_dir(const std::string& path, const std::string& flag) {
 
 void ensure_dir(const std::string& dir, const std::string& flag) {
   namespace fs = std::filesystem;
+  if (dir.empty()) throw InputError(dir, flag, "missing output folder");
   std::error_code ec;
   if (fs::is_directory(dir, ec)) return;
   fs::create_directories(dir, ec);
@@ -62,8 +64,23 @@ void ensure_dir(const std::string& dir, const std::string& flag) {
     throw InputError(dir, flag, "cannot create the folder" + (ec ? ": " + ec.message() : std::string()));
 }
 
+void check_output_file(const std::string& path, const std::string& flag, const std::string& example) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!path.empty() && fs::is_directory(path, ec))
+    throw InputError(path, flag, "is a folder; give a file name such as " + example);
+  ensure_parent_dir(path, flag);
+  const fs::path probe = fs::absolute(path).parent_path() / (".rayline-probe." + std::to_string(::getpid()));
+  std::ofstream f(probe);
+  if (!f) throw InputError(path, flag, "output folder is not writable");
+  f.close();
+  fs::remove(probe, ec);
+}
+
 void write_file_atomic(const std::string& path, const std::string& content) {
   namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw InputError(path, "", "is a folder; cannot write the file there");
   ensure_parent_dir(path, "");
   const fs::path target(path);
   const fs::path tmp = target.parent_path() /
@@ -79,11 +96,11 @@ void write_file_atomic(const std::string& path, const std::string& content) {
       throw InputError(path, "", "write failed");
     }
   }
-  std::error_code ec;
   fs::rename(tmp, target, ec);
   if (ec) {
+    const std::string why = ec.message();
     fs::remove(tmp, ec);
-    throw InputError(path, "", "cannot rename temporary file into place");
+    throw InputError(path, "", "cannot rename temporary file into place: " + why);
   }
 }
 

@@ -30,6 +30,11 @@ struct AgingSetting {
 };
 AgingSetting parse_aging(const std::string& text, const std::string& flag);
 
+// Before the work that an output file records: InputError(path, flag, ...) when `path` is
+// empty, is a folder ("give a file name such as `example`"), or its folder cannot be created
+// or written.
+void check_output_file(const std::string& path, const std::string& flag, const std::string& example);
+
 // Write `content` to `path` atomically (temporary name in the same folder, then rename).
 void write_file_atomic(const std::string& path, const std::string& content);
 

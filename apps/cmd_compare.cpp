@@ -16,6 +16,7 @@
 
 #include "apps/cli_common.hpp"
 #include "sched/error.hpp"
+#include "sim/simulation.hpp"
 
 namespace rayline::cli {
 
@@ -95,6 +96,8 @@ int run_compare(const CompareOptions& opt) {
   if (opt.sim.clients.find(',') != std::string::npos)
     throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
   check_simulate_flags(opt.sim);
+  // Each run replaces OUT/<scheduler>: checked for the user's files before the first run.
+  for (const std::string& s : scheds) sim::check_results_folder(opt.out + "/" + s, "--out");
   ensure_dir(opt.out, "--out");
   std::vector<Row> rows;
   for (const auto& s : scheds) {

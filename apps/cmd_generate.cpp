@@ -49,8 +49,8 @@ int run_generate(const GenerateOptions& opt) {
   const std::uint64_t n = opt.triangles.empty() ? g->default_triangles : parse_count(opt.triangles, "--triangles");
   if (n < g->min_triangles)
     throw InputError("--triangles", "", opt.name + " needs at least " + std::to_string(g->min_triangles));
-  ensure_parent_dir(opt.out, "--out");
-  if (!opt.scene_out.empty()) ensure_parent_dir(opt.scene_out, "--scene-out");
+  check_output_file(opt.out, "--out", "out/museum.ply");
+  if (!opt.scene_out.empty() && opt.scene_out != "-") check_output_file(opt.scene_out, "--scene-out", "out/museum.json");
   std::error_code ec;
 
   const auto t0 = std::chrono::steady_clock::now();

@@ -40,18 +40,6 @@ void parse_resolution(const std::string& s, int& w, int& h) {
   }
 }
 
-// Fail before rendering when the output cannot be written (exit 2, nothing rendered).
-void check_writable(const std::string& path, const std::string& flag) {
-  ensure_parent_dir(path, flag);
-  const fs::path probe = fs::absolute(path).parent_path() / (".rayline-probe." + std::to_string(::getpid()));
-  std::ofstream f(probe);
-  if (!f) throw InputError(path, flag, "output folder is not writable");
-  f.close();
-  std::error_code ec;
-  fs::remove(probe, ec);
-  if (fs::is_directory(path)) throw InputError(path, flag, "is a folder; give an image file name such as out/render.exr");
-}
-
 std::string sibling(const std::string& image, const std::string& suffix) {
   fs::path p(image);
   return (p.parent_path() / (p.stem().string() + suffix)).string();
@@ -96,7 +84,7 @@ int run_render(const RenderCliOptions& opt) {
     ro.gpu_memory_budget = parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget");
   const std::string ext = fs::path(opt.out).extension().string();
   if (ext != ".exr") throw InputError(opt.out, "--out", "the image is written as OpenEXR: use a name ending in .exr");
-  check_writable(opt.out, "--out");
+  check_output_file(opt.out, "--out", "out/render.exr");  // before rendering: nothing rendered for nothing
   const bool tty = !opt.quiet && ::isatty(2);
   if (tty) ro.progress = progress_bar;
   std::unique_ptr<engine::ProfileRecorder> recorder;
@@ -109,8 +97,8 @@ int run_render(const RenderCliOptions& opt) {
     }
     po.keyframe = opt.record_keyframe;
     po.replay = !opt.record_replay.empty();
-    if (!opt.record_profile.empty()) ensure_parent_dir(opt.record_profile, "--record-profile");
-    if (!opt.record_replay.empty()) ensure_parent_dir(opt.record_replay, "--record-replay");
+    if (!opt.record_profile.empty()) check_output_file(opt.record_profile, "--record-profile", "out/room.profile.json");
+    if (!opt.record_replay.empty()) check_output_file(opt.record_replay, "--record-replay", "out/room.replay.log");
     recorder = std::make_unique<engine::ProfileRecorder>(po);
     ro.batching.recorder = recorder.get();
   }
@@ -126,12 +114,24 @@ int run_render(const RenderCliOptions& opt) {
                               std::to_string(r.counts.unoccluded) + "}";
     if (!opt.record_profile.empty()) write_file_atomic(opt.record_profile, recorder->statistics_json(extra));
     if (!opt.record_replay.empty()) {
-      const std::string tmp = opt.record_replay + ".partial";
-      recorder->replay().save(tmp, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +
-                                       "x" + std::to_string(r.height) + ", " + std::to_string(r.spp) + " spp, keyframe " +
-                                       std::to_string(opt.record_keyframe) + " (client 0, frame " +
-                                       std::to_string(opt.record_keyframe) + ")");
-      fs::rename(tmp, opt.record_replay);
+      const std::string tmp = opt.record_replay + ".partial." + std::to_string(::getpid());
+      try {
+        recorder->replay().save(tmp, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +
+                                         "x" + std::to_string(r.height) + ", " + std::to_string(r.spp) + " spp, keyframe " +
+                                         std::to_string(opt.record_keyframe) + " (client 0, frame " +
+                                         std::to_string(opt.record_keyframe) + ")");
+      } catch (...) {
+        std::error_code ec;
+        fs::remove(tmp, ec);
+        throw;
+      }
+      std::error_code ec;
+      fs::rename(tmp, opt.record_replay, ec);
+      if (ec) {
+        const std::string why = ec.message();
+        fs::remove(tmp, ec);
+        throw InputError(opt.record_replay, "--record-replay", "cannot move the log into place: " + why);
+      }
     }
   }
 
@@ -180,7 +180,7 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!(opt.budget_fraction > 0 && opt.budget_fraction < 1))
     throw InputError("--budget-fraction", "", "must be in (0, 1)");
-  check_writable(opt.out, "--out");
+  check_output_file(opt.out, "--out", "out/this-machine.json");
   const bool tty = !opt.quiet && ::isatty(2);
   if (tty) ro.progress = progress_bar;
   const engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);

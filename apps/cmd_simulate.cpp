@@ -131,6 +131,10 @@ void check_simulate_flags(const SimulateOptions& opt) { simulate_config(opt); }
 int run_simulate(const SimulateOptions& opt) {
   sim::SimulationConfig cfg = simulate_config(opt);
   const std::vector<int> counts = client_counts(opt.clients);
+  // Before any run: a folder holding the user's files is never replaced.
+  if (counts.size() == 1) sim::check_results_folder(opt.out, "--out");
+  for (int n : counts)
+    if (counts.size() > 1) sim::check_results_folder(opt.out + "/clients-" + std::to_string(n), "--out");
   if (counts.size() == 1) {
     cfg.clients = counts[0];
     const sim::SimulationSummary s = sim::run_simulation(cfg);

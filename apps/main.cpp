@@ -83,7 +83,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
       ->default_val(opt->transfer_order)
       ->check(CLI::IsMember({"channel", "resource", "exclusive"}));
   sim->add_option("--blocks", opt->blocks, "Scene blocks of the ray stream")->default_val(opt->blocks)->check(CLI::Range(1, 1000000));
-  sim->add_option("--out", opt->out, "Output directory (metrics.json, jobs.csv, timeline.json)")->default_val(opt->out);
+  sim->add_option("--out", opt->out, "Output folder (metrics.json, jobs.csv, timeline.json); an existing one is replaced only if it holds nothing else")->default_val(opt->out);
   sim->add_flag("--paje", opt->paje, "Also write SimGrid's Paje trace (simgrid.trace)");
   sim->add_flag("--no-timeline", opt->no_timeline,
                 "Skip timeline.json (the Chrome trace; ~250 B per activity, so ~0.25 GB for a long path-tracing run)");
@@ -131,7 +131,7 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);
   c->add_option("--replay", o.replay, "Path tracing: replay log for --fidelity replay");
   c->add_option("--warmup", o.warmup, "Path tracing: steady state starts here (default: a third of --duration)");
-  c->add_option("--out", opt->out, "Output directory: OUT/<scheduler>/ per run, OUT/compare.csv, compare.json")->default_val(opt->out);
+  c->add_option("--out", opt->out, "Output folder: OUT/<scheduler>/ per run (replaced only if it holds nothing but a run's files), OUT/compare.csv, compare.json")->default_val(opt->out);
   c->callback([opt, &action] { action = [opt] { return run_compare(*opt); }; });
 }
 #endif  // RAYLINE_WITH_SIM
@@ -157,7 +157,7 @@ void add_partition(CLI::App& app, std::function<int()>& action) {
       "partition", "Split a scene into N spatially coherent blocks on disk (streaming median-split kd-tree)");
   part->add_option("--scene", opt->scene, "Scene JSON or bare mesh file (default: the built-in scene)");
   part->add_option("--blocks,-n", opt->blocks, "Number of blocks")->default_val(opt->blocks)->check(CLI::Range(1, 1 << 20));
-  part->add_option("--out,-o", opt->out, "Output folder (replaced atomically)")->default_val(opt->out);
+  part->add_option("--out,-o", opt->out, "Output folder (replaced atomically, and only if it holds nothing but an earlier partition)")->default_val(opt->out);
   part->add_option("--memory-limit", opt->memory_limit, "Bound on the sample and block buffers")
       ->default_val(opt->memory_limit);
   part->add_flag("--quiet,-q", opt->quiet, "Print only the timing line");

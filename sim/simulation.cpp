@@ -13,6 +13,7 @@
 
 #include "sched/error.hpp"
 #include "sched/job_set.hpp"
+#include "sched/output_folder.hpp"
 #include "sched/path_trace_workload.hpp"
 #include "sched/platform_loader.hpp"
 #include "sched/ray_stream.hpp"
@@ -26,6 +27,9 @@
 namespace rayline::sim {
 
 namespace {
+
+// What a run writes into its folder (the only files replacing it may remove).
+const OwnFiles kRunFiles = {"metrics.json", "jobs.csv", "timeline.json", "simgrid.trace", "replay.log"};
 TransferOrder parse_transfer_order(const std::string& s) {
   if (s == "channel") return TransferOrder::Channel;
   if (s == "resource") return TransferOrder::Resource;
@@ -126,6 +130,8 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
 
 }  // namespace
 
+void check_results_folder(const std::string& dir, const std::string& flag) { replaceable_folder(dir, flag, kRunFiles); }
+
 SimulationSummary run_simulation(const SimulationConfig& cfg) {
   namespace fs = std::filesystem;
   using nlohmann::json;
@@ -167,8 +173,8 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   if (cfg.record_replay && !path_trace) throw InputError("--record-replay", "", "only for a path-tracing workload");
   if (cfg.record_replay) pto.record = &recording;
 
-  const fs::path out(cfg.out_dir);
-  const fs::path partial = out.string() + ".partial." + std::to_string(::getpid());
+  const std::string out = replaceable_folder(cfg.out_dir, "", kRunFiles);
+  const fs::path partial = partial_folder(out);
   std::error_code ec;
   fs::remove_all(partial, ec);
   fs::create_directories(partial, ec);
@@ -383,9 +389,9 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   if (cfg.record_replay)
     recording.save((partial / "replay.log").string(), "scene=" + profile->name + " fidelity=" + cfg.fidelity + " seed=" +
                                                           std::to_string(cfg.seed) + " clients=" + std::to_string(cfg.clients));
-  fs::remove_all(out, ec);
-  fs::rename(partial, out, ec);
-  if (ec) throw InputError(cfg.out_dir, "", "cannot move results into place: " + ec.message());
+  // Checked again: the user may have put a file there while the run went on.
+  replaceable_folder(cfg.out_dir, "", kRunFiles);
+  publish_folder(partial.string(), out, "");
   cleanup.keep = true;
 
   sum.simulated = end;

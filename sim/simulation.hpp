@@ -1,6 +1,7 @@
 // One simulation run (issue 3): platform -> SimGrid, workload -> JobPool, scheduler ->
 // Schedule, SimExecutor under the runtime loop; then metrics, jobs CSV and Chrome trace.
-// Outputs go to OUT.partial.<pid>/ and are renamed to OUT/ only when complete.
+// Outputs go to OUT.partial.<pid>/ and are renamed to OUT/ only when complete; an existing
+// OUT is replaced only when it holds nothing but a run's results (sched/output_folder.hpp).
 #pragma once
 #include <cstdint>
 #include <string>
@@ -58,5 +59,10 @@ struct SimulationSummary {
 };
 
 SimulationSummary run_simulation(const SimulationConfig& cfg);
+
+// Throws InputError(dir, flag, ...) unless `dir` may take a run's results: absent, empty,
+// or holding only the files a run writes (metrics.json, jobs.csv, timeline.json,
+// simgrid.trace, replay.log). `compare` and client sweeps check every run's folder first.
+void check_results_folder(const std::string& dir, const std::string& flag);
 
 }  // namespace rayline::sim

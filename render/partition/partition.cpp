@@ -15,6 +15,7 @@
 
 #include "render/scene/scene_stream.hpp"
 #include "sched/error.hpp"
+#include "sched/output_folder.hpp"
 
 namespace rayline::partition {
 namespace fs = std::filesystem;
@@ -226,31 +227,16 @@ void find_neighbours(BlockIndex& idx) {
               [](const Neighbour& x, const Neighbour& y) { return x.block < y.block; });
 }
 
-// Moves `partial` to `target`, replacing an earlier partition there (never other data).
-void publish(const fs::path& partial, const fs::path& target) {
-  std::error_code ec;
-  if (fs::exists(target, ec)) {
-    const fs::path old = target.string() + ".old." + std::to_string(::getpid());
-    fs::rename(target, old);
-    fs::rename(partial, target);
-    fs::remove_all(old, ec);
-  } else {
-    fs::rename(partial, target);
-  }
-}
+// An existing --out is replaced only when it holds nothing but an earlier partition's files
+// (sched/output_folder.hpp); a new one needs its parent folder.
+const OwnFiles kPartitionFiles = {"blocks.json", "block_*.rlb"};
 
-void check_target(const fs::path& target, const std::string& flag) {
+fs::path check_target(const std::string& out_dir, const std::string& flag) {
+  const fs::path target = replaceable_folder(out_dir, flag, kPartitionFiles);
   std::error_code ec;
-  if (!fs::exists(target, ec)) {
-    const fs::path parent = fs::absolute(target).parent_path();
-    if (!fs::is_directory(parent, ec))
-      throw InputError(target.string(), flag, "parent folder " + parent.string() + " does not exist");
-    return;
-  }
-  if (!fs::is_directory(target, ec)) throw InputError(target.string(), flag, "exists and is not a folder");
-  if (fs::exists(target / "blocks.json", ec)) return;  // an earlier partition: replaced
-  if (!fs::is_empty(target, ec))
-    throw InputError(target.string(), flag, "folder exists, is not empty and holds no blocks.json; not replacing it");
+  if (!fs::exists(target, ec) && !fs::is_directory(target.parent_path(), ec))
+    throw InputError(out_dir, flag, "parent folder " + target.parent_path().string() + " does not exist");
+  return target;
 }
 
 }  // namespace
@@ -486,8 +472,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
   const std::uint64_t sample_cap =
       std::max<std::uint64_t>(1024, std::min<std::uint64_t>(opt.sample_limit, opt.memory_limit / 8 / sizeof(Float3)));
 
-  const fs::path target = fs::path(out_dir);
-  check_target(target, opt.out_flag);
+  const fs::path target = check_target(out_dir, opt.out_flag);
 
   PartitionResult res;
   res.buffer_bytes_per_block = per_block;
@@ -540,8 +525,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
                                             std::fabs(bounds.lo.z), std::fabs(bounds.hi.x), std::fabs(bounds.hi.y),
                                             std::fabs(bounds.hi.z), 1e-30f});
   t0 = Clock::now();
-  const fs::path partial = fs::absolute(target).parent_path() /
-                           (fs::absolute(target).filename().string() + ".partial." + std::to_string(::getpid()));
+  const fs::path partial = partial_folder(target.string());
   std::error_code ec;
   fs::remove_all(partial, ec);
   fs::create_directories(partial, ec);
@@ -617,12 +601,13 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
     }
     find_neighbours(idx);
     write_text(partial / "blocks.json", block_index_to_json(idx));
-    publish(partial, target);
+    replaceable_folder(out_dir, opt.out_flag, kPartitionFiles);  // again: the user may have written there since
+    publish_folder(partial.string(), target.string(), opt.out_flag);
   } catch (...) {
     fs::remove_all(partial, ec);
     throw;
   }
-  res.dir = target.string();
+  res.dir = out_dir;
   res.seconds_pass2 = seconds_since(t0);
   return res;
 }

@@ -1,0 +1,84 @@
+#include "sched/output_folder.hpp"
+
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "sched/error.hpp"
+
+namespace rayline {
+namespace fs = std::filesystem;
+
+namespace {
+
+bool matches(std::string_view name, std::string_view pattern) {
+  const std::size_t star = pattern.find('*');
+  if (star == std::string_view::npos) return name == pattern;
+  const std::string_view head = pattern.substr(0, star), tail = pattern.substr(star + 1);
+  return name.size() >= head.size() + tail.size() && name.substr(0, head.size()) == head &&
+         name.substr(name.size() - tail.size()) == tail;
+}
+
+// a == b, or a is a folder above b (both absolute and normalised).
+bool holds(const fs::path& a, const fs::path& b) {
+  auto ia = a.begin(), ib = b.begin();
+  for (; ia != a.end(); ++ia, ++ib)
+    if (ib == b.end() || *ia != *ib) return false;
+  return true;
+}
+
+}  // namespace
+
+std::string replaceable_folder(const std::string& path, const std::string& flag, const OwnFiles& own) {
+  if (path.empty()) throw InputError(path, flag, "missing output folder");
+  std::error_code ec;
+  fs::path target = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  if (ec) throw InputError(path, flag, "cannot resolve the folder: " + ec.message());
+  target = target.lexically_normal();
+  if (target.has_relative_path() && target.filename().empty()) target = target.parent_path();
+  const fs::path cwd = fs::weakly_canonical(fs::current_path(ec), ec);
+  if (!target.has_relative_path() || (!cwd.empty() && holds(target, cwd)))
+    throw InputError(path, flag, "is the current folder or holds it; results replace the whole folder, so give a "
+                                 "folder of their own (e.g. out/run1)");
+  const fs::file_status st = fs::status(target, ec);
+  if (!fs::exists(st)) return target.string();
+  if (!fs::is_directory(st)) throw InputError(path, flag, "exists and is not a folder; not replacing it");
+  for (fs::directory_iterator it(target, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    bool ok = it->is_regular_file(ec) && !it->is_symlink(ec);
+    if (ok) {
+      ok = false;
+      for (std::string_view p : own) ok = ok || matches(name, p);
+    }
+    if (!ok)
+      throw InputError(path, flag, "folder holds '" + name + "', which this command does not write; not replacing it "
+                                   "(give a new folder, or remove it yourself)");
+  }
+  if (ec) throw InputError(path, flag, "cannot list the folder: " + ec.message());
+  return target.string();
+}
+
+std::string partial_folder(const std::string& target) {
+  return target + ".partial." + std::to_string(::getpid());
+}
+
+void publish_folder(const std::string& partial, const std::string& target, const std::string& flag) {
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(target, ec))) {
+    fs::rename(partial, target, ec);
+    if (ec) throw InputError(target, flag, "cannot move the results into place: " + ec.message());
+    return;
+  }
+  const std::string old = target + ".old." + std::to_string(::getpid());
+  fs::rename(target, old, ec);
+  if (ec) throw InputError(target, flag, "cannot move the earlier results aside: " + ec.message());
+  fs::rename(partial, target, ec);
+  if (ec) {
+    std::error_code back;
+    fs::rename(old, target, back);
+    throw InputError(target, flag, "cannot move the results into place: " + ec.message());
+  }
+  fs::remove_all(old, ec);
+}
+
+}  // namespace rayline

@@ -1,0 +1,32 @@
+// Replacing a command's results folder without losing anything of the user's (DESIGN.md,
+// "Bad input": nothing lost). `simulate`, `compare` and `partition` write their results into
+// OUT.partial.<pid> and swap it in for OUT only once every file is complete. An existing OUT
+// is replaced only when it is empty or holds nothing but files the command itself writes:
+// `--out .` or `--out ~` used to delete the folder's contents.
+#pragma once
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rayline {
+
+// The names a command writes into its folder. A pattern may hold one '*' ("block_*.rlb").
+using OwnFiles = std::vector<std::string_view>;
+
+// The folder `path` as an absolute, normalised path (no trailing '/'), checked to be
+// replaceable: absent (its parent is created later), or a folder that is empty or whose
+// entries are all regular files matching `own`. Throws InputError(path, flag, ...) when the
+// path is empty, is a file, is the current folder or holds it, or holds anything else (the
+// first such entry is named).
+std::string replaceable_folder(const std::string& path, const std::string& flag, const OwnFiles& own);
+
+// The sibling `target.partial.<pid>` a run writes into before publish_folder().
+std::string partial_folder(const std::string& target);
+
+// Swaps `partial` in for `target` (from replaceable_folder): an existing target is first
+// renamed aside and removed only once `partial` is in place; if that rename fails the old
+// target is put back and InputError(target, flag, ...) thrown, `partial` left for the
+// caller to remove.
+void publish_folder(const std::string& partial, const std::string& target, const std::string& flag);
+
+}  // namespace rayline

@@ -1,0 +1,168 @@
+// Results folders and output files never take the user's data with them (DESIGN.md, "Bad
+// input": nothing lost; sched/output_folder.hpp). `simulate --out DIR` used to delete DIR
+// whatever it held, and `--out .` emptied the current folder and then lost the results too.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+#include <vector>
+
+#include "cli/cli_run.hpp"
+
+namespace fs = std::filesystem;
+using rayline::testing::rayline_cli;
+
+namespace {
+class OutputFolders : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("rayline-out-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
+            std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& n) const { return (dir_ / n).string(); }
+  void write(const std::string& n, const std::string& text) const {
+    fs::create_directories(fs::path(path(n)).parent_path());
+    std::ofstream(path(n)) << text;
+  }
+  std::string read(const std::string& n) const {
+    std::ifstream in(path(n));
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  // Nothing but `names` in the scratch folder: no *.partial.*, *.old.* or *.tmp.* left.
+  void expect_only(std::initializer_list<const char*> names) const {
+    std::vector<std::string> got;
+    for (const auto& e : fs::directory_iterator(dir_)) got.push_back(e.path().filename().string());
+    std::sort(got.begin(), got.end());
+    std::vector<std::string> want(names.begin(), names.end());
+    std::sort(want.begin(), want.end());
+    EXPECT_EQ(got, want);
+  }
+  fs::path dir_;
+};
+const std::string kSim = "simulate --platform paper-A --duration 1s --no-progress ";
+}  // namespace
+
+TEST_F(OutputFolders, SimulateNeverReplacesAFolderHoldingTheUsersFiles) {
+  write("home/thesis.tex", "precious");
+  auto r = rayline_cli(kSim + "--out " + path("home"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--out: folder holds 'thesis.tex'"), std::string::npos) << r.err;
+  EXPECT_EQ(read("home/thesis.tex"), "precious");
+  EXPECT_FALSE(fs::exists(path("home/metrics.json")));
+  // A file named as the folder is not replaced either.
+  write("afile", "precious");
+  r = rayline_cli(kSim + "--out " + path("afile"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("exists and is not a folder"), std::string::npos) << r.err;
+  EXPECT_EQ(read("afile"), "precious");
+  r = rayline_cli(kSim + "--out ''");
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--out: missing output folder"), std::string::npos) << r.err;
+  // The current folder, or one above it, would take the current folder with them. Run from
+  // inside the scratch folder, so that a regression could only ever empty that (the root
+  // is checked in tests/sched/test_output_folder.cpp, which never deletes anything).
+  write("a/b/canary", "precious");
+  const fs::path before = fs::current_path();
+  fs::current_path(path("a/b"));
+  for (const std::string p : {".", "..", "./", "../b"}) {
+    r = rayline_cli(kSim + "--out " + p);
+    EXPECT_EQ(r.code, 2) << p << ": " << r.all;
+    EXPECT_NE(r.err.find("is the current folder or holds it"), std::string::npos) << r.err;
+  }
+  fs::current_path(before);
+  EXPECT_EQ(read("a/b/canary"), "precious");
+  expect_only({"home", "afile", "a"});
+}
+
+TEST_F(OutputFolders, SimulateReplacesItsOwnEarlierResults) {
+  const std::string out = path("run");
+  ASSERT_EQ(rayline_cli(kSim + "--paje --out " + out).code, 0);
+  ASSERT_TRUE(fs::exists(path("run/simgrid.trace")));
+  // A trailing '/' names the same folder (it used to put the partial folder inside it).
+  const auto again = rayline_cli(kSim + "--out " + out + "/");
+  ASSERT_EQ(again.code, 0) << again.all;
+  EXPECT_TRUE(fs::exists(path("run/metrics.json")));
+  EXPECT_FALSE(fs::exists(path("run/simgrid.trace"))) << "the earlier run's files are replaced, not merged";
+  // Once the user adds a file, the folder is theirs.
+  write("run/notes.txt", "mine");
+  const auto r = rayline_cli(kSim + "--out " + out);
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("'notes.txt'"), std::string::npos) << r.err;
+  EXPECT_EQ(read("run/notes.txt"), "mine");
+  // Through a symbolic link, the folder it points to is the one replaced.
+  fs::create_directory(path("real"));
+  fs::create_directory_symlink(path("real"), path("link"));
+  ASSERT_EQ(rayline_cli(kSim + "--out " + path("link")).code, 0);
+  EXPECT_TRUE(fs::is_symlink(path("link")));
+  EXPECT_TRUE(fs::exists(path("real/metrics.json")));
+  expect_only({"run", "real", "link"});
+}
+
+TEST_F(OutputFolders, CompareAndSweepsCheckEveryRunsFolderBeforeTheFirstRun) {
+  write("cmp/budge/mine.txt", "mine");
+  auto r = rayline_cli("compare --platform paper-A --duration 1s --schedulers gmb,budge --out " + path("cmp"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("budge: --out: folder holds 'mine.txt'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("cmp/gmb"))) << "refused before GMB ran";
+  EXPECT_EQ(read("cmp/budge/mine.txt"), "mine");
+  // compare's own folder keeps the user's files beside its results.
+  write("mine/thesis.tex", "precious");
+  r = rayline_cli("compare --platform paper-A --duration 1s --schedulers gmb --out " + path("mine"));
+  EXPECT_EQ(r.code, 0) << r.all;
+  EXPECT_TRUE(fs::exists(path("mine/compare.csv")));
+  EXPECT_EQ(read("mine/thesis.tex"), "precious");
+  // A client sweep writes OUT/clients-N: each is checked before the first point runs.
+  write("sweep/clients-2/mine.txt", "mine");
+  r = rayline_cli("simulate --workload museum --platform paper-A --duration 1s --no-progress --clients 1,2 --out " +
+                  path("sweep"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("clients-2: --out: folder holds 'mine.txt'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("sweep/clients-1")));
+  expect_only({"cmp", "mine", "sweep"});
+}
+
+TEST_F(OutputFolders, PartitionReplacesOnlyAPartition) {
+  ASSERT_EQ(rayline_cli("partition -q --blocks 4 --out " + path("p")).code, 0);
+  ASSERT_EQ(rayline_cli("partition -q --blocks 2 --out " + path("p")).code, 0);
+  EXPECT_FALSE(fs::exists(path("p/block_00003.rlb"))) << "the earlier partition is replaced";
+  // A partition folder with something of the user's in it is no longer replaced (it was,
+  // whenever it held a blocks.json).
+  write("p/readme.txt", "mine");
+  auto r = rayline_cli("partition -q --blocks 4 --out " + path("p"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--out: folder holds 'readme.txt'"), std::string::npos) << r.err;
+  EXPECT_EQ(read("p/readme.txt"), "mine");
+  EXPECT_TRUE(fs::exists(path("p/block_00001.rlb")));
+  r = rayline_cli("partition -q --out ''");
+  EXPECT_EQ(r.code, 2) << r.all;
+  expect_only({"p"});
+}
+
+TEST_F(OutputFolders, OutputFilesNamedAsFoldersAreRefusedBeforeTheWork) {
+  fs::create_directory(path("d"));
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"plan -q --trace " + path("d"), "--trace: is a folder"},
+      {"plan -q --jobs-csv " + path("d"), "--jobs-csv: is a folder"},
+      {"generate cornell -q -n 1000 --out " + path("d"), "--out: is a folder"},
+      {"generate cornell -q -n 1000 --out " + path("g.ply") + " --scene-out " + path("d"), "--scene-out: is a folder"},
+      {"render -q --spp 1 --resolution 8x8 --out " + path("r.exr") + " --record-replay " + path("d"),
+       "--record-replay: is a folder"},
+      {"render -q --spp 1 --resolution 8x8 --out " + path("r.exr") + " --record-profile " + path("d"),
+       "--record-profile: is a folder"},
+      {"calibrate --out " + path("d"), "--out: is a folder; give a file name such as out/this-machine.json"},
+      {"calibrate --out ''", "--out: missing output path"},
+  };
+  for (const auto& [args, msg] : cases) {
+    const auto r = rayline_cli(args);
+    EXPECT_EQ(r.code, 2) << args << ": " << r.all;
+    EXPECT_NE(r.err.find(msg), std::string::npos) << args << ": " << r.err;
+  }
+  EXPECT_TRUE(fs::is_empty(path("d")));
+  expect_only({"d"});
+}

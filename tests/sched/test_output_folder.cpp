@@ -1,0 +1,112 @@
+// sched/output_folder: which folders a command may replace, and the swap itself.
+#include "sched/output_folder.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <unistd.h>
+#include <vector>
+
+#include "sched/error.hpp"
+
+namespace fs = std::filesystem;
+using rayline::InputError;
+using rayline::OwnFiles;
+
+namespace {
+const OwnFiles kOwn = {"blocks.json", "block_*.rlb"};
+
+fs::path scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("rayline-of-" + std::to_string(::getpid()) + "-" + name);
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+std::string message(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(OutputFolder, OnlyFoldersOfTheCommandsOwnFilesAreReplaceable) {
+  const fs::path d = scratch("own");
+  // Absent and empty folders, and those holding only matching regular files.
+  EXPECT_EQ(rayline::replaceable_folder((d / "new").string(), "--out", kOwn), (d / "new").string());
+  EXPECT_EQ(rayline::replaceable_folder(d.string() + "/", "--out", kOwn), d.string());
+  for (const char* f : {"blocks.json", "block_00000.rlb", "block_123456.rlb", "block_.rlb"}) std::ofstream(d / f) << "x";
+  EXPECT_NO_THROW(rayline::replaceable_folder(d.string(), "--out", kOwn));
+  // Anything else is named: a near miss of a pattern, a folder, a link with an own name.
+  for (const char* f : {"block_1.rlb.bak", "blocks.json~", "xblock_1.rlb", "block_1.rl"}) {
+    std::ofstream(d / f) << "x";
+    EXPECT_NE(message([&] { rayline::replaceable_folder(d.string(), "--out", kOwn); }).find(std::string("'") + f + "'"),
+              std::string::npos)
+        << f;
+    fs::remove(d / f);
+  }
+  fs::create_directory(d / "block_9.rlb");
+  EXPECT_NE(message([&] { rayline::replaceable_folder(d.string(), "--out", kOwn); }).find("'block_9.rlb'"),
+            std::string::npos);
+  fs::remove(d / "block_9.rlb");
+  fs::create_symlink("/etc/passwd", d / "block_8.rlb");
+  EXPECT_NE(message([&] { rayline::replaceable_folder(d.string(), "--out", kOwn); }).find("'block_8.rlb'"),
+            std::string::npos);
+  fs::remove(d / "block_8.rlb");
+  EXPECT_NO_THROW(rayline::replaceable_folder(d.string(), "--out", kOwn));
+  // A file, an empty path.
+  std::ofstream(d / "file") << "x";
+  EXPECT_NE(message([&] { rayline::replaceable_folder((d / "file").string(), "--out", kOwn); }).find("not a folder"),
+            std::string::npos);
+  EXPECT_NE(message([&] { rayline::replaceable_folder("", "--out", kOwn); }).find("--out: missing output folder"),
+            std::string::npos);
+  fs::remove_all(d);
+}
+
+TEST(OutputFolder, TheCurrentFolderAndEveryFolderAboveItAreRefused) {
+  const fs::path d = scratch("cwd");
+  fs::create_directories(d / "a" / "b");
+  const fs::path before = fs::current_path();
+  fs::current_path(d / "a" / "b");
+  for (const std::string& p : std::vector<std::string>{".", "./", "..", "../..", (d / "a").string(), "/", "../b"})
+    EXPECT_NE(message([&] { rayline::replaceable_folder(p, "--out", {}); }).find("is the current folder or holds it"),
+              std::string::npos)
+        << p;
+  // Beside or below it is fine.
+  EXPECT_NO_THROW(rayline::replaceable_folder("../c", "--out", {}));
+  EXPECT_NO_THROW(rayline::replaceable_folder("sub", "--out", {}));
+  fs::current_path(before);
+  fs::remove_all(d);
+}
+
+TEST(OutputFolder, PublishSwapsTheFolderAndRestoresTheOldOneOnFailure) {
+  const fs::path d = scratch("publish");
+  const std::string target = (d / "out").string();
+  // New target.
+  std::string partial = rayline::partial_folder(target);
+  fs::create_directory(partial);
+  std::ofstream(fs::path(partial) / "blocks.json") << "1";
+  rayline::publish_folder(partial, target, "--out");
+  EXPECT_FALSE(fs::exists(partial));
+  // Replacing it.
+  partial = rayline::partial_folder(target);
+  fs::create_directory(partial);
+  std::ofstream(fs::path(partial) / "blocks.json") << "2";
+  rayline::publish_folder(partial, target, "--out");
+  std::ifstream in(fs::path(target) / "blocks.json");
+  std::string v;
+  in >> v;
+  EXPECT_EQ(v, "2");
+  // A partial that is gone: the old results stay where they were, and nothing else is left.
+  EXPECT_THROW(rayline::publish_folder((d / "missing").string(), target, "--out"), InputError);
+  EXPECT_TRUE(fs::exists(fs::path(target) / "blocks.json"));
+  std::size_t n = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(d)) ++n;
+  EXPECT_EQ(n, 1u);
+  fs::remove_all(d);
+}
