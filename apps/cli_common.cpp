@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "sched/error.hpp"
+#include "sched/unfinished_output.hpp"
 #include "sched/units.hpp"
 
 namespace rayline::cli {
@@ -85,6 +86,7 @@ void write_file_atomic(const std::string& path, const std::string& content) {
   const fs::path target(path);
   const fs::path tmp = target.parent_path() /
                        (target.filename().string() + ".tmp." + std::to_string(::getpid()));
+  const unfinished::Guard unfinished_guard(tmp.string());  // removed if the run is interrupted
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw InputError(path, "", "cannot open for writing");

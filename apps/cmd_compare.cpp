@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "apps/cli_common.hpp"
+#include "apps/interrupt.hpp"
 #include "sched/error.hpp"
 #include "sim/simulation.hpp"
 
@@ -110,12 +111,15 @@ int run_compare(const CompareOptions& opt) {
     const pid_t pid = ::fork();
     if (pid < 0) throw std::runtime_error("fork failed");
     if (pid == 0) {
+      interrupt_cleanup_after_fork();
       const int rc = guarded([&] { return run_simulate(o); });
       std::fflush(nullptr);
       ::_exit(rc);
     }
+    add_child(pid);  // an interrupt stops it, and it removes its unfinished outputs
     int status = 0;
     ::waitpid(pid, &status, 0);
+    remove_child(pid);
     const int rc = WIFEXITED(status) ? WEXITSTATUS(status) : kExitFailure;
     if (rc == kExitBadInput) return rc;  // the same input is bad for every scheduler
     rows.push_back(read_row(s, o.out, rc));

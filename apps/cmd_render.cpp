@@ -18,6 +18,7 @@
 #include "render/engine/renderer.hpp"
 #include "render/image/image_io.hpp"
 #include "sched/error.hpp"
+#include "sched/unfinished_output.hpp"
 
 namespace rayline::cli {
 
@@ -115,6 +116,7 @@ int run_render(const RenderCliOptions& opt) {
     if (!opt.record_profile.empty()) write_file_atomic(opt.record_profile, recorder->statistics_json(extra));
     if (!opt.record_replay.empty()) {
       const std::string tmp = opt.record_replay + ".partial." + std::to_string(::getpid());
+      const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
       try {
         recorder->replay().save(tmp, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +
                                          "x" + std::to_string(r.height) + ", " + std::to_string(r.spp) + " spp, keyframe " +

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "apps/cli_common.hpp"
+#include "apps/interrupt.hpp"
 #include "apps/platform_path.hpp"
 #include "sched/error.hpp"
 #include "sched/units.hpp"
@@ -156,7 +157,9 @@ int run_simulate(const SimulateOptions& opt) {
     int fds[2];
     if (::pipe(fds) != 0) throw std::runtime_error("pipe failed");
     const pid_t pid = ::fork();
+    if (pid < 0) throw std::runtime_error("fork failed");
     if (pid == 0) {
+      interrupt_cleanup_after_fork();
       ::close(fds[0]);
       int rc = kExitFailure;
       try {
@@ -181,6 +184,7 @@ int run_simulate(const SimulateOptions& opt) {
       std::fflush(nullptr);
       ::_exit(rc);
     }
+    add_child(pid);  // an interrupt stops it, and it removes its unfinished outputs
     ::close(fds[1]);
     std::string line;
     char buf[512];
@@ -188,6 +192,7 @@ int run_simulate(const SimulateOptions& opt) {
     ::close(fds[0]);
     int status = 0;
     ::waitpid(pid, &status, 0);
+    remove_child(pid);
     const int rc = WIFEXITED(status) ? WEXITSTATUS(status) : kExitFailure;
     if (rc != kExitOk) return rc;
     std::printf("%s", line.c_str());

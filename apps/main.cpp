@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "apps/cli_common.hpp"
+#include "apps/interrupt.hpp"
 #include "apps/cmd_compare.hpp"
 #include "apps/cmd_generate.hpp"
 #include "apps/cmd_partition.hpp"
@@ -323,6 +324,7 @@ bool bad_subcommand(const CLI::App& app, int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  rayline::cli::install_interrupt_cleanup();  // first: before any thread exists
   CLI::App app{"Rayline: timeline scheduling for out-of-core ray batching (Son & Yoon, HPG 2017)"};
   app.set_version_flag("--version", std::string("rayline ") + RAYLINE_VERSION);
   app.require_subcommand(1);

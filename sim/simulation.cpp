@@ -14,6 +14,7 @@
 #include "sched/error.hpp"
 #include "sched/job_set.hpp"
 #include "sched/output_folder.hpp"
+#include "sched/unfinished_output.hpp"
 #include "sched/path_trace_workload.hpp"
 #include "sched/platform_loader.hpp"
 #include "sched/ray_stream.hpp"
@@ -175,6 +176,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
 
   const std::string out = replaceable_folder(cfg.out_dir, "", kRunFiles);
   const fs::path partial = partial_folder(out);
+  const unfinished::Guard unfinished_guard(partial.string());  // removed if the run is interrupted
   std::error_code ec;
   fs::remove_all(partial, ec);
   fs::create_directories(partial, ec);

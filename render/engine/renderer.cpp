@@ -25,6 +25,7 @@
 #include "sched/error.hpp"
 #include "sched/scheduler_factory.hpp"
 #include "sched/trace_output.hpp"
+#include "sched/unfinished_output.hpp"
 #include "sched/unplaced.hpp"
 
 namespace rayline::engine {
@@ -49,11 +50,18 @@ Bytes rss_peak() {
 }
 
 // A temporary partition folder, removed when the render ends.
+// Registered as unfinished output, so an interrupted render removes it too.
 struct TempDir {
   fs::path path;
+  void set(fs::path p) {
+    path = std::move(p);
+    unfinished::add(path.string());
+  }
   ~TempDir() {
     std::error_code ec;
-    if (!path.empty()) fs::remove_all(path, ec);
+    if (path.empty()) return;
+    fs::remove_all(path, ec);
+    unfinished::remove(path.string());
   }
 };
 
@@ -114,8 +122,8 @@ RenderResult render(const RenderOptions& opt) {
   TempDir tmp;
   std::string dir = opt.blocks_dir;
   if (dir.empty()) {
-    tmp.path = fs::temp_directory_path() / ("rayline-blocks-" + std::to_string(::getpid()) + "-" +
-                                            std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
+    tmp.set(fs::temp_directory_path() / ("rayline-blocks-" + std::to_string(::getpid()) + "-" +
+                                         std::to_string(std::chrono::steady_clock::now().time_since_epoch().count())));
     dir = tmp.path.string();
   }
   if (!fs::exists(fs::path(dir) / "blocks.json")) {

@@ -24,6 +24,7 @@
 #include <set>
 
 #include "sched/error.hpp"
+#include "sched/unfinished_output.hpp"
 
 namespace rayline::image {
 
@@ -96,6 +97,7 @@ void write_exr(const std::string& path, int width, int height, const float* rgb,
   for (const auto& kv : meta.doubles) add_key(kv.first);
 
   const std::string tmp = partial_name(path);
+  const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
   try {
     Imf::Header h(width, height);  // ZIP compression by default: lossless
     // Float, not half: the image is the renderer's exact result (tests compare it bit for
@@ -131,6 +133,7 @@ void write_exr(const std::string& path, int width, int height, const float* rgb,
 void write_png_preview(const std::string& path, int width, int height, const float* rgb, float exposure) {
   check_image_args(path, width, height, rgb);
   const std::string tmp = partial_name(path);
+  const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
   FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) throw InputError(path, "output", "cannot create the PNG preview");
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);

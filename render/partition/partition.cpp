@@ -16,6 +16,7 @@
 #include "render/scene/scene_stream.hpp"
 #include "sched/error.hpp"
 #include "sched/output_folder.hpp"
+#include "sched/unfinished_output.hpp"
 
 namespace rayline::partition {
 namespace fs = std::filesystem;
@@ -526,6 +527,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
                                             std::fabs(bounds.hi.z), 1e-30f});
   t0 = Clock::now();
   const fs::path partial = partial_folder(target.string());
+  const unfinished::Guard unfinished_guard(partial.string());  // removed if the run is interrupted
   std::error_code ec;
   fs::remove_all(partial, ec);
   fs::create_directories(partial, ec);

@@ -11,6 +11,7 @@
 #include "render/scene/ply_writer.hpp"
 #include "render/scene/rng.hpp"
 #include "sched/error.hpp"
+#include "sched/unfinished_output.hpp"
 
 namespace rayline::scene {
 namespace {
@@ -123,6 +124,7 @@ const std::vector<GeneratorInfo> kGenerators = {
 
 void write_text_atomic(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
   {
     std::ofstream o(tmp, std::ios::binary | std::ios::trunc);
     if (!o) throw InputError(path, "", "cannot open for writing");

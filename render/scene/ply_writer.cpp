@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "sched/error.hpp"
+#include "sched/unfinished_output.hpp"
 
 namespace rayline::scene {
 namespace {
@@ -37,20 +38,33 @@ PlyWriter::PlyWriter(std::string path, std::vector<std::string> comments)
   const std::string pid = std::to_string(::getpid());
   tmp_ = path_ + ".tmp." + pid;
   faces_tmp_ = path_ + ".tmp." + pid + ".faces";
+  unfinished::add(tmp_);  // both removed if the run is interrupted
+  unfinished::add(faces_tmp_);
   vf_ = std::fopen(tmp_.c_str(), "wb");
-  if (!vf_) throw InputError(path_, "", "cannot open for writing");
-  ff_ = std::fopen(faces_tmp_.c_str(), "wb+");
+  ff_ = vf_ ? std::fopen(faces_tmp_.c_str(), "wb+") : nullptr;
   if (!ff_) {
-    std::fclose(vf_);
+    if (vf_) std::fclose(vf_);
     std::remove(tmp_.c_str());
-    throw InputError(path_, "", "cannot open temporary file for writing");
+    unfinished::remove(tmp_);
+    unfinished::remove(faces_tmp_);
+    throw InputError(path_, "", vf_ ? "cannot open temporary file for writing" : "cannot open for writing");
   }
   vbuf_.reserve(kBufferBytes + 4096);
   fbuf_.reserve(kBufferBytes + 4096);
   // Reserve room for the header with the widest counts plus a padding comment line.
   reserved_ = header(0).size() + 40 + 64;
   std::vector<char> zeros(reserved_, '\n');
-  write_all(vf_, zeros, path_);
+  try {
+    write_all(vf_, zeros, path_);
+  } catch (...) {  // no destructor runs for a constructor that throws
+    std::fclose(vf_);
+    std::fclose(ff_);
+    std::remove(tmp_.c_str());
+    std::remove(faces_tmp_.c_str());
+    unfinished::remove(tmp_);
+    unfinished::remove(faces_tmp_);
+    throw;
+  }
 }
 
 PlyWriter::~PlyWriter() {
@@ -58,6 +72,8 @@ PlyWriter::~PlyWriter() {
   if (ff_) std::fclose(ff_);
   if (!finished_) std::remove(tmp_.c_str());
   std::remove(faces_tmp_.c_str());
+  unfinished::remove(tmp_);
+  unfinished::remove(faces_tmp_);
 }
 
 std::string PlyWriter::header(std::size_t pad) const {

@@ -1,0 +1,138 @@
+// An interrupted run leaves nothing behind (apps/interrupt.hpp): SIGTERM, SIGINT or SIGHUP
+// used to end `rayline` at once, leaving OUT.partial.<pid>/, a render's temporary partition
+// in /tmp (154 MB for a 2 M-triangle scene) or a half-written mesh of FILE.tmp.<pid>.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+class Interrupt : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("rayline-int-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
+            std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    fs::remove_all(dir_);
+  }
+  std::string path(const std::string& n) const { return (dir_ / n).string(); }
+
+  // Starts `rayline ARGS...` (stdout and stderr to files in the scratch folder).
+  void start(const std::vector<std::string>& args) {
+    pid_ = ::fork();
+    ASSERT_GE(pid_, 0);
+    if (pid_ == 0) {
+      ::signal(SIGINT, SIG_DFL);  // whatever the test runner ignores, rayline starts as from a terminal
+      ::signal(SIGHUP, SIG_DFL);
+      ::signal(SIGTERM, SIG_DFL);
+      std::vector<char*> argv{const_cast<char*>(RAYLINE_BINARY)};
+      for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      if (!std::freopen(path("stdout").c_str(), "w", stdout) || !std::freopen(path("stderr").c_str(), "w", stderr))
+        ::_exit(99);
+      ::execv(RAYLINE_BINARY, argv.data());
+      ::_exit(98);
+    }
+  }
+  // Polls (up to 120 s, for a slow machine) until `ready` holds; false if rayline ended first.
+  bool wait_until(const std::function<bool()>& ready) {
+    for (int i = 0; i < 12000; ++i) {
+      if (ready()) return true;
+      int st = 0;
+      if (::waitpid(pid_, &st, WNOHANG) == pid_) {
+        pid_ = -1;
+        return false;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+  }
+  // Waits for the run to end on its own; its exit code.
+  int finish() {
+    int st = 0;
+    ::waitpid(pid_, &st, 0);
+    pid_ = -1;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  }
+  // Sends `sig` and returns the exit code (-1: killed by a signal, that is, not handled).
+  int stop(int sig) {
+    ::kill(pid_, sig);
+    int st = 0;
+    ::waitpid(pid_, &st, 0);
+    pid_ = -1;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  }
+  std::string err() const {
+    std::ifstream in(path("stderr"));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+  static bool any_starting(const fs::path& dir, const std::string& prefix) {
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir, ec))
+      if (e.path().filename().string().starts_with(prefix)) return true;
+    return false;
+  }
+  fs::path dir_;
+  pid_t pid_ = -1;
+};
+}  // namespace
+
+TEST_F(Interrupt, SimulateRemovesItsPartialFolderAndKeepsTheEarlierResults) {
+  start({"simulate", "--platform", "paper-A", "--duration", "1s", "--no-progress", "--out", path("run")});
+  ASSERT_EQ(finish(), 0) << err();  // the first run completes
+  ASSERT_TRUE(fs::exists(path("run/metrics.json")));
+  start({"simulate", "--duration", "1000000s", "--no-timeline", "--no-progress", "--out", path("run")});
+  ASSERT_TRUE(wait_until([&] { return any_starting(dir_, "run.partial."); })) << err();
+  EXPECT_EQ(stop(SIGTERM), 128 + SIGTERM) << err();
+  EXPECT_NE(err().find("interrupted"), std::string::npos) << err();
+  EXPECT_FALSE(any_starting(dir_, "run.")) << "no partial or old folder left";
+  EXPECT_TRUE(fs::exists(path("run/metrics.json"))) << "the earlier results are untouched";
+}
+
+TEST_F(Interrupt, CompareStopsItsRunAndBothRemoveTheirOutputs) {
+  start({"compare", "--duration", "1000000s", "--schedulers", "gmb,budge", "--out", path("cmp")});
+  ASSERT_TRUE(wait_until([&] { return any_starting(dir_ / "cmp", "gmb.partial."); })) << err();
+  EXPECT_EQ(stop(SIGINT), 128 + SIGINT) << err();
+  // The parent waited for its child, which removed its partial folder before ending.
+  EXPECT_FALSE(any_starting(dir_ / "cmp", "gmb")) << err();
+}
+
+TEST_F(Interrupt, RenderRemovesItsTemporaryPartition) {
+  const std::string prefix = "rayline-blocks-";
+  start({"render", "-q", "--spp", "100000", "--resolution", "64x64", "--out", path("r.exr")});
+  const pid_t pid = pid_;
+  const std::string mine = prefix + std::to_string(pid) + "-";
+  ASSERT_TRUE(wait_until([&] { return any_starting(fs::temp_directory_path(), mine); })) << err();
+  EXPECT_EQ(stop(SIGHUP), 128 + SIGHUP) << err();
+  EXPECT_FALSE(any_starting(fs::temp_directory_path(), mine));
+  EXPECT_FALSE(any_starting(dir_, "r.")) << "no image, no partial image";
+}
+
+TEST_F(Interrupt, GenerateRemovesItsHalfWrittenMesh) {
+  start({"generate", "museum-like", "-q", "-n", "1G", "--out", path("big.ply")});
+  ASSERT_TRUE(wait_until([&] { return any_starting(dir_, "big.ply.tmp."); })) << err();
+  EXPECT_EQ(stop(SIGTERM), 128 + SIGTERM) << err();
+  EXPECT_FALSE(any_starting(dir_, "big.")) << err();
+}
