@@ -16,26 +16,20 @@
 #include <thread>
 #include <vector>
 
+#include "cli/scratch_test.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
-class Interrupt : public ::testing::Test {
+class Interrupt : public rayline::testing::ScratchTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("rayline-int-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
-            std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
   void TearDown() override {
     if (pid_ > 0) {
       ::kill(pid_, SIGKILL);
       ::waitpid(pid_, nullptr, 0);
     }
-    fs::remove_all(dir_);
+    ScratchTest::TearDown();
   }
-  std::string path(const std::string& n) const { return (dir_ / n).string(); }
 
   // Starts `rayline ARGS...` (stdout and stderr to files in the scratch folder).
   void start(const std::vector<std::string>& args) {
@@ -94,7 +88,6 @@ class Interrupt : public ::testing::Test {
       if (e.path().filename().string().starts_with(prefix)) return true;
     return false;
   }
-  fs::path dir_;
   pid_t pid_ = -1;
 };
 }  // namespace

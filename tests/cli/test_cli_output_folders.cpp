@@ -10,22 +10,14 @@
 #include <vector>
 
 #include "cli/cli_run.hpp"
+#include "cli/scratch_test.hpp"
 
 namespace fs = std::filesystem;
 using rayline::testing::rayline_cli;
 
 namespace {
-class OutputFolders : public ::testing::Test {
+class OutputFolders : public rayline::testing::ScratchTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("rayline-out-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
-            std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& n) const { return (dir_ / n).string(); }
   void write(const std::string& n, const std::string& text) const {
     fs::create_directories(fs::path(path(n)).parent_path());
     std::ofstream(path(n)) << text;
@@ -43,7 +35,6 @@ class OutputFolders : public ::testing::Test {
     std::sort(want.begin(), want.end());
     EXPECT_EQ(got, want);
   }
-  fs::path dir_;
 };
 const std::string kSim = "simulate --platform paper-A --duration 1s --no-progress ";
 }  // namespace

@@ -7,24 +7,13 @@
 #include <unistd.h>
 
 #include "cli/cli_run.hpp"
+#include "cli/scratch_test.hpp"
 
 namespace fs = std::filesystem;
 using rayline::testing::rayline_cli;
 
 namespace {
-class CliPartition : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("rayline-cli-partition-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
-            "-" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& n) const { return (dir_ / n).string(); }
-  fs::path dir_;
-};
+class CliPartition : public rayline::testing::ScratchTest {};
 }  // namespace
 
 TEST_F(CliPartition, DefaultSceneIntoBlocks) {

@@ -8,22 +8,14 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/cli_run.hpp"
+#include "cli/scratch_test.hpp"
 
 namespace fs = std::filesystem;
 using rayline::testing::rayline_cli;
 
 namespace {
-class CliRender : public ::testing::Test {
+class CliRender : public rayline::testing::ScratchTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("rayline-cli-render-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
-            std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& n) const { return (dir_ / n).string(); }
   nlohmann::json metrics(const std::string& image_stem) const {
     std::ifstream in(path(image_stem + ".metrics.json"));
     return nlohmann::json::parse(in);
@@ -33,7 +25,6 @@ class CliRender : public ::testing::Test {
     const auto r = rayline_cli("partition -q --blocks " + std::to_string(n) + " --out " + path("blocks"));
     ASSERT_EQ(r.code, 0) << r.all;
   }
-  fs::path dir_;
 };
 
 std::string slurp(const std::string& p) {
