@@ -78,6 +78,49 @@ void check_output_file(const std::string& path, const std::string& flag, const s
   fs::remove(probe, ec);
 }
 
+namespace {
+bool same_file(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
+  const auto norm = [](const std::string& p) {
+    std::error_code e;
+    return fs::weakly_canonical(fs::absolute(p, e), e).lexically_normal();
+  };
+  return norm(a) == norm(b);
+}
+}  // namespace
+
+void check_distinct(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs) {
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    if (outputs[i].path.empty()) continue;
+    for (std::size_t j = 0; j < i; ++j)
+      if (!outputs[j].path.empty() && same_file(outputs[i].path, outputs[j].path))
+        throw InputError(outputs[i].path, outputs[i].flag,
+                         "is also the file of " + outputs[j].flag + "; give each output its own name");
+    for (const NamedPath& in : inputs)
+      if (!in.path.empty() && same_file(outputs[i].path, in.path))
+        throw InputError(outputs[i].path, outputs[i].flag,
+                         "is the input of " + in.flag + "; writing it would destroy that file");
+  }
+}
+
+void check_not_inside(const std::string& folder, const std::string& folder_flag, const std::vector<NamedPath>& inputs) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path dir = fs::weakly_canonical(fs::absolute(folder, ec), ec).lexically_normal();
+  for (const NamedPath& in : inputs) {
+    if (in.path.empty()) continue;
+    const fs::path p = fs::weakly_canonical(fs::absolute(in.path, ec), ec).lexically_normal();
+    auto a = dir.begin(), b = p.begin();
+    for (; a != dir.end() && b != p.end() && *a == *b; ++a, ++b) {
+    }
+    if (a == dir.end() || (std::next(a) == dir.end() && a->empty()))
+      throw InputError(in.path, in.flag, "lies inside " + folder_flag + " " + folder +
+                                             ", which the run replaces; move it out or choose another " + folder_flag);
+  }
+}
+
 void write_file_atomic(const std::string& path, const std::string& content) {
   namespace fs = std::filesystem;
   std::error_code ec;

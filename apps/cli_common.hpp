@@ -2,6 +2,7 @@
 #pragma once
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "sched/types.hpp"
 
@@ -34,6 +35,21 @@ AgingSetting parse_aging(const std::string& text, const std::string& flag);
 // empty, is a folder ("give a file name such as `example`"), or its folder cannot be created
 // or written.
 void check_output_file(const std::string& path, const std::string& flag, const std::string& example);
+
+// A flag and the path it names.
+struct NamedPath {
+  std::string flag, path;
+};
+// Before the work: InputError when two outputs name the same file (the second would
+// overwrite the first) or an output names an input (it would be overwritten while, or
+// after, being read). Empty paths are skipped; existing files are compared by identity
+// (hard and symbolic links included), others by their absolute, normalised path.
+void check_distinct(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs);
+
+// Before a run that replaces the results folder `folder`: InputError when an input lies
+// inside it (a replay log recorded into OUT/ by the previous run, say), as the run would
+// delete it with the folder it replaces.
+void check_not_inside(const std::string& folder, const std::string& folder_flag, const std::vector<NamedPath>& inputs);
 
 // Write `content` to `path` atomically (temporary name in the same folder, then rename).
 void write_file_atomic(const std::string& path, const std::string& content);

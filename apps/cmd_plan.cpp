@@ -29,6 +29,8 @@ int run_plan(const PlanOptions& opt) {
     throw InputError("--horizon", "", e.what());
   }
   if (!(horizon > 0)) throw InputError("--horizon", "", "must be > 0");
+  check_distinct({{"--trace", opt.trace}, {"--jobs-csv", opt.jobs_csv}},
+                 {{"--platform", resolve_platform(opt.platform)}, {"--jobs", opt.jobs}});
   if (!opt.trace.empty()) check_output_file(opt.trace, "--trace", "out/plan.json");
   if (!opt.jobs_csv.empty()) check_output_file(opt.jobs_csv, "--jobs-csv", "out/plan.csv");
   const DeviceGraph g = load_platform(resolve_platform(opt.platform));

@@ -85,6 +85,20 @@ int run_render(const RenderCliOptions& opt) {
     ro.gpu_memory_budget = parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget");
   const std::string ext = fs::path(opt.out).extension().string();
   if (ext != ".exr") throw InputError(opt.out, "--out", "the image is written as OpenEXR: use a name ending in .exr");
+  // The image's companions are written beside it (sibling names): none may be an input or
+  // a recording.
+  const std::vector<NamedPath> inputs = {
+      {"--scene", opt.scene},
+      {"--platform", opt.platform == "auto" ? std::string() : opt.platform},
+      {"--blocks-dir", opt.blocks_dir.empty() ? std::string() : (fs::path(opt.blocks_dir) / "blocks.json").string()}};
+  check_distinct({{"--out", opt.out},
+                  {"--out (its PNG preview)", sibling(opt.out, ".png")},
+                  {"--out (its metrics)", sibling(opt.out, ".metrics.json")},
+                  {"--out (its timeline)", sibling(opt.out, ".timeline.json")},
+                  {"--out (its jobs CSV)", sibling(opt.out, ".jobs.csv")},
+                  {"--record-profile", opt.record_profile},
+                  {"--record-replay", opt.record_replay}},
+                 inputs);
   check_output_file(opt.out, "--out", "out/render.exr");  // before rendering: nothing rendered for nothing
   const bool tty = !opt.quiet && ::isatty(2);
   if (tty) ro.progress = progress_bar;
@@ -182,6 +196,7 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!(opt.budget_fraction > 0 && opt.budget_fraction < 1))
     throw InputError("--budget-fraction", "", "must be in (0, 1)");
+  check_distinct({{"--out", opt.out}}, {{"--scene", opt.scene}});
   check_output_file(opt.out, "--out", "out/this-machine.json");
   const bool tty = !opt.quiet && ::isatty(2);
   if (tty) ro.progress = progress_bar;

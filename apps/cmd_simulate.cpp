@@ -132,10 +132,14 @@ void check_simulate_flags(const SimulateOptions& opt) { simulate_config(opt); }
 int run_simulate(const SimulateOptions& opt) {
   sim::SimulationConfig cfg = simulate_config(opt);
   const std::vector<int> counts = client_counts(opt.clients);
-  // Before any run: a folder holding the user's files is never replaced.
-  if (counts.size() == 1) sim::check_results_folder(opt.out, "--out");
-  for (int n : counts)
-    if (counts.size() > 1) sim::check_results_folder(opt.out + "/clients-" + std::to_string(n), "--out");
+  // Before any run: a folder holding the user's files is never replaced, nor one an input lies in.
+  const std::vector<NamedPath> inputs = {
+      {"--platform", cfg.platform_file}, {"--workload", cfg.workload == "ray-stream" ? "" : cfg.workload}, {"--replay", opt.replay}};
+  for (int n : counts) {
+    const std::string dir = counts.size() == 1 ? opt.out : opt.out + "/clients-" + std::to_string(n);
+    sim::check_results_folder(dir, "--out");
+    check_not_inside(dir, "--out", inputs);
+  }
   if (counts.size() == 1) {
     cfg.clients = counts[0];
     const sim::SimulationSummary s = sim::run_simulation(cfg);

@@ -157,3 +157,58 @@ TEST_F(OutputFolders, OutputFilesNamedAsFoldersAreRefusedBeforeTheWork) {
   EXPECT_TRUE(fs::is_empty(path("d")));
   expect_only({"d"});
 }
+
+// An output that names an input, or another output, is refused before the work: `render
+// --record-profile SCENE.json` overwrote the scene with statistics (exit 0), and `plan
+// --trace F --jobs-csv F` left only the CSV.
+TEST_F(OutputFolders, OutputsThatWouldOverwriteAnInputOrEachOtherAreRefused) {
+  ASSERT_EQ(rayline_cli("generate cornell -q -n 1000 --out " + path("c.ply")).code, 0);
+  const std::string scene = read("c.json");
+  ASSERT_FALSE(scene.empty());
+  fs::create_symlink(path("c.json"), path("link.json"));
+  const std::string render = "render -q --spp 1 --resolution 8x8 --scene " + path("c.json") + " ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {render + "--out " + path("r.exr") + " --record-profile " + path("c.json"),
+       "--record-profile: is the input of --scene"},
+      {render + "--out " + path("r.exr") + " --record-replay " + path("link.json"),
+       "--record-replay: is the input of --scene"},
+      {render + "--out " + path("r.exr") + " --record-profile " + path("r.metrics.json"),
+       "--record-profile: is also the file of --out (its metrics)"},
+      {render + "--out " + path("r.exr") + " --record-profile " + path("x.log") + " --record-replay " + path("./x.log"),
+       "--record-replay: is also the file of --record-profile"},
+      {"plan -q --trace " + path("t.json") + " --jobs-csv " + path("t.json"), "--jobs-csv: is also the file of --trace"},
+      {"plan -q --platform " + path("p.json") + " --trace " + path("p.json"), "--trace: is the input of --platform"},
+      {"calibrate --scene " + path("c.json") + " --out " + path("link.json"), "--out: is the input of --scene"},
+  };
+  fs::copy_file(std::string(RAYLINE_PLATFORMS) + "/paper-A.json", path("p.json"));
+  for (const auto& [args, msg] : cases) {
+    const auto r = rayline_cli(args);
+    EXPECT_EQ(r.code, 2) << args << ": " << r.all;
+    EXPECT_NE(r.err.find(msg), std::string::npos) << args << ": " << r.err;
+  }
+  EXPECT_EQ(read("c.json"), scene);
+  EXPECT_FALSE(fs::exists(path("r.exr")));
+  EXPECT_FALSE(fs::exists(path("t.json")));
+  EXPECT_FALSE(fs::exists(path("x.log")));
+}
+
+// A replay log recorded into OUT/ by one run, replayed by the next into the same OUT/: the
+// second run replaced the folder and so deleted its own input.
+TEST_F(OutputFolders, AnInputInsideTheFolderARunReplacesIsRefused) {
+  const std::string run = "simulate --workload museum --platform paper-A --duration 1s --no-progress ";
+  ASSERT_EQ(rayline_cli(run + "--record-replay --out " + path("rec")).code, 0);
+  const std::string log = read("rec/replay.log");
+  ASSERT_FALSE(log.empty());
+  auto r = rayline_cli(run + "--fidelity replay --replay " + path("rec/replay.log") + " --out " + path("rec"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--replay: lies inside --out"), std::string::npos) << r.err;
+  fs::create_directories(path("cmp/gmb"));
+  fs::rename(path("rec/replay.log"), path("cmp/gmb/replay.log"));
+  r = rayline_cli("compare --workload museum --platform paper-A --duration 1s --schedulers gmb --fidelity replay --replay " +
+                  path("cmp/gmb/replay.log") + " --out " + path("cmp"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--replay: lies inside --out"), std::string::npos) << r.err;
+  EXPECT_EQ(read("cmp/gmb/replay.log"), log);
+  // Elsewhere, the same log replays.
+  EXPECT_EQ(rayline_cli(run + "--fidelity replay --replay " + path("cmp/gmb/replay.log") + " --out " + path("rec")).code, 0);
+}
