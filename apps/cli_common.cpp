@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "sched/error.hpp"
+#include "sched/output_folder.hpp"
 #include "sched/unfinished_output.hpp"
 #include "sched/units.hpp"
 
@@ -80,14 +81,9 @@ void check_output_file(const std::string& path, const std::string& flag, const s
 
 namespace {
 bool same_file(const std::string& a, const std::string& b) {
-  namespace fs = std::filesystem;
   std::error_code ec;
-  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
-  const auto norm = [](const std::string& p) {
-    std::error_code e;
-    return fs::weakly_canonical(fs::absolute(p, e), e).lexically_normal();
-  };
-  return norm(a) == norm(b);
+  if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
+  return normal_path(a) == normal_path(b);
 }
 }  // namespace
 
@@ -106,19 +102,10 @@ void check_distinct(const std::vector<NamedPath>& outputs, const std::vector<Nam
 }
 
 void check_not_inside(const std::string& folder, const std::string& folder_flag, const std::vector<NamedPath>& inputs) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::path dir = fs::weakly_canonical(fs::absolute(folder, ec), ec).lexically_normal();
-  for (const NamedPath& in : inputs) {
-    if (in.path.empty()) continue;
-    const fs::path p = fs::weakly_canonical(fs::absolute(in.path, ec), ec).lexically_normal();
-    auto a = dir.begin(), b = p.begin();
-    for (; a != dir.end() && b != p.end() && *a == *b; ++a, ++b) {
-    }
-    if (a == dir.end() || (std::next(a) == dir.end() && a->empty()))
+  for (const NamedPath& in : inputs)
+    if (!in.path.empty() && folder_holds(folder, in.path))
       throw InputError(in.path, in.flag, "lies inside " + folder_flag + " " + folder +
                                              ", which the run replaces; move it out or choose another " + folder_flag);
-  }
 }
 
 void write_file_atomic(const std::string& path, const std::string& content) {

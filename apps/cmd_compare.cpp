@@ -16,9 +16,7 @@
 
 #include "apps/cli_common.hpp"
 #include "apps/interrupt.hpp"
-#include "apps/platform_path.hpp"
 #include "sched/error.hpp"
-#include "sim/simulation.hpp"
 
 namespace rayline::cli {
 
@@ -99,11 +97,7 @@ int run_compare(const CompareOptions& opt) {
     throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
   check_simulate_flags(opt.sim);
   // Each run replaces OUT/<scheduler>: checked for the user's files before the first run.
-  for (const std::string& s : scheds) {
-    sim::check_results_folder(opt.out + "/" + s, "--out");
-    check_not_inside(opt.out + "/" + s, "--out",
-                     {{"--platform", resolve_platform(opt.sim.platform)}, {"--workload", opt.sim.workload}, {"--replay", opt.sim.replay}});
-  }
+  for (const std::string& s : scheds) check_run_folder(opt.sim, opt.out + "/" + s);
   ensure_dir(opt.out, "--out");
   std::vector<Row> rows;
   for (const auto& s : scheds) {

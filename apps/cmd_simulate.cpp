@@ -129,17 +129,20 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
 
 void check_simulate_flags(const SimulateOptions& opt) { simulate_config(opt); }
 
+void check_run_folder(const SimulateOptions& opt, const std::string& dir) {
+  sim::check_results_folder(dir, "--out");
+  const std::string workload = resolve_workload(opt.workload);
+  check_not_inside(dir, "--out",
+                   {{"--platform", resolve_platform(opt.platform)},
+                    {"--workload", workload == "ray-stream" ? "" : workload},
+                    {"--replay", opt.replay}});
+}
+
 int run_simulate(const SimulateOptions& opt) {
   sim::SimulationConfig cfg = simulate_config(opt);
   const std::vector<int> counts = client_counts(opt.clients);
   // Before any run: a folder holding the user's files is never replaced, nor one an input lies in.
-  const std::vector<NamedPath> inputs = {
-      {"--platform", cfg.platform_file}, {"--workload", cfg.workload == "ray-stream" ? "" : cfg.workload}, {"--replay", opt.replay}};
-  for (int n : counts) {
-    const std::string dir = counts.size() == 1 ? opt.out : opt.out + "/clients-" + std::to_string(n);
-    sim::check_results_folder(dir, "--out");
-    check_not_inside(dir, "--out", inputs);
-  }
+  for (int n : counts) check_run_folder(opt, counts.size() == 1 ? opt.out : opt.out + "/clients-" + std::to_string(n));
   if (counts.size() == 1) {
     cfg.clients = counts[0];
     const sim::SimulationSummary s = sim::run_simulation(cfg);

@@ -36,5 +36,8 @@ int run_simulate(const SimulateOptions& opt);
 // --aging, --warmup): InputError naming the flag, before anything runs (compare checks once
 // for all its schedulers).
 void check_simulate_flags(const SimulateOptions& opt);
+// Before a run into `dir` (OUT, OUT/clients-N, compare's OUT/<scheduler>): InputError unless
+// `dir` may be replaced and holds none of the run's input files.
+void check_run_folder(const SimulateOptions& opt, const std::string& dir);
 
 }  // namespace rayline::cli

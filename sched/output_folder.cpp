@@ -19,25 +19,31 @@ bool matches(std::string_view name, std::string_view pattern) {
          name.substr(name.size() - tail.size()) == tail;
 }
 
-// a == b, or a is a folder above b (both absolute and normalised).
-bool holds(const fs::path& a, const fs::path& b) {
+}  // namespace
+
+std::string normal_path(const std::string& path) {
+  std::error_code ec;
+  fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  if (ec) p = fs::absolute(path, ec);  // unresolvable (a folder we may not enter): as written
+  p = p.lexically_normal();
+  if (p.has_relative_path() && p.filename().empty()) p = p.parent_path();
+  return p.string();
+}
+
+bool folder_holds(const std::string& folder, const std::string& path) {
+  const fs::path a = normal_path(folder), b = normal_path(path);
   auto ia = a.begin(), ib = b.begin();
   for (; ia != a.end(); ++ia, ++ib)
     if (ib == b.end() || *ia != *ib) return false;
   return true;
 }
 
-}  // namespace
-
 std::string replaceable_folder(const std::string& path, const std::string& flag, const OwnFiles& own) {
   if (path.empty()) throw InputError(path, flag, "missing output folder");
   std::error_code ec;
-  fs::path target = fs::weakly_canonical(fs::absolute(path, ec), ec);
-  if (ec) throw InputError(path, flag, "cannot resolve the folder: " + ec.message());
-  target = target.lexically_normal();
-  if (target.has_relative_path() && target.filename().empty()) target = target.parent_path();
-  const fs::path cwd = fs::weakly_canonical(fs::current_path(ec), ec);
-  if (!target.has_relative_path() || (!cwd.empty() && holds(target, cwd)))
+  const fs::path target = normal_path(path);
+  const fs::path cwd = fs::current_path(ec);
+  if (!target.has_relative_path() || (!ec && folder_holds(target.string(), cwd.string())))
     throw InputError(path, flag, "is the current folder or holds it; results replace the whole folder, so give a "
                                  "folder of their own (e.g. out/run1)");
   const fs::file_status st = fs::status(target, ec);

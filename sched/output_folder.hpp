@@ -20,6 +20,13 @@ using OwnFiles = std::vector<std::string_view>;
 // first such entry is named).
 std::string replaceable_folder(const std::string& path, const std::string& flag, const OwnFiles& own);
 
+// `path` made absolute, with links resolved as far as it exists, `.` and `..` folded and
+// no trailing '/': how every check here compares paths.
+std::string normal_path(const std::string& path);
+
+// True when `path` is `folder` or lies inside it (both through normal_path).
+bool folder_holds(const std::string& folder, const std::string& path);
+
 // The sibling `target.partial.<pid>` a run writes into before publish_folder().
 std::string partial_folder(const std::string& target);
 

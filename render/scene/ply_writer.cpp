@@ -7,7 +7,6 @@
 #include <unistd.h>
 
 #include "sched/error.hpp"
-#include "sched/unfinished_output.hpp"
 
 namespace rayline::scene {
 namespace {
@@ -34,20 +33,17 @@ void write_all(std::FILE* f, const std::vector<char>& buf, const std::string& pa
 }  // namespace
 
 PlyWriter::PlyWriter(std::string path, std::vector<std::string> comments)
-    : path_(std::move(path)), comments_(std::move(comments)) {
-  const std::string pid = std::to_string(::getpid());
-  tmp_ = path_ + ".tmp." + pid;
-  faces_tmp_ = path_ + ".tmp." + pid + ".faces";
-  unfinished::add(tmp_);  // both removed if the run is interrupted
-  unfinished::add(faces_tmp_);
+    : path_(std::move(path)),
+      tmp_(path_ + ".tmp." + std::to_string(::getpid())),
+      faces_tmp_(tmp_ + ".faces"),
+      comments_(std::move(comments)) {
   vf_ = std::fopen(tmp_.c_str(), "wb");
-  ff_ = vf_ ? std::fopen(faces_tmp_.c_str(), "wb+") : nullptr;
+  if (!vf_) throw InputError(path_, "", "cannot open for writing");
+  ff_ = std::fopen(faces_tmp_.c_str(), "wb+");
   if (!ff_) {
-    if (vf_) std::fclose(vf_);
+    std::fclose(vf_);
     std::remove(tmp_.c_str());
-    unfinished::remove(tmp_);
-    unfinished::remove(faces_tmp_);
-    throw InputError(path_, "", vf_ ? "cannot open temporary file for writing" : "cannot open for writing");
+    throw InputError(path_, "", "cannot open temporary file for writing");
   }
   vbuf_.reserve(kBufferBytes + 4096);
   fbuf_.reserve(kBufferBytes + 4096);
@@ -61,8 +57,6 @@ PlyWriter::PlyWriter(std::string path, std::vector<std::string> comments)
     std::fclose(ff_);
     std::remove(tmp_.c_str());
     std::remove(faces_tmp_.c_str());
-    unfinished::remove(tmp_);
-    unfinished::remove(faces_tmp_);
     throw;
   }
 }
@@ -72,8 +66,6 @@ PlyWriter::~PlyWriter() {
   if (ff_) std::fclose(ff_);
   if (!finished_) std::remove(tmp_.c_str());
   std::remove(faces_tmp_.c_str());
-  unfinished::remove(tmp_);
-  unfinished::remove(faces_tmp_);
 }
 
 std::string PlyWriter::header(std::size_t pad) const {

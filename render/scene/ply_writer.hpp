@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "render/scene/mesh_sink.hpp"
+#include "sched/unfinished_output.hpp"
 
 namespace rayline::scene {
 
@@ -35,6 +36,8 @@ class PlyWriter final : public MeshSink {
   void flush_buffers();
 
   std::string path_, tmp_, faces_tmp_;
+  // Registered for the writer's lifetime: removed if the run is interrupted.
+  unfinished::Guard tmp_guard_{tmp_}, faces_guard_{faces_tmp_};
   std::vector<std::string> comments_;
   std::FILE* vf_ = nullptr;
   std::FILE* ff_ = nullptr;
