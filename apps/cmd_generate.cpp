@@ -3,11 +3,13 @@
 #include "apps/cmd_generate.hpp"
 
 #include <chrono>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 
 #include "apps/cli_common.hpp"
+#include "render/scene/assets.hpp"
 #include "render/scene/generators.hpp"
 #include "sched/error.hpp"
 
@@ -49,8 +51,22 @@ int run_generate(const GenerateOptions& opt) {
   const std::uint64_t n = opt.triangles.empty() ? g->default_triangles : parse_count(opt.triangles, "--triangles");
   if (n < g->min_triangles)
     throw InputError("--triangles", "", opt.name + " needs at least " + std::to_string(g->min_triangles));
+  std::string ext = std::filesystem::path(opt.out).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext != ".ply")  // (a mesh is read back by its extension: PLY bytes in x.obj would not load)
+    throw InputError(opt.out, "--out", "the mesh is written as binary PLY: use a name ending in .ply");
+  // The companion scene (next to the mesh unless --scene-out names it, none for "-") and the
+  // mesh may not replace each other or an asset file the generators read.
+  const std::string scene_out = opt.scene_out == "-" ? std::string()
+                                : opt.scene_out.empty()
+                                    ? std::filesystem::path(opt.out).replace_extension(".json").string()
+                                    : opt.scene_out;
+  std::vector<NamedPath> assets;
+  for (const std::vector<std::string>& list : {scene::scan_asset_files(), scene::cad_asset_files()})
+    for (const std::string& f : list) assets.push_back({"the generators (an asset file)", f});
+  check_distinct({{"--out", opt.out}, {opt.scene_out.empty() ? "--out (its scene)" : "--scene-out", scene_out}}, assets);
   check_output_file(opt.out, "--out", "out/museum.ply");
-  if (!opt.scene_out.empty() && opt.scene_out != "-") check_output_file(opt.scene_out, "--scene-out", "out/museum.json");
+  if (!scene_out.empty()) check_output_file(scene_out, opt.scene_out.empty() ? "--out" : "--scene-out", "out/museum.json");
   std::error_code ec;
 
   const auto t0 = std::chrono::steady_clock::now();

@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include "render/engine/profile_recorder.hpp"
 #include "render/engine/renderer.hpp"
 #include "render/image/image_io.hpp"
+#include "render/scene/scene.hpp"
 #include "sched/error.hpp"
 #include "sched/unfinished_output.hpp"
 
@@ -44,6 +46,19 @@ void parse_resolution(const std::string& s, int& w, int& h) {
 std::string sibling(const std::string& image, const std::string& suffix) {
   fs::path p(image);
   return (p.parent_path() / (p.stem().string() + suffix)).string();
+}
+
+// The scene file and the mesh files a JSON scene names (resolved as the loader resolves
+// them): no output may replace one of them either. (A scene that does not load is reported
+// here, before any work, with the loader's message.)
+std::vector<NamedPath> scene_inputs(const std::string& scene_path) {
+  std::vector<NamedPath> in = {{"--scene", scene_path}};
+  std::string ext = fs::path(scene_path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (scene_path.empty() || ext != ".json") return in;
+  for (const scene::MeshInstance& m : scene::load_scene(scene_path).meshes)
+    if (!m.file.empty()) in.push_back({"--scene (its mesh '" + m.name + "')", m.file});
+  return in;
 }
 
 void progress_bar(double fraction, double rays_per_s) {
@@ -87,10 +102,10 @@ int run_render(const RenderCliOptions& opt) {
   if (ext != ".exr") throw InputError(opt.out, "--out", "the image is written as OpenEXR: use a name ending in .exr");
   // The image's companions are written beside it (sibling names): none may be an input or
   // a recording.
-  const std::vector<NamedPath> inputs = {
-      {"--scene", opt.scene},
-      {"--platform", opt.platform == "auto" ? std::string() : opt.platform},
-      {"--blocks-dir", opt.blocks_dir.empty() ? std::string() : (fs::path(opt.blocks_dir) / "blocks.json").string()}};
+  std::vector<NamedPath> inputs = scene_inputs(opt.scene);
+  inputs.push_back({"--platform", opt.platform == "auto" ? std::string() : opt.platform});
+  inputs.push_back(
+      {"--blocks-dir", opt.blocks_dir.empty() ? std::string() : (fs::path(opt.blocks_dir) / "blocks.json").string()});
   check_distinct({{"--out", opt.out},
                   {"--out (its PNG preview)", sibling(opt.out, ".png")},
                   {"--out (its metrics)", sibling(opt.out, ".metrics.json")},
@@ -196,7 +211,7 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!(opt.budget_fraction > 0 && opt.budget_fraction < 1))
     throw InputError("--budget-fraction", "", "must be in (0, 1)");
-  check_distinct({{"--out", opt.out}}, {{"--scene", opt.scene}});
+  check_distinct({{"--out", opt.out}}, scene_inputs(opt.scene));
   check_output_file(opt.out, "--out", "out/this-machine.json");
   const bool tty = !opt.quiet && ::isatty(2);
   if (tty) ro.progress = progress_bar;

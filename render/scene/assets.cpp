@@ -88,17 +88,17 @@ std::shared_ptr<const AssetMesh> load_asset_mesh(const std::string& path) {
   return m;
 }
 
-std::vector<std::shared_ptr<const AssetMesh>> scan_assets() {
-  std::vector<std::shared_ptr<const AssetMesh>> r;
+std::vector<std::string> scan_asset_files() {
+  std::vector<std::string> files;
   for (const char* f : {"bunny.obj", "dragon.ply"}) {
     const fs::path p = fs::path(assets_dir()) / f;
     std::error_code ec;
-    if (fs::is_regular_file(p, ec)) r.push_back(load_asset_mesh(p.string()));
+    if (fs::is_regular_file(p, ec)) files.push_back(p.string());
   }
-  return r;
+  return files;
 }
 
-std::vector<std::shared_ptr<const AssetMesh>> cad_assets() {
+std::vector<std::string> cad_asset_files() {
   std::vector<std::string> files;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(fs::path(assets_dir()) / "occt", ec)) {
@@ -107,8 +107,18 @@ std::vector<std::shared_ptr<const AssetMesh>> cad_assets() {
     if (ext == ".stl" && e.is_regular_file(ec)) files.push_back(e.path().string());
   }
   std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::vector<std::shared_ptr<const AssetMesh>> scan_assets() {
   std::vector<std::shared_ptr<const AssetMesh>> r;
-  for (const auto& f : files) {
+  for (const std::string& f : scan_asset_files()) r.push_back(load_asset_mesh(f));
+  return r;
+}
+
+std::vector<std::shared_ptr<const AssetMesh>> cad_assets() {
+  std::vector<std::shared_ptr<const AssetMesh>> r;
+  for (const std::string& f : cad_asset_files()) {
     try {
       auto m = load_asset_mesh(f);
       if (!m->triangles.empty()) r.push_back(m);

@@ -26,6 +26,11 @@ struct AssetMesh {
 // Loads (once per process and path; later calls share the copy) the mesh at `path`.
 std::shared_ptr<const AssetMesh> load_asset_mesh(const std::string& path);
 
+// The asset files present: the scans (bunny.obj, dragon.ply, in that order), then the CAD
+// parts occt/*.stl sorted by name. (Generators read them; `generate` never writes over one.)
+std::vector<std::string> scan_asset_files();
+std::vector<std::string> cad_asset_files();
+
 // Scans present in assets_dir(), in fixed order (bunny.obj, dragon.ply).
 std::vector<std::shared_ptr<const AssetMesh>> scan_assets();
 // CAD parts assets_dir()/occt/*.stl, sorted by file name; unreadable files are skipped.

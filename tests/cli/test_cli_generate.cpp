@@ -5,7 +5,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <cstdlib>
 #include <unistd.h>
+
+#include <string>
+#include <vector>
 
 #include "cli_run.hpp"
 
@@ -30,6 +34,7 @@ TEST(CliGenerate, WritesADeterministicMesh) {
   EXPECT_GT(fs::file_size(dir / "a.ply"), 100'000u);
   for (const auto& e : fs::directory_iterator(dir))
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+  ::unsetenv("RAYLINE_ASSETS");
   fs::remove_all(dir);
 }
 
@@ -55,4 +60,42 @@ TEST(CliGenerate, BadInputExitsTwo) {
   EXPECT_EQ(r.code, 0) << r.all;
   fs::remove(ok);
   EXPECT_EQ(rayline_cli("generate --help").code, 0);
+}
+
+// The mesh is binary PLY whatever its name, and meshes are read back by their extension:
+// `--out x.obj` wrote PLY bytes that no reader would take as OBJ. Nor may an output
+// replace its companion scene or an asset file the generators read (`--out
+// assets/dragon.ply` replaced the scan it had just loaded).
+TEST(CliGenerate, OutputsAreAPlyMeshThatReplacesNoInput) {
+  const fs::path dir = fs::temp_directory_path() / ("rayline-gen-out-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "assets");
+  std::ofstream(dir / "assets" / "dragon.ply") << "not really a dragon";
+  ::setenv("RAYLINE_ASSETS", (dir / "assets").string().c_str(), 1);  // (the binary inherits it)
+  const std::string gen = "generate cornell --triangles 100 ";
+  struct Case {
+    std::string args, message;
+  };
+  const std::vector<Case> cases = {
+      {gen + "--out " + (dir / "x.obj").string(), "--out: the mesh is written as binary PLY"},
+      {gen + "--out " + (dir / "x.ply").string() + " --scene-out " + (dir / "x.ply").string(),
+       "--scene-out: is also the file of --out"},
+      {gen + "--out " + (dir / "assets" / "dragon.ply").string(), "--out: is the input of the generators"},
+      {gen + "--out " + (dir / "y.ply").string() + " --scene-out " + (dir / "assets/../assets/dragon.ply").string(),
+       "--scene-out: is the input of the generators"},
+  };
+  for (const Case& c : cases) {
+    const auto r = rayline_cli(c.args);
+    EXPECT_EQ(r.code, 2) << c.args << ": " << r.all;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << c.args << ": " << r.err;
+  }
+  EXPECT_EQ(slurp(dir / "assets" / "dragon.ply"), "not really a dragon");
+  EXPECT_FALSE(fs::exists(dir / "x.obj"));
+  EXPECT_FALSE(fs::exists(dir / "x.ply"));
+  EXPECT_FALSE(fs::exists(dir / "y.ply"));
+  // An upper-case extension is still PLY.
+  EXPECT_EQ(rayline_cli(gen + "-q --scene-out - --out " + (dir / "z.PLY").string()).code, 0);
+  EXPECT_TRUE(fs::exists(dir / "z.PLY"));
+  ::unsetenv("RAYLINE_ASSETS");
+  fs::remove_all(dir);
 }

@@ -160,11 +160,13 @@ TEST_F(OutputFolders, OutputFilesNamedAsFoldersAreRefusedBeforeTheWork) {
 
 // An output that names an input, or another output, is refused before the work: `render
 // --record-profile SCENE.json` overwrote the scene with statistics (exit 0), and `plan
-// --trace F --jobs-csv F` left only the CSV.
+// --trace F --jobs-csv F` left only the CSV. The meshes a scene file names are inputs too:
+// `render --scene S.json --record-profile MESH.ply` replaced the mesh with statistics.
 TEST_F(OutputFolders, OutputsThatWouldOverwriteAnInputOrEachOtherAreRefused) {
   ASSERT_EQ(rayline_cli("generate cornell -q -n 1000 --out " + path("c.ply")).code, 0);
-  const std::string scene = read("c.json");
+  const std::string scene = read("c.json"), mesh = read("c.ply");
   ASSERT_FALSE(scene.empty());
+  ASSERT_FALSE(mesh.empty());
   fs::create_symlink(path("c.json"), path("link.json"));
   const std::string render = "render -q --spp 1 --resolution 8x8 --scene " + path("c.json") + " ";
   const std::vector<std::pair<std::string, std::string>> cases = {
@@ -179,6 +181,11 @@ TEST_F(OutputFolders, OutputsThatWouldOverwriteAnInputOrEachOtherAreRefused) {
       {"plan -q --trace " + path("t.json") + " --jobs-csv " + path("t.json"), "--jobs-csv: is also the file of --trace"},
       {"plan -q --platform " + path("p.json") + " --trace " + path("p.json"), "--trace: is the input of --platform"},
       {"calibrate --scene " + path("c.json") + " --out " + path("link.json"), "--out: is the input of --scene"},
+      {render + "--out " + path("r.exr") + " --record-profile " + path("c.ply"),
+       "--record-profile: is the input of --scene (its mesh"},
+      {render + "--out " + path("r.exr") + " --record-replay " + path("sub/../c.ply"),
+       "--record-replay: is the input of --scene (its mesh"},
+      {"calibrate --scene " + path("c.json") + " --out " + path("c.ply"), "--out: is the input of --scene (its mesh"},
   };
   fs::copy_file(std::string(RAYLINE_PLATFORMS) + "/paper-A.json", path("p.json"));
   for (const auto& [args, msg] : cases) {
@@ -187,6 +194,7 @@ TEST_F(OutputFolders, OutputsThatWouldOverwriteAnInputOrEachOtherAreRefused) {
     EXPECT_NE(r.err.find(msg), std::string::npos) << args << ": " << r.err;
   }
   EXPECT_EQ(read("c.json"), scene);
+  EXPECT_EQ(read("c.ply"), mesh);
   EXPECT_FALSE(fs::exists(path("r.exr")));
   EXPECT_FALSE(fs::exists(path("t.json")));
   EXPECT_FALSE(fs::exists(path("x.log")));
