@@ -51,6 +51,7 @@ int run_generate(const GenerateOptions& opt) {
   const std::uint64_t n = opt.triangles.empty() ? g->default_triangles : parse_count(opt.triangles, "--triangles");
   if (n < g->min_triangles)
     throw InputError("--triangles", "", opt.name + " needs at least " + std::to_string(g->min_triangles));
+  check_output_file(opt.out, "--out", "out/museum.ply");
   std::string ext = std::filesystem::path(opt.out).extension().string();
   for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   if (ext != ".ply")  // (a mesh is read back by its extension: PLY bytes in x.obj would not load)
@@ -65,7 +66,6 @@ int run_generate(const GenerateOptions& opt) {
   for (const std::vector<std::string>& list : {scene::scan_asset_files(), scene::cad_asset_files()})
     for (const std::string& f : list) assets.push_back({"the generators (an asset file)", f});
   check_distinct({{"--out", opt.out}, {opt.scene_out.empty() ? "--out (its scene)" : "--scene-out", scene_out}}, assets);
-  check_output_file(opt.out, "--out", "out/museum.ply");
   if (!scene_out.empty()) check_output_file(scene_out, opt.scene_out.empty() ? "--out" : "--scene-out", "out/museum.json");
   std::error_code ec;
 

@@ -13,6 +13,7 @@
 #include "render/partition/partition.hpp"
 #include "render/scene/scene.hpp"
 #include "sched/error.hpp"
+#include "sched/progress_line.hpp"
 
 namespace rayline::cli {
 
@@ -38,6 +39,18 @@ std::uint64_t parse_bytes(const std::string& text, const std::string& field) {
   return static_cast<std::uint64_t>(n);
 }
 
+std::function<void(const partition::PartitionProgress&)> partition_progress(ProgressLine& line) {
+  return [&line](const partition::PartitionProgress& p) {
+    if (!line.due()) return;
+    if (p.pass == 1)
+      line.print("partition", "pass 1/2 (bounds, sample): %.1f M triangles", double(p.triangles_done) / 1e6);
+    else
+      line.print("partition", "pass 2/2 (blocks): %5.1f %% of %.1f M triangles",
+                 100.0 * double(p.triangles_done) / double(std::max<std::uint64_t>(p.triangles_total, 1)),
+                 double(p.triangles_total) / 1e6);
+  };
+}
+
 int run_partition(const PartitionOptions& opt) {
   namespace part = rayline::partition;
   using Clock = std::chrono::steady_clock;
@@ -47,25 +60,11 @@ int run_partition(const PartitionOptions& opt) {
   po.memory_limit = parse_bytes(opt.memory_limit, "--memory-limit");
   const scene::Scene sc = opt.scene.empty() ? scene::default_scene() : scene::load_scene(opt.scene);
 
-  const bool progress = !opt.quiet && ::isatty(2);
-  auto last = Clock::now();
-  if (progress) {
-    po.progress = [&](const part::PartitionProgress& p) {
-      const auto now = Clock::now();
-      if (now - last < std::chrono::milliseconds(250)) return;
-      last = now;
-      if (p.pass == 1)
-        std::fprintf(stderr, "\rpass 1/2 (bounds, sample): %.1f M triangles   ", double(p.triangles_done) / 1e6);
-      else
-        std::fprintf(stderr, "\rpass 2/2 (blocks): %5.1f %% of %.1f M triangles   ",
-                     100.0 * double(p.triangles_done) / double(std::max<std::uint64_t>(p.triangles_total, 1)),
-                     double(p.triangles_total) / 1e6);
-      std::fflush(stderr);
-    };
-  }
+  ProgressLine line(ProgressLine::for_stderr(opt.quiet));
+  if (line.mode() != ProgressLine::Mode::Off) po.progress = partition_progress(line);
   ensure_parent_dir(opt.out, "--out");  // its parent; the folder itself appears by rename at the end
   const part::PartitionResult r = part::partition_scene(sc, opt.out, po);
-  if (progress) std::fprintf(stderr, "\r%60s\r", "");
+  line.done();
   const double s = std::chrono::duration<double>(Clock::now() - t0).count();
   const auto& idx = r.index;
   if (!opt.quiet) {

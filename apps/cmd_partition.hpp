@@ -3,7 +3,15 @@
 // render/partition/block_file.hpp and partition.hpp).
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <string>
+
+namespace rayline {
+class ProgressLine;
+namespace partition {
+struct PartitionProgress;
+}
+}  // namespace rayline
 
 namespace rayline::cli {
 
@@ -15,6 +23,9 @@ struct PartitionOptions {
   bool quiet = false;
 };
 int run_partition(const PartitionOptions& opt);
+
+// The partitioner's progress as lines of `line` (partition, and render's own partition).
+std::function<void(const partition::PartitionProgress&)> partition_progress(ProgressLine& line);
 
 // "1GiB", "512MiB", "64M", "1000000" → bytes (K/M/G/T: 2^10.. with or without "iB"/"B").
 std::uint64_t parse_bytes(const std::string& text, const std::string& field);

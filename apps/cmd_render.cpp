@@ -20,6 +20,7 @@
 #include "render/image/image_io.hpp"
 #include "render/scene/scene.hpp"
 #include "sched/error.hpp"
+#include "sched/progress_line.hpp"
 #include "sched/unfinished_output.hpp"
 
 namespace rayline::cli {
@@ -61,10 +62,14 @@ std::vector<NamedPath> scene_inputs(const std::string& scene_path) {
   return in;
 }
 
-void progress_bar(double fraction, double rays_per_s) {
-  const int width = 30, n = static_cast<int>(fraction * width + 0.5);
-  std::fprintf(stderr, "\r[%.*s%*s] %5.1f %%  %.2f Mrays/s   ", n, "##############################", width - n, "",
+// The render's progress: a bar, the fraction of camera paths done and the rays per second.
+std::function<void(double, double)> progress_bar(ProgressLine& line, const char* what) {
+  return [&line, what](double fraction, double rays_per_s) {
+    if (!line.due()) return;
+    const int width = 30, n = static_cast<int>(fraction * width + 0.5);
+    line.print(what, "[%.*s%*s] %5.1f %%  %.2f Mrays/s", n, "##############################", width - n, "",
                100 * fraction, rays_per_s / 1e6);
+  };
 }
 
 }  // namespace
@@ -115,8 +120,11 @@ int run_render(const RenderCliOptions& opt) {
                   {"--record-replay", opt.record_replay}},
                  inputs);
   check_output_file(opt.out, "--out", "out/render.exr");  // before rendering: nothing rendered for nothing
-  const bool tty = !opt.quiet && ::isatty(2);
-  if (tty) ro.progress = progress_bar;
+  ProgressLine line(ProgressLine::for_stderr(opt.quiet));
+  if (line.mode() != ProgressLine::Mode::Off) {
+    ro.progress = progress_bar(line, "render");
+    ro.partition_progress = partition_progress(line);
+  }
   std::unique_ptr<engine::ProfileRecorder> recorder;
   if (!opt.record_profile.empty() || !opt.record_replay.empty()) {
     engine::ProfileRecorderOptions po;
@@ -134,7 +142,7 @@ int run_render(const RenderCliOptions& opt) {
   }
 
   const engine::RenderResult r = engine::render(ro);
-  if (tty) std::fprintf(stderr, "\n");
+  line.done();
   if (recorder) {
     const std::string extra = "\"scene\": \"" + r.scene_name + "\", \"blocks\": " + std::to_string(r.blocks) +
                               ", \"seed\": " + std::to_string(r.seed) + ", \"render_rays\": {\"traced\": " +
@@ -213,10 +221,13 @@ int run_calibrate(const CalibrateCliOptions& opt) {
     throw InputError("--budget-fraction", "", "must be in (0, 1)");
   check_distinct({{"--out", opt.out}}, scene_inputs(opt.scene));
   check_output_file(opt.out, "--out", "out/this-machine.json");
-  const bool tty = !opt.quiet && ::isatty(2);
-  if (tty) ro.progress = progress_bar;
+  ProgressLine line(ProgressLine::for_stderr(opt.quiet));
+  if (line.mode() != ProgressLine::Mode::Off) {
+    ro.progress = progress_bar(line, "calibrate");
+    ro.partition_progress = partition_progress(line);
+  }
   const engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);
-  if (tty) std::fprintf(stderr, "\n");
+  line.done();
   write_file_atomic(opt.out, c.platform_json);
   std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %.3f ms, bandwidth %.1f MB/s, "
               "relative RMS error %.1f %%\n",

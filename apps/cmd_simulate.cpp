@@ -88,7 +88,7 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.out_dir = opt.out;
   cfg.paje = opt.paje;
   cfg.timeline = !opt.no_timeline;
-  cfg.progress = !opt.no_progress && ::isatty(2);
+  cfg.progress = ProgressLine::for_stderr(opt.no_progress);
   cfg.prediction_depth = opt.prediction_depth;
   cfg.merge_planned = opt.merge_planned == "on";
   cfg.cancel_failed = opt.cancel_failed == "on";
@@ -173,7 +173,7 @@ int run_simulate(const SimulateOptions& opt) {
         sim::SimulationConfig c = cfg;
         c.clients = n;
         c.out_dir = opt.out + "/clients-" + std::to_string(n);
-        c.progress = false;
+        c.progress = ProgressLine::Mode::Off;
         const sim::SimulationSummary s = sim::run_simulation(c);
         char line[512];
         const int len = std::snprintf(line, sizeof line, "%d,%.6g,%.4f,%.4f,%.4f,%.4f,%.4f,%llu\n", n,

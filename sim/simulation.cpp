@@ -237,15 +237,17 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   }
   SimExecutor ex(platform, s, xo);
   RuntimeLoop loop(*scheduler, ex, *wl, pool, s);
-  auto last_print = std::chrono::steady_clock::now();
-  if (cfg.progress) {
+  ProgressLine progress(cfg.progress);
+  if (progress.mode() != ProgressLine::Mode::Off) {
     loop.on_progress = [&](Time now, const RunStats&) {
-      const auto t = std::chrono::steady_clock::now();
-      if (t - last_print < std::chrono::milliseconds(500)) return;
-      last_print = t;
-      std::fprintf(stderr, "\r[simulate] t=%7.2f / %.0f s  rays %.3g  activities %zu   ", now, cfg.duration,
-                   rs ? static_cast<double>(rs->rays_traced()) : pt ? static_cast<double>(work_of(*pt)) : 0.0,
-                   s.activity_count());
+      if (!progress.due()) return;
+      const double rays = rs ? static_cast<double>(rs->rays_traced()) : pt ? static_cast<double>(work_of(*pt)) : 0.0;
+      if (stream)
+        progress.print("simulate", "t=%7.2f / %.0f s  rays %.3g  activities %zu", now, cfg.duration, rays,
+                       s.activity_count());
+      else
+        progress.print("simulate", "t=%7.2f s  jobs left %zu  activities %zu", now, pool.queued_count(),
+                       s.activity_count());
     };
   }
   const auto run0 = std::chrono::steady_clock::now();
@@ -255,7 +257,7 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   const bool stalled =
       st.stalled || (pool.queued_count() > 0 && !why_unplaceable(*pool.queued().begin(), pool, s).empty());
   const double run_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - run0).count();
-  if (cfg.progress) std::fprintf(stderr, "\n");
+  progress.done();
   const Time end = stream ? cfg.duration : st.makespan;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 

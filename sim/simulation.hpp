@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <string>
 
+#include "sched/progress_line.hpp"
 #include "sched/types.hpp"
 
 namespace rayline::sim {
@@ -28,7 +29,7 @@ struct SimulationConfig {
   std::string out_dir = "out/simulate";
   bool paje = false;                    // SimGrid's own trace as OUT/simgrid.trace
   bool timeline = true;                 // OUT/timeline.json (Chrome trace)
-  bool progress = false;                // a progress line on stderr
+  ProgressLine::Mode progress = ProgressLine::Mode::Off;  // progress on stderr
   // Path-tracing workload (a scene profile; docs/scene-profiles.md).
   int clients = 1;
   int prediction_depth = 0;             // Sec. 5.2; 0: off

@@ -132,6 +132,7 @@ RenderResult render(const RenderOptions& opt) {
     po.blocks = opt.blocks > 0 ? opt.blocks : auto_blocks(scene::scene_stats(sc).triangles, opt.memory_budget);
     po.out_flag = "--blocks-dir";
     po.memory_limit_flag.clear();
+    po.progress = opt.partition_progress;
     partition::partition_scene(sc, dir, po);
     res.partition_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   } else if (opt.blocks > 0) {

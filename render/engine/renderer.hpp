@@ -14,6 +14,10 @@
 #include "sched/runtime_loop.hpp"
 #include "sched/timing_model.hpp"
 
+namespace rayline::partition {
+struct PartitionProgress;
+}
+
 namespace rayline::engine {
 
 struct RenderOptions {
@@ -52,6 +56,8 @@ struct RenderOptions {
   bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result
   // Called from the loop at most every 200 ms: fraction of paths done, rays/s so far.
   std::function<void(double fraction, double rays_per_second)> progress;
+  // Passed to the partitioner when the scene is partitioned first (no --blocks-dir yet).
+  std::function<void(const partition::PartitionProgress&)> partition_progress;
 };
 
 struct RenderResult {
