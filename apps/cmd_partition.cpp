@@ -44,6 +44,10 @@ std::function<void(const partition::PartitionProgress&)> partition_progress(Prog
     if (!line.due()) return;
     if (p.pass == 1)
       line.print("partition", "pass 1/2 (bounds, sample): %.1f M triangles", double(p.triangles_done) / 1e6);
+    else if (p.pass == 2 && p.files_done < p.files_total)
+      line.print("partition", "pass 2/2 (blocks): creating %u of %u block files", p.files_done, p.files_total);
+    else if (p.pass == 3)
+      line.print("partition", "pass 2/2 (blocks): finishing %u of %u block files", p.files_done, p.files_total);
     else
       line.print("partition", "pass 2/2 (blocks): %5.1f %% of %.1f M triangles",
                  100.0 * double(p.triangles_done) / double(std::max<std::uint64_t>(p.triangles_total, 1)),

@@ -541,11 +541,15 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
       w[b].path = (partial / fname).string();
       write_text(w[b].path, std::string(placeholder.begin(), placeholder.end()));
       w[b].buf.reserve(std::size_t(per_block));
+      if (opt.progress && b % 256 == 255) {  // (a file costs system calls: many blocks take seconds)
+        const PartitionProgress creating{2, 0, seen, b + 1, opt.blocks};
+        opt.progress(creating);
+      }
     }
     for (const KdNode& n : idx.nodes)
       if (n.leaf()) w[n.block].cell = n.cell;
     std::uint64_t routed = 0;
-    prog = {2, 0, seen};
+    prog = {2, 0, seen, opt.blocks, opt.blocks};
     source([&](std::span<const Triangle> batch) {
       for (const Triangle& t : batch) {
         const Bounds tb = tri_bounds(t);
@@ -594,6 +598,10 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
       h.payload_bytes = bi.triangles * kRecordBytes;
       h.payload_crc32 = bi.payload_crc32;
       const auto hb = encode_block_header(h);
+      if (opt.progress && b % 256 == 255) {
+        const PartitionProgress finishing{3, seen, seen, b + 1, opt.blocks};
+        opt.progress(finishing);
+      }
       const int fd = ::open(w[b].path.c_str(), O_WRONLY | O_CLOEXEC);
       if (fd < 0 || ::pwrite(fd, hb.data(), hb.size(), 0) != ssize_t(hb.size())) {
         if (fd >= 0) ::close(fd);

@@ -91,9 +91,10 @@ struct BlockIndex {
 };
 
 struct PartitionProgress {
-  int pass = 1;                        // 1: bounds and sample, 2: routing and writing
+  int pass = 1;                        // 1: bounds and sample, 2: routing and writing, 3: finishing files
   std::uint64_t triangles_done = 0;
   std::uint64_t triangles_total = 0;   // known in pass 2 only (0 in pass 1)
+  std::uint32_t files_done = 0, files_total = 0;  // block files created (pass 2) or finished (pass 3)
 };
 
 struct PartitionOptions {
