@@ -98,11 +98,18 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
   return blocked.empty() ? too_small : blocked;
 }
 
+JobId first_unplaceable(const JobPool& pool, const Schedule& s) {
+  for (JobId j : pool.queued())
+    if (!why_unplaceable(j, pool, s).empty()) return j;
+  return kNone;
+}
+
 std::string unplaced_summary(const JobPool& pool, const Schedule& s) {
   std::string msg = std::to_string(pool.queued_count()) + " job(s) could not be placed on any device";
   if (pool.queued_count() == 0) return msg;
-  const JobId j = *pool.queued().begin();
-  const std::string why = why_unplaceable(j, pool, s);
+  const JobId first = first_unplaceable(pool, s);
+  const JobId j = first != kNone ? first : *pool.queued().begin();
+  const std::string why = first != kNone ? why_unplaceable(j, pool, s) : std::string();
   return msg + "; job '" + pool.job(j).name + "': " +
          (why.empty() ? "no device had room for its inputs next to the blocks that planned jobs keep" : why);
 }

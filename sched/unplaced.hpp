@@ -16,7 +16,11 @@ class Schedule;
 // held by the blocks of planned jobs, say).
 std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s);
 
-// "N job(s) could not be placed on any device; job 'x': <why_unplaceable of the first>".
+// The first queued job (queue order) that why_unplaceable rules out; kNone when none is.
+JobId first_unplaceable(const JobPool& pool, const Schedule& s);
+
+// "N job(s) could not be placed on any device; job 'x': <why>", x being first_unplaceable
+// (else the first queued job, held back by what else is planned).
 std::string unplaced_summary(const JobPool& pool, const Schedule& s);
 
 }  // namespace rayline

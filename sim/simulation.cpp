@@ -253,9 +253,9 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   const auto run0 = std::chrono::steady_clock::now();
   const RunStats st = loop.run(stream ? cfg.duration : kNever);
   // A stream never drains, so the loop cannot see a stall; a queued job that no device can
-  // ever run (too big for every memory device, no path) is one all the same.
-  const bool stalled =
-      st.stalled || (pool.queued_count() > 0 && !why_unplaceable(*pool.queued().begin(), pool, s).empty());
+  // ever run (too big for every memory device, no path) is one all the same: any queued
+  // job, not only the oldest (the rays it holds are lost either way).
+  const bool stalled = st.stalled || first_unplaceable(pool, s) != kNone;
   const double run_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - run0).count();
   progress.done();
   const Time end = stream ? cfg.duration : st.makespan;

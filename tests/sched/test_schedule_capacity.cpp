@@ -76,3 +76,37 @@ TEST(Unplaceable, NamesTheSizeThePathOrTheJobType) {
   Schedule s2(b.g, pool);
   EXPECT_EQ(why_unplaceable(consumer, pool, s2), "");
 }
+
+// first_unplaceable looks at every queued job, not just the oldest: a stream whose oldest
+// job can run but a later one never can is a stall all the same (sim/simulation.cpp), and
+// the summary names the job that can never run.
+TEST(Unplaceable, TheFirstJobThatCanNeverRunIsFoundBehindRunnableOnes) {
+  DcgBuilder b;
+  const MemId disk = b.mem("n.disk", Bytes(1) << 40, MemoryKind::Disk);
+  const MemId ram = b.mem("n.ram", 1000);
+  b.dev("n.cpu", ram);
+  b.channel(disk, ram, 1e6);
+  b.timing(0, DataKind::SceneData, 1e6);
+  b.g.finalize();
+  JobPool pool;
+  const BlockId small = add_block(pool, "small", DataKind::SceneData, 500);
+  const BlockId huge = add_block(pool, "huge", DataKind::SceneData, 9000);
+  add_job(pool, "runs0", 0, {small});
+  add_job(pool, "runs1", 0, {small});
+  const JobId never = add_job(pool, "never", 0, {huge});
+  add_job(pool, "never_too", 0, {huge});
+  Schedule s(b.g, pool);
+  for (BlockId x : {small, huge}) s.put_initial(x, disk);
+  EXPECT_EQ(first_unplaceable(pool, s), never);
+  const std::string msg = unplaced_summary(pool, s);
+  EXPECT_NE(msg.find("4 job(s)"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("job 'never': its inputs and outputs need"), std::string::npos) << msg;
+  // Without such a job: kNone, and the summary names the oldest queued job.
+  JobPool ok;
+  const BlockId b0 = add_block(ok, "small", DataKind::SceneData, 500);
+  add_job(ok, "runs", 0, {b0});
+  Schedule s2(b.g, ok);
+  s2.put_initial(b0, disk);
+  EXPECT_EQ(first_unplaceable(ok, s2), kNone);
+  EXPECT_NE(unplaced_summary(ok, s2).find("job 'runs': no device had room"), std::string::npos);
+}
