@@ -1,7 +1,11 @@
 #include "sched/output_folder.hpp"
 
+#include <fcntl.h>  // AT_FDCWD
+#include <stdio.h>  // renameat2, RENAME_EXCHANGE, RENAME_NOREPLACE (glibc >= 2.28)
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 
 #include "sched/error.hpp"
@@ -70,6 +74,30 @@ std::string partial_folder(const std::string& target) {
 
 void publish_folder(const std::string& partial, const std::string& target, const std::string& flag) {
   std::error_code ec;
+  // Linux: move into an absent place without replacing (RENAME_NOREPLACE), or swap the two
+  // folders in one step (RENAME_EXCHANGE), so that runs publishing into one folder at once
+  // leave the last one's results and nothing else: no moment without a target, nothing set
+  // aside to be lost. (Other file systems, e.g. some network ones: the two-rename path below.)
+  int err = 0;
+  for (int attempt = 0; attempt < 16; ++attempt) {
+    if (::renameat2(AT_FDCWD, partial.c_str(), AT_FDCWD, target.c_str(), RENAME_NOREPLACE) == 0) return;
+    err = errno;
+    if (err != EEXIST) break;
+    if (::renameat2(AT_FDCWD, partial.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0) {
+      // `partial` now names what was the target: a folder replaceable_folder let go. (Should
+      // a file have taken its place since, it is swapped back, not removed.)
+      if (!fs::is_directory(fs::symlink_status(partial, ec))) {
+        ::renameat2(AT_FDCWD, partial.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE);
+        throw InputError(target, flag, "became something other than a folder while the run wrote; not replacing it");
+      }
+      fs::remove_all(partial, ec);
+      return;
+    }
+    err = errno;
+    if (err != ENOENT || !fs::exists(fs::symlink_status(partial, ec))) break;  // (ENOENT: the target just went)
+  }
+  if (err != EINVAL && err != ENOSYS && err != EOPNOTSUPP)
+    throw InputError(target, flag, "cannot move the results into place: " + std::string(std::strerror(err)));
   if (!fs::exists(fs::symlink_status(target, ec))) {
     fs::rename(partial, target, ec);
     if (ec) throw InputError(target, flag, "cannot move the results into place: " + ec.message());

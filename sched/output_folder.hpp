@@ -30,10 +30,11 @@ bool folder_holds(const std::string& folder, const std::string& path);
 // The sibling `target.partial.<pid>` a run writes into before publish_folder().
 std::string partial_folder(const std::string& target);
 
-// Swaps `partial` in for `target` (from replaceable_folder): an existing target is first
-// renamed aside and removed only once `partial` is in place; if that rename fails the old
-// target is put back and InputError(target, flag, ...) thrown, `partial` left for the
-// caller to remove.
+// Swaps `partial` in for `target` (from replaceable_folder) in one step where the file
+// system can (Linux renameat2), then removes the old target; else an existing target is
+// first renamed aside and removed only once `partial` is in place, and put back if that
+// fails. On failure InputError(target, flag, ...) is thrown, the old target is where it
+// was, and `partial` is left for the caller to remove.
 void publish_folder(const std::string& partial, const std::string& target, const std::string& flag);
 
 }  // namespace rayline

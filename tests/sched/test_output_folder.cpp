@@ -3,9 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
+#include <thread>
 #include <unistd.h>
 #include <vector>
 
@@ -108,5 +111,43 @@ TEST(OutputFolder, PublishSwapsTheFolderAndRestoresTheOldOneOnFailure) {
   std::size_t n = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(d)) ++n;
   EXPECT_EQ(n, 1u);
+  fs::remove_all(d);
+}
+
+// Runs publishing into one folder at once (two `simulate --out OUT` started together): the
+// last swap wins whole, no run fails, and nothing is left beside OUT. With two renames (the
+// old target set aside first) a loser failed and left its OUT.old.<pid> behind.
+TEST(OutputFolder, ConcurrentPublishesLeaveOneWholeResultAndNothingElse) {
+  const fs::path d = scratch("concurrent");
+  const std::string target = (d / "out").string();
+  constexpr int kThreads = 4, kRounds = 40;
+  std::atomic<int> failures{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t)
+    threads.emplace_back([&, t] {
+      for (int i = 0; i < kRounds; ++i) {
+        const std::string tag = std::to_string(t) + "-" + std::to_string(i);
+        const fs::path partial = target + ".partial." + tag;  // (one process: the pid is shared)
+        fs::create_directory(partial);
+        std::ofstream(partial / "blocks.json") << tag;
+        std::ofstream(partial / "block_0.rlb") << tag;
+        try {
+          rayline::publish_folder(partial.string(), target, "--out");
+        } catch (const InputError&) {
+          ++failures;
+        }
+      }
+    });
+  for (std::thread& th : threads) th.join();
+  EXPECT_EQ(failures.load(), 0);
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(d)) left.push_back(e.path().filename().string());
+  EXPECT_EQ(left, std::vector<std::string>{"out"});
+  auto read = [&](const char* f) {
+    std::ifstream in(fs::path(target) / f);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_FALSE(read("blocks.json").empty());
+  EXPECT_EQ(read("blocks.json"), read("block_0.rlb"));  // one run's files, not a mix
   fs::remove_all(d);
 }
