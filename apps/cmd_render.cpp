@@ -18,6 +18,7 @@
 #include "render/engine/profile_recorder.hpp"
 #include "render/engine/renderer.hpp"
 #include "render/image/image_io.hpp"
+#include "render/scene/gltf_reader.hpp"
 #include "render/scene/scene.hpp"
 #include "sched/error.hpp"
 #include "sched/progress_line.hpp"
@@ -53,12 +54,26 @@ std::string sibling(const std::string& image, const std::string& suffix) {
 // them): no output may replace one of them either. (A scene that does not load is reported
 // here, before any work, with the loader's message.)
 std::vector<NamedPath> scene_inputs(const std::string& scene_path) {
-  std::vector<NamedPath> in = {{"--scene", scene_path}};
-  std::string ext = fs::path(scene_path).extension().string();
-  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  if (scene_path.empty() || ext != ".json") return in;
+  const auto ext = [](const std::string& path) {
+    std::string e = fs::path(path).extension().string();
+    for (char& ch : e) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    return e;
+  };
+  std::vector<NamedPath> in;
+  // A glTF mesh also reads its buffer files (and names its textures): outputs replace none.
+  const auto add_mesh = [&](const std::string& what, const std::string& file) {
+    in.push_back({what, file});
+    if (ext(file) == ".gltf" || ext(file) == ".glb")
+      for (const std::string& f : scene::gltf_external_files(file))
+        in.push_back({what + " (its file '" + fs::path(f).filename().string() + "')", f});
+  };
+  if (scene_path.empty() || ext(scene_path) != ".json") {
+    add_mesh("--scene", scene_path);
+    return in;
+  }
+  in.push_back({"--scene", scene_path});
   for (const scene::MeshInstance& m : scene::load_scene(scene_path).meshes)
-    if (!m.file.empty()) in.push_back({"--scene (its mesh '" + m.name + "')", m.file});
+    if (!m.file.empty()) add_mesh("--scene (its mesh '" + m.name + "')", m.file);
   return in;
 }
 

@@ -165,6 +165,24 @@ class Gltf {
     }
   }
 
+  // The files buffers[].uri and images[].uri name (not data: URIs), beside the document.
+  std::vector<std::string> external_files() {
+    std::vector<std::string> out;
+    try {
+      if (!load_document()) return out;
+      for (const char* key : {"buffers", "images"})
+        for (const json& b : array(doc_, key, key))
+          if (b.is_object() && b.contains("uri") && b["uri"].is_string()) {
+            const std::string uri = b["uri"].get<std::string>();
+            if (uri.rfind("data:", 0) != 0)
+              out.push_back((std::filesystem::path(path_).parent_path() / percent_decode(uri)).string());
+          }
+    } catch (const std::exception&) {
+      // A damaged document names what it can; importing it reports the damage.
+    }
+    return out;
+  }
+
  private:
   [[noreturn]] void fail(const std::string& field, const std::string& msg) const { throw InputError(path_, field, msg); }
 
@@ -559,6 +577,12 @@ std::optional<ImportStats> stream_gltf(const std::string& path, const Affine& xf
                                        std::size_t batch) {
   Gltf g(path, xf, fn, batch);
   return g.run();
+}
+
+std::vector<std::string> gltf_external_files(const std::string& path) {
+  const TriangleBatchFn none;
+  Gltf g(path, Affine{}, none, 1);
+  return g.external_files();
 }
 
 }  // namespace rayline::scene

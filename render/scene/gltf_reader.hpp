@@ -22,6 +22,7 @@
 #pragma once
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "render/scene/mesh_sink.hpp"
 
@@ -33,5 +34,10 @@ namespace rayline::scene {
 // missing or short buffer files.
 std::optional<ImportStats> stream_gltf(const std::string& path, const Affine& transform, const TriangleBatchFn& fn,
                                        std::size_t batch = 1 << 16);
+
+// The files a .gltf/.glb reads besides itself or names as textures: buffers[].uri and
+// images[].uri that are not data: URIs, resolved beside the document (so that outputs can
+// be kept from replacing them). Best effort: a damaged document yields what was readable.
+std::vector<std::string> gltf_external_files(const std::string& path);
 
 }  // namespace rayline::scene

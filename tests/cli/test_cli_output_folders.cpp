@@ -200,6 +200,44 @@ TEST_F(OutputFolders, OutputsThatWouldOverwriteAnInputOrEachOtherAreRefused) {
   EXPECT_FALSE(fs::exists(path("x.log")));
 }
 
+// A glTF mesh reads its buffer files and names its textures: `render --scene m.gltf
+// --record-replay m.bin` replaced the buffer with the log, and `--out tex.exr` the texture
+// tex.png with the preview. Directly and through a JSON scene.
+TEST_F(OutputFolders, OutputsNeverReplaceTheFilesAGltfMeshReads) {
+  std::string bin;
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) bin.append(reinterpret_cast<const char*>(&f), sizeof f);
+  write("tri.bin", bin);
+  write("tex.png", "precious");
+  write("tri.gltf",
+        R"({"asset":{"version":"2.0"},"buffers":[{"uri":"tri.bin","byteLength":36}],)"
+        R"("bufferViews":[{"buffer":0,"byteLength":36}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,)"
+        R"("type":"VEC3","min":[0,0,0],"max":[1,1,0]}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],)"
+        R"("nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0,"images":[{"uri":"tex.png"}]})");
+  write("s.json", R"({"meshes":[{"name":"tri","file":"tri.gltf"}],"cameras":{"main":{"position":[0.3,0.3,2],"look_at":[0.3,0.3,0]}}})");
+  const std::string render = "render -q --spp 1 --resolution 8x8 --scene ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {render + path("tri.gltf") + " --out " + path("r.exr") + " --record-replay " + path("tri.bin"),
+       "--record-replay: is the input of --scene (its file 'tri.bin')"},
+      {render + path("tri.gltf") + " --out " + path("tex.exr"),
+       "--out (its PNG preview): is the input of --scene (its file 'tex.png')"},
+      {render + path("s.json") + " --out " + path("r.exr") + " --record-profile " + path("tri.bin"),
+       "--record-profile: is the input of --scene (its mesh"},
+      {"calibrate --scene " + path("s.json") + " --out " + path("tex.png"), "--out: is the input of --scene (its mesh"},
+  };
+  for (const auto& [args, msg] : cases) {
+    const auto r = rayline_cli(args);
+    EXPECT_EQ(r.code, 2) << args << ": " << r.all;
+    EXPECT_NE(r.err.find(msg), std::string::npos) << args << ": " << r.err;
+  }
+  EXPECT_EQ(read("tri.bin"), bin);
+  EXPECT_EQ(read("tex.png"), "precious");
+  EXPECT_FALSE(fs::exists(path("r.exr")));
+  // The scene itself renders (so the refusals above were not about a broken mesh).
+  const auto r = rayline_cli(render + path("s.json") + " --out " + path("ok.exr"));
+  EXPECT_EQ(r.code, 0) << r.all;
+  EXPECT_TRUE(fs::exists(path("ok.exr")));
+}
+
 // A replay log recorded into OUT/ by one run, replayed by the next into the same OUT/: the
 // second run replaced the folder and so deleted its own input.
 TEST_F(OutputFolders, AnInputInsideTheFolderARunReplacesIsRefused) {

@@ -163,6 +163,23 @@ TEST_F(Gltf, UriWithPercentEscapes) {
   EXPECT_EQ(stats(write("m.gltf", b.gltf("my%20mesh.bin"))).triangles, 6u);
 }
 
+// The files a glTF reads or names (kept from being replaced by outputs, apps/cmd_render.cpp):
+// external buffers and images, percent-decoded beside the document; not data: URIs, not a
+// .glb's own BIN chunk; what a damaged document still names.
+TEST_F(Gltf, ExternalFilesAreItsBuffersAndImages) {
+  Builder b = hierarchy();
+  std::string text = b.gltf("my%20mesh.bin");
+  json d = json::parse(text);
+  d["images"] = json::array({{{"uri", "tex/wood.png"}}, {{"uri", "data:image/png;base64,AAAA"}}, {{"bufferView", 0}}});
+  const auto p = write("m.gltf", d.dump());
+  const auto dir = std::filesystem::path(p).parent_path();
+  EXPECT_EQ(gltf_external_files(p), (std::vector<std::string>{(dir / "my mesh.bin").string(), (dir / "tex/wood.png").string()}));
+  EXPECT_TRUE(gltf_external_files(write("e.gltf", b.gltf(""))).empty());
+  EXPECT_TRUE(gltf_external_files(write("m.glb", b.glb())).empty());
+  EXPECT_TRUE(gltf_external_files(write("bad.gltf", "{\"buffers\": [")).empty());
+  EXPECT_TRUE(gltf_external_files((dir / "absent.gltf").string()).empty());
+}
+
 TEST_F(Gltf, GlbAndDataUriGiveTheSameResult) {
   Builder b = hierarchy();
   for (const auto& p : {write("m.glb", b.glb()), write("d.gltf", b.gltf(""))}) {
