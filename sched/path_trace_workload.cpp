@@ -183,13 +183,17 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   // Sec. 5.1: rays arriving where a planned job will process a queue of the same kind and
   // block, before it started, join that queue (its E-job then runs for the merged size,
   // exec_scale). Their bytes are not added to the memory device's reservation: the
-  // Schedule has no API to grow a committed copy.
+  // Schedule has no API to grow a committed copy. So, as for queued jobs, a planned job
+  // takes them only while its queue stays within merge_cap (else it would grow without
+  // bound, unaccounted, while it waits to start); past that they open a new job.
+  const auto held = [&](JobId j) { return kind == PtJob::Accumulate ? total(info(j).records) : total(info(j).rays); };
+  const auto fits = [&](JobId j) { return held(j) + n <= merge_cap(kind, block) / std::max<Bytes>(1, bytes_per(kind)); };
   scan_planned(s, pool);
   if (auto pl = planned_at_.find(key); opt_.merge_planned && pl != planned_at_.end()) {
     const JobId j = pl->second;
     JobInfo& I = info(j);
     const Activity* pa = pool.state(j) == JobState::Planned ? &s.activity(pool.activity(j)) : nullptr;
-    if (pa && pa->state == ActivityState::Planned && !pa->cancelled && I.resolved) {
+    if (pa && pa->state == ActivityState::Planned && !pa->cancelled && I.resolved && fits(j)) {
       merge_into(I.rays, rays);
       merge_into(I.records, records);
       if (pt_traces_rays(kind)) pool.job(j).work += n;
@@ -203,9 +207,7 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   const BlockId qb = new_queue(kind, block, n * bytes_per(kind), false, pool);
   s.put_initial(qb, mem, now, false);
   auto it = open_.find(key);
-  const auto held = [&](JobId j) { return kind == PtJob::Accumulate ? total(info(j).records) : total(info(j).rays); };
-  if (it != open_.end() && pool.state(it->second) == JobState::Queued &&
-      held(it->second) + n <= merge_cap(kind, block) / std::max<Bytes>(1, bytes_per(kind))) {
+  if (it != open_.end() && pool.state(it->second) == JobState::Queued && fits(it->second)) {
     const JobId j = it->second;
     JobInfo& I = info(j);
     const std::uint64_t before = held(j);
