@@ -15,6 +15,7 @@
 #include "render/scene/builder.hpp"
 #include "render/scene/generators.hpp"
 #include "render/scene/rng.hpp"
+#include "sched/error.hpp"
 
 namespace rayline::scene {
 namespace {
@@ -173,8 +174,13 @@ void emit_museum(std::uint64_t triangles, std::uint64_t seed, MeshSink& out) {
   Rng rng(seed);
   // Architecture: largest q whose count stays within 15 % of the budget (counts are a
   // quadratic in q: fit it from q = 1, 2, 3).
+  // (At q = 1 it is 7 056 triangles: the generator's minimum of 10 000 leaves room for the
+  // floor's reserve and one statue.)
   const int q = quadratic_detail_level(count_architecture, 0.15, triangles);
   emit_architecture(sink, q);
+  if (sink.emitted + 2000 > triangles)
+    throw InputError("--triangles", "", "museum-like needs at least " + std::to_string(sink.emitted + 2000) +
+                                            " triangles (its architecture alone is " + std::to_string(sink.emitted) + ")");
 
   // Statues: as many sites as the budget affords ~20 K triangles each (or, with real
   // scans, the smallest scan), in a seeded order.

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
 
 #include "render/scene/builder.hpp"
 #include "render/scene/ply_writer.hpp"
@@ -112,7 +111,7 @@ void describe_block_crossing(Scene& s, const Bounds&) {
 
 const std::vector<GeneratorInfo> kGenerators = {
     {"museum-like", "two-storey arcaded atrium, open roof, displaced scan-like statues on pedestals", 1'000'000,
-     5'000, emit_museum, describe_museum},
+     10'000, emit_museum, describe_museum},
     {"boeing-like", "closed fuselage hull packed with posed pipes, brackets, cables, boxes", 1'000'000, 5'000,
      emit_boeing, describe_boeing},
     {"cornell", "Cornell-box-like room with two blocks (test fixture)", 10'000, 64, emit_cornell, describe_cornell},
@@ -123,7 +122,7 @@ const std::vector<GeneratorInfo> kGenerators = {
 };
 
 void write_text_atomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const std::string tmp = unfinished::fresh_temp_name(path, "tmp");
   const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
   {
     std::ofstream o(tmp, std::ios::binary | std::ios::trunc);

@@ -55,6 +55,25 @@ TEST_F(Generate, CountsAndBounds) {
   }
 }
 
+// Every generator at its smallest allowed budget (and just above) gives exactly that many
+// triangles: museum-like's minimum of 5 000 was below its architecture alone (7 056), and the
+// floor's "the rest of the budget" wrapped around to 2^64 (std::bad_alloc).
+TEST_F(Generate, EveryGeneratorRunsAtItsMinimum) {
+  for (const GeneratorInfo& g : all_generators())
+    for (std::uint64_t n : {g.min_triangles, g.min_triangles + 1, g.min_triangles + 997}) {
+      SCOPED_TRACE(g.name + " " + std::to_string(n));
+      CountingSink sink;
+      ASSERT_NO_THROW(run_generator(g.name, n, 7, sink));
+      EXPECT_EQ(sink.triangles, n);
+    }
+  for (const GeneratorInfo& g : all_generators()) {
+    CountingSink sink;
+    if (g.min_triangles > 1) {
+      EXPECT_THROW(run_generator(g.name, g.min_triangles - 1, 7, sink), InputError) << g.name;
+    }
+  }
+}
+
 TEST_F(Generate, CountScalesAcrossSizes) {
   for (const char* name : {"museum-like", "boeing-like"})
     for (std::uint64_t n : {20'000ull, 123'457ull, 400'000ull}) {
