@@ -114,8 +114,7 @@ void write_file_atomic(const std::string& path, const std::string& content) {
   if (fs::is_directory(path, ec)) throw InputError(path, "", "is a folder; cannot write the file there");
   ensure_parent_dir(path, "");
   const fs::path target(path);
-  const fs::path tmp = target.parent_path() /
-                       (target.filename().string() + ".tmp." + std::to_string(::getpid()));
+  const fs::path tmp = unfinished::fresh_temp_name(target.string(), "tmp");
   const unfinished::Guard unfinished_guard(tmp.string());  // removed if the run is interrupted
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);

@@ -3,7 +3,6 @@
 // IMAGE.metrics.json, IMAGE.timeline.json (Chrome trace), IMAGE.jobs.csv.
 #include "apps/cmd_render.hpp"
 
-#include <unistd.h>
 
 #include <cctype>
 #include <cmath>
@@ -167,7 +166,7 @@ int run_render(const RenderCliOptions& opt) {
                               std::to_string(r.counts.unoccluded) + "}";
     if (!opt.record_profile.empty()) write_file_atomic(opt.record_profile, recorder->statistics_json(extra));
     if (!opt.record_replay.empty()) {
-      const std::string tmp = opt.record_replay + ".partial." + std::to_string(::getpid());
+      const std::string tmp = unfinished::fresh_temp_name(opt.record_replay, "partial");
       const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
       try {
         recorder->replay().save(tmp, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +

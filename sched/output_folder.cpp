@@ -2,13 +2,13 @@
 
 #include <fcntl.h>  // AT_FDCWD
 #include <stdio.h>  // renameat2, RENAME_EXCHANGE, RENAME_NOREPLACE (glibc >= 2.28)
-#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 
 #include "sched/error.hpp"
+#include "sched/unfinished_output.hpp"
 
 namespace rayline {
 namespace fs = std::filesystem;
@@ -69,7 +69,7 @@ std::string replaceable_folder(const std::string& path, const std::string& flag,
 }
 
 std::string partial_folder(const std::string& target) {
-  return target + ".partial." + std::to_string(::getpid());
+  return unfinished::fresh_temp_name(target, "partial");
 }
 
 void publish_folder(const std::string& partial, const std::string& target, const std::string& flag) {
@@ -103,7 +103,7 @@ void publish_folder(const std::string& partial, const std::string& target, const
     if (ec) throw InputError(target, flag, "cannot move the results into place: " + ec.message());
     return;
   }
-  const std::string old = target + ".old." + std::to_string(::getpid());
+  const std::string old = unfinished::temp_name(target, "old");
   fs::rename(target, old, ec);
   if (ec) throw InputError(target, flag, "cannot move the earlier results aside: " + ec.message());
   fs::rename(partial, target, ec);

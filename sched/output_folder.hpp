@@ -1,6 +1,6 @@
 // Replacing a command's results folder without losing anything of the user's (DESIGN.md,
 // "Bad input": nothing lost). `simulate`, `compare` and `partition` write their results into
-// OUT.partial.<pid> and swap it in for OUT only once every file is complete. An existing OUT
+// OUT.partial.<pid>@<host> and swap it in for OUT only once every file is complete. An existing OUT
 // is replaced only when it is empty or holds nothing but files the command itself writes:
 // `--out .` or `--out ~` used to delete the folder's contents.
 #pragma once
@@ -27,7 +27,7 @@ std::string normal_path(const std::string& path);
 // True when `path` is `folder` or lies inside it (both through normal_path).
 bool folder_holds(const std::string& folder, const std::string& path);
 
-// The sibling `target.partial.<pid>` a run writes into before publish_folder().
+// The sibling `target.partial.<pid>@<host>` a run writes into before publish_folder().
 std::string partial_folder(const std::string& target);
 
 // Swaps `partial` in for `target` (from replaceable_folder) in one step where the file

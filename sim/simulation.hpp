@@ -1,6 +1,6 @@
 // One simulation run (issue 3): platform -> SimGrid, workload -> JobPool, scheduler ->
 // Schedule, SimExecutor under the runtime loop; then metrics, jobs CSV and Chrome trace.
-// Outputs go to OUT.partial.<pid>/ and are renamed to OUT/ only when complete; an existing
+// Outputs go to OUT.partial.<pid>@<host>/ and are renamed to OUT/ only when complete; an existing
 // OUT is replaced only when it holds nothing but a run's results (sched/output_folder.hpp).
 #pragma once
 #include <cstdint>

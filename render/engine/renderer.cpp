@@ -122,8 +122,11 @@ RenderResult render(const RenderOptions& opt) {
   TempDir tmp;
   std::string dir = opt.blocks_dir;
   if (dir.empty()) {
-    tmp.set(fs::temp_directory_path() / ("rayline-blocks-" + std::to_string(::getpid()) + "-" +
-                                         std::to_string(std::chrono::steady_clock::now().time_since_epoch().count())));
+    // /tmp/rayline-blocks-<ns>.partial.<pid>@<host>; what killed renders left there goes first.
+    const std::string stem = (fs::temp_directory_path() / "rayline-blocks-").string();
+    unfinished::sweep_stale(stem, true);
+    tmp.set(unfinished::temp_name(
+        stem + std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()), "partial"));
     dir = tmp.path.string();
   }
   if (!fs::exists(fs::path(dir) / "blocks.json")) {

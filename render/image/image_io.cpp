@@ -1,4 +1,4 @@
-// OpenEXR and PNG output (image_io.hpp). Every write goes to PATH.partial.<pid>, is
+// OpenEXR and PNG output (image_io.hpp). Every write goes to PATH.partial.<pid>@<host>, is
 // fsync'ed, then renamed over PATH (rename is atomic within a folder); on any failure the
 // partial file is removed and InputError(PATH, "output", …) is thrown.
 #include "render/image/image_io.hpp"
@@ -32,7 +32,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string partial_name(const std::string& path) { return path + ".partial." + std::to_string(::getpid()); }
+std::string partial_name(const std::string& path) { return unfinished::fresh_temp_name(path, "partial"); }
 
 void remove_quietly(const std::string& file) {
   std::error_code ec;

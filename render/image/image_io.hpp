@@ -1,6 +1,6 @@
 // Image outputs users expect (DESIGN.md): OpenEXR (linear RGB, 32-bit float, with the
 // run's metadata as header attributes) and an 8-bit sRGB PNG preview. Both are written to
-// `path + ".partial.<pid>"` in the target folder, flushed to disk, then renamed over
+// `path + ".partial.<pid>@<host>"` in the target folder, flushed to disk, then renamed over
 // `path`, so a failed write never leaves a half-written file in place of a good one (and
 // leaves no partial file behind). OpenEXR and libpng stay in the .cpp.
 #pragma once

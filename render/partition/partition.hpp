@@ -17,7 +17,7 @@
 // The band makes rendering exact across partitions: a hit computed a few ulps beyond a
 // plane is still found in the cell whose ray interval holds it.
 //
-// Output folder (written as DIR.partial.<pid>, then renamed to DIR):
+// Output folder (written as DIR.partial.<pid>@<host>, then renamed to DIR):
 //   block_00000.rlb … one block file per cell (format in block_file.hpp)
 //   blocks.json        the always-resident top level (schema in block_index_to_json).
 #pragma once

@@ -40,7 +40,7 @@ struct GenerateResult {
   Bounds bounds;
 };
 
-// Writes the mesh to `out` (binary little-endian PLY, via PATH.tmp.<pid> and rename) and
+// Writes the mesh to `out` (binary little-endian PLY, via PATH.tmp.<pid>@<host> and rename) and
 // the companion scene to `scene_out` (empty: `out` with extension .json; "-": none).
 GenerateResult generate_to_file(const std::string& name, std::uint64_t triangles, std::uint64_t seed,
                                 const std::string& out, const std::string& scene_out = "");

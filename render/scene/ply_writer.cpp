@@ -4,7 +4,6 @@
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
-#include <unistd.h>
 
 #include "sched/error.hpp"
 
@@ -34,8 +33,8 @@ void write_all(std::FILE* f, const std::vector<char>& buf, const std::string& pa
 
 PlyWriter::PlyWriter(std::string path, std::vector<std::string> comments)
     : path_(std::move(path)),
-      tmp_(path_ + ".tmp." + std::to_string(::getpid())),
-      faces_tmp_(tmp_ + ".faces"),
+      tmp_(unfinished::fresh_temp_name(path_, "tmp")),
+      faces_tmp_(unfinished::temp_name(path_, "tmp-faces")),
       comments_(std::move(comments)) {
   vf_ = std::fopen(tmp_.c_str(), "wb");
   if (!vf_) throw InputError(path_, "", "cannot open for writing");

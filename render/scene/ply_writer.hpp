@@ -1,5 +1,5 @@
 // Streaming binary little-endian PLY writer: the on-disk mesh format of generated scenes.
-// Memory stays bounded whatever the size: vertices go straight to PATH.tmp.<pid>, faces
+// Memory stays bounded whatever the size: vertices go straight to PATH.tmp.<pid>@<host>, faces
 // to a second temporary file appended at finish(); the header (written last, into a
 // fixed-size reserved area) carries the counts; the file appears under PATH only
 // complete (rename). Layout, for readers that stream it (render/ partitioner):

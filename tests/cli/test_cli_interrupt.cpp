@@ -88,6 +88,16 @@ class Interrupt : public rayline::testing::ScratchTest {
       if (e.path().filename().string().starts_with(prefix)) return true;
     return false;
   }
+  // A render's temporary partition of process `pid`: /tmp/rayline-blocks-<ns>.partial.<pid>@<host>.
+  static bool any_partition_of(pid_t pid) {
+    std::error_code ec;
+    const std::string tag = ".partial." + std::to_string(pid) + "@";
+    for (const auto& e : fs::directory_iterator(fs::temp_directory_path(), ec)) {
+      const std::string name = e.path().filename().string();
+      if (name.starts_with("rayline-blocks-") && name.find(tag) != std::string::npos) return true;
+    }
+    return false;
+  }
   pid_t pid_ = -1;
 };
 }  // namespace
@@ -113,13 +123,12 @@ TEST_F(Interrupt, CompareStopsItsRunAndBothRemoveTheirOutputs) {
 }
 
 TEST_F(Interrupt, RenderRemovesItsTemporaryPartition) {
-  const std::string prefix = "rayline-blocks-";
   start({"render", "-q", "--spp", "100000", "--resolution", "64x64", "--out", path("r.exr")});
   const pid_t pid = pid_;
-  const std::string mine = prefix + std::to_string(pid) + "-";
-  ASSERT_TRUE(wait_until([&] { return any_starting(fs::temp_directory_path(), mine); })) << err();
+  const auto mine = [pid] { return any_partition_of(pid); };
+  ASSERT_TRUE(wait_until(mine)) << err();
   EXPECT_EQ(stop(SIGHUP), 128 + SIGHUP) << err();
-  EXPECT_FALSE(any_starting(fs::temp_directory_path(), mine));
+  EXPECT_FALSE(mine());
   EXPECT_FALSE(any_starting(dir_, "r.")) << "no image, no partial image";
 }
 
@@ -128,4 +137,29 @@ TEST_F(Interrupt, GenerateRemovesItsHalfWrittenMesh) {
   ASSERT_TRUE(wait_until([&] { return any_starting(dir_, "big.ply.tmp."); })) << err();
   EXPECT_EQ(stop(SIGTERM), 128 + SIGTERM) << err();
   EXPECT_FALSE(any_starting(dir_, "big.")) << err();
+}
+
+// SIGKILL (or the OOM killer, a crash) gives no handler a chance: the killed run's partial
+// folder stays, and the next run into the same --out removes it (sched/unfinished_output.hpp).
+TEST_F(Interrupt, AKilledRunsPartialFolderIsRemovedByTheNextRun) {
+  start({"simulate", "--duration", "1000000s", "--no-timeline", "--no-progress", "--out", path("run")});
+  ASSERT_TRUE(wait_until([&] { return any_starting(dir_, "run.partial."); })) << err();
+  EXPECT_EQ(stop(SIGKILL), -1);
+  ASSERT_TRUE(any_starting(dir_, "run.partial.")) << "nothing could remove it";
+  start({"simulate", "--platform", "paper-A", "--duration", "1s", "--no-progress", "--out", path("run")});
+  ASSERT_EQ(finish(), 0) << err();
+  EXPECT_NE(err().find("left by a run that ended before it finished"), std::string::npos) << err();
+  EXPECT_FALSE(any_starting(dir_, "run.")) << "no partial folder left";
+  EXPECT_TRUE(fs::exists(path("run/metrics.json")));
+}
+
+TEST_F(Interrupt, AKilledRunsHalfWrittenMeshIsRemovedByTheNextRun) {
+  start({"generate", "museum-like", "-q", "-n", "1G", "--out", path("big.ply")});
+  ASSERT_TRUE(wait_until([&] { return any_starting(dir_, "big.ply.tmp-faces."); })) << err();
+  EXPECT_EQ(stop(SIGKILL), -1);
+  ASSERT_TRUE(any_starting(dir_, "big.ply.tmp")) << "nothing could remove it";
+  start({"generate", "museum-like", "-q", "-n", "10000", "--out", path("big.ply")});
+  ASSERT_EQ(finish(), 0) << err();
+  EXPECT_FALSE(any_starting(dir_, "big.ply.")) << err();
+  EXPECT_TRUE(fs::exists(path("big.ply")));
 }

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "render/partition/partition.hpp"
+#include "sched/unfinished_output.hpp"
 #include "sched/error.hpp"
 
 namespace fs = std::filesystem;
@@ -133,7 +134,7 @@ TEST_F(PartitionTest, EveryTriangleInSomeBlockAndBlockTrianglesOverlapTheirCell)
   // The flat wall lies in no split plane unless the tree chose x = 5: either way each
   // wall triangle is referenced once or twice, and large straddlers several times.
   EXPECT_GT(r.index.references, n);
-  EXPECT_FALSE(fs::exists(path("out.partial." + std::to_string(::getpid()))));
+  EXPECT_FALSE(fs::exists(rayline::unfinished::temp_name(path("out"), "partial")));
 }
 
 TEST_F(PartitionTest, TriangleCountsAreBalanced) {
