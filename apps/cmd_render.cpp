@@ -254,6 +254,10 @@ int run_calibrate(const CalibrateCliOptions& opt) {
               100 * c.shadow_max_rel);
   if (!c.model.gpus.empty()) {
     const engine::GpuModel& gm = c.model.gpus[0];
+    if (c.gpu_pass)
+      std::printf("the measuring render gave the GPU %d RayIntersect and %d ShadowIntersect jobs (GPU %s), fewer than "
+                  "%d of a type: measured it in a second render with its jobs planned on the GPU alone\n",
+                  c.gpu_mixed_jobs[0], c.gpu_mixed_jobs[1], c.gpu_mixed_status.c_str(), engine::kMinGpuJobsPerType);
     std::printf("GPU '%s' over %d jobs: RayIntersect setup %.1f us, %.3f Mrays/s%s; ShadowIntersect setup %.1f us, "
                 "%.3f Mrays/s%s\n",
                 c.gpu_device.c_str(), c.gpu_exec_samples, gm.intersect_setup * 1e6, 1.0 / (gm.intersect_rate * 64) / 1e6,

@@ -7,11 +7,13 @@
 # flagged and handed to the CPU devices (render/gpu/README.md). Meant for a machine with a
 # real GPU (the `device` tool); on lavapipe it runs too.
 # Usage: scripts/bench_render_gpu.sh [TRIANGLES=4000000] [RES=512] [SPP=16] [DEPTH=5] [GPU=auto]
-# Env: RAYLINE_BIN (default build/apps/rayline), BENCH_DIR (default out/bench-render-gpu).
+# Env: RAYLINE_BIN (default build/apps/rayline), BENCH_DIR (default out/bench-render-gpu),
+#      PLATFORM (default auto; a file from `rayline calibrate --gpu ...` plans with measured timing).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TRIS="${1:-4000000}"; RES="${2:-512}"; SPP="${3:-16}"; DEPTH="${4:-5}"; GPU="${5:-auto}"
 BIN="${RAYLINE_BIN:-build/apps/rayline}"
+PLATFORM="${PLATFORM:-auto}"
 [ -x "$BIN" ] || { echo "build first: scripts/setup.sh" >&2; exit 2; }
 WORK="${BENCH_DIR:-out/bench-render-gpu}"
 mkdir -p "$WORK"
@@ -20,6 +22,7 @@ PLY="$WORK/museum-$TRIS.ply"; SCENE="$WORK/museum-$TRIS.json"
 [ -f "$WORK/blocks-16/blocks.json" ] || "$BIN" partition -q --scene "$SCENE" --blocks 16 --out "$WORK/blocks-16" > /dev/null
 "$BIN" render -q --gpu none --scene "$SCENE" --blocks-dir "$WORK/blocks-16" --resolution 8x8 --spp 1 --bvh-quality low --out "$WORK/probe.exr"
 SCENE_BYTES=$(python3 -c "import json;print(json.load(open('$WORK/probe.metrics.json'))['memory']['scene_block_bytes'])")
+echo "platform: $PLATFORM"
 echo "scene: $TRIS triangles in 16 blocks, $((SCENE_BYTES / 1048576)) MiB in RAM; ${RES}x${RES}, $SPP spp, max depth $DEPTH, $(nproc) hw threads"
 "$BIN" devices --gpu "$GPU" | sed -n '1,/^Workstation/p' | sed '$d'
 echo "| run | budget | GPU | wall | rays/s | samples/s | GPU rays | GPU jobs | GPU kernel s | doubtful | block uploads | loads | unplanned | image vs CPU |"
@@ -30,7 +33,7 @@ echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 run() {
   local label="$1" gpu="$2" budget="$3" ref="${4:-}" extra=()
   [ -n "$budget" ] && extra=(--memory-budget "$budget")
-  "$BIN" render -q --gpu "$gpu" --scene "$SCENE" --blocks-dir "$WORK/blocks-16" --resolution "${RES}x${RES}" \
+  "$BIN" render -q --gpu "$gpu" --platform "$PLATFORM" --scene "$SCENE" --blocks-dir "$WORK/blocks-16" --resolution "${RES}x${RES}" \
     --spp "$SPP" --max-depth "$DEPTH" "${extra[@]}" --out "$WORK/$label.exr"
   python3 - "$WORK/$label.metrics.json" "$label" "$WORK" "$ref" <<'PY'
 import json, struct, sys, zlib

@@ -37,7 +37,7 @@ void fit_channel(const std::vector<std::pair<Bytes, Time>>& s, Time& latency, do
 
 }  // namespace
 
-CalibrationResult calibrate(RenderOptions opt, double budget_fraction) {
+CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_gpu_jobs) {
   if (opt.memory_budget == 0) {
     // One quick in-core pass to learn the block sizes, then the budgeted run that loads.
     RenderOptions probe = opt;
@@ -48,8 +48,34 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction) {
     opt.memory_budget = static_cast<Bytes>(double(r0.scene_block_bytes) * budget_fraction);
   }
   opt.keep_schedule_outputs = false;
-  const RenderResult r = render(opt);
+  RenderResult r = render(opt);
   CalibrationResult c;
+  // The GPU's own pass. GMB gives the GPU only the work its (so far uncalibrated) model says
+  // it finishes soonest; where the CPU threads keep up (an H200 beside 16 cores, measured:
+  // 0 GPU jobs and 0 uploads in the pass above) nothing would be measured and the defaults
+  // would stay. Then the same render again with every job the GPU can run planned there
+  // (RenderOptions::plan_gpu_only; the doubtful rays still go to the CPU threads): its GPU
+  // jobs and RAM->GPU uploads join the samples, its CPU jobs do not.
+  if (r.gpu_device_id >= 0) {
+    c.gpu_mixed_status = r.gpu_status;
+    int* per_type = c.gpu_mixed_jobs;
+    for (const TimingSample& s : r.exec_samples)
+      if (s.device == r.gpu_device_id) ++per_type[s.type == 0 ? 0 : 1];
+    if (per_type[0] < min_gpu_jobs || per_type[1] < min_gpu_jobs || r.pcie_samples.size() < 2) {
+      RenderOptions g = opt;
+      g.plan_gpu_only = true;
+      const RenderResult rg = render(g);
+      c.gpu_pass = true;
+      if (rg.gpu_device_id >= 0) {
+        for (TimingSample s : rg.exec_samples)
+          if (s.device == rg.gpu_device_id) {
+            s.device = r.gpu_device_id;
+            r.exec_samples.push_back(std::move(s));
+          }
+        r.pcie_samples.insert(r.pcie_samples.end(), rg.pcie_samples.begin(), rg.pcie_samples.end());
+      }
+    }
+  }
   c.model.threads = r.threads;
   if (r.load_samples.size() < 2) throw std::runtime_error("calibrate: fewer than 2 block loads were measured; use more blocks");
   c.load_samples = static_cast<int>(r.load_samples.size());

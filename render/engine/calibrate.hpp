@@ -5,7 +5,8 @@
 //   Eq. 2 per job type for a CPU hardware thread: T = SETUP + RATE·|rays| over every
 //     measured RayIntersect / ShadowIntersect (TimingModel::fit, Eigen);
 //   with a Vulkan device (--gpu): Eq. 2 for the GPU's jobs and Eq. 1 for the RAM->GPU
-//     channel over every upload.
+//     channel over every upload; when the mixed render gave the GPU too few jobs, a second
+//     render with every GPU-capable job planned on the GPU measures it (calibrate.cpp).
 // The result is a platform file the renderer reads with --platform.
 #pragma once
 #include <string>
@@ -25,13 +26,20 @@ struct CalibrationResult {
   std::string gpu_device;
   int gpu_exec_samples = 0, pcie_samples = 0;
   bool gpu_intersect_fitted = false, gpu_shadow_fitted = false;
+  std::string gpu_mixed_status;     // RenderResult::gpu_status of the mixed render
+  int gpu_mixed_jobs[2] = {0, 0};  // GPU jobs of the mixed render: RayIntersect, ShadowIntersect
+  bool gpu_pass = false;           // the GPU's own pass ran (the mixed one gave it too few jobs)
   double pcie_rel_rms = 0;
   std::string platform_json;
 };
 
+// Fewer GPU jobs of a type than this in the mixed pass start the GPU's own pass (calibrate.cpp).
+inline constexpr int kMinGpuJobsPerType = 32;
+
 // Renders `opt` (its memory budget is set to `budget_fraction` of the scene's block bytes
 // when opt.memory_budget is 0) and fits the model. Throws std::runtime_error when there
 // are too few samples to fit.
-CalibrationResult calibrate(RenderOptions opt, double budget_fraction = 0.3);
+// `min_gpu_jobs`: the GPU's own pass runs when the mixed render gave it fewer jobs of a type.
+CalibrationResult calibrate(RenderOptions opt, double budget_fraction = 0.3, int min_gpu_jobs = kMinGpuJobsPerType);
 
 }  // namespace rayline::engine

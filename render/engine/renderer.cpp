@@ -205,7 +205,9 @@ RenderResult render(const RenderOptions& opt) {
   wm.ram_capacity = ram_capacity;
   if (opt.loaders > 0) wm.loaders = opt.loaders;
   res.loaders = wm.loaders;
-  set_gpu(wm, 0);
+  // No GPU: none in the plan. A GPU: the platform file's calibrated timing for it is kept
+  // (set_gpu seeds the defaults only where the file has none).
+  if (!gpu_ctx) set_gpu(wm, 0);
   if (gpu_ctx) {
     const Bytes budget = gpu_memory_budget(gpu_ctx->info(), opt.gpu_memory_budget);
     // The largest block and one full ray queue must fit, or a GPU job could never be placed.
@@ -241,6 +243,7 @@ RenderResult render(const RenderOptions& opt) {
       if (g.computes[d].kind == ComputeKind::Cpu) {
         g.timing.at(DeviceId(d), ric) = g.timing.at(DeviceId(d), ri);
         g.timing.at(DeviceId(d), sic) = g.timing.at(DeviceId(d), si);
+        if (opt.plan_gpu_only) g.timing.at(DeviceId(d), ri).supported = g.timing.at(DeviceId(d), si).supported = false;
       }
   }
 
@@ -391,6 +394,13 @@ RenderResult render(const RenderOptions& opt) {
       // The device is gone: plan no more work for it (jobs already planned there run on
       // the CPU path inside GpuStore::run_job, so nothing is lost).
       for (JobTypeId t = 0; t < JobTypeId(g.job_types.size()); ++t) g.timing.at(gpu_dev, t).supported = false;
+      if (opt.plan_gpu_only)  // the CPU threads take the GPU's job types back (their own timing)
+        for (std::size_t d = 0; d < g.computes.size(); ++d)
+          if (g.computes[d].kind == ComputeKind::Cpu) {
+            g.timing.at(DeviceId(d), g.job_type("RayIntersect")) = g.timing.at(DeviceId(d), g.job_type("RayIntersectCpu"));
+            g.timing.at(DeviceId(d), g.job_type("ShadowIntersect")) =
+                g.timing.at(DeviceId(d), g.job_type("ShadowIntersectCpu"));
+          }
       gpu_disabled = true;
     }
     if (!opt.progress) return;

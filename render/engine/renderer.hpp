@@ -54,6 +54,10 @@ struct RenderOptions {
   // the image may then differ from the CPU-only one at edge cracks.
   bool gpu_resolve_doubtful = true;
   bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result
+  // Calibration hook (calibrate.hpp): with a GPU, the plan lets the CPU threads run only
+  // the doubtful rays' jobs, so every job the GPU can run is planned there (until the device
+  // is lost: then the CPU threads take everything again). The image does not change.
+  bool plan_gpu_only = false;
   // Called from the loop at most every 200 ms: fraction of paths done, rays/s so far.
   std::function<void(double fraction, double rays_per_second)> progress;
   // Passed to the partitioner when the scene is partitioned first (no --blocks-dir yet).
