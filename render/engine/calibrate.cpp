@@ -1,8 +1,10 @@
 #include "render/engine/calibrate.hpp"
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
+#include "render/engine/temp_partition.hpp"
 #include "sched/data_block.hpp"
 #include "sched/timing_model.hpp"
 
@@ -48,6 +50,11 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
     opt.memory_budget = static_cast<Bytes>(double(r0.scene_block_bytes) * budget_fraction);
   }
   opt.keep_schedule_outputs = false;
+  // The mixed render partitions into a folder the GPU's own pass (below) reuses; with no
+  // --blocks-dir that folder is temporary, here rather than inside render().
+  std::optional<TempPartition> tmp;
+  const std::string blocks_dir = !opt.blocks_dir.empty() ? opt.blocks_dir : tmp.emplace().path();
+  opt.blocks_dir = blocks_dir;
   RenderResult r = render(opt);
   CalibrationResult c;
   // The GPU's own pass. GMB gives the GPU only the work its (so far uncalibrated) model says
@@ -64,6 +71,7 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
     if (per_type[0] < min_gpu_jobs || per_type[1] < min_gpu_jobs || r.pcie_samples.size() < 2) {
       RenderOptions g = opt;
       g.plan_gpu_only = true;
+      g.blocks_dir = blocks_dir;  // the mixed render's partition, not a second one
       const RenderResult rg = render(g);
       c.gpu_pass = true;
       if (rg.gpu_device_id >= 0) {

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <thread>
 
 
@@ -17,6 +18,7 @@
 #include "render/engine/local_executor.hpp"
 #include "render/engine/profile_recorder.hpp"
 #include "render/engine/render_metrics.hpp"
+#include "render/engine/temp_partition.hpp"
 #include "render/engine/workstation.hpp"
 #include "render/partition/partition.hpp"
 #include "render/scene/scene.hpp"
@@ -25,7 +27,6 @@
 #include "sched/error.hpp"
 #include "sched/scheduler_factory.hpp"
 #include "sched/trace_output.hpp"
-#include "sched/unfinished_output.hpp"
 #include "sched/unplaced.hpp"
 
 namespace rayline::engine {
@@ -49,21 +50,6 @@ Bytes rss_peak() {
   return Bytes(ru.ru_maxrss) * 1024;
 }
 
-// A temporary partition folder, removed when the render ends.
-// Registered as unfinished output, so an interrupted render removes it too.
-struct TempDir {
-  fs::path path;
-  void set(fs::path p) {
-    path = std::move(p);
-    unfinished::add(path.string());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    if (path.empty()) return;
-    fs::remove_all(path, ec);
-    unfinished::remove(path.string());
-  }
-};
 
 std::uint32_t auto_blocks(std::uint64_t triangles, Bytes budget) {
   const double fp = double(BlockStore::footprint_of(triangles, trace::BvhQuality::Low));
@@ -119,16 +105,9 @@ RenderResult render(const RenderOptions& opt) {
   res.threads = threads;
 
   // ---- blocks on disk ----------------------------------------------------------------
-  TempDir tmp;
+  std::optional<TempPartition> tmp;
   std::string dir = opt.blocks_dir;
-  if (dir.empty()) {
-    // /tmp/rayline-blocks-<ns>.partial.<pid>@<host>; what killed renders left there goes first.
-    const std::string stem = (fs::temp_directory_path() / "rayline-blocks-").string();
-    unfinished::sweep_stale(stem, true);
-    tmp.set(unfinished::temp_name(
-        stem + std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()), "partial"));
-    dir = tmp.path.string();
-  }
+  if (dir.empty()) dir = tmp.emplace().path();
   if (!fs::exists(fs::path(dir) / "blocks.json")) {
     const auto t0 = std::chrono::steady_clock::now();
     partition::PartitionOptions po;
@@ -207,8 +186,9 @@ RenderResult render(const RenderOptions& opt) {
   res.loaders = wm.loaders;
   // No GPU: none in the plan. A GPU: the platform file's calibrated timing for it is kept
   // (set_gpu seeds the defaults only where the file has none).
-  if (!gpu_ctx) set_gpu(wm, 0);
-  if (gpu_ctx) {
+  if (!gpu_ctx) {
+    set_gpu(wm, 0);
+  } else {
     const Bytes budget = gpu_memory_budget(gpu_ctx->info(), opt.gpu_memory_budget);
     // The largest block and one full ray queue must fit, or a GPU job could never be placed.
     const Bytes need = largest + Bytes(wo.max_batch) * sizeof(trace::RayRecord);
@@ -228,6 +208,7 @@ RenderResult render(const RenderOptions& opt) {
     if (g.memories[i].kind == MemoryKind::Gpu && gmem == kNone) gmem = MemId(i);
   }
   DeviceId gpu_dev = kNone;
+  JobTypeId ri = kNone, si = kNone, ric = kNone, sic = kNone;  // the GPU's job types, the CPU-only ones
   for (std::size_t d = 0; d < g.computes.size(); ++d)
     if (g.computes[d].kind == ComputeKind::Gpu) gpu_dev = DeviceId(d);
   res.gpu_device_id = gpu_dev == kNone ? -1 : int(gpu_dev);
@@ -237,8 +218,8 @@ RenderResult render(const RenderOptions& opt) {
     // which only the CPU devices support, with the CPU's Eq. 2 coefficients: GMB plans them
     // (and the RAM copy of their block) like any CPU job, so no sample is lost and nothing
     // unplanned is loaded.
-    const JobTypeId ri = g.job_type("RayIntersect"), si = g.job_type("ShadowIntersect");
-    const JobTypeId ric = g.add_job_type("RayIntersectCpu"), sic = g.add_job_type("ShadowIntersectCpu");
+    ri = g.job_type("RayIntersect"), si = g.job_type("ShadowIntersect");
+    ric = g.add_job_type("RayIntersectCpu"), sic = g.add_job_type("ShadowIntersectCpu");
     for (std::size_t d = 0; d < g.computes.size(); ++d)
       if (g.computes[d].kind == ComputeKind::Cpu) {
         g.timing.at(DeviceId(d), ric) = g.timing.at(DeviceId(d), ri);
@@ -397,9 +378,8 @@ RenderResult render(const RenderOptions& opt) {
       if (opt.plan_gpu_only)  // the CPU threads take the GPU's job types back (their own timing)
         for (std::size_t d = 0; d < g.computes.size(); ++d)
           if (g.computes[d].kind == ComputeKind::Cpu) {
-            g.timing.at(DeviceId(d), g.job_type("RayIntersect")) = g.timing.at(DeviceId(d), g.job_type("RayIntersectCpu"));
-            g.timing.at(DeviceId(d), g.job_type("ShadowIntersect")) =
-                g.timing.at(DeviceId(d), g.job_type("ShadowIntersectCpu"));
+            g.timing.at(DeviceId(d), ri) = g.timing.at(DeviceId(d), ric);
+            g.timing.at(DeviceId(d), si) = g.timing.at(DeviceId(d), sic);
           }
       gpu_disabled = true;
     }
