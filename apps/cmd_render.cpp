@@ -223,6 +223,15 @@ int run_render(const RenderCliOptions& opt) {
   return kExitOk;
 }
 
+// One fit's quality for the console (sched/fit_errors.hpp): the error on the measured time
+// first, since the worst relative error belongs to the shortest samples.
+std::string fit_quality(const FitErrors& f, const char* sample) {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "error %.0f %% of the measured time (median %s %.0f %%, RMS %.3f ms, worst %.0f %%)",
+                100 * f.weighted_rel, sample, 100 * f.median_rel, f.rms * 1e3, 100 * f.max_rel);
+  return buf;
+}
+
 int run_calibrate(const CalibrateCliOptions& opt) {
   engine::RenderOptions ro;
   ro.scene = opt.scene;
@@ -243,15 +252,14 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   const engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);
   line.done();
   write_file_atomic(opt.out, c.platform_json);
-  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %.3f ms, bandwidth %.1f MB/s, "
-              "relative RMS error %.1f %%\n",
-              c.load_samples, c.model.disk_latency * 1e3, c.model.disk_bandwidth / 1e6, 100 * c.load_rel_rms);
-  std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %.1f us, %.3f Mrays/s; RMS error %.3f ms, worst %.0f %%\n",
-              c.exec_samples, c.model.intersect_setup * 1e6, 1.0 / (c.model.intersect_rate * 64) / 1e6,
-              c.intersect_rms * 1e3, 100 * c.intersect_max_rel);
-  std::printf("ShadowIntersect per thread: setup %.1f us, %.3f Mrays/s; RMS error %.3f ms, worst %.0f %%\n",
-              c.model.shadow_setup * 1e6, 1.0 / (c.model.shadow_rate * 64) / 1e6, c.shadow_rms * 1e3,
-              100 * c.shadow_max_rel);
+  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %.3f ms, bandwidth %.1f MB/s; %s\n",
+              c.load_samples, c.model.disk_latency * 1e3, c.model.disk_bandwidth / 1e6,
+              fit_quality(c.load_fit, "load").c_str());
+  std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %.1f us, %.3f Mrays/s; %s\n", c.exec_samples,
+              c.model.intersect_setup * 1e6, 1.0 / (c.model.intersect_rate * 64) / 1e6,
+              fit_quality(c.intersect_fit, "job").c_str());
+  std::printf("ShadowIntersect per thread: setup %.1f us, %.3f Mrays/s; %s\n", c.model.shadow_setup * 1e6,
+              1.0 / (c.model.shadow_rate * 64) / 1e6, fit_quality(c.shadow_fit, "job").c_str());
   if (!c.model.gpus.empty()) {
     const engine::GpuModel& gm = c.model.gpus[0];
     if (c.gpu_pass)
@@ -263,8 +271,10 @@ int run_calibrate(const CalibrateCliOptions& opt) {
                 c.gpu_device.c_str(), c.gpu_exec_samples, gm.intersect_setup * 1e6, 1.0 / (gm.intersect_rate * 64) / 1e6,
                 c.gpu_intersect_fitted ? "" : " (defaults kept: no usable fit)", gm.shadow_setup * 1e6,
                 1.0 / (gm.shadow_rate * 64) / 1e6, c.gpu_shadow_fitted ? "" : " (defaults kept: no usable fit)");
-    std::printf("RAM->GPU channel, Eq. 1 over %d uploads: latency %.1f us, bandwidth %.1f MB/s, relative RMS error %.1f %%\n",
-                c.pcie_samples, gm.pcie_latency * 1e6, gm.pcie_bandwidth / 1e6, 100 * c.pcie_rel_rms);
+    if (c.gpu_intersect_fitted) std::printf("  GPU RayIntersect: %s\n", fit_quality(c.gpu_intersect_fit, "job").c_str());
+    if (c.gpu_shadow_fitted) std::printf("  GPU ShadowIntersect: %s\n", fit_quality(c.gpu_shadow_fit, "job").c_str());
+    std::printf("RAM->GPU channel, Eq. 1 over %d uploads: latency %.1f us, bandwidth %.1f MB/s; %s\n", c.pcie_samples,
+                gm.pcie_latency * 1e6, gm.pcie_bandwidth / 1e6, fit_quality(c.pcie_fit, "upload").c_str());
   }
   std::printf("wrote %s (use: rayline render --platform %s)\n", opt.out.c_str(), opt.out.c_str());
   return kExitOk;

@@ -1,9 +1,10 @@
 // Timing model of Sec. 3.2 (Eq. 2) and its least-squares fit (Sec. 6: "the architecture-
 // specific model constants T_SETUP(d, j) and T_RATE(d, j) are fitted using the least
-// square method"). Eigen is used here only; the header stays Eigen-free.
+// square method"). The solver (non-negative least squares, Eigen inside) is sched/nnls.cpp.
 #include "sched/timing_model.hpp"
 
-#include <Eigen/Dense>
+#include "sched/fit_errors.hpp"
+#include "sched/nnls.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -73,14 +74,13 @@ Time TimingModel::exec_time(DeviceId d, JobTypeId j, std::span<const InputSize> 
 // with one column per DataKind that is non-zero in at least one sample of the group (kinds
 // never present cannot be identified and get rate 0). Samples whose W is empty are not
 // used: Eq. 2 predicts 0 for them whatever the coefficients, so they carry no information.
-// Columns are scaled to unit max-abs before a column-pivoting QR so that rank detection
-// is not fooled by the 1 vs 1e9-byte magnitudes; the solution is unscaled afterwards.
 //
-// Non-negativity ("NNLS-lite"): a negative setup or rate is meaningless, so while the
-// solution has a negative coefficient, the most negative one is fixed to 0 (its column is
-// dropped) and the remaining columns are refitted. This is an active-set heuristic without
-// the re-activation step of Lawson-Hanson NNLS: it always terminates with x >= 0 (A >= 0,
-// t >= 0) but is not guaranteed to be the exact NNLS optimum when several columns compete.
+// Non-negativity: a negative setup or rate is meaningless, so the fit is the exact
+// non-negative least-squares optimum (Lawson-Hanson NNLS, sched/nnls.cpp; columns scaled to
+// unit max-abs inside, so that rank detection is not fooled by the 1 vs 1e9-byte
+// magnitudes). Until stop 32 this dropped the most negative coefficient and refitted, with
+// no way back for a dropped column: with three or more columns that can miss the optimum
+// (TimingModelFit.IsTheNonNegativeOptimum).
 //
 // Not fitted (ok = false, old coefficients left untouched, errors NaN): fewer usable samples
 // than unknowns, or A rank deficient (e.g. all samples have the same ray count, making the
@@ -117,91 +117,46 @@ FitReport TimingModel::fit(std::span<const TimingSample> samples) {
     std::vector<int> kind_of_col = {-1};
     for (int k = 0; k < kDataKindCount; ++k)
       if (present[static_cast<std::size_t>(k)]) kind_of_col.push_back(k);
-    const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
-    const Eigen::Index m = static_cast<Eigen::Index>(kind_of_col.size());
+    const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(rows.size());
+    const std::ptrdiff_t m = static_cast<std::ptrdiff_t>(kind_of_col.size());
     if (n < m) {
       report.entries.push_back(e);
       continue;
     }
 
-    Eigen::MatrixXd A(n, m);
-    Eigen::VectorXd t(n);
-    for (Eigen::Index r = 0; r < n; ++r) {
-      t(r) = times[static_cast<std::size_t>(r)];
-      for (Eigen::Index c = 0; c < m; ++c) {
+    std::vector<double> a(static_cast<std::size_t>(n * m));
+    for (std::ptrdiff_t r = 0; r < n; ++r)
+      for (std::ptrdiff_t c = 0; c < m; ++c) {
         const int k = kind_of_col[static_cast<std::size_t>(c)];
-        A(r, c) = k < 0 ? 1.0 : rows[static_cast<std::size_t>(r)][static_cast<std::size_t>(k)];
+        a[static_cast<std::size_t>(r * m + c)] = k < 0 ? 1.0 : rows[static_cast<std::size_t>(r)][static_cast<std::size_t>(k)];
       }
-    }
-    Eigen::VectorXd scale(m);
-    for (Eigen::Index c = 0; c < m; ++c) {
-      const double s = A.col(c).cwiseAbs().maxCoeff();
-      scale(c) = s > 0 ? s : 1.0;
-      A.col(c) /= scale(c);
-    }
-
-    constexpr double kRankThreshold = 1e-9;  // relative to the largest pivot
-    auto solve = [&](const std::vector<Eigen::Index>& cols, Eigen::VectorXd& x, bool& full_rank) {
-      Eigen::MatrixXd Asub(n, static_cast<Eigen::Index>(cols.size()));
-      for (std::size_t i = 0; i < cols.size(); ++i) Asub.col(static_cast<Eigen::Index>(i)) = A.col(cols[i]);
-      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Asub.rows(), Asub.cols());
-      qr.setThreshold(kRankThreshold);
-      qr.compute(Asub);
-      full_rank = qr.rank() == Asub.cols();
-      x = full_rank ? Eigen::VectorXd(qr.solve(t)) : Eigen::VectorXd();
-    };
-
-    std::vector<Eigen::Index> active(static_cast<std::size_t>(m));
-    for (Eigen::Index c = 0; c < m; ++c) active[static_cast<std::size_t>(c)] = c;
-    Eigen::VectorXd xs;
-    bool full_rank = false;
-    solve(active, xs, full_rank);
-    if (!full_rank) {
+    const NnlsResult nn = solve_nnls(a, static_cast<int>(n), static_cast<int>(m), times);
+    if (!nn.ok) {
       report.entries.push_back(e);
       continue;
     }
-    // NNLS-lite: drop the most negative coefficient and refit. A subset of independent
-    // columns stays independent; the rank check is kept only as a numerical safety net.
-    while (full_rank && !active.empty()) {
-      Eigen::Index worst = 0;
-      const double mn = xs.minCoeff(&worst);
-      if (mn >= 0) break;
-      active.erase(active.begin() + worst);
-      if (active.empty()) {
-        xs.resize(0);
-        break;
-      }
-      solve(active, xs, full_rank);
-    }
-    if (!full_rank) {
-      report.entries.push_back(e);
-      continue;
-    }
-
-    Eigen::VectorXd x = Eigen::VectorXd::Zero(m);
-    for (std::size_t i = 0; i < active.size(); ++i)
-      x(active[i]) = xs(static_cast<Eigen::Index>(i)) / scale(active[i]);
+    const std::vector<double>& x = nn.x;
 
     ExecCoefficients& coef = coef_[index(key.first, key.second)];
     coef.supported = true;
-    coef.setup = x(0);
+    coef.setup = x[0];
     coef.rate.fill(0.0);
-    for (Eigen::Index c = 1; c < m; ++c)
-      coef.rate[static_cast<std::size_t>(kind_of_col[static_cast<std::size_t>(c)])] = x(c);
+    for (std::ptrdiff_t c = 1; c < m; ++c)
+      coef.rate[static_cast<std::size_t>(kind_of_col[static_cast<std::size_t>(c)])] = x[static_cast<std::size_t>(c)];
 
-    // Errors against the measurements, in the original (unscaled) units.
-    double sq = 0, max_rel = 0;
+    // Errors against the measurements (sched/fit_errors.hpp).
+    std::vector<double> pred(rows.size());
     for (std::size_t r = 0; r < rows.size(); ++r) {
-      double pred = coef.setup;
-      for (std::size_t k = 0; k < static_cast<std::size_t>(kDataKindCount); ++k) pred += coef.rate[k] * rows[r][k];
-      const double err = pred - times[r];
-      sq += err * err;
-      if (times[r] > 0) max_rel = std::max(max_rel, std::abs(err) / times[r]);
+      pred[r] = coef.setup;
+      for (std::size_t k = 0; k < static_cast<std::size_t>(kDataKindCount); ++k) pred[r] += coef.rate[k] * rows[r][k];
     }
-    e.rms_error = std::sqrt(sq / static_cast<double>(rows.size()));
-    e.max_rel_error = max_rel;
+    const FitErrors fe = fit_errors(pred, times);
+    e.rms_error = fe.rms;
+    e.max_rel_error = std::isnan(fe.max_rel) ? 0.0 : fe.max_rel;  // no sample > 0: nothing to be relative to
+    e.median_rel_error = fe.median_rel;
+    e.weighted_rel_error = fe.weighted_rel;
     e.ok = true;
-    report.worst_rel_error = std::max(report.worst_rel_error, max_rel);
+    if (fe.max_rel > report.worst_rel_error) report.worst_rel_error = fe.max_rel;
     report.entries.push_back(e);
   }
   return report;

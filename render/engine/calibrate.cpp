@@ -12,8 +12,8 @@ namespace rayline::engine {
 
 namespace {
 
-// Least squares of t = lat + bytes / bw (closed form for one regressor).
-void fit_channel(const std::vector<std::pair<Bytes, Time>>& s, Time& latency, double& bandwidth, double& rel_rms) {
+// Least squares of t = lat + bytes / bw (Eq. 1; closed form for one regressor).
+FitErrors fit_channel(const std::vector<std::pair<Bytes, Time>>& s, Time& latency, double& bandwidth) {
   const double n = double(s.size());
   double sx = 0, sy = 0, sxx = 0, sxy = 0;
   for (auto [b, t] : s) sx += double(b), sy += t, sxx += double(b) * double(b), sxy += double(b) * t;
@@ -29,12 +29,12 @@ void fit_channel(const std::vector<std::pair<Bytes, Time>>& s, Time& latency, do
   }
   latency = icpt;
   bandwidth = 1.0 / slope;
-  double e2 = 0;
+  std::vector<double> pred, meas;
   for (auto [b, t] : s) {
-    const double pred = icpt + slope * double(b);
-    if (t > 0) e2 += (pred - t) * (pred - t) / (t * t);
+    pred.push_back(icpt + slope * double(b));
+    meas.push_back(t);
   }
-  rel_rms = std::sqrt(e2 / n);
+  return fit_errors(pred, meas);
 }
 
 }  // namespace
@@ -87,7 +87,7 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
   c.model.threads = r.threads;
   if (r.load_samples.size() < 2) throw std::runtime_error("calibrate: fewer than 2 block loads were measured; use more blocks");
   c.load_samples = static_cast<int>(r.load_samples.size());
-  fit_channel(r.load_samples, c.model.disk_latency, c.model.disk_bandwidth, c.load_rel_rms);
+  c.load_fit = fit_channel(r.load_samples, c.model.disk_latency, c.model.disk_bandwidth);
 
   // All CPU hardware threads are identical: fit them as one device (0); the GPU is device 1.
   TimingModel tm;
@@ -105,9 +105,10 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
   }
   // RenderResult's sample types: RayIntersect 0, ShadowIntersect 1.
   for (auto& e : tm.fit(samples).entries) {
-    if (!e.ok || e.device != 0) continue;
-    (e.type == 0 ? c.intersect_max_rel : c.shadow_max_rel) = e.max_rel_error;
-    (e.type == 0 ? c.intersect_rms : c.shadow_rms) = e.rms_error;
+    if (!e.ok) continue;
+    FitErrors& f = e.device == 0 ? (e.type == 0 ? c.intersect_fit : c.shadow_fit)
+                                 : (e.type == 0 ? c.gpu_intersect_fit : c.gpu_shadow_fit);
+    f = {e.rms_error, e.median_rel_error, e.weighted_rel_error, e.max_rel_error};
   }
   const ExecCoefficients& a = tm.at(0, 0);
   const ExecCoefficients& b = tm.at(0, 1);
@@ -137,7 +138,7 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
       c.gpu_shadow_fitted = true;
     }
     c.pcie_samples = static_cast<int>(r.pcie_samples.size());
-    if (r.pcie_samples.size() >= 2) fit_channel(r.pcie_samples, gm.pcie_latency, gm.pcie_bandwidth, c.pcie_rel_rms);
+    if (r.pcie_samples.size() >= 2) c.pcie_fit = fit_channel(r.pcie_samples, gm.pcie_latency, gm.pcie_bandwidth);
     c.gpu_device = r.gpu_device;
     c.model.gpus.push_back(gm);
   }

@@ -13,15 +13,16 @@
 
 #include "render/engine/renderer.hpp"
 #include "render/engine/workstation.hpp"
+#include "sched/fit_errors.hpp"
 
 namespace rayline::engine {
 
 struct CalibrationResult {
   WorkstationModel model;
   int load_samples = 0, exec_samples = 0;
-  double load_rel_rms = 0;           // relative RMS error of the Eq. 1 fit
-  double intersect_max_rel = 0, shadow_max_rel = 0;  // worst relative error of the Eq. 2 fits
-  double intersect_rms = 0, shadow_rms = 0;          // RMS error, seconds
+  // How well each fit predicts its own samples (sched/fit_errors.hpp): Eq. 1 of the loads,
+  // Eq. 2 per CPU thread of RayIntersect and ShadowIntersect.
+  FitErrors load_fit, intersect_fit, shadow_fit;
   // The GPU, when one was used (issue 7): samples and whether each fit replaced the defaults.
   std::string gpu_device;
   int gpu_exec_samples = 0, pcie_samples = 0;
@@ -29,7 +30,7 @@ struct CalibrationResult {
   std::string gpu_mixed_status;     // RenderResult::gpu_status of the mixed render
   int gpu_mixed_jobs[2] = {0, 0};  // GPU jobs of the mixed render: RayIntersect, ShadowIntersect
   bool gpu_pass = false;           // the GPU's own pass ran (the mixed one gave it too few jobs)
-  double pcie_rel_rms = 0;
+  FitErrors pcie_fit, gpu_intersect_fit, gpu_shadow_fit;
   std::string platform_json;
 };
 

@@ -232,6 +232,12 @@ TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
   ASSERT_EQ(r.code, 0) << r.all;
   EXPECT_NE(r.out.find("Eq. 1"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("Eq. 2"), std::string::npos) << r.out;
+  // Each fit's error on the measured time, its median and worst (sched/fit_errors.hpp), all
+  // defined: the loads, RayIntersect and ShadowIntersect.
+  std::size_t fits = 0;
+  for (std::size_t at = 0; (at = r.out.find("% of the measured time (median", at)) != std::string::npos; ++at) ++fits;
+  EXPECT_EQ(fits, 3u) << r.out;
+  EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
   r = rayline_cli("platform check " + path("me.json"));
   ASSERT_EQ(r.code, 0) << r.all;
   r = rayline_cli("render -q --resolution 16x16 --spp 1 --platform " + path("me.json") + " --out " + path("p.exr"));
