@@ -47,7 +47,6 @@ NnlsResult solve_nnls(std::span<const double> a, int rows, int cols, std::span<c
     const Eigen::VectorXd sp = Ap.colPivHouseholderQr().solve(b);
     s = Eigen::VectorXd::Zero(m);
     for (std::size_t i = 0; i < cols_p.size(); ++i) s(cols_p[i]) = sp(Eigen::Index(i));
-    ++res.iterations;
   };
 
   // Step 1-2: x = 0, every column active (held at 0); w = A^T (b - A x) is the negative
@@ -57,7 +56,7 @@ NnlsResult solve_nnls(std::span<const double> a, int rows, int cols, std::span<c
                      std::max(1.0, b.cwiseAbs().maxCoeff());
   Eigen::VectorXd x = Eigen::VectorXd::Zero(m), s;
   std::vector<bool> refused(std::size_t(m), false);  // anti-cycling: see step 6 below
-  const int max_outer = 3 * cols + 10;
+  const int max_outer = 3 * cols + 10;  // Lawson & Hanson's usual cap; x stays feasible if it is hit
   for (int outer = 0; outer < max_outer; ++outer) {
     const Eigen::VectorXd w = A.transpose() * (b - A * x);
     // Step 3-4: the active column whose constraint is most violated enters the passive set.

@@ -14,7 +14,6 @@ struct NnlsResult {
   // column to unit max-abs), so the optimum is not unique; x is then empty.
   bool ok = false;
   std::vector<double> x;  // the minimiser, every entry >= 0 (exactly 0 outside the passive set)
-  int iterations = 0;     // inner least-squares solves
 };
 
 // A is rows x cols, row-major (a[r * cols + c]); t has rows entries. Requires rows >= cols

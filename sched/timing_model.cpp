@@ -98,7 +98,7 @@ FitReport TimingModel::fit(std::span<const TimingSample> samples) {
 
   FitReport report;
   for (const auto& [key, group] : groups) {
-    FitReport::Entry e{key.first, key.second, 0, kNaN, kNaN, false};
+    FitReport::Entry e{key.first, key.second, 0, kNaN, kNaN, false, {}};
 
     // Usable rows and the per-kind byte sums.
     std::vector<std::array<double, kDataKindCount>> rows;
@@ -151,10 +151,9 @@ FitReport TimingModel::fit(std::span<const TimingSample> samples) {
       for (std::size_t k = 0; k < static_cast<std::size_t>(kDataKindCount); ++k) pred[r] += coef.rate[k] * rows[r][k];
     }
     const FitErrors fe = fit_errors(pred, times);
+    e.errors = fe;
     e.rms_error = fe.rms;
     e.max_rel_error = std::isnan(fe.max_rel) ? 0.0 : fe.max_rel;  // no sample > 0: nothing to be relative to
-    e.median_rel_error = fe.median_rel;
-    e.weighted_rel_error = fe.weighted_rel;
     e.ok = true;
     if (fe.max_rel > report.worst_rel_error) report.worst_rel_error = fe.max_rel;
     report.entries.push_back(e);

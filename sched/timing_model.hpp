@@ -7,12 +7,12 @@
 // setup + rate[SceneData]*|scene| + rate[RayQueue]*|rays|; two inputs of one kind add.
 #pragma once
 #include <array>
-#include <limits>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "data_block.hpp"
+#include "fit_errors.hpp"
 #include "types.hpp"
 
 namespace rayline {
@@ -44,8 +44,7 @@ struct FitReport {
     double rms_error;        // seconds
     double max_rel_error;    // max |pred - meas| / meas (the shortest samples; sched/fit_errors.hpp)
     bool ok;                 // false: too few samples or singular system
-    double median_rel_error = std::numeric_limits<double>::quiet_NaN();    // median |pred - meas| / meas
-    double weighted_rel_error = std::numeric_limits<double>::quiet_NaN();  // sum |pred - meas| / sum meas
+    FitErrors errors;        // the whole summary: median, time-weighted, RMS, worst (NaN if not ok)
   };
   std::vector<Entry> entries;
   double worst_rel_error = 0;
@@ -67,8 +66,8 @@ class TimingModel {
   Time exec_time(DeviceId d, JobTypeId j, std::span<const InputSize> inputs) const;
   Time setup_time(DeviceId d, JobTypeId j) const { return at(d, j).setup; }
 
-  // Non-negative least-squares fit (sched/nnls.hpp) of T_SETUP and T_RATE per (device, job type) from samples;
-  // replaces the coefficients it could fit and reports the fit error of each.
+  // Non-negative least-squares fit (sched/nnls.hpp) of T_SETUP and T_RATE per (device, job
+  // type) from samples; replaces the coefficients it could fit and reports the fit error of each.
   FitReport fit(std::span<const TimingSample> samples);
 
  private:

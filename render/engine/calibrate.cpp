@@ -108,7 +108,7 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
     if (!e.ok) continue;
     FitErrors& f = e.device == 0 ? (e.type == 0 ? c.intersect_fit : c.shadow_fit)
                                  : (e.type == 0 ? c.gpu_intersect_fit : c.gpu_shadow_fit);
-    f = {e.rms_error, e.median_rel_error, e.weighted_rel_error, e.max_rel_error};
+    f = e.errors;
   }
   const ExecCoefficients& a = tm.at(0, 0);
   const ExecCoefficients& b = tm.at(0, 1);

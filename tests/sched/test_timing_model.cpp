@@ -329,8 +329,8 @@ TEST(TimingModelFit, IsTheNonNegativeOptimum) {
   // Errors -2/13, 24/13, -28/13, 12/13 against times 2, 0, 4, 0: relative 1/13 and 7/13
   // where the time is > 0; time-weighted (2 + 24 + 28 + 12) / 13 / 6.
   EXPECT_NEAR(r.entries[0].max_rel_error, 7.0 / 13.0, 1e-12);
-  EXPECT_NEAR(r.entries[0].median_rel_error, 4.0 / 13.0, 1e-12);
-  EXPECT_NEAR(r.entries[0].weighted_rel_error, 11.0 / 13.0, 1e-12);
+  EXPECT_NEAR(r.entries[0].errors.median_rel, 4.0 / 13.0, 1e-12);
+  EXPECT_NEAR(r.entries[0].errors.weighted_rel, 11.0 / 13.0, 1e-12);
 
   std::mt19937 rng(32);
   std::uniform_real_distribution<double> u(0, 1);
