@@ -80,6 +80,14 @@ void Schedule::put_initial(BlockId b, MemId m, Time ready, bool origin) {
 //   2. cached copies nobody queued wants any more (next use = never: Belady's first pick);
 //   3. cached copies wanted by fewer queued jobs.
 // Within a class the copy whose last planned use ends first goes first (it frees soonest).
+// Candidates are taken in that order until the room suffices; then any taken one the rest
+// make unnecessary is given back, latest first (issue 2, stop 33: a leaving entry that
+// frees late, taken before a victim that alone suffices, only delayed the data, and a
+// small victim taken before a large one was evicted for nothing).
+// Room is handed over only as far as needed: what a leaving entry or the last victim frees
+// beyond the need stays reserved until the activities that free it end, and whoever counts
+// on it later waits for them too (before, it was free at once, so a later fetch could
+// start while the evicted copy was still in use: over capacity once reality ran late).
 // Never evicted: a block's origin copy, ray queues (unique data), the job's own inputs.
 Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<BlockId>& keep) const {
   Admission adm;
@@ -93,10 +101,11 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
   // used_ may exceed the capacity: data put in place by a workload (new ray queues) is
   // not admitted; the difference must then be freed first (signed arithmetic).
   if (used_[m] <= cap && cap - used_[m] >= bytes) return adm;
-  struct Cand { int value; Time at; Bytes bytes; BlockId block; ActivityId leaving; };
+  constexpr std::uint32_t kCopy = ~std::uint32_t{0};
+  struct Cand { int value; Time at; Bytes bytes; BlockId block; std::uint32_t leaving; };
   std::vector<Cand> cands;
-  for (const Leaving& l : leaving_)
-    if (l.mem == m) cands.push_back({-1, end_of(l.at), l.bytes, l.block, l.at});
+  for (std::uint32_t i = 0; i < leaving_.size(); ++i)
+    if (leaving_[i].mem == m) cands.push_back({-1, leaving_at(leaving_[i]), leaving_[i].bytes, leaving_[i].block, i});
   for (std::size_t b = 0; b < copies_.size(); ++b) {
     const DataBlock& blk = pool_->block(static_cast<BlockId>(b));
     if (blk.consumed || !blk.movable) continue;
@@ -107,7 +116,7 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
       if (copies_[b].size() == 1 && pool_->queued_demand(static_cast<BlockId>(b)) > 0) continue;
       Time at = copy_ready(c);
       for (ActivityId u : c.users) at = std::max(at, end_of(u));
-      cands.push_back({pool_->queued_demand(static_cast<BlockId>(b)), at, blk.bytes, static_cast<BlockId>(b), kNone});
+      cands.push_back({pool_->queued_demand(static_cast<BlockId>(b)), at, blk.bytes, static_cast<BlockId>(b), kCopy});
     }
   }
   const bool lru = eviction_policy_ == EvictionPolicy::Lru;
@@ -117,22 +126,52 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
     if (a.at != b.at) return a.at < b.at;
     return a.block < b.block;
   });
-  auto free = static_cast<std::int64_t>(cap) - static_cast<std::int64_t>(used_[m]);
+  const auto free0 = static_cast<std::int64_t>(cap) - static_cast<std::int64_t>(used_[m]);
   const auto want = static_cast<std::int64_t>(bytes);
-  for (const Cand& c : cands) {
-    if (free >= want) break;
+  // Candidates in that order until the room suffices, then those no longer needed dropped,
+  // the one that frees last first: a late leaving entry taken before a victim that alone
+  // suffices would only delay the incoming data.
+  std::vector<std::uint32_t> chosen;
+  std::int64_t free = free0;
+  for (std::uint32_t i = 0; i < cands.size() && free < want; ++i) {
+    free += static_cast<std::int64_t>(cands[i].bytes);
+    chosen.push_back(i);
+  }
+  if (free < want) {
+    adm.at = kNever;
+    return adm;
+  }
+  if (chosen.size() > 1) {
+    std::vector<std::uint32_t> by_late(chosen);
+    std::stable_sort(by_late.begin(), by_late.end(), [&](std::uint32_t a, std::uint32_t b) { return cands[a].at > cands[b].at; });
+    for (std::uint32_t i : by_late)
+      if (free - static_cast<std::int64_t>(cands[i].bytes) >= want) {
+        free -= static_cast<std::int64_t>(cands[i].bytes);
+        std::erase(chosen, i);
+      }
+  }
+  // Every candidate left is needed, so only the last one can free more than the need.
+  free = free0;
+  for (std::uint32_t i : chosen) {
+    const Cand& c = cands[i];
+    const std::int64_t need = want - free;
     free += static_cast<std::int64_t>(c.bytes);
     adm.at = std::max(adm.at, c.at);
-    if (c.leaving != kNone) {
-      adm.wait_for.push_back(c.leaving);
+    if (c.leaving != kCopy) {
+      // Only the bytes needed change hands; the rest of the entry stays reserved until its
+      // activities end, so no later admission counts on it without waiting for them too.
+      const Leaving& l = leaving_[c.leaving];
+      adm.wait_for.insert(adm.wait_for.end(), l.after.begin(), l.after.end());
+      adm.taken.push_back({c.leaving, c.block, static_cast<Bytes>(std::min<std::int64_t>(need, static_cast<std::int64_t>(c.bytes)))});
     } else {
       adm.victims.emplace_back(c.block, m);
+      adm.victim_at.push_back(c.at);
       const Copy* cp = copy_at(c.block, m);
       if (cp->producer != kNone) adm.wait_for.push_back(cp->producer);
       adm.wait_for.insert(adm.wait_for.end(), cp->users.begin(), cp->users.end());
+      if (free > want) adm.victim_surplus = static_cast<Bytes>(free - want);
     }
   }
-  if (free < want) adm.at = kNever;
   return adm;
 }
 
@@ -141,7 +180,10 @@ void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const
   auto it = std::find_if(v.begin(), v.end(), [m](const Copy& c) { return c.mem == m; });
   if (it == v.end()) throw std::logic_error("evicting a copy that is not there");
   std::vector<ActivityId> after(it->users.begin(), it->users.end());
-  if (it->producer != kNone) after.push_back(it->producer);
+  if (it->producer != kNone) {
+    after.push_back(it->producer);
+    if (!it->users.empty()) evicted_readers_[it->producer].append(it->users.begin(), it->users.end());
+  }
   used_[m] -= pool_->block(b).bytes;
   v.erase(it);
   ++holders_version_[b];
@@ -154,16 +196,42 @@ void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const
 // use is the farthest we know of; its last planned use ends by `adm.at`.
 template <class What>
 void Schedule::apply_evictions(const Admission& adm, MemId m, ActivityId for_activity, const What& what) {
-  for (const auto& [vb, vm] : adm.victims)
-    evict(vb, vm, adm.at, for_activity,
+  for (std::size_t i = 0; i < adm.victims.size(); ++i) {
+    const auto [vb, vm] = adm.victims[i];
+    const Time at = i < adm.victim_at.size() ? adm.victim_at[i] : adm.at;
+    evict(vb, vm, at, for_activity,
           "room for " + what() + "; victim wanted by " + std::to_string(pool_->queued_demand(vb)) +
-              " queued job(s), last planned use ends by t=" + std::to_string(adm.at) + " s");
-  if (adm.wait_for.empty()) return;  // nothing leaving is waited for
-  std::erase_if(leaving_, [&](const Leaving& l) {
-    if (l.mem != m || std::find(adm.wait_for.begin(), adm.wait_for.end(), l.at) == adm.wait_for.end()) return false;
-    used_[l.mem] -= l.bytes;  // its room now belongs to the incoming block, from `adm.at` on
-    return true;
-  });
+              " queued job(s), last planned use ends by t=" + std::to_string(at) + " s");
+  }
+  // Leaving bytes the incoming data counts on: handed over (their room now belongs to it,
+  // from `adm.at` on, and the activity waits for the ones that free it).
+  bool emptied = false;
+  for (const Admission::Taken& t : adm.taken) {
+    Leaving& l = leaving_[t.leaving];
+    if (l.mem != m || l.block != t.block || l.bytes < t.bytes)
+      throw std::logic_error("an admission applied to a schedule that changed since it was made");
+    l.bytes -= t.bytes;
+    used_[m] -= t.bytes;
+    emptied = emptied || l.bytes == 0;
+  }
+  if (emptied) std::erase_if(leaving_, [m](const Leaving& l) { return l.mem == m && l.bytes == 0; });
+  // The last victim's room beyond the need is free only once its producer and users end.
+  if (adm.victim_surplus > 0 && !adm.victims.empty()) {
+    const Eviction& e = evictions_.back();
+    Leaving l{e.block, e.mem, {}, adm.victim_surplus};
+    for (ActivityId a : e.after)
+      if (acts_[a].state != ActivityState::Done) l.after.push_back(a);
+    if (!l.after.empty()) {
+      used_[e.mem] += l.bytes;
+      leaving_.push_back(std::move(l));
+    }
+  }
+}
+
+Time Schedule::leaving_at(const Leaving& l) const {
+  Time t = 0;
+  for (ActivityId a : l.after) t = std::max(t, end_of(a));
+  return t;
 }
 
 void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
@@ -173,7 +241,8 @@ void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
   v.erase(it);
   ++holders_version_[b];
   forget_holder(b, m);
-  leaving_.push_back({b, m, leaving_with, pool_->block(b).bytes});
+  leaving_.push_back({b, m, {}, pool_->block(b).bytes});
+  leaving_.back().after.push_back(leaving_with);
 }
 
 
@@ -322,8 +391,17 @@ bool Schedule::withdraw_copy(BlockId b, MemId m, ActivityId producer) {
   ++holders_version_[b];
   forget_holder(b, m);
   ++memory_version_[m];
-  leaving_.push_back({b, m, producer, pool_->block(b).bytes});
+  leaving_.push_back({b, m, {}, pool_->block(b).bytes});
+  leaving_.back().after.push_back(producer);
   return true;
+}
+
+bool Schedule::read_after_eviction(ActivityId producer) const {
+  const auto it = evicted_readers_.find(producer);
+  if (it == evicted_readers_.end()) return false;
+  for (ActivityId u : it->second)
+    if (!acts_[u].cancelled) return true;
+  return false;
 }
 
 bool Schedule::cancel(ActivityId id) {
@@ -331,7 +409,7 @@ bool Schedule::cancel(ActivityId id) {
   if (a.state != ActivityState::Planned || a.cancelled) return false;
   auto unused = [&](BlockId b, MemId m) {
     const Copy* c = copy_at(b, m);
-    return !c || c->producer != id || c->users.empty();
+    return (!c || c->producer != id || c->users.empty()) && !read_after_eviction(id);
   };
   if (a.kind == ActivityKind::Transfer) {
     const Channel& ch = graph_->channels[a.channel];
@@ -418,12 +496,21 @@ void Schedule::on_finished(ActivityId id, Time t) {
   a.end = t;
   --unfinished_;
   if (a.kind == ActivityKind::Exec) --device_pending_[a.device];
-  std::erase_if(leaving_, [&](const Leaving& l) {
-    if (l.at != id) return false;
-    used_[l.mem] -= l.bytes;
-    ++memory_version_[l.mem];
-    return true;
-  });
+  std::size_t w = 0;
+  for (std::size_t r = 0; r < leaving_.size(); ++r) {
+    Leaving& l = leaving_[r];
+    if (std::find(l.after.begin(), l.after.end(), id) != l.after.end()) {
+      l.after.erase(id);
+      if (l.after.empty()) {  // every activity it waited for has ended: the room is free
+        used_[l.mem] -= l.bytes;
+        ++memory_version_[l.mem];
+        continue;
+      }
+    }
+    if (w != r) leaving_[w] = std::move(l);
+    ++w;
+  }
+  leaving_.resize(w);
 }
 
 void Schedule::reproject(Time now) {

@@ -275,6 +275,31 @@ TEST_P(GmbProperty, InvariantsHoldOnRandomInstances) {
 
 INSTANTIATE_TEST_SUITE_P(Modes, GmbProperty, ::testing::Values(0, 1, 2, 3, 4, 5));
 
+// Instances a soak of 6 000 seeds per mode found (stop 33), kept as regressions:
+//   * modes 3 and 4: memory over capacity once reality ran late. Room that a leaving ray
+//     queue or an evicted copy freed beyond what the incoming block needed was free at
+//     once, so a later fetch counted on it without waiting for the activities that free it;
+//   * mode 5: a T-job withdrawn although the E-job reading its copy still needed it, because
+//     that copy had been evicted (Schedule::cancel took an evicted copy for an unused one).
+TEST(GmbProperty, SoakInstancesOfStop33) {
+  struct Case { int mode, seed; };
+  for (const Case c : {Case{3, 2565}, Case{4, 494}, Case{5, 46}}) {
+    std::mt19937 rng(10000000u * static_cast<unsigned>(c.mode + 1) + static_cast<unsigned>(c.seed));
+    Instance inst = random_instance(rng, true, c.mode >= 2);
+    const Time horizon = std::array<Time, 3>{0.05, 2.0, 1e9}[c.seed % 3];
+    auto prng = std::make_shared<std::mt19937>(c.seed);
+    const std::function<Time(ActivityId, const Activity&)> perturb = [prng](ActivityId, const Activity& a) {
+      return a.duration * std::uniform_real_distribution<double>(0.6, 1.6)(*prng);
+    };
+    const RunResult r = run(inst, horizon, perturb, c.mode == 4, c.mode == 5, static_cast<std::uint32_t>(c.seed));
+    EXPECT_FALSE(r.stalled) << "mode " << c.mode << " seed " << c.seed;
+    if (HasFailure()) {
+      ADD_FAILURE() << "mode " << c.mode << " seed " << c.seed;
+      return;
+    }
+  }
+}
+
 // A horizon k below the resolution of the clock (now + k == now once now > 0) still gives
 // every device that runs dry a job (Sec. 4.2 re-plans when one does): the run never
 // stalls, every job is done, and the invariants hold. GMB used to plan nothing then and
