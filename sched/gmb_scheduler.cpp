@@ -376,20 +376,6 @@ Time GmbScheduler::fold_input(BlockId b, MemId m, Time start, Time now, const Sc
   return std::max(start, placer_->finder().arrival(b, m));
 }
 
-// Does input b surely reach m by t? select_pruned() asks the one/two-hop upper bound; the
-// exact answer only moves which job the scan folds first (gmb_scheduler.cpp, "first").
-bool GmbScheduler::input_by(BlockId b, MemId m, Time t, Time now, const Schedule& s) {
-  if (const Copy* c = s.copy_at(b, m)) return std::max(now, s.copy_ready(*c)) <= t;
-  const DataBlock& blk = s.pool().block(b);
-  if (blk.movable && s.graph().memories[static_cast<std::size_t>(m)].capacity >= blk.bytes) {
-    // A proven lower bound past t answers first (arrival_within() would return the same
-    // from its memo, at the cost of a lookup that may create one).
-    if (placer_->finder().known_lower_bound(b, m) > t) return false;
-    return placer_->finder().arrival_within(b, m, t, [t](Time x) { return x > t; }) <= t;
-  }
-  return bound_time_->direct_upper_bound(s, b, m, now) <= t;
-}
-
 // The group's buckets, smallest key block first, until the key block's bound loses: every
 // larger block of the group arrives no earlier. False when no bucket has queued jobs.
 bool GmbScheduler::visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
@@ -503,55 +489,12 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     if (prefer_checked(c, best)) best = c;
     return start;
   };
-  if (!in_order) {
-    for (std::size_t k = 0; k < n; ++k) evaluate(k);
-    return;
-  }
-  // Granularity order. The first job whose inputs provably arrive by key_at (input_by:
-  // a search cut at key_at, usually a memo hit) starts at key_at, the earliest any job
-  // here can; jobs after it have no smaller granularity and cannot win, jobs before it
-  // only if they also start at key_at. Folding it first lets their bounds prune them.
-  std::size_t first = n;
-  for (std::size_t k = 0; k < n && first == n; ++k) {
-    const JobId j = job_at(k);
-    if (!eligible(j) || s.after_deps_ready(j) > key_at) continue;
-    bool sure = true;
-    for (BlockId b : pool.job(j).inputs) {
-      if (has_key && b == bk.key) continue;
-      if ((!s.copy_at(b, m) && !Placer::may_fetch(pool.job(j), b, s)) || !input_by(b, m, key_at, now, s)) {
-        sure = false;
-        break;
-      }
-    }
-    if (sure) first = k;
-  }
-  if (first < n) {
-    evaluate(first);
-    for (std::size_t k = 0; k < first; ++k)
-      // Later jobs have no smaller granularity (then a larger id) and start no earlier.
-      if (evaluate(k) == key_at) break;
-    return;
-  }
-  // No job here surely starts at key_at, and the scan above proved for each input that it
-  // does not arrive by key_at, with a lower bound on when it does: fold the jobs in order
-  // of those bounds, until the bound loses (the fold is order-free, see prefer_checked).
-  by_bound_.clear();
-  for (std::size_t k = 0; k < n; ++k) {
-    const JobId j = job_at(k);
-    if (!eligible(j)) continue;
-    Time lb = std::max(key_at, s.after_deps_ready(j));
-    for (BlockId b : pool.job(j).inputs) {
-      if (has_key && b == bk.key) continue;
-      if (const Copy* c = s.copy_at(b, m)) lb = std::max(lb, s.copy_ready(*c));
-      else lb = std::max(lb, placer_->finder().known_lower_bound(b, m));
-    }
-    by_bound_.emplace_back(lb, k);
-  }
-  std::sort(by_bound_.begin(), by_bound_.end());
-  for (const auto& [lb, k] : by_bound_) {
-    if (lb == kNever || loses(lb)) break;
-    evaluate(k);
-  }
+  // Granularity order (else queue order). A job that starts at key_at, the earliest any
+  // job here can, ends an in-order scan: later jobs have no smaller granularity (then a
+  // larger id) and start no earlier. Jobs before it are folded with prefer_checked(), so
+  // the order only decides how soon `loses` prunes, never the choice.
+  for (std::size_t k = 0; k < n; ++k)
+    if (evaluate(k) == key_at && in_order) break;
 }
 
 GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time now, const JobPool& pool,

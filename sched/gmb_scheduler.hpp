@@ -91,7 +91,6 @@ class GmbScheduler final : public Scheduler {
   std::vector<std::int32_t> bucket_of_block_, bucket_of_job_;
   std::vector<JobId> indexed_jobs_;  // the jobs bucket_of_job_ holds this pass
   std::vector<std::pair<Time, std::int32_t>> order_;
-  std::vector<std::pair<Time, std::size_t>> by_bound_;  // evaluate_bucket(): jobs by a lower bound on their start
   Time aging_now_ = kNever;     // build_index(): the aging threshold of this plan
   std::vector<Time> ages_;
   std::vector<JobId> aged_;     // build_index(): queued jobs past the aging threshold, oldest first
@@ -110,7 +109,6 @@ class GmbScheduler final : public Scheduler {
   Time group_key(std::int32_t g, MemId m, Time now, const Schedule& s);
   template <class Loses>
   Time fold_input(BlockId b, MemId m, Time start, Time now, const Schedule& s, const Loses& loses);
-  bool input_by(BlockId b, MemId m, Time t, Time now, const Schedule& s);
   bool visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
                    const Schedule& s, Choice& best);
   // After a commit (or a failed one that left hops): re-group the blocks it moved.
