@@ -336,6 +336,23 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
     }
   }
   const Time relay_end = rest ? relay_end_in() : kNever;
+  // A lower bound on m's label along any path on from label l at q: the uncontended rest
+  // (scaled below the real-arithmetic sum by far more than the rounding of any Eq. 3
+  // chain), and the last hop: q's own channel into m or a relayed one (Eq. 3 as is).
+  auto through = [&](Time l, MemId q) -> Time {
+    if (!rest || q == m) return l;
+    const auto qi = static_cast<std::size_t>(q);
+    const Time free_run = (l + (rest_lat[qi] + wbytes * rest_inv_bw[qi]) * (1 - 1e-9)) * (1 - 1e-14);
+    Time last = relay_end;
+    if (const ChannelId c = direct[qi]; c >= 0) {
+      last = std::min(last, std::max(l, schedule_->channel_finish(c)) + g.transfer_time(c, bytes));
+    } else if (c == FetchBound::kSeveral) {
+      for (ChannelId d : g.out_channels(q))
+        if (g.channels[static_cast<std::size_t>(d)].to == m)
+          last = std::min(last, std::max(l, schedule_->channel_finish(d)) + g.transfer_time(d, bytes));
+    }
+    return std::max(free_run, last);
+  };
   // Every path to m is one direct hop from a holder or ends with a relayed hop. When the
   // best direct hop lands no later than any relayed one can, it is the arrival (Ties: and
   // when it lands strictly first and no other direct hop ties, the only best path).
@@ -362,7 +379,33 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
           if (g.channels[static_cast<std::size_t>(c)].to == m) consider(c);
       }
     }
-    if (best < kNever && (Ties ? best < relay_end && n_best == 1 : best <= relay_end)) {
+    // Else a relayed path leaves some holder h by a channel h -> q (q != m, not a holder)
+    // and then needs at least through(Eq. 3 at that hop, q): the least of those over every
+    // such first hop bounds every relayed path from below (one level of the search below,
+    // without its heap). A q whose channels all lead to holders or to devices too small
+    // (a holder's own disk or GPU memory) starts no admissible path and is left out.
+    Time relay_floor = relay_end;
+    if (best < kNever && !(Ties ? best < relay_end && n_best == 1 : best <= relay_end)) {
+      relay_floor = kNever;
+      auto dead_end = [&](MemId q) {
+        for (ChannelId c : g.out_channels(q)) {
+          const auto ti = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c)].to);
+          if (!holder_[ti] && g.memories[ti].capacity >= bytes) return false;
+        }
+        return true;
+      };
+      for (const Copy& cp : schedule_->copies(b)) {
+        const Time r = std::max(now_, schedule_->copy_ready(cp));
+        for (ChannelId c : g.out_channels(cp.mem)) {
+          const MemId q = g.channels[static_cast<std::size_t>(c)].to;
+          const auto qi = static_cast<std::size_t>(q);
+          if (q == m || holder_[qi] || g.memories[qi].capacity < bytes || dead_end(q)) continue;
+          const Time lq = std::max(r, schedule_->channel_finish(c)) + g.transfer_time(c, bytes);  // Eq. 3
+          relay_floor = std::min(relay_floor, through(lq, q));
+        }
+      }
+    }
+    if (best < kNever && (Ties ? best < relay_floor && n_best == 1 : best <= relay_floor)) {
       if (best > enough && lost(best)) {
         dropped = std::min(dropped, best);
         return kNever;
@@ -370,27 +413,10 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       label_[mi] = best;
       label_via_[mi] = best_c;
       touched_.push_back(m);
-      cut_unique_ = best < relay_end && n_best == 1;
+      cut_unique_ = best < relay_floor && n_best == 1;
       return best;
     }
   }
-  // A lower bound on m's label along any path on from label l at q: the uncontended rest
-  // (scaled below the real-arithmetic sum by far more than the rounding of any Eq. 3
-  // chain), and the last hop: q's own channel into m or a relayed one (Eq. 3 as is).
-  auto through = [&](Time l, MemId q) -> Time {
-    if (!rest || q == m) return l;
-    const auto qi = static_cast<std::size_t>(q);
-    const Time free_run = (l + (rest_lat[qi] + wbytes * rest_inv_bw[qi]) * (1 - 1e-9)) * (1 - 1e-14);
-    Time last = relay_end;
-    if (const ChannelId c = direct[qi]; c >= 0) {
-      last = std::min(last, std::max(l, schedule_->channel_finish(c)) + g.transfer_time(c, bytes));
-    } else if (c == FetchBound::kSeveral) {
-      for (ChannelId d : g.out_channels(q))
-        if (g.channels[static_cast<std::size_t>(d)].to == m)
-          last = std::min(last, std::max(l, schedule_->channel_finish(d)) + g.transfer_time(d, bytes));
-    }
-    return std::max(free_run, last);
-  };
   for (const Copy& c : schedule_->copies(b)) {
     const auto qi = static_cast<std::size_t>(c.mem);
     const Time r = std::max(now_, schedule_->copy_ready(c));
