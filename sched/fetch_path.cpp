@@ -1,6 +1,7 @@
 #include "sched/fetch_path.hpp"
 
 #include <algorithm>
+#include <limits>
 
 namespace rayline {
 
@@ -62,6 +63,31 @@ FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
   e.m = m;
   e.holders = hv;
   return e;
+}
+
+Time FetchPathFinder::single_holder_direct(BlockId b, MemId m) const {
+  constexpr Time kOpen = std::numeric_limits<Time>::quiet_NaN();
+  if (!rest_) return kOpen;
+  const std::vector<Copy>& copies = schedule_->copies(b);
+  if (copies.size() != 1) return kOpen;
+  const MemId h = copies.front().mem;
+  const ChannelId c = rest_->direct_to(m)[static_cast<std::size_t>(h)];
+  if (h == m || c < 0) return kOpen;
+  const DataBlock& blk = schedule_->pool().block(b);
+  const DeviceGraph& g = schedule_->graph();
+  if (!blk.movable || g.memories[static_cast<std::size_t>(m)].capacity < blk.bytes) return kOpen;
+  // The same operations as cut_search(): the root label, Eq. 3 on the hop, and the least
+  // relayed last hop (relay_end_in(), every holder but h being none).
+  const Time direct = std::max(std::max(now_, schedule_->copy_ready(copies.front())), schedule_->channel_finish(c)) +
+                      g.transfer_time(c, blk.bytes);
+  const double wbytes = static_cast<double>(blk.bytes);
+  for (const FetchBound::Relay& r : rest_->relay_in(m)) {
+    if (r.from == h || r.from_capacity < blk.bytes) continue;
+    const Time finish = schedule_->channel_finish(r.channel);
+    if (r.bandwidth > 0 && !(finish + r.latency < direct)) continue;  // cannot land before it
+    if (finish + (r.latency + wbytes / r.bandwidth) < direct) return kOpen;
+  }
+  return direct;
 }
 
 Time FetchPathFinder::known_lower_bound(BlockId b, MemId m) const {

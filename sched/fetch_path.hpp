@@ -161,6 +161,10 @@ class FetchPathFinder {
   template <class Lost, bool Ties, bool Funnel = true>
   Time cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped);
   int via_hops(MemId m, MemId* root) const;  // cut_search's path to m (kMemoHops + 1: longer)
+  // A block on one memory device h != m (a ray queue) with one channel h -> m: when that
+  // hop lands no later than any relayed last hop can (cut_search()'s first shortcut), its
+  // Eq. 3 value is the SDC arrival, found without a memo or a search. NaN otherwise.
+  Time single_holder_direct(BlockId b, MemId m) const;
   // Memo lookup in O(1): per block asked about this pass, a slot of n_ indices into
   // memos_ (-1: none yet), one per memory device.
   std::vector<std::int32_t> memo_slot_;   // per block (-1: no slot this pass)
@@ -196,6 +200,10 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
       *hops = static_cast<int>(p.size());
     }
     return answer(arrival(b, m));
+  }
+  if (!proven && !hops) {
+    const Time a = single_holder_direct(b, m);
+    if (a == a) return answer(a);  // (NaN: not settled that way)
   }
   Memo& f = memo(b, m);  // (cut_search() leaves memos_ alone: the reference stays valid)
   const std::uint64_t stamp_now = f.hops > 0 ? memo_stamp(f) : 0;
