@@ -171,20 +171,91 @@ Time chain(const Schedule& s, BlockId b, const std::vector<ChannelId>& p, Time n
   return t;
 }
 
-}  // namespace
+// Cluster-shaped random platform (the paper's Sec. 6 shape, small): 2-5 nodes, each a
+// disk and a RAM (SATA, one half-duplex resource) and maybe a GPU memory behind PCIe; a
+// LAN channel between every two RAMs that occupies the sender's port out and the
+// receiver's port in (1 Gb/s or 100 Mb/s ports, the channel at the slower). Scene blocks
+// on every disk, ray queues each in one RAM: the ray queue's single-holder shortcut, the
+// one-hop relay floor and its dead ends (a holder's own disk and GPU) all arise here.
+RandomState random_cluster_state(std::mt19937& rng, int inst) {
+  RandomState r;
+  rayline::testing::DcgBuilder b;
+  std::uniform_real_distribution<double> u(0, 1);
+  const int nodes = 2 + inst % 4;
+  std::vector<MemId> rams, disks;
+  std::vector<ResourceId> port_out, port_in;
+  std::vector<double> port_bw;
+  for (int i = 0; i < nodes; ++i) {
+    const std::string n = "n" + std::to_string(i);
+    const NodeId node = b.node(n);
+    disks.push_back(b.mem(n + ".disk", Bytes(1) << 40, MemoryKind::Disk, node));
+    rams.push_back(b.mem(n + ".ram", u(rng) < 0.2 ? Bytes(60'000'000) : Bytes(8) << 30, MemoryKind::Host, node));
+    b.half_duplex(disks.back(), rams.back(), 150e6, 0.008);
+    if (u(rng) < 0.5) {
+      const MemId gpu = b.mem(n + ".gpu", Bytes(6) << 30, MemoryKind::Gpu, node);
+      b.full_duplex(rams.back(), gpu, 6e9, 1e-5);
+      r.m.push_back(gpu);
+    }
+    port_bw.push_back(u(rng) < 0.5 ? 125e6 : 12.5e6);
+    port_out.push_back(b.resource(n + ".out", port_bw.back()));
+    port_in.push_back(b.resource(n + ".in", port_bw.back()));
+  }
+  for (int i = 0; i < nodes; ++i)
+    for (int j = 0; j < nodes; ++j)
+      if (i != j) {
+        const auto si = static_cast<std::size_t>(i), sj = static_cast<std::size_t>(j);
+        b.channel(rams[si], rams[sj], std::min(port_bw[si], port_bw[sj]), 1e-4, {port_out[si], port_in[sj]});
+      }
+  r.m.insert(r.m.end(), rams.begin(), rams.end());
+  r.m.insert(r.m.end(), disks.begin(), disks.end());
+  r.g = b.build();
+  for (int k = 0; k < 6; ++k) {
+    DataBlock d;
+    d.name = "b" + std::to_string(k);
+    d.kind = k % 2 ? DataKind::RayQueue : DataKind::SceneData;
+    d.consumed = k % 2 == 1;
+    d.bytes = k % 2 ? static_cast<Bytes>(u(rng) * 32e6) + 1 : static_cast<Bytes>((0.9 + 0.2 * u(rng)) * 50e6);
+    r.blocks.push_back(r.pool.add_block(d));
+  }
+  return r;
+}
+
+// Scene blocks on every disk (origins), sometimes also in a RAM; each ray queue in one RAM.
+void place_cluster_blocks(const RandomState& r, Schedule& s, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<MemId> disks, rams;
+  for (MemId m : r.m) {
+    const MemoryKind k = r.g.memories[static_cast<std::size_t>(m)].kind;
+    if (k == MemoryKind::Disk) disks.push_back(m);
+    if (k == MemoryKind::Host) rams.push_back(m);
+  }
+  auto any_ram = [&] { return rams[std::uniform_int_distribution<std::size_t>(0, rams.size() - 1)(rng)]; };
+  for (BlockId blk : r.blocks) {
+    if (r.pool.block(blk).kind == DataKind::SceneData) {
+      for (MemId d : disks) s.put_initial(blk, d);
+      if (u(rng) < 0.3) {
+        const MemId at = any_ram();
+        if (r.g.memories[static_cast<std::size_t>(at)].capacity >= r.pool.block(blk).bytes) s.put_initial(blk, at, u(rng), false);
+      }
+    } else {
+      s.put_initial(blk, any_ram(), u(rng) < 0.3 ? u(rng) : 0.0);
+    }
+  }
+}
 
 // arrival_within() (branch and bound, memo) against the full Dijkstra: the same bits for
 // the exact answers, and the documented contract for `enough` / `lost`; path() with bounds
 // (a unique best path or the tree's) has the arrival's Eq. 3 value; all of it again after
 // more commits (memo validity by path stamps and holders versions).
-TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomGraphs) {
-  std::mt19937 rng(2026);
+template <class Make, class Place>
+void expect_cut_search_equals_full_search(std::uint32_t seed, int instances, const Make& make, const Place& place,
+                                          int& checked, int& cut) {
+  std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0, 1);
-  int checked = 0, cut = 0;
-  for (int inst = 0; inst < 300; ++inst) {
-    RandomState r = random_state(rng, inst);
+  for (int inst = 0; inst < instances; ++inst) {
+    RandomState r = make(rng, inst);
     Schedule s(r.g, r.pool);
-    place_holders_randomly(r, s, rng);
+    place(r, s, rng);
     const Time now = u(rng) * 0.5;
     FetchBound fb(r.g);
     FetchPathFinder cached(s);  // lives through the commits: its memo must stay right
@@ -246,6 +317,20 @@ TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomGraphs) {
       }
     }
   }
+}
+
+}  // namespace
+
+TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomGraphs) {
+  int checked = 0, cut = 0;
+  expect_cut_search_equals_full_search(2026, 300, random_state, place_holders_randomly, checked, cut);
+  EXPECT_GT(checked, 5000);
+  EXPECT_GT(cut, 0);
+}
+
+TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomClusters) {
+  int checked = 0, cut = 0;
+  expect_cut_search_equals_full_search(34, 200, random_cluster_state, place_cluster_blocks, checked, cut);
   EXPECT_GT(checked, 5000);
   EXPECT_GT(cut, 0);
 }
