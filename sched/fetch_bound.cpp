@@ -136,17 +136,13 @@ Time FetchBound::direct_upper_bound(const Schedule& s, BlockId b, MemId m, Time 
 Time FetchBound::last_hop_floor(const Schedule& s, BlockId b, MemId m) const {
   const double w = static_cast<double>(s.pool().block(b).bytes);
   Time best = kNever;
-  // A term whose FinishTime + T_LAT does not beat the minimum so far is skipped without
-  // Eq. 1's division (|w|/T_BW >= 0, rounding is monotone: its sum would not beat it).
-  auto term = [&](ChannelId c, Time latency, double bandwidth) {
-    const Time finish = s.channel_finish(c);
-    if (!(finish + latency < best)) return;
-    best = std::min(best, finish + (latency + w / bandwidth));  // (Eq. 1 as transfer_time())
+  auto term = [&](const Relay& r) {
+    if (const Time t = r.lands_before(s.channel_finish(r.channel), w, best); t < best) best = t;
   };
-  for (const Relay& r : relay_in_[static_cast<std::size_t>(m)]) term(r.channel, r.latency, r.bandwidth);
+  for (const Relay& r : relay_in_[static_cast<std::size_t>(m)]) term(r);
   // A holder's own channel into m that is no relay channel (from m's GPU memory or disk).
   for (const Relay& r : own_in_[static_cast<std::size_t>(m)])
-    if (s.copy_at(b, r.from)) term(r.channel, r.latency, r.bandwidth);
+    if (s.copy_at(b, r.from)) term(r);
   return best;
 }
 

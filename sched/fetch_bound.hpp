@@ -62,6 +62,14 @@ class FetchBound {
     Bytes from_capacity;
     Time latency;      // T_LAT
     double bandwidth;  // T_BW
+    // When data ready at FinishTime(c) = `finish` lands through this hop: finish +
+    // T_TRANS(c, |w|) (Eq. 3, Eq. 1 as transfer_time()), or kNever when it cannot land
+    // before `before`: FinishTime + T_LAT alone does not beat it, and |w|/T_BW >= 0 with
+    // monotone rounding, so Eq. 1's division is skipped (a minimum over hops is unchanged).
+    Time lands_before(Time finish, double w, Time before) const {
+      if (!(finish + latency < before)) return kNever;
+      return finish + (latency + w / bandwidth);
+    }
   };
   const std::vector<Relay>& relay_in(MemId m) const { return relay_in_[static_cast<std::size_t>(m)]; }
   const ChannelId* direct_to(MemId m) const { return direct_to_.data() + static_cast<std::size_t>(m) * n_; }

@@ -81,12 +81,10 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m) const {
   const Time direct = std::max(std::max(now_, schedule_->copy_ready(copies.front())), schedule_->channel_finish(c)) +
                       g.transfer_time(c, blk.bytes);
   const double wbytes = static_cast<double>(blk.bytes);
-  for (const FetchBound::Relay& r : rest_->relay_in(m)) {
-    if (r.from == h || r.from_capacity < blk.bytes) continue;
-    const Time finish = schedule_->channel_finish(r.channel);
-    if (r.bandwidth > 0 && !(finish + r.latency < direct)) continue;  // cannot land before it
-    if (finish + (r.latency + wbytes / r.bandwidth) < direct) return kOpen;
-  }
+  for (const FetchBound::Relay& r : rest_->relay_in(m))
+    if (r.from != h && r.from_capacity >= blk.bytes &&
+        r.lands_before(schedule_->channel_finish(r.channel), wbytes, direct) < direct)
+      return kOpen;
   return direct;
 }
 

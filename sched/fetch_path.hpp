@@ -306,17 +306,12 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
   if (!holder_[mi] && g.memories[mi].capacity < bytes) return kNever;  // never routed into m
   // The earliest a relayed last hop can land on m: from a device that is neither a holder
   // (nothing is routed through a holder) nor the label's own (its direct channel). Only
-  // needed past the funnel below. A hop is skipped without Eq. 1's division when
-  // FinishTime + T_LAT alone does not beat the minimum so far: |w|/T_BW >= 0 and rounding
-  // is monotone, so its Eq. 1 sum would not either (the minimum is bit-identical).
+  // needed past the funnel below.
   auto relay_end_in = [&] {
     Time end = kNever;
-    for (const FetchBound::Relay& r : rest->relay_in(m)) {
-      if (holder_[static_cast<std::size_t>(r.from)] || r.from_capacity < bytes) continue;
-      const Time finish = schedule_->channel_finish(r.channel);
-      if (r.bandwidth > 0 && !(finish + r.latency < end)) continue;
-      end = std::min(end, finish + (r.latency + wbytes / r.bandwidth));  // (Eq. 1 as transfer_time())
-    }
+    for (const FetchBound::Relay& r : rest->relay_in(m))
+      if (!holder_[static_cast<std::size_t>(r.from)] && r.from_capacity >= bytes)
+        if (const Time t = r.lands_before(schedule_->channel_finish(r.channel), wbytes, end); t < end) end = t;
     return end;
   };
   // A destination reached by one channel only (a GPU behind its host memory): its arrival
