@@ -78,13 +78,42 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m) const {
   if (!blk.movable || g.memories[static_cast<std::size_t>(m)].capacity < blk.bytes) return kOpen;
   // The same operations as cut_search(): the root label, Eq. 3 on the hop, and the least
   // relayed last hop (relay_end_in(), every holder but h being none).
-  const Time direct = std::max(std::max(now_, schedule_->copy_ready(copies.front())), schedule_->channel_finish(c)) +
-                      g.transfer_time(c, blk.bytes);
+  const Time root = std::max(now_, schedule_->copy_ready(copies.front()));
+  const Time direct = std::max(root, schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);
   const double wbytes = static_cast<double>(blk.bytes);
+  bool relay_may_win = false;
   for (const FetchBound::Relay& r : rest_->relay_in(m))
     if (r.from != h && r.from_capacity >= blk.bytes &&
-        r.lands_before(schedule_->channel_finish(r.channel), wbytes, direct) < direct)
-      return kOpen;
+        r.lands_before(schedule_->channel_finish(r.channel), wbytes, direct) < direct) {
+      relay_may_win = true;
+      break;
+    }
+  if (!relay_may_win) return direct;
+  // A relayed path also leaves h first, by a hop h -> q (q != m, q admissible and not a
+  // dead end: cut_search()'s relay floor without its rest), and its arrival is no earlier
+  // than that hop's Eq. 3 label. When every such label is at least `direct`, so is every
+  // relayed arrival.
+  for (const ChannelId c1 : g.out_channels(h)) {
+    const MemId q = g.channels[static_cast<std::size_t>(c1)].to;
+    const auto qi = static_cast<std::size_t>(q);
+    if (q == m || g.memories[qi].capacity < blk.bytes) continue;
+    const Time start = std::max(root, schedule_->channel_finish(c1));
+    if (!(start + g.channels[static_cast<std::size_t>(c1)].latency < direct)) continue;  // T_TRANS >= T_LAT
+    const Time lq = start + g.transfer_time(c1, blk.bytes);  // Eq. 3
+    if (!(lq < direct)) continue;
+    // ... and then needs the uncontended rest q -> m (through()'s free run).
+    const Time free_run = (lq + (rest_->latency_to(m)[qi] + wbytes * rest_->inv_bw_to(m)[qi]) * (1 - 1e-9)) * (1 - 1e-14);
+    if (!(free_run < direct)) continue;
+    bool dead_end = true;  // every channel out of q leads back to h or to a device too small
+    for (const ChannelId c2 : g.out_channels(q)) {
+      const auto ti = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c2)].to);
+      if (g.channels[static_cast<std::size_t>(c2)].to != h && g.memories[ti].capacity >= blk.bytes) {
+        dead_end = false;
+        break;
+      }
+    }
+    if (!dead_end) return kOpen;
+  }
   return direct;
 }
 
