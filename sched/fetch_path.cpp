@@ -65,17 +65,28 @@ FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
   return e;
 }
 
-Time FetchPathFinder::single_holder_direct(BlockId b, MemId m) const {
+Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel) const {
   constexpr Time kOpen = std::numeric_limits<Time>::quiet_NaN();
   if (!rest_) return kOpen;
   const std::vector<Copy>& copies = schedule_->copies(b);
   if (copies.size() != 1) return kOpen;
   const MemId h = copies.front().mem;
   const ChannelId c = rest_->direct_to(m)[static_cast<std::size_t>(h)];
-  if (h == m || c < 0) return kOpen;
+  if (h == m) return kOpen;
   const DataBlock& blk = schedule_->pool().block(b);
   const DeviceGraph& g = schedule_->graph();
   if (!blk.movable || g.memories[static_cast<std::size_t>(m)].capacity < blk.bytes) return kOpen;
+  if (c < 0) {
+    // A destination behind one channel p -> m (a GPU behind its host memory): Eq. 3 on that
+    // hop after the arrival at p, as cut_search()'s funnel computes it.
+    if (!funnel || g.in_channels(m).size() != 1) return kOpen;
+    const ChannelId cp = g.in_channels(m)[0];
+    const MemId p = g.channels[static_cast<std::size_t>(cp)].from;
+    if (p == h || g.memories[static_cast<std::size_t>(p)].capacity < blk.bytes) return kOpen;
+    const Time ap = single_holder_direct(b, p, false);
+    if (ap != ap) return kOpen;
+    return std::max(ap, schedule_->channel_finish(cp)) + g.transfer_time(cp, blk.bytes);
+  }
   // The same operations as cut_search(): the root label, Eq. 3 on the hop, and the least
   // relayed last hop (relay_end_in(), every holder but h being none).
   const Time root = std::max(now_, schedule_->copy_ready(copies.front()));

@@ -163,8 +163,9 @@ class FetchPathFinder {
   int via_hops(MemId m, MemId* root) const;  // cut_search's path to m (kMemoHops + 1: longer)
   // A block on one memory device h != m (a ray queue) with one channel h -> m: when that
   // hop lands no later than any relayed last hop can (cut_search()'s first shortcut), its
-  // Eq. 3 value is the SDC arrival, found without a memo or a search. NaN otherwise.
-  Time single_holder_direct(BlockId b, MemId m) const;
+  // Eq. 3 value is the SDC arrival, found without a memo or a search. With `funnel`, also a
+  // destination behind one channel p -> m whose source p is answered so. NaN otherwise.
+  Time single_holder_direct(BlockId b, MemId m, bool funnel = true) const;
   // Memo lookup in O(1): per block asked about this pass, a slot of n_ indices into
   // memos_ (-1: none yet), one per memory device.
   std::vector<std::int32_t> memo_slot_;   // per block (-1: no slot this pass)
