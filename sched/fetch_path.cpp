@@ -65,7 +65,7 @@ FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
   return e;
 }
 
-Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel) const {
+Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, ChannelId* route) const {
   constexpr Time kOpen = std::numeric_limits<Time>::quiet_NaN();
   if (!rest_) return kOpen;
   const std::vector<Copy>& copies = schedule_->copies(b);
@@ -78,19 +78,22 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel) cons
   if (!blk.movable || g.memories[static_cast<std::size_t>(m)].capacity < blk.bytes) return kOpen;
   if (c < 0) {
     // A destination behind one channel p -> m (a GPU behind its host memory): Eq. 3 on that
-    // hop after the arrival at p, as cut_search()'s funnel computes it.
+    // hop after the arrival at p, as cut_search()'s funnel computes it; its best paths are
+    // those to p, extended.
     if (!funnel || g.in_channels(m).size() != 1) return kOpen;
     const ChannelId cp = g.in_channels(m)[0];
     const MemId p = g.channels[static_cast<std::size_t>(cp)].from;
     if (p == h || g.memories[static_cast<std::size_t>(p)].capacity < blk.bytes) return kOpen;
-    const Time ap = single_holder_direct(b, p, false);
+    const Time ap = single_holder_direct(b, p, false, route);
     if (ap != ap) return kOpen;
+    if (route) route[1] = cp;
     return std::max(ap, schedule_->channel_finish(cp)) + g.transfer_time(cp, blk.bytes);
   }
   // The same operations as cut_search(): the root label, Eq. 3 on the hop, and the least
   // relayed last hop (relay_end_in(), every holder but h being none).
   const Time root = std::max(now_, schedule_->copy_ready(copies.front()));
   const Time direct = std::max(root, schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);
+  if (route) route[0] = c;
   const double wbytes = static_cast<double>(blk.bytes);
   bool relay_may_win = false;
   for (const FetchBound::Relay& r : rest_->relay_in(m))
@@ -294,6 +297,16 @@ void FetchPathFinder::path(BlockId b, MemId m, std::vector<ChannelId>& out) {
     // whatever its order, finds exactly this one.
     // Its arrival first (memoised, or a search cut at the best label found), so that the
     // search for ties can drop every label that cannot end at it.
+    // A ray queue whose direct hop (or, to a GPU, the hop to its host) lands no later than
+    // any other path: that hop is also the tree's path. The tree grows from the one holder,
+    // whose channels are relaxed first, and a label is replaced only by a smaller one, so a
+    // path that ties with the direct hop never replaces it (nor, to a GPU behind p, the hop
+    // to p, which m's path extends).
+    ChannelId route[2];
+    if (const Time a = single_holder_direct(b, m, true, route); a == a) {
+      out.assign(route, route + (rest_->direct_to(m)[schedule_->copies(b).front().mem] >= 0 ? 1 : 2));
+      return;
+    }
     const Time best = arrival_within(b, m, -kNever, [](Time) { return false; });
     if (best == kNever) return;
     bool relayed = false;

@@ -165,7 +165,8 @@ class FetchPathFinder {
   // hop lands no later than any relayed last hop can (cut_search()'s first shortcut), its
   // Eq. 3 value is the SDC arrival, found without a memo or a search. With `funnel`, also a
   // destination behind one channel p -> m whose source p is answered so. NaN otherwise.
-  Time single_holder_direct(BlockId b, MemId m, bool funnel = true) const;
+  // `route` (if given) gets the channels of that path: one, or two through p.
+  Time single_holder_direct(BlockId b, MemId m, bool funnel = true, ChannelId* route = nullptr) const;
   // Memo lookup in O(1): per block asked about this pass, a slot of n_ indices into
   // memos_ (-1: none yet), one per memory device.
   std::vector<std::int32_t> memo_slot_;   // per block (-1: no slot this pass)

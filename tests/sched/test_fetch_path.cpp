@@ -41,6 +41,48 @@ TEST(FetchPath, NeverRoutesIntoAMemoryThatAlreadyReceivesTheBlock) {
   EXPECT_EQ(g.channels[p[0]].from, m1);
 }
 
+// A block on one memory device (a ray queue) whose relayed path ties exactly with the
+// direct hop: the planner's shortcut (FetchPathFinder::single_holder_direct) takes the
+// direct hop, and so does the full Dijkstra tree, which relaxes the holder's channels first
+// and replaces a label only by a smaller one. When the relay is strictly faster, both take it.
+TEST(FetchPath, SingleHolderTieTakesTheDirectHopAsTheTreeDoes) {
+  for (const double direct_bw : {50e6, 40e6}) {  // direct hop of 100 MB: 2 s (a tie), 2.5 s
+    rayline::testing::DcgBuilder b;
+    const MemId h = b.mem("h"), r = b.mem("r"), m = b.mem("m");
+    const ChannelId direct = b.channel(h, m, direct_bw);
+    const ChannelId first = b.channel(h, r, 100e6);   // 1 s
+    const ChannelId second = b.channel(r, m, 100e6);  // 1 s, busy until 1 s below
+    DeviceGraph g = b.build();
+    JobPool pool;
+    DataBlock q;
+    q.name = "rays";
+    q.kind = DataKind::RayQueue;
+    q.bytes = 100'000'000;
+    const BlockId qb = pool.add_block(q);
+    q.name = "other";
+    const BlockId ob = pool.add_block(q);
+    Schedule s(g, pool);
+    s.put_initial(qb, h);
+    s.put_initial(ob, r);
+    s.commit_transfer(ob, second, kNone, 0, s.admission(m, q.bytes, {}));  // r -> m busy over [0, 1]
+    ASSERT_EQ(s.channel_finish(second), 1.0);
+    FetchBound fb(g);
+    FetchPathFinder fast(s), tree(s);
+    fast.set_bounds(&fb);
+    std::vector<ChannelId> pf, pt;
+    fast.path(qb, m, pf);
+    tree.path(qb, m, pt);
+    EXPECT_EQ(pf, pt) << "direct hop of " << direct_bw;
+    if (direct_bw == 50e6) {
+      EXPECT_EQ(pf, std::vector<ChannelId>{direct});
+      EXPECT_EQ(fast.arrival_within(qb, m, -kNever, [](Time) { return false; }), 2.0);
+    } else {
+      EXPECT_EQ(pf, (std::vector<ChannelId>{first, second}));
+      EXPECT_EQ(fast.arrival_within(qb, m, -kNever, [](Time) { return false; }), 2.0);
+    }
+  }
+}
+
 // FetchBound::lower_bound <= SDC arrival <= FetchBound::direct_upper_bound on random
 // graphs with random busy channels and holders.
 TEST(FetchPath, BoundsBracketSdcOnRandomGraphs) {
