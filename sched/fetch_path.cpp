@@ -131,6 +131,47 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
   return direct;
 }
 
+Time FetchPathFinder::direct_before_relays(BlockId b, MemId m, ChannelId& via, bool& unique) const {
+  constexpr Time kOpen = std::numeric_limits<Time>::quiet_NaN();
+  if (!rest_ || schedule_->copy_at(b, m)) return kOpen;
+  const DataBlock& blk = schedule_->pool().block(b);
+  const DeviceGraph& g = schedule_->graph();
+  if (!blk.movable || g.memories[static_cast<std::size_t>(m)].capacity < blk.bytes) return kOpen;
+  const ChannelId* direct = rest_->direct_to(m);
+  Time best = kNever;
+  int n_best = 0;
+  for (const Copy& cp : schedule_->copies(b)) {
+    const Time r = std::max(now_, schedule_->copy_ready(cp));
+    auto consider = [&](ChannelId c) {
+      const Time t = std::max(r, schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);  // Eq. 3
+      if (t < best) {
+        best = t;
+        via = c;
+        n_best = 1;
+      } else if (t == best) {
+        ++n_best;
+      }
+    };
+    if (const ChannelId d = direct[static_cast<std::size_t>(cp.mem)]; d >= 0) {
+      consider(d);
+    } else if (d == FetchBound::kSeveral) {
+      for (ChannelId c : g.out_channels(cp.mem))
+        if (g.channels[static_cast<std::size_t>(c)].to == m) consider(c);
+    }
+  }
+  if (best == kNever) return kOpen;
+  // The earliest a relayed last hop can land (cut_search()'s relay_end_in()): from a device
+  // that is no holder (nothing is routed through a holder).
+  const double wbytes = static_cast<double>(blk.bytes);
+  Time relay_end = kNever;
+  for (const FetchBound::Relay& r : rest_->relay_in(m))
+    if (r.from_capacity >= blk.bytes && !schedule_->copy_at(b, r.from))
+      if (const Time t = r.lands_before(schedule_->channel_finish(r.channel), wbytes, relay_end); t < relay_end) relay_end = t;
+  if (!(best <= relay_end)) return kOpen;
+  unique = best < relay_end && n_best == 1;
+  return best;
+}
+
 Time FetchPathFinder::known_lower_bound(BlockId b, MemId m) const {
   const auto bi = static_cast<std::size_t>(b);
   if (bi >= memo_slot_.size() || memo_slot_[bi] < 0) return -kNever;

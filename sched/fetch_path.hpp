@@ -159,7 +159,8 @@ class FetchPathFinder {
   // Branch and bound for b's arrival at m (arrival_within()). Ties: also explores paths
   // that tie with the best (for path()) and flags nodes reached by two of them.
   template <class Lost, bool Ties, bool Funnel = true>
-  Time cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped);
+  // (direct_checked: the caller found direct_before_relays() open for (b, m) already.)
+  Time cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped, bool direct_checked = false);
   int via_hops(MemId m, MemId* root) const;  // cut_search's path to m (kMemoHops + 1: longer)
   // A block on one memory device h != m (a ray queue) with one channel h -> m: when that
   // hop lands no later than any relayed last hop can (cut_search()'s first shortcut), its
@@ -167,6 +168,11 @@ class FetchPathFinder {
   // destination behind one channel p -> m whose source p is answered so. NaN otherwise.
   // `route` (if given) gets the channels of that path: one, or two through p.
   Time single_holder_direct(BlockId b, MemId m, bool funnel = true, ChannelId* route = nullptr) const;
+  // For b not on m: the best direct hop from a holder into m when it lands no later than any
+  // relayed last hop can (every path ends with one or the other), with its channel, and
+  // whether it is the only best path (strictly first, no other direct hop as early). The
+  // same operations as cut_search()'s first shortcut. NaN otherwise.
+  Time direct_before_relays(BlockId b, MemId m, ChannelId& via, bool& unique) const;
   // Memo lookup in O(1): per block asked about this pass, a slot of n_ indices into
   // memos_ (-1: none yet), one per memory device.
   std::vector<std::int32_t> memo_slot_;   // per block (-1: no slot this pass)
@@ -249,9 +255,30 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
       return kNever;
     }
   }
+  // The best direct hop from a holder, when no relayed last hop can land earlier: the
+  // arrival without a search (cut_search()'s first shortcut, the same operations).
+  {
+    ChannelId via = kNone;
+    bool unique = false;
+    if (const Time a = direct_before_relays(b, m, via, unique); a == a) {
+      ++hits_;
+      if (a > enough && lost(a)) {
+        f.lb = std::max(f.lb, a);
+        if (proven) *proven = a;
+        return kNever;
+      }
+      f.lb = a;
+      f.unique = unique;
+      f.path[0] = via;
+      f.stamp = channel_stamp(via);
+      f.hops = 1;
+      if (hops) *hops = 1;
+      return a;
+    }
+  }
   ++cut_searches_;
   Time dropped = kNever;
-  const Time a = cut_search<Lost, false>(b, m, enough, lost, dropped);
+  const Time a = cut_search<Lost, false>(b, m, enough, lost, dropped, true);
   if (a < kNever && label_[static_cast<std::size_t>(m)] == a) {
     // Exact: memoise it with its path (labels only improve, so the path through the
     // recorded channels evaluates to exactly this label).
@@ -288,7 +315,7 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
 // label (== label_[m]), or a label <= enough found on the way (!= label_[m]), or kNever
 // (then `dropped` bounds the arrival from below).
 template <class Lost, bool Ties, bool Funnel>
-Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped) {
+Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped, bool direct_checked) {
   const DeviceGraph& g = schedule_->graph();
   const DataBlock& blk = schedule_->pool().block(b);
   const auto mi = static_cast<std::size_t>(m);
@@ -340,6 +367,24 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       return am;
     }
   }
+  // Every path to m is one direct hop from a holder or ends with a relayed hop. When the
+  // best direct hop lands no later than any relayed one can, it is the arrival (Ties: and
+  // when it lands strictly first and no other direct hop ties, the only best path).
+  if (rest && !holder_[mi] && blk.movable && !direct_checked) {
+    ChannelId via = kNone;
+    bool unique = false;
+    if (const Time best = direct_before_relays(b, m, via, unique); best == best && (!Ties || unique)) {
+      if (best > enough && lost(best)) {
+        dropped = std::min(dropped, best);
+        return kNever;
+      }
+      label_[mi] = best;
+      label_via_[mi] = via;
+      touched_.push_back(m);
+      cut_unique_ = unique;
+      return best;
+    }
+  }
   const Time relay_end = rest ? relay_end_in() : kNever;
   // A lower bound on m's label along any path on from label l at q: the uncontended rest
   // (scaled below the real-arithmetic sum by far more than the rounding of any Eq. 3
@@ -358,70 +403,6 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
     }
     return std::max(free_run, last);
   };
-  // Every path to m is one direct hop from a holder or ends with a relayed hop. When the
-  // best direct hop lands no later than any relayed one can, it is the arrival (Ties: and
-  // when it lands strictly first and no other direct hop ties, the only best path).
-  if (rest && !holder_[mi] && blk.movable) {
-    Time best = kNever;
-    ChannelId best_c = kNone;
-    int n_best = 0;
-    for (const Copy& cp : schedule_->copies(b)) {
-      const Time r = std::max(now_, schedule_->copy_ready(cp));
-      auto consider = [&](ChannelId c) {
-        const Time t = std::max(r, schedule_->channel_finish(c)) + g.transfer_time(c, bytes);  // Eq. 3
-        if (t < best) {
-          best = t;
-          best_c = c;
-          n_best = 1;
-        } else if (t == best) {
-          ++n_best;
-        }
-      };
-      if (const ChannelId d = direct[static_cast<std::size_t>(cp.mem)]; d >= 0) {
-        consider(d);
-      } else if (d == FetchBound::kSeveral) {
-        for (ChannelId c : g.out_channels(cp.mem))
-          if (g.channels[static_cast<std::size_t>(c)].to == m) consider(c);
-      }
-    }
-    // Else a relayed path leaves some holder h by a channel h -> q (q != m, not a holder)
-    // and then needs at least through(Eq. 3 at that hop, q): the least of those over every
-    // such first hop bounds every relayed path from below (one level of the search below,
-    // without its heap). A q whose channels all lead to holders or to devices too small
-    // (a holder's own disk or GPU memory) starts no admissible path and is left out.
-    Time relay_floor = relay_end;
-    if (best < kNever && !(Ties ? best < relay_end && n_best == 1 : best <= relay_end)) {
-      relay_floor = kNever;
-      auto dead_end = [&](MemId q) {
-        for (ChannelId c : g.out_channels(q)) {
-          const auto ti = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c)].to);
-          if (!holder_[ti] && g.memories[ti].capacity >= bytes) return false;
-        }
-        return true;
-      };
-      for (const Copy& cp : schedule_->copies(b)) {
-        const Time r = std::max(now_, schedule_->copy_ready(cp));
-        for (ChannelId c : g.out_channels(cp.mem)) {
-          const MemId q = g.channels[static_cast<std::size_t>(c)].to;
-          const auto qi = static_cast<std::size_t>(q);
-          if (q == m || holder_[qi] || g.memories[qi].capacity < bytes || dead_end(q)) continue;
-          const Time lq = std::max(r, schedule_->channel_finish(c)) + g.transfer_time(c, bytes);  // Eq. 3
-          relay_floor = std::min(relay_floor, through(lq, q));
-        }
-      }
-    }
-    if (best < kNever && (Ties ? best < relay_floor && n_best == 1 : best <= relay_floor)) {
-      if (best > enough && lost(best)) {
-        dropped = std::min(dropped, best);
-        return kNever;
-      }
-      label_[mi] = best;
-      label_via_[mi] = best_c;
-      touched_.push_back(m);
-      cut_unique_ = best < relay_floor && n_best == 1;
-      return best;
-    }
-  }
   for (const Copy& c : schedule_->copies(b)) {
     const auto qi = static_cast<std::size_t>(c.mem);
     const Time r = std::max(now_, schedule_->copy_ready(c));
