@@ -107,26 +107,20 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
   // dead end: cut_search()'s relay floor without its rest), and its arrival is no earlier
   // than that hop's Eq. 3 label. When every such label is at least `direct`, so is every
   // relayed arrival.
-  for (const ChannelId c1 : g.out_channels(h)) {
-    const MemId q = g.channels[static_cast<std::size_t>(c1)].to;
-    const auto qi = static_cast<std::size_t>(q);
-    if (q == m || g.memories[qi].capacity < blk.bytes) continue;
-    const Time start = std::max(root, schedule_->channel_finish(c1));
-    if (!(start + g.channels[static_cast<std::size_t>(c1)].latency < direct)) continue;  // T_TRANS >= T_LAT
-    const Time lq = start + g.transfer_time(c1, blk.bytes);  // Eq. 3
+  const double* rest_lat = rest_->latency_to(m);
+  const double* rest_inv_bw = rest_->inv_bw_to(m);
+  for (const FetchBound::Hop& hop : rest_->out_hops(h)) {
+    const auto qi = static_cast<std::size_t>(hop.to);
+    if (hop.to == m || hop.to_capacity < blk.bytes) continue;
+    const Time start = std::max(root, schedule_->channel_finish(hop.channel));
+    if (!(start + hop.latency < direct)) continue;  // T_TRANS >= T_LAT
+    const Time lq = start + hop.transfer(wbytes);  // Eq. 3
     if (!(lq < direct)) continue;
     // ... and then needs the uncontended rest q -> m (through()'s free run).
-    const Time free_run = (lq + (rest_->latency_to(m)[qi] + wbytes * rest_->inv_bw_to(m)[qi]) * (1 - 1e-9)) * (1 - 1e-14);
+    const Time free_run = (lq + (rest_lat[qi] + wbytes * rest_inv_bw[qi]) * (1 - 1e-9)) * (1 - 1e-14);
     if (!(free_run < direct)) continue;
-    bool dead_end = true;  // every channel out of q leads back to h or to a device too small
-    for (const ChannelId c2 : g.out_channels(q)) {
-      const auto ti = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c2)].to);
-      if (g.channels[static_cast<std::size_t>(c2)].to != h && g.memories[ti].capacity >= blk.bytes) {
-        dead_end = false;
-        break;
-      }
-    }
-    if (!dead_end) return kOpen;
+    // Unless every channel out of q leads back to h or to a device too small (a dead end).
+    if (hop.onward_capacity >= blk.bytes) return kOpen;
   }
   return direct;
 }
