@@ -136,8 +136,19 @@ class FetchPathFinder {
     Time lb = -kNever;           // at most the arrival; the arrival itself while `path` is valid
     std::uint64_t stamp = 0;     // sum of the resource versions along `path` when taken
     std::int16_t hops = -1;      // `path` holds a best path of `hops` channels (-1: none)
-    bool unique = false;         // no other admissible path ties with `path` (stays so while it is valid)
+    // No other admissible path ties with `path`. It stays so while `path` is valid, and
+    // while `path` evaluates to `lb` again after bookings on it (arrival_within's re-stamp):
+    // other paths only get slower. Once a lower bound raises `lb` past the value it was
+    // proved at, a re-stamped `path` may have been delayed as much as another (a booking on
+    // a resource both share), so raise_lb() drops the claim.
+    bool unique = false;
     ChannelId path[kMemoHops] = {};
+    void raise_lb(Time x) {
+      if (x > lb) {
+        lb = x;
+        unique = false;
+      }
+    }
   };
   const FetchBound* rest_ = nullptr;
   std::vector<char> tie_;  // cut_search(): another admissible path reaches q with its label
@@ -250,7 +261,7 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     const Time floor = rest_->last_hop_floor(*schedule_, b, m);
     if (floor > enough && lost(floor)) {
       ++hits_;
-      f.lb = std::max(f.lb, floor);
+      f.raise_lb(floor);
       if (proven) *proven = floor;
       return kNever;
     }
@@ -263,7 +274,7 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     if (const Time a = direct_before_relays(b, m, via, unique); a == a) {
       ++hits_;
       if (a > enough && lost(a)) {
-        f.lb = std::max(f.lb, a);
+        f.raise_lb(a);
         if (proven) *proven = a;
         return kNever;
       }
@@ -302,7 +313,7 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     return a;
   }
   if (a < kNever) return a;  // <= enough, not exact
-  f.lb = std::max(f.lb, dropped);
+  f.raise_lb(dropped);
   if (proven) *proven = dropped;
   return kNever;
 }

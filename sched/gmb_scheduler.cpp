@@ -392,26 +392,25 @@ bool GmbScheduler::visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, 
     const std::int32_t i = bucket_of_block_[b];
     if (i < 0 || open(i, m) == 0) continue;  // every job planned, or infeasible on m
     any = true;
-    // The cheaper bound first (the group's records); FetchBound's last hop only if needed.
+    // The group's records bound every larger member too. (FetchBound's lower bound is no
+    // cut here: the arrival's own floor and memo answer "lost" as cheaply, and each lost
+    // key is recorded, so the next member's bound breaks the scan.)
     if (loses(std::max(ready, arrival_bound_->bound(s, b, m, g, first)))) break;
-    const Time key_lb = bound_time_->lower_bound(s, b, m, now);
-    if (loses(std::max(ready, key_lb))) break;
-    evaluate_bucket(i, d, m, ready, now, pool, s, best, key_lb);
+    evaluate_bucket(i, d, m, ready, now, pool, s, best);
   }
   return any;
 }
 
 // The body of select_pruned()'s bucket loop, for one bucket.
 void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
-                                   const Schedule& s, Choice& best, Time key_lb) {
+                                   const Schedule& s, Choice& best) {
   const DeviceGraph& g = s.graph();
   const Bucket& bk = buckets_[static_cast<std::size_t>(i)];
   auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
   const bool has_key = static_cast<std::size_t>(bk.key) < pool.block_count();
-  Time blb = ready;
-  // (key_lb: FetchBound's lower bound on the key block, when the caller has just computed it.)
-  if (has_key) blb = std::max(blb, std::isnan(key_lb) ? bound_time_->lower_bound(s, bk.key, m, now) : key_lb);
-  if (blb == kNever || loses(blb)) return;
+  // FetchBound's lower bound on the key block (select_pruned()'s `blb`), where its
+  // arithmetic needs it.
+  auto lower = [&] { return std::max(ready, bound_time_->lower_bound(s, bk.key, m, now)); };
   Time key_at = ready;
   const Copy* key_copy = has_key ? s.copy_at(bk.key, m) : nullptr;
   if (has_key) {
@@ -432,10 +431,12 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
         }
         Time at = a;
         if (hops > 2)
-          if (const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now); ub <= blb * (1 + 1e-12)) at = ub;
+          if (const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now); ub <= lower() * (1 + 1e-12)) at = ub;
         arrival_bound_->record(s, bk.key, m, a);
         key_at = std::max(ready, at);
       } else {
+        const Time blb = lower();
+        if (blb == kNever || loses(blb)) return;
         const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now);
         Time at = ub;
         if (!(ub <= blb * (1 + 1e-12))) {

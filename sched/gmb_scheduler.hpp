@@ -105,7 +105,7 @@ class GmbScheduler final : public Scheduler {
   // first that starts as early as the key block allows.
   Choice select_indexed(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
   void evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
-                       const Schedule& s, Choice& best, Time key_lb = std::numeric_limits<Time>::quiet_NaN());
+                       const Schedule& s, Choice& best);
   Time group_key(std::int32_t g, MemId m, Time now, const Schedule& s);
   template <class Loses>
   Time fold_input(BlockId b, MemId m, Time start, Time now, const Schedule& s, const Loses& loses);

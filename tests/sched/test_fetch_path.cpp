@@ -83,6 +83,52 @@ TEST(FetchPath, SingleHolderTieTakesTheDirectHopAsTheTreeDoes) {
   }
 }
 
+// A memoised path proved the only best one stops being so once bookings on a resource it
+// shares with another path delay both to the same arrival. arrival_within() re-stamps the
+// delayed path when it meets a lower bound raised in between; path() must not then take it
+// as the only best one (it did: found at stop 35 by GmbEquivalence's random instances), but
+// ask the tree, which here takes the other holder's channel (popped first).
+TEST(FetchPath, RestampedPathAfterARaisedBoundIsNoLongerUnique) {
+  rayline::testing::DcgBuilder b;
+  const MemId h1 = b.mem("h1"), h2 = b.mem("h2"), m = b.mem("m"), x = b.mem("x");
+  const ResourceId in = b.resource("m.in", 100e6), out1 = b.resource("h1.out", 100e6), out2 = b.resource("h2.out", 100e6);
+  const ChannelId c1 = b.channel(h1, m, 100e6, 0, {out1, in});  // 100 MB: 1 s
+  const ChannelId c2 = b.channel(h2, m, 100e6, 0, {out2, in});
+  const ChannelId busy_out2 = b.channel(h2, x, 1e6, 0, {out2});  // slow: no relay via x competes
+  const ChannelId busy_in = b.channel(x, m, 1e6, 0, {in});
+  DeviceGraph g = b.build();
+  JobPool pool;
+  const BlockId w = rayline::testing::add_block(pool, "w", DataKind::SceneData, 100'000'000);
+  const BlockId f2 = rayline::testing::add_block(pool, "f2", DataKind::SceneData, 900'000);      // 0.9 s on busy_out2
+  const BlockId fin = rayline::testing::add_block(pool, "fin", DataKind::SceneData, 2'000'000);  // 2 s on busy_in
+  Schedule s(g, pool);
+  s.put_initial(w, h1, 0.2);
+  s.put_initial(w, h2, 0.0);
+  s.put_initial(f2, h2);
+  s.put_initial(fin, x);
+  s.commit_transfer(f2, busy_out2, kNone, 0, s.admission(x, 900'000, {}));  // h2's port busy until 0.9
+  FetchBound fb(g);
+  FetchPathFinder fast(s);
+  fast.set_bounds(&fb);
+  const auto never = [](Time) { return false; };
+  // c1 lands at 1.2 s, c2 at 1.9 s: c1 is the only best path, and memoised as such.
+  ASSERT_EQ(fast.arrival_within(w, m, -kNever, never), 1.2);
+  std::vector<ChannelId> p;
+  fast.path(w, m, p);
+  EXPECT_EQ(p, std::vector<ChannelId>{c1});
+  // m's port busy until 2 s: both land at 3 s, a tie.
+  s.commit_transfer(fin, busy_in, kNone, 0, s.admission(m, 2'000'000, {}));
+  // A selection for which 3 s already loses raises the memo's bound to 3 s.
+  EXPECT_EQ(fast.arrival_within(w, m, -kNever, [](Time t) { return t > 2.5; }), kNever);
+  fast.path(w, m, p);
+  FetchPathFinder tree(s);  // no bounds: the full tree
+  std::vector<ChannelId> pt;
+  tree.path(w, m, pt);
+  EXPECT_EQ(pt, std::vector<ChannelId>{c2});
+  EXPECT_EQ(p, pt);
+  EXPECT_EQ(fast.arrival_within(w, m, -kNever, never), 3.0);
+}
+
 // FetchBound::lower_bound <= SDC arrival <= FetchBound::direct_upper_bound on random
 // graphs with random busy channels and holders.
 TEST(FetchPath, BoundsBracketSdcOnRandomGraphs) {
