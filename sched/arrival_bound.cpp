@@ -62,6 +62,7 @@ std::int32_t ArrivalBound::find_or_add_group(std::uint64_t h) {
   grp.largest.assign(n_, Rec{});
   grp.first = 0;
   grp.unsorted = false;
+  grp.version = 0;
   grp.hash = h;
   grp.sig_at = sigs_.size();
   grp.sig_size = sig_.size();
@@ -91,6 +92,7 @@ std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b, bool sorted) {
   BlockState& bs = blocks_[static_cast<std::size_t>(b)];
   const std::uint64_t hv = s.holders_version(b);
   if (bs.epoch == epoch_ && bs.holders == hv) return bs.group;
+  if (bs.epoch == epoch_ && bs.group >= 0) ++groups_[static_cast<std::size_t>(bs.group)].version;  // b leaves it
   sig_.clear();
   sig_.emplace_back(-1, s.pool().block(b).movable ? 1.0 : 0.0);
   for (const Copy& c : s.copies(b)) sig_.emplace_back(c.mem, std::max(now_, s.copy_ready(c)));
@@ -146,6 +148,7 @@ void ArrivalBound::record(const Schedule& s, BlockId b, MemId m, Time lb) {
   own_[static_cast<std::size_t>(bs.slot) * n_ + static_cast<std::size_t>(m)] = r;
   const std::int32_t g = group(s, b);
   if (g == kNone) return;
+  ++groups_[static_cast<std::size_t>(g)].version;
   Rec& big = groups_[static_cast<std::size_t>(g)].largest[static_cast<std::size_t>(m)];
   if (!valid(s, big) || group(s, big.block) != g || big.bytes < r.bytes || big.block == b) big = r;
 }

@@ -36,6 +36,9 @@ class ArrivalBound {
   // Members of g, smallest first; may list blocks that left since (group(b) != g).
   const std::vector<std::pair<Bytes, BlockId>>& members(std::int32_t g) const { return groups_[static_cast<std::size_t>(g)].members; }
   BlockId smallest(const Schedule& s, std::int32_t g) const;  // kNone if none is current
+  // Counts what can raise g's bounds: a record for a member, a member leaving. A key
+  // computed from them (GmbScheduler::group_key) is as tight as a new one while it stays.
+  std::uint64_t version(std::int32_t g) const { return groups_[static_cast<std::size_t>(g)].version; }
   // Index in members(g) of its smallest current member (members().size() if none).
   std::size_t first_current(const Schedule& s, std::int32_t g) const;
   // `lb` is at most the SDC arrival of b at m at this point of the plan.
@@ -69,6 +72,7 @@ class ArrivalBound {
     std::uint64_t hash = 0;       // of its signature,
     std::size_t sig_at = 0, sig_size = 0;  // sigs_[sig_at, sig_at + sig_size)
     bool unsorted = false;  // inside assign_all(): members appended, not yet sorted
+    std::uint64_t version = 0;
   };
   std::int32_t assign(const Schedule& s, BlockId b, bool sorted);
   std::vector<std::int32_t> touched_groups_;  // assign_all(): groups with appended members

@@ -40,11 +40,12 @@ class BucketHeap {
   // its key computed by the next settle(). An entry keyed -inf would leave the top only
   // to be re-keyed, before any finite key is looked at, so this orders the same.
   void defer(std::int32_t bucket);
-  // Every bucket deferred since (and not superseded again) enters with key_of(bucket).
-  template <class KeyOf>
-  void settle(const KeyOf& key_of, std::uint64_t stamp) {
+  // Every bucket deferred since (and not superseded again) enters with key_of(bucket),
+  // stamped stamp_of(bucket).
+  template <class KeyOf, class StampOf>
+  void settle(const KeyOf& key_of, const StampOf& stamp_of) {
     for (const auto& [bucket, gen] : deferred_)
-      if (gen_[static_cast<std::size_t>(bucket)] == gen) push(bucket, key_of(bucket), stamp);
+      if (gen_[static_cast<std::size_t>(bucket)] == gen) push(bucket, key_of(bucket), stamp_of(bucket));
     deferred_.clear();
   }
   bool current(const Entry& e) const { return gen_[static_cast<std::size_t>(e.bucket)] == e.gen; }

@@ -513,7 +513,9 @@ GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time n
   if (no_key_bucket_ >= 0 && open(no_key_bucket_, m) > 0)
     evaluate_bucket(no_key_bucket_, d, m, ready, now, pool, s, best);
   // Groups re-entered since the last selection here get their keys (bucket_heap.hpp).
-  mi.heap.settle([&](std::int32_t g) { return group_key(g, m, now, s); }, s.activity_count() + 1);
+  // (Stamps: the group's version, +1 so that 0 means none.)
+  auto stamp_of = [&](std::int32_t g) { return arrival_bound_->version(g) + 1; };
+  mi.heap.settle([&](std::int32_t g) { return group_key(g, m, now, s); }, stamp_of);
   auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
   mi.visited.clear();
   while (!mi.heap.empty()) {
@@ -522,8 +524,9 @@ GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time n
       mi.heap.pop();
       continue;
     }
-    // A key computed since the last commit is as high as group_key() would make it.
-    const std::uint64_t stamp = s.activity_count() + 1;
+    // A key computed since the group's version last changed is as high as group_key()
+    // would make it (see ArrivalBound::version).
+    const std::uint64_t stamp = stamp_of(e.bucket);
     const Time lb = e.stamp == stamp ? e.key : group_key(e.bucket, m, now, s);
     if (lb > e.key) {  // stale from below: raise it and look again
       mi.heap.pop();
