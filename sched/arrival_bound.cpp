@@ -93,11 +93,30 @@ std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b, bool sorted) {
   const std::uint64_t hv = s.holders_version(b);
   if (bs.epoch == epoch_ && bs.holders == hv) return bs.group;
   if (bs.epoch == epoch_ && bs.group >= 0) ++groups_[static_cast<std::size_t>(bs.group)].version;  // b leaves it
-  sig_.clear();
-  sig_.emplace_back(-1, s.pool().block(b).movable ? 1.0 : 0.0);
-  for (const Copy& c : s.copies(b)) sig_.emplace_back(c.mem, std::max(now_, s.copy_ready(c)));
-  std::sort(sig_.begin() + 1, sig_.end());
-  const std::int32_t id = find_or_add_group(hash(sig_));
+  // The same copies, in the same order, as the block assigned last: the same signature
+  // (assign_all(): a pass starts with every scene block on the same disks).
+  const std::vector<Copy>& copies = s.copies(b);
+  const bool movable = s.pool().block(b).movable;
+  const auto same_as_last = [&] {
+    if (last_ == kNone || last_epoch_ != epoch_ || group(s, last_) != last_group_ || s.pool().block(last_).movable != movable)
+      return false;
+    const std::vector<Copy>& lc = s.copies(last_);
+    if (lc.size() != copies.size()) return false;
+    for (std::size_t k = 0; k < copies.size(); ++k)
+      if (lc[k].mem != copies[k].mem || std::max(now_, s.copy_ready(lc[k])) != std::max(now_, s.copy_ready(copies[k]))) return false;
+    return true;
+  };
+  std::int32_t id = last_group_;
+  if (!same_as_last()) {
+    sig_.clear();
+    sig_.emplace_back(-1, movable ? 1.0 : 0.0);
+    for (const Copy& c : copies) sig_.emplace_back(c.mem, std::max(now_, s.copy_ready(c)));
+    std::sort(sig_.begin() + 1, sig_.end());
+    id = find_or_add_group(hash(sig_));
+  }
+  last_ = b;
+  last_group_ = id;
+  last_epoch_ = epoch_;
   Group& grp = groups_[static_cast<std::size_t>(id)];
   auto& mem = grp.members;
   const std::pair<Bytes, BlockId> me{s.pool().block(b).bytes, b};

@@ -76,6 +76,9 @@ class ArrivalBound {
   };
   std::int32_t assign(const Schedule& s, BlockId b, bool sorted);
   std::vector<std::int32_t> touched_groups_;  // assign_all(): groups with appended members
+  BlockId last_ = kNone;  // the block assign() placed last, its group, in which pass
+  std::int32_t last_group_ = -1;
+  std::uint64_t last_epoch_ = 0;
   bool valid(const Schedule& s, const Rec& r) const {
     return r.epoch == epoch_ && r.block != kNone && r.holders == s.holders_version(r.block);
   }
