@@ -220,7 +220,7 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     }
     return answer(arrival(b, m));
   }
-  if (!proven && !hops) {
+  if (!hops) {
     const Time a = single_holder_direct(b, m);
     if (a == a) return answer(a);  // (NaN: not settled that way)
   }

@@ -361,18 +361,19 @@ Time GmbScheduler::group_key(std::int32_t g, MemId m, Time now, const Schedule& 
 // SDC path (an unmovable block, a destination smaller than the block) the step is kept
 // as it was, so the choice stays the same.
 template <class Loses>
-Time GmbScheduler::fold_input(BlockId b, MemId m, Time start, Time now, const Schedule& s, const Loses& loses) {
+Time GmbScheduler::fold_input(BlockId b, MemId m, Time start, Time now, const Schedule& s, const Loses& loses,
+                              Time& lost_at) {
   if (const Copy* c = s.copy_at(b, m)) {
     const Time r = std::max(now, s.copy_ready(*c));
     if (r <= start) return start;
-    if (loses(r)) return kNever;
+    if (loses(r)) return lost_at = r, kNever;
     return std::max(start, s.copy_ready(*c));
   }
   const DataBlock& blk = s.pool().block(b);
   if (blk.movable && s.graph().memories[static_cast<std::size_t>(m)].capacity >= blk.bytes)
-    return std::max(start, placer_->finder().arrival_within(b, m, start, loses));
+    return std::max(start, placer_->finder().arrival_within(b, m, start, loses, &lost_at));
   if (bound_time_->direct_upper_bound(s, b, m, now) <= start) return start;
-  if (loses(bound_time_->lower_bound_once(s, b, m, now))) return kNever;
+  if (const Time lb = bound_time_->lower_bound_once(s, b, m, now); loses(lb)) return lost_at = lb, kNever;
   return std::max(start, placer_->finder().arrival(b, m));
 }
 
@@ -468,6 +469,9 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
   // leave it open), folded into `best`. Returns the start (kNever: out).
   auto evaluate = [&](std::size_t k) -> Time {
     const JobId j = job_at(k);
+    if (static_cast<std::size_t>(j) < floors_.size())
+      if (const InputFloor& f = floors_[static_cast<std::size_t>(j)]; f.m == m && loses(f.lb) && s.holders_version(f.block) == f.holders)
+        return kNever;
     if (!eligible(j)) return kNever;
     const Job& job = pool.job(j);
     Time start = std::max(key_at, s.after_deps_ready(j));
@@ -478,7 +482,14 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
         start = kNever;
         break;
       }
-      start = fold_input(b, m, start, now, s, loses);
+      Time lost_at = -kNever;
+      start = fold_input(b, m, start, now, s, loses, lost_at);
+      if (start == kNever && lost_at > -kNever) {
+        if (static_cast<std::size_t>(j) >= floors_.size()) floors_.resize(std::max(2 * floors_.size(), static_cast<std::size_t>(j) + 1));
+        InputFloor& f = floors_[static_cast<std::size_t>(j)];
+        if (f.m == kNone) floor_jobs_.push_back(j);
+        f = {lost_at, b, m, s.holders_version(b)};
+      }
     }
     if (start == kNever || loses(start)) return kNever;
     Choice c;
@@ -624,6 +635,8 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   placer_->finder().set_now(now);
   placer_->finder().set_bounds(bound_time_.get());
   blocked_pairs_.clear();
+  for (JobId j : floor_jobs_) floors_[static_cast<std::size_t>(j)] = InputFloor{};
+  floor_jobs_.clear();
   build_index(now, pool);
   bound_time_->reset();
   mem_index_.resize(g.memories.size());

@@ -108,7 +108,19 @@ class GmbScheduler final : public Scheduler {
                        const Schedule& s, Choice& best);
   Time group_key(std::int32_t g, MemId m, Time now, const Schedule& s);
   template <class Loses>
-  Time fold_input(BlockId b, MemId m, Time start, Time now, const Schedule& s, const Loses& loses);
+  Time fold_input(BlockId b, MemId m, Time start, Time now, const Schedule& s, const Loses& loses, Time& lost_at);
+  // Per job: the last lower bound on its start, from one non-key input that lost on one
+  // memory device (that input's SDC arrival or a bound on it), valid while the input's
+  // holders are unchanged (within a pass costs only grow). A job whose floor on m still
+  // loses is passed over unevaluated.
+  struct InputFloor {
+    Time lb = -kNever;
+    BlockId block = kNone;
+    MemId m = kNone;
+    std::uint64_t holders = 0;
+  };
+  std::vector<InputFloor> floors_;  // per job id
+  std::vector<JobId> floor_jobs_;   // the jobs with a floor this pass
   bool visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
                    const Schedule& s, Choice& best);
   // After a commit (or a failed one that left hops): re-group the blocks it moved.
