@@ -40,17 +40,6 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
     (relay ? relay_in_ : own_in_)[static_cast<std::size_t>(ch.to)].push_back(
         {static_cast<ChannelId>(c), ch.from, g.memories[static_cast<std::size_t>(ch.from)].capacity, ch.latency, ch.bandwidth});
   }
-  out_hops_.resize(n_);
-  for (std::size_t c = 0; c < g.channels.size(); ++c) {
-    const Channel& ch = g.channels[c];
-    Bytes onward = 0;
-    for (ChannelId o : g.out_channels(ch.to))
-      if (const MemId t = g.channels[static_cast<std::size_t>(o)].to; t != ch.from)
-        onward = std::max(onward, g.memories[static_cast<std::size_t>(t)].capacity);
-    out_hops_[static_cast<std::size_t>(ch.from)].push_back({static_cast<ChannelId>(c), ch.to,
-                                                            g.memories[static_cast<std::size_t>(ch.to)].capacity, onward,
-                                                            ch.latency, ch.bandwidth});
-  }
   lat_to_.resize(n_ * n_);
   inv_bw_to_.resize(n_ * n_);
   for (std::size_t i = 0; i < n_; ++i)

@@ -72,19 +72,6 @@ class FetchBound {
     }
   };
   const std::vector<Relay>& relay_in(MemId m) const { return relay_in_[static_cast<std::size_t>(m)]; }
-  //  * per source h, its channels h -> q with what Eq. 1 and a first hop's admissibility
-  //    need: q's capacity, and the largest capacity among q's other neighbours (q leads
-  //    anywhere but back to h only for blocks no larger than that).
-  struct Hop {
-    ChannelId channel;
-    MemId to;
-    Bytes to_capacity;
-    Bytes onward_capacity;
-    Time latency;
-    double bandwidth;
-    Time transfer(double w) const { return latency + w / bandwidth; }  // Eq. 1, as transfer_time()
-  };
-  const std::vector<Hop>& out_hops(MemId h) const { return out_hops_[static_cast<std::size_t>(h)]; }
   const ChannelId* direct_to(MemId m) const { return direct_to_.data() + static_cast<std::size_t>(m) * n_; }
 
  private:
@@ -98,7 +85,6 @@ class FetchBound {
   std::vector<double> lat_, inv_bw_;  // n x n, +inf where unreachable
   std::vector<double> lat_to_, inv_bw_to_;  // the same, transposed (rows by destination)
   std::vector<std::vector<Relay>> relay_in_;
-  std::vector<std::vector<Hop>> out_hops_;
   std::vector<ChannelId> direct_to_;  // [m * n + q]
   // Per destination m: its incoming channels that are no relay channel (their source is
   // reached only through m, e.g. m's GPU memory or disk), with what Eq. 1 needs.

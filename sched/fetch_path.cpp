@@ -15,6 +15,25 @@ FetchPathFinder::FetchPathFinder(const Schedule& schedule)
       tie_(n_, 0) {
   open_.reserve(4 * n_ + 8);
   touched_.reserve(4 * n_ + 8);
+  build_hops();
+}
+
+void FetchPathFinder::build_hops() {
+  const DeviceGraph& g = schedule_->graph();
+  hops_.clear();
+  hops_at_.assign(n_ + 1, 0);
+  for (std::size_t p = 0; p < n_; ++p) {
+    hops_at_[p] = static_cast<std::uint32_t>(hops_.size());
+    for (const ChannelId c : g.out_channels(static_cast<MemId>(p))) {
+      const Channel& ch = g.channels[static_cast<std::size_t>(c)];
+      Bytes onward = 0;
+      for (const ChannelId o : g.out_channels(ch.to))
+        if (const MemId t = g.channels[static_cast<std::size_t>(o)].to; t != ch.from)
+          onward = std::max(onward, g.memories[static_cast<std::size_t>(t)].capacity);
+      hops_.push_back({c, ch.to, g.memories[static_cast<std::size_t>(ch.to)].capacity, onward, ch.latency, ch.bandwidth});
+    }
+  }
+  hops_at_[n_] = static_cast<std::uint32_t>(hops_.size());
 }
 
 void FetchPathFinder::clear() {
@@ -34,6 +53,7 @@ void FetchPathFinder::rebind(const Schedule& schedule) {
     *this = FetchPathFinder(schedule);
     return;
   }
+  build_hops();
   clear();
 }
 
@@ -109,7 +129,7 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
   // relayed arrival.
   const double* rest_lat = rest_->latency_to(m);
   const double* rest_inv_bw = rest_->inv_bw_to(m);
-  for (const FetchBound::Hop& hop : rest_->out_hops(h)) {
+  for (const Hop& hop : out_hops(h)) {
     const auto qi = static_cast<std::size_t>(hop.to);
     if (hop.to == m || hop.to_capacity < blk.bytes) continue;
     const Time start = std::max(root, schedule_->channel_finish(hop.channel));
@@ -289,11 +309,12 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
           if (!done_[q]) stamp[q] = kUnsettled;
         break;
       }
-      for (ChannelId c : g.out_channels(p)) {
-        const MemId q = g.channels[c].to;
+      for (const Hop& hop : out_hops(p)) {
+        const MemId q = hop.to;
+        const ChannelId c = hop.channel;
         // A holder never receives a second copy (its own copy may still be in flight).
-        if (done_[q] || holder_[q] || g.memories[q].capacity < blk.bytes) continue;
-        const Time lq = std::max(lp, schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);  // Eq. 3
+        if (done_[q] || holder_[q] || hop.to_capacity < blk.bytes) continue;
+        const Time lq = std::max(lp, schedule_->channel_finish(c)) + hop.transfer(static_cast<double>(blk.bytes));  // Eq. 3
         if (lq < arrival[q]) {
           arrival[q] = lq;
           via[q] = c;

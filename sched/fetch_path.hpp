@@ -25,6 +25,7 @@
 // commits the hops. Memory devices smaller than the block are skipped.
 #pragma once
 #include <algorithm>
+#include <span>
 #include <vector>
 
 #include "fetch_bound.hpp"
@@ -111,6 +112,26 @@ class FetchPathFinder {
 
   const Schedule* schedule_;
   std::size_t n_ = 0;  // memory devices
+  // Per source p, its channels p -> q with what Eq. 1 and admissibility need, contiguous
+  // (the searches scan them for every label they expand): q's capacity, and the largest
+  // capacity among q's other neighbours (q leads anywhere but back to p only for blocks no
+  // larger than that).
+  struct Hop {
+    ChannelId channel;
+    MemId to;
+    Bytes to_capacity;
+    Bytes onward_capacity;
+    Time latency;
+    double bandwidth;
+    Time transfer(double w) const { return latency + w / bandwidth; }  // Eq. 1, as DeviceGraph::transfer_time()
+  };
+  std::vector<Hop> hops_;
+  std::vector<std::uint32_t> hops_at_;  // p's hops: hops_[hops_at_[p], hops_at_[p + 1])
+  void build_hops();
+  std::span<const Hop> out_hops(MemId p) const {
+    const auto pi = static_cast<std::size_t>(p);
+    return {hops_.data() + hops_at_[pi], hops_.data() + hops_at_[pi + 1]};
+  }
   std::vector<Tree> trees_;            // per block
   std::vector<BlockId> valid_trees_;   // the blocks whose tree is valid (what clear() resets)
   std::vector<Time> arrival_;          // slot x memory device
@@ -437,11 +458,12 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
     std::pop_heap(open_.begin(), open_.end(), OpenAfter{});
     open_.pop_back();
     if (top.label != label_[static_cast<std::size_t>(top.mem)]) continue;  // superseded
-    for (ChannelId c : g.out_channels(top.mem)) {
-      const MemId q = g.channels[static_cast<std::size_t>(c)].to;
+    for (const Hop& hop : out_hops(top.mem)) {
+      const MemId q = hop.to;
+      const ChannelId c = hop.channel;
       const auto qi = static_cast<std::size_t>(q);
-      if (holder_[qi] || g.memories[qi].capacity < bytes) continue;
-      const Time lq = std::max(top.label, schedule_->channel_finish(c)) + g.transfer_time(c, bytes);  // Eq. 3
+      if (holder_[qi] || hop.to_capacity < bytes) continue;
+      const Time lq = std::max(top.label, schedule_->channel_finish(c)) + hop.transfer(wbytes);  // Eq. 3
       if (!(lq < label_[qi])) {
         if constexpr (Ties)
           if (lq == label_[qi] && c != label_via_[qi]) tie_[qi] = 1;
