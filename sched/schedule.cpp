@@ -44,6 +44,15 @@ void Schedule::resource_busy_changed(ResourceId r) {
   }
 }
 
+void Schedule::resource_busy_raised(ResourceId r, Time t) {
+  const auto first = static_cast<std::size_t>(resource_channels_first_[static_cast<std::size_t>(r)]);
+  const auto last = static_cast<std::size_t>(resource_channels_first_[static_cast<std::size_t>(r) + 1]);
+  for (std::size_t k = first; k < last; ++k) {
+    Time& f = channel_finish_[static_cast<std::size_t>(resource_channels_[k])];
+    f = std::max(f, t);
+  }
+}
+
 const std::vector<Copy>& Schedule::copies(BlockId b) const {
   return static_cast<std::size_t>(b) < copies_.size() ? copies_[b] : kNoCopies;
 }
@@ -280,7 +289,8 @@ ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time
     tl.busy_until = a.end;
     ++resource_version_[r];
   }
-  for (ResourceId r : ch.resources) resource_busy_changed(r);
+  // (start >= FinishTime(c) >= every busy_until on c, so each was raised to a.end.)
+  for (ResourceId r : ch.resources) resource_busy_raised(r, a.end);
   acts_.push_back(std::move(a));
   pending_.push_back(id);
   ++unfinished_;

@@ -194,6 +194,9 @@ class Schedule {
   std::vector<std::int32_t> resource_channels_first_;
   std::vector<ChannelId> resource_channels_;
   void resource_busy_changed(ResourceId r);
+  // The same after r's busy_until was raised to t (and no other resource changed): each
+  // channel on r finishes at the larger of what it did and t.
+  void resource_busy_raised(ResourceId r, Time t);
   std::vector<std::uint64_t> resource_version_, memory_version_, holders_version_;
   std::vector<std::vector<Copy>> copies_;          // per block (grows with the pool)
   // Per block: bit m set iff a copy is on memory device m < 64 (copy_at's quick miss; a
