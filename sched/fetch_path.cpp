@@ -85,7 +85,7 @@ FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
   return e;
 }
 
-Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, ChannelId* route) const {
+Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, ChannelId* route, bool* tried) const {
   constexpr Time kOpen = std::numeric_limits<Time>::quiet_NaN();
   if (!rest_) return kOpen;
   const std::vector<Copy>& copies = schedule_->copies(b);
@@ -96,6 +96,7 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
   const DataBlock& blk = schedule_->pool().block(b);
   const DeviceGraph& g = schedule_->graph();
   if (!blk.movable || g.memories[static_cast<std::size_t>(m)].capacity < blk.bytes) return kOpen;
+  if (tried) *tried = true;
   if (c < 0) {
     // A destination behind one channel p -> m (a GPU behind its host memory): Eq. 3 on that
     // hop after the arrival at p, as cut_search()'s funnel computes it; its best paths are

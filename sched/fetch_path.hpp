@@ -199,7 +199,9 @@ class FetchPathFinder {
   // Eq. 3 value is the SDC arrival, found without a memo or a search. With `funnel`, also a
   // destination behind one channel p -> m whose source p is answered so. NaN otherwise.
   // `route` (if given) gets the channels of that path: one, or two through p.
-  Time single_holder_direct(BlockId b, MemId m, bool funnel = true, ChannelId* route = nullptr) const;
+  // `tried` (if given) is set when b has one holder h != m and may enter m: then, open, it is
+  // not a direct hop before every relayed one either (direct_before_relays()).
+  Time single_holder_direct(BlockId b, MemId m, bool funnel = true, ChannelId* route = nullptr, bool* tried = nullptr) const;
   // For b not on m: the best direct hop from a holder into m when it lands no later than any
   // relayed last hop can (every path ends with one or the other), with its channel, and
   // whether it is the only best path (strictly first, no other direct hop as early). The
@@ -241,8 +243,9 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
     }
     return answer(arrival(b, m));
   }
+  bool single = false;  // single_holder_direct() applied (and left it open)
   if (!hops) {
-    const Time a = single_holder_direct(b, m);
+    const Time a = single_holder_direct(b, m, true, nullptr, &single);
     if (a == a) return answer(a);  // (NaN: not settled that way)
   }
   Memo& f = memo(b, m);  // (cut_search() leaves memos_ alone: the reference stays valid)
@@ -289,7 +292,7 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
   }
   // The best direct hop from a holder, when no relayed last hop can land earlier: the
   // arrival without a search (cut_search()'s first shortcut, the same operations).
-  {
+  if (!single) {
     ChannelId via = kNone;
     bool unique = false;
     if (const Time a = direct_before_relays(b, m, via, unique); a == a) {
