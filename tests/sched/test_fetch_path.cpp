@@ -54,17 +54,13 @@ TEST(FetchPath, SingleHolderTieTakesTheDirectHopAsTheTreeDoes) {
     const ChannelId second = b.channel(r, m, 100e6);  // 1 s, busy until 1 s below
     DeviceGraph g = b.build();
     JobPool pool;
-    DataBlock q;
-    q.name = "rays";
-    q.kind = DataKind::RayQueue;
-    q.bytes = 100'000'000;
-    const BlockId qb = pool.add_block(q);
-    q.name = "other";
-    const BlockId ob = pool.add_block(q);
+    const Bytes size = 100'000'000;
+    const BlockId qb = rayline::testing::add_block(pool, "rays", DataKind::RayQueue, size);
+    const BlockId ob = rayline::testing::add_block(pool, "other", DataKind::RayQueue, size);
     Schedule s(g, pool);
     s.put_initial(qb, h);
     s.put_initial(ob, r);
-    s.commit_transfer(ob, second, kNone, 0, s.admission(m, q.bytes, {}));  // r -> m busy over [0, 1]
+    s.commit_transfer(ob, second, kNone, 0, s.admission(m, size, {}));  // r -> m busy over [0, 1]
     ASSERT_EQ(s.channel_finish(second), 1.0);
     FetchBound fb(g);
     FetchPathFinder fast(s), tree(s);
@@ -73,13 +69,9 @@ TEST(FetchPath, SingleHolderTieTakesTheDirectHopAsTheTreeDoes) {
     fast.path(qb, m, pf);
     tree.path(qb, m, pt);
     EXPECT_EQ(pf, pt) << "direct hop of " << direct_bw;
-    if (direct_bw == 50e6) {
-      EXPECT_EQ(pf, std::vector<ChannelId>{direct});
-      EXPECT_EQ(fast.arrival_within(qb, m, -kNever, [](Time) { return false; }), 2.0);
-    } else {
-      EXPECT_EQ(pf, (std::vector<ChannelId>{first, second}));
-      EXPECT_EQ(fast.arrival_within(qb, m, -kNever, [](Time) { return false; }), 2.0);
-    }
+    const std::vector<ChannelId> want = direct_bw == 50e6 ? std::vector<ChannelId>{direct} : std::vector<ChannelId>{first, second};
+    EXPECT_EQ(pf, want);
+    EXPECT_EQ(fast.arrival_within(qb, m, -kNever, [](Time) { return false; }), 2.0);
   }
 }
 
