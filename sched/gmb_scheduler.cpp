@@ -350,9 +350,10 @@ Time GmbScheduler::group_key(std::int32_t g, MemId m, Time now, const Schedule& 
   if (ref == kNone) return kNever;
   if (const Copy* c = s.copy_at(ref, m)) return std::max(now, s.copy_ready(*c));
   // (ref is g's smallest current member: ArrivalBound::bound(s, ref, m) without finding
-  // its group and smallest member again.)
-  return std::max({bound_time_->free_run_bound(s, ref, m, now), arrival_bound_->bound(s, ref, m, g, ref),
-                   placer_->finder().known_lower_bound(ref, m)});
+  // its group and smallest member again. A group still at version 0 has no record that
+  // bound() could use: every record for a member since it joined counts.)
+  const Time recorded = arrival_bound_->version(g) == 0 ? -kNever : arrival_bound_->bound(s, ref, m, g, ref);
+  return std::max({bound_time_->free_run_bound(s, ref, m, now), recorded, placer_->finder().known_lower_bound(ref, m)});
 }
 
 // Exact SDC arrival of input b at m folded into `start` (max), or kNever once it `loses`.
@@ -396,7 +397,7 @@ bool GmbScheduler::visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, 
     // The group's records bound every larger member too. (FetchBound's lower bound is no
     // cut here: the arrival's own floor and memo answer "lost" as cheaply, and each lost
     // key is recorded, so the next member's bound breaks the scan.)
-    if (loses(std::max(ready, arrival_bound_->bound(s, b, m, g, first)))) break;
+    if (arrival_bound_->version(g) != 0 && loses(std::max(ready, arrival_bound_->bound(s, b, m, g, first)))) break;
     evaluate_bucket(i, d, m, ready, now, pool, s, best);
   }
   return any;
