@@ -125,9 +125,9 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
     }
   if (!relay_may_win) return direct;
   // A relayed path also leaves h first, by a hop h -> q (q != m, q admissible and not a
-  // dead end: cut_search()'s relay floor without its rest), and its arrival is no earlier
-  // than that hop's Eq. 3 label. When every such label is at least `direct`, so is every
-  // relayed arrival.
+  // dead end, i.e. q leads somewhere but back to h), and its arrival is no earlier than
+  // that hop's Eq. 3 label followed by the uncontended rest q -> m. When every such floor
+  // is at least `direct`, so is every relayed arrival.
   const double* rest_lat = rest_->latency_to(m);
   const double* rest_inv_bw = rest_->inv_bw_to(m);
   for (const Hop& hop : out_hops(h)) {

@@ -195,7 +195,8 @@ class FetchPathFinder {
   Time cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped, bool direct_checked = false);
   int via_hops(MemId m, MemId* root) const;  // cut_search's path to m (kMemoHops + 1: longer)
   // A block on one memory device h != m (a ray queue) with one channel h -> m: when that
-  // hop lands no later than any relayed last hop can (cut_search()'s first shortcut), its
+  // hop lands no later than any relayed last hop can (cut_search()'s first shortcut), or
+  // than any relayed path's first hop out of h followed by the uncontended rest to m, its
   // Eq. 3 value is the SDC arrival, found without a memo or a search. With `funnel`, also a
   // destination behind one channel p -> m whose source p is answered so. NaN otherwise.
   // `route` (if given) gets the channels of that path: one, or two through p.

@@ -255,8 +255,9 @@ Time chain(const Schedule& s, BlockId b, const std::vector<ChannelId>& p, Time n
 // disk and a RAM (SATA, one half-duplex resource) and maybe a GPU memory behind PCIe; a
 // LAN channel between every two RAMs that occupies the sender's port out and the
 // receiver's port in (1 Gb/s or 100 Mb/s ports, the channel at the slower). Scene blocks
-// on every disk, ray queues each in one RAM: the ray queue's single-holder shortcut, the
-// one-hop relay floor and its dead ends (a holder's own disk and GPU) all arise here.
+// on every disk, ray queues each in one RAM: the ray queue's single-holder shortcut, its
+// first-hop floor and dead ends (a holder's own disk and GPU), and the GPU behind its host
+// all arise here.
 RandomState random_cluster_state(std::mt19937& rng, int inst) {
   RandomState r;
   rayline::testing::DcgBuilder b;
