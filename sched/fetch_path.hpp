@@ -208,6 +208,17 @@ class FetchPathFinder {
   // whether it is the only best path (strictly first, no other direct hop as early). The
   // same operations as cut_search()'s first shortcut. NaN otherwise.
   Time direct_before_relays(BlockId b, MemId m, ChannelId& via, bool& unique) const;
+  // The earliest a relayed last hop can land on m (rest_ set) for a block of `bytes`: from a
+  // device that is no holder (nothing is routed through a holder) and can take it.
+  template <class IsHolder>
+  Time relay_end_in(MemId m, Bytes bytes, const IsHolder& is_holder) const {
+    const double wbytes = static_cast<double>(bytes);
+    Time end = kNever;
+    for (const FetchBound::Relay& r : rest_->relay_in(m))
+      if (r.from_capacity >= bytes && !is_holder(r.from))
+        if (const Time t = r.lands_before(schedule_->channel_finish(r.channel), wbytes, end); t < end) end = t;
+    return end;
+  }
   // Memo lookup in O(1): per block asked about this pass, a slot of n_ indices into
   // memos_ (-1: none yet), one per memory device.
   std::vector<std::int32_t> memo_slot_;   // per block (-1: no slot this pass)
@@ -369,16 +380,6 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
     touched_.push_back(c.mem);
   }
   if (!holder_[mi] && g.memories[mi].capacity < bytes) return kNever;  // never routed into m
-  // The earliest a relayed last hop can land on m: from a device that is neither a holder
-  // (nothing is routed through a holder) nor the label's own (its direct channel). Only
-  // needed past the funnel below.
-  auto relay_end_in = [&] {
-    Time end = kNever;
-    for (const FetchBound::Relay& r : rest->relay_in(m))
-      if (!holder_[static_cast<std::size_t>(r.from)] && r.from_capacity >= bytes)
-        if (const Time t = r.lands_before(schedule_->channel_finish(r.channel), wbytes, end); t < end) end = t;
-    return end;
-  };
   // A destination reached by one channel only (a GPU behind its host memory): its arrival
   // is Eq. 3 on that hop after the arrival at the channel's source (every path to m ends
   // with it), and its best paths are those to the source, extended.
@@ -421,7 +422,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       return best;
     }
   }
-  const Time relay_end = rest ? relay_end_in() : kNever;
+  const Time relay_end = rest ? relay_end_in(m, bytes, [&](MemId q) { return holder_[static_cast<std::size_t>(q)] != 0; }) : kNever;
   // A lower bound on m's label along any path on from label l at q: the uncontended rest
   // (scaled below the real-arithmetic sum by far more than the rounding of any Eq. 3
   // chain), and the last hop: q's own channel into m or a relayed one (Eq. 3 as is).
