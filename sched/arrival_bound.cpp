@@ -138,24 +138,6 @@ std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b, bool sorted) {
   return bs.group;
 }
 
-std::int32_t ArrivalBound::group(const Schedule& s, BlockId b) const {
-  if (static_cast<std::size_t>(b) >= blocks_.size()) return kNone;
-  const BlockState& bs = blocks_[static_cast<std::size_t>(b)];
-  return bs.epoch == epoch_ && bs.holders == s.holders_version(b) ? bs.group : kNone;
-}
-
-std::size_t ArrivalBound::first_current(const Schedule& s, std::int32_t g) const {
-  const Group& grp = groups_[static_cast<std::size_t>(g)];
-  while (grp.first < grp.members.size() && group(s, grp.members[grp.first].second) != g) ++grp.first;
-  return grp.first;
-}
-
-BlockId ArrivalBound::smallest(const Schedule& s, std::int32_t g) const {
-  const Group& grp = groups_[static_cast<std::size_t>(g)];
-  const std::size_t k = first_current(s, g);
-  return k < grp.members.size() ? grp.members[k].second : kNone;
-}
-
 void ArrivalBound::record(const Schedule& s, BlockId b, MemId m, Time lb) {
   if (static_cast<std::size_t>(b) >= blocks_.size()) blocks_.resize(s.pool().block_count());
   BlockState& bs = blocks_[static_cast<std::size_t>(b)];

@@ -31,16 +31,28 @@ class ArrivalBound {
   // each group's members sorted once at the end instead of inserted one by one.
   void assign_all(const Schedule& s, std::span<const BlockId> blocks);
   // b's group if it is still current (kNone otherwise).
-  std::int32_t group(const Schedule& s, BlockId b) const;
+  std::int32_t group(const Schedule& s, BlockId b) const {
+    if (static_cast<std::size_t>(b) >= blocks_.size()) return kNone;
+    const BlockState& bs = blocks_[static_cast<std::size_t>(b)];
+    return bs.epoch == epoch_ && bs.holders == s.holders_version(b) ? bs.group : kNone;
+  }
   std::size_t group_count() const { return n_groups_; }
   // Members of g, smallest first; may list blocks that left since (group(b) != g).
   const std::vector<std::pair<Bytes, BlockId>>& members(std::int32_t g) const { return groups_[static_cast<std::size_t>(g)].members; }
-  BlockId smallest(const Schedule& s, std::int32_t g) const;  // kNone if none is current
+  BlockId smallest(const Schedule& s, std::int32_t g) const {  // kNone if none is current
+    const Group& grp = groups_[static_cast<std::size_t>(g)];
+    const std::size_t k = first_current(s, g);
+    return k < grp.members.size() ? grp.members[k].second : kNone;
+  }
   // Counts what can raise g's bounds: a record for a member, a member leaving. A key
   // computed from them (GmbScheduler::group_key) is as tight as a new one while it stays.
   std::uint64_t version(std::int32_t g) const { return groups_[static_cast<std::size_t>(g)].version; }
   // Index in members(g) of its smallest current member (members().size() if none).
-  std::size_t first_current(const Schedule& s, std::int32_t g) const;
+  std::size_t first_current(const Schedule& s, std::int32_t g) const {
+    const Group& grp = groups_[static_cast<std::size_t>(g)];
+    while (grp.first < grp.members.size() && group(s, grp.members[grp.first].second) != g) ++grp.first;
+    return grp.first;
+  }
   // `lb` is at most the SDC arrival of b at m at this point of the plan.
   void record(const Schedule& s, BlockId b, MemId m, Time lb);
   // A lower bound on the SDC arrival of b at m from the records; -inf if none applies.

@@ -55,6 +55,7 @@ class BucketHeap {
     bool operator()(const Entry& a, const Entry& b) const { return a.key != b.key ? a.key > b.key : a.bucket > b.bucket; }
   };
   static constexpr Later later{};
+  void grow(std::int32_t bucket);
   std::vector<Entry> heap_;
   std::vector<std::uint32_t> gen_;
   std::vector<std::pair<std::int32_t, std::uint32_t>> deferred_;  // (bucket, gen)

@@ -49,14 +49,13 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
     }
 }
 
-FetchBound::Memos& FetchBound::memo(BlockId b, MemId m) const {
+void FetchBound::add_slot(BlockId b) const {
   const auto bi = static_cast<std::size_t>(b);
   if (bi >= slot_of_block_.size()) slot_of_block_.resize(std::max(2 * slot_of_block_.size(), bi + 1), -1);
   if (slot_of_block_[bi] < 0) {
     slot_of_block_[bi] = static_cast<std::int32_t>(memos_.size() / n_);
     memos_.resize(memos_.size() + n_);
   }
-  return memos_[static_cast<std::size_t>(slot_of_block_[bi]) * n_ + static_cast<std::size_t>(m)];
 }
 
 
@@ -146,10 +145,7 @@ Time FetchBound::last_hop_floor(const Schedule& s, BlockId b, MemId m) const {
   return best;
 }
 
-Time FetchBound::holders_bound(const Schedule& s, BlockId b, MemId m, Time now) const {
-  Memo& e = memo(b, m).holders;
-  const std::uint64_t hv = s.holders_version(b);
-  if (e.epoch == epoch_ && e.holders == hv) return e.value;
+Time FetchBound::holders_bound_fill(const Schedule& s, BlockId b, MemId m, Time now, Memo& e, std::uint64_t hv) const {
   e.value = holders_bound_uncached(s, b, m, now);
   e.holders = hv;
   e.epoch = epoch_;

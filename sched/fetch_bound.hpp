@@ -75,7 +75,12 @@ class FetchBound {
   const ChannelId* direct_to(MemId m) const { return direct_to_.data() + static_cast<std::size_t>(m) * n_; }
 
  private:
-  Time holders_bound(const Schedule& s, BlockId b, MemId m, Time now) const;
+  Time holders_bound(const Schedule& s, BlockId b, MemId m, Time now) const {
+    Memo& e = memo(b, m).holders;
+    const std::uint64_t hv = s.holders_version(b);
+    if (e.epoch == epoch_ && e.holders == hv) return e.value;
+    return holders_bound_fill(s, b, m, now, e, hv);
+  }
   Time holders_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now) const;
   Time lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now, bool memoised_holders,
                             ChannelId* arg = nullptr) const;
@@ -103,7 +108,13 @@ class FetchBound {
   // Per block that was asked about: one slot of n_ entries (most blocks never are).
   mutable std::vector<std::int32_t> slot_of_block_;
   mutable std::vector<Memos> memos_;
-  Memos& memo(BlockId b, MemId m) const;
+  Memos& memo(BlockId b, MemId m) const {
+    const auto bi = static_cast<std::size_t>(b);
+    if (bi >= slot_of_block_.size() || slot_of_block_[bi] < 0) add_slot(b);
+    return memos_[static_cast<std::size_t>(slot_of_block_[bi]) * n_ + static_cast<std::size_t>(m)];
+  }
+  void add_slot(BlockId b) const;
+  Time holders_bound_fill(const Schedule& s, BlockId b, MemId m, Time now, Memo& e, std::uint64_t hv) const;
 };
 
 }  // namespace rayline

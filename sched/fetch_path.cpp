@@ -183,15 +183,6 @@ Time FetchPathFinder::direct_before_relays(BlockId b, MemId m, ChannelId& via, b
   return best;
 }
 
-Time FetchPathFinder::known_lower_bound(BlockId b, MemId m) const {
-  const auto bi = static_cast<std::size_t>(b);
-  if (bi >= memo_slot_.size() || memo_slot_[bi] < 0) return -kNever;
-  const std::int32_t k = memo_index_[static_cast<std::size_t>(memo_slot_[bi]) * n_ + static_cast<std::size_t>(m)];
-  if (k < 0) return -kNever;
-  const Memo& e = memos_[static_cast<std::size_t>(k)];
-  return e.holders == schedule_->holders_version(b) ? e.lb : -kNever;
-}
-
 std::uint64_t FetchPathFinder::memo_stamp(const Memo& e) const {
   std::uint64_t v = 0;
   for (int h = 0; h < e.hops; ++h) v += channel_stamp(e.path[h]);
@@ -210,12 +201,6 @@ Time FetchPathFinder::memo_path_now(const Memo& e, BlockId b) const {
   Time l = std::max(now_, schedule_->copy_ready(*src));
   for (int h = 0; h < e.hops; ++h) l = std::max(l, schedule_->channel_finish(e.path[h])) + g.transfer_time(e.path[h], bytes);
   return l;
-}
-
-std::uint64_t FetchPathFinder::channel_stamp(ChannelId c) const {
-  std::uint64_t v = 0;
-  for (ResourceId r : schedule_->graph().channels[c].resources) v += schedule_->resource_version(r);
-  return v;
 }
 
 // Sum of the current versions of the resources on m's tree path (equal to the stamp taken

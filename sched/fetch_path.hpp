@@ -58,7 +58,14 @@ class FetchPathFinder {
   Time arrival_within(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven = nullptr, int* hops = nullptr);
   static constexpr int kMemoHops = 4;
   // What arrival_within() has proved so far: a lower bound on arrival(b, m) (-inf: none).
-  Time known_lower_bound(BlockId b, MemId m) const;
+  Time known_lower_bound(BlockId b, MemId m) const {
+    const auto bi = static_cast<std::size_t>(b);
+    if (bi >= memo_slot_.size() || memo_slot_[bi] < 0) return -kNever;
+    const std::int32_t k = memo_index_[static_cast<std::size_t>(memo_slot_[bi]) * n_ + static_cast<std::size_t>(m)];
+    if (k < 0) return -kNever;
+    const Memo& e = memos_[static_cast<std::size_t>(k)];
+    return e.holders == schedule_->holders_version(b) ? e.lb : -kNever;
+  }
 
   // Lower bounds on the remaining way to a destination that order and cut those searches
   // (GMB sets its FetchBound; without, the searches run in Dijkstra's order). With bounds
@@ -104,7 +111,11 @@ class FetchPathFinder {
   void search(BlockId b, Tree& t, MemId stop);
   static constexpr std::uint64_t kUnsettled = ~std::uint64_t{0};
   std::uint64_t path_stamp(const Tree& t, MemId m) const;
-  std::uint64_t channel_stamp(ChannelId c) const;
+  std::uint64_t channel_stamp(ChannelId c) const {
+    std::uint64_t v = 0;
+    for (ResourceId r : schedule_->graph().channels[static_cast<std::size_t>(c)].resources) v += schedule_->resource_version(r);
+    return v;
+  }
   Time* arrival_of(const Tree& t) { return arrival_.data() + static_cast<std::size_t>(t.slot) * n_; }
   ChannelId* via_of(const Tree& t) { return via_.data() + static_cast<std::size_t>(t.slot) * n_; }
   const ChannelId* via_of(const Tree& t) const { return via_.data() + static_cast<std::size_t>(t.slot) * n_; }

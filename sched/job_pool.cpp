@@ -22,21 +22,23 @@ JobId JobPool::add_job(Job j) {
   jobs_.push_back(std::move(j));
   state_.push_back(JobState::Queued);
   activity_.push_back(kNone);
-  queue_pos_.push_back(static_cast<std::int32_t>(queue_.size()));
-  queue_.push_back(id);
+  queue_pos_.push_back(appended_);
+  queue_.push_back({appended_++, id});
   return id;
 }
 
 void JobPool::remove_from_queue(JobId j) {
   if (queue_pos_[j] < 0) return;
-  // queue_pos_ is where j was appended; erasures before it only move it to the front, so
-  // it is found looking back from there (no positions to rewrite after an erase).
-  auto pos = std::min(static_cast<std::size_t>(queue_pos_[j]), queue_.size() - 1);
-  while (queue_[pos] != j) --pos;
-  // Order-preserving erase keeps planning deterministic and FIFO-fair among equals.
-  queue_.erase(queue_.begin() + static_cast<std::ptrdiff_t>(pos));
+  const std::int64_t number = queue_pos_[j];
+  const auto it = std::lower_bound(queue_.begin(), queue_.end(), number,
+                                   [](const Entry& e, std::int64_t n) { return e.number < n; });
+  it->job = kNone;  // a hole: the order of the rest is kept (deterministic, FIFO-fair)
   queue_pos_[j] = -1;
   for (BlockId i : jobs_[j].inputs) --demand_[i];
+  if (++holes_ * 2 > queue_.size() && queue_.size() > 64) {
+    std::erase_if(queue_, [](const Entry& e) { return e.job == kNone; });
+    holes_ = 0;
+  }
 }
 
 void JobPool::mark_planned(JobId j, ActivityId a) {
@@ -62,8 +64,8 @@ void JobPool::requeue(JobId j) {
   if (queue_pos_[j] >= 0) return;
   state_[j] = JobState::Queued;
   activity_[j] = kNone;
-  queue_pos_[j] = static_cast<std::int32_t>(queue_.size());
-  queue_.push_back(j);
+  queue_pos_[j] = appended_;
+  queue_.push_back({appended_++, j});
   for (BlockId i : jobs_[j].inputs) ++demand_[i];
 }
 

@@ -1,7 +1,8 @@
 // JobPool: every data block and E-job of a run, plus the global job queue of Sec. 4.2
 // ("whenever a new job is created, we push it to a global job queue").
 #pragma once
-#include <span>
+#include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "data_block.hpp"
@@ -24,9 +25,10 @@ class JobPool {
   ActivityId activity(JobId j) const { return activity_[j]; }  // its E-job activity once planned
   JobId producer(BlockId b) const { return producer_[b]; }     // kNone: initial data
 
-  // The global job queue (unplanned jobs), in arrival order.
-  std::span<const JobId> queued() const { return queue_; }
-  std::size_t queued_count() const { return queue_.size(); }
+  // The global job queue (unplanned jobs), in arrival order: a forward range of JobId.
+  class Queue;
+  Queue queued() const;
+  std::size_t queued_count() const { return queue_.size() - holes_; }
 
   void mark_planned(JobId j, ActivityId a);
   void mark_done(JobId j);
@@ -47,8 +49,58 @@ class JobPool {
   std::vector<Job> jobs_;
   std::vector<JobState> state_;
   std::vector<ActivityId> activity_;
-  std::vector<std::int32_t> queue_pos_;  // -1: not queued; else an upper bound on its index in queue_
-  std::vector<JobId> queue_;
+  // The queue keeps its arrival order. A job leaving it leaves a hole (job kNone), so no
+  // removal moves the rest (a plan takes hundreds of jobs out of a queue of thousands);
+  // holes are squeezed out once they are the majority. Each entry keeps its append number,
+  // increasing along the queue, so a job is found by binary search.
+  struct Entry {
+    std::int64_t number;
+    JobId job;
+  };
+  std::vector<std::int64_t> queue_pos_;  // per job: -1 when not queued, else its append number
+  std::int64_t appended_ = 0;
+  std::vector<Entry> queue_;
+  std::size_t holes_ = 0;
 };
+
+// JobPool::queued(): the queue's jobs, skipping holes.
+class JobPool::Queue {
+ public:
+  class iterator {
+   public:
+    using value_type = JobId;
+    using difference_type = std::ptrdiff_t;
+    iterator() = default;
+    iterator(const Entry* p, const Entry* end) : p_(p), end_(end) { skip(); }
+    JobId operator*() const { return p_->job; }
+    iterator& operator++() {
+      ++p_;
+      skip();
+      return *this;
+    }
+    iterator operator++(int) {
+      iterator t = *this;
+      ++*this;
+      return t;
+    }
+    bool operator==(const iterator& o) const { return p_ == o.p_; }
+
+   private:
+    void skip() {
+      while (p_ != end_ && p_->job == kNone) ++p_;
+    }
+    const Entry* p_ = nullptr;
+    const Entry* end_ = nullptr;
+  };
+  Queue(const Entry* begin, const Entry* end) : begin_(begin), end_(end) {}
+  iterator begin() const { return {begin_, end_}; }
+  iterator end() const { return {end_, end_}; }
+
+ private:
+  const Entry* begin_;
+  const Entry* end_;
+};
+
+inline JobPool::Queue JobPool::queued() const { return {queue_.data(), queue_.data() + queue_.size()}; }
 
 }  // namespace rayline

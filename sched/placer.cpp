@@ -4,8 +4,7 @@
 
 namespace rayline {
 
-bool Placer::may_fetch(const Job& j, BlockId b, const Schedule& s) {
-  if (s.pool().block(b).kind != DataKind::Framebuffer) return true;
+bool Placer::may_fetch_framebuffer(const Job& j, const Schedule& s) {
   return s.graph().job_types[static_cast<std::size_t>(j.type)] == "AdditiveCompose";
 }
 

@@ -19,7 +19,10 @@ class Placer {
   void rebind(const Schedule& s) { finder_.rebind(s); }
 
   // Sec. 5.1: framebuffers move only for AdditiveCompose; every other block may be fetched.
-  static bool may_fetch(const Job& j, BlockId b, const Schedule& s);
+  static bool may_fetch(const Job& j, BlockId b, const Schedule& s) {
+    return s.pool().block(b).kind != DataKind::Framebuffer || may_fetch_framebuffer(j, s);
+  }
+  static bool may_fetch_framebuffer(const Job& j, const Schedule& s);
 
   // Earliest time job j could start on d if the device is free from `ready` (kNever if an
   // input cannot reach d's memory device or a job it follows is not planned).

@@ -9,7 +9,6 @@
 namespace rayline {
 
 namespace {
-const std::vector<Copy> kNoCopies;
 }
 
 Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
@@ -51,10 +50,6 @@ void Schedule::resource_busy_raised(ResourceId r, Time t) {
     Time& f = channel_finish_[static_cast<std::size_t>(resource_channels_[k])];
     f = std::max(f, t);
   }
-}
-
-const std::vector<Copy>& Schedule::copies(BlockId b) const {
-  return static_cast<std::size_t>(b) < copies_.size() ? copies_[b] : kNoCopies;
 }
 
 Copy* Schedule::mutable_copy(BlockId b, MemId m) {
@@ -477,16 +472,6 @@ Time Schedule::inputs_ready_at(JobId j, MemId m) const {
     const Copy* c = copy_at(b, m);
     if (!c) return kNever;
     t = std::max(t, copy_ready(*c));
-  }
-  return t;
-}
-
-Time Schedule::after_deps_ready(JobId j) const {
-  Time t = 0;
-  for (JobId p : pool_->job(j).after) {
-    const ActivityId a = pool_->activity(p);
-    if (a == kNone) return kNever;
-    t = std::max(t, acts_[a].end);
   }
   return t;
 }

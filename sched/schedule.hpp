@@ -81,7 +81,9 @@ class Schedule {
 
   // Data placement. Initial copies: put(b, m, ready_time, origin).
   void put_initial(BlockId b, MemId m, Time ready = 0, bool origin = true);
-  const std::vector<Copy>& copies(BlockId b) const;
+  const std::vector<Copy>& copies(BlockId b) const {
+    return static_cast<std::size_t>(b) < copies_.size() ? copies_[static_cast<std::size_t>(b)] : no_copies_;
+  }
   const Copy* copy_at(BlockId b, MemId m) const {
     if (static_cast<std::size_t>(b) >= copies_.size()) return nullptr;
     if (static_cast<std::uint32_t>(m) < 64u && !((holder_mask_[static_cast<std::size_t>(b)] >> m) & 1)) return nullptr;
@@ -171,7 +173,15 @@ class Schedule {
   // Input readiness of a job on memory m: max copy_ready over inputs, kNever if missing.
   Time inputs_ready_at(JobId j, MemId m) const;
   // Ends of the activities of `after` jobs, kNever if one is not planned yet.
-  Time after_deps_ready(JobId j) const;
+  Time after_deps_ready(JobId j) const {
+    Time t = 0;
+    for (JobId p : pool_->job(j).after) {
+      const ActivityId a = pool_->activity(p);
+      if (a == kNone) return kNever;
+      t = std::max(t, acts_[static_cast<std::size_t>(a)].end);
+    }
+    return t;
+  }
 
  private:
   void evict(BlockId b, MemId m, Time at, ActivityId for_activity, const std::string& reason);
@@ -199,6 +209,7 @@ class Schedule {
   void resource_busy_raised(ResourceId r, Time t);
   std::vector<std::uint64_t> resource_version_, memory_version_, holders_version_;
   std::vector<std::vector<Copy>> copies_;          // per block (grows with the pool)
+  static inline const std::vector<Copy> no_copies_{};
   // Per block: bit m set iff a copy is on memory device m < 64 (copy_at's quick miss; a
   // device >= 64 is always looked up).
   std::vector<std::uint64_t> holder_mask_;
