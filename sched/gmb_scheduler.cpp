@@ -76,7 +76,7 @@ GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Tim
   const Time start = placer_->earliest_start(j, d, ready, s);
   if (start == kNever) return c;
   c.job = j;
-  c.start = start;
+  c.set_start(start);
   c.created = job.created;
   const Time aging = aging_now_;
   c.aged = aging != kNever && now - job.created >= aging;
@@ -90,6 +90,11 @@ GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Tim
 // Sec. 4.3 order: aged jobs first (oldest first); then the earliest possible start (the
 // smallest fetching overhead); ties to the smallest T_SETUP/T_EXEC (highest granularity);
 // then the job that entered the queue first.
+// Above `start + 1e-11 max(1, |start|)` a time t > start is never nearly_equal() to start:
+// t - start > 1e-11 M (M = max(1, |start|)) exceeds 1e-12 max(1, t) <= 1e-12 (M + t - start)
+// tenfold, far beyond rounding. Between the two the exact test decides.
+bool GmbScheduler::Choice::nearly_at_start(Time t) const { return nearly_equal(t, start); }
+
 bool GmbScheduler::prefer(const Choice& c, const Choice& best) const {
   if (best.job == kNone) return true;
   if (c.aged != best.aged) return c.aged;
@@ -209,7 +214,7 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
   }
   std::sort(order_.begin(), order_.end());
   Choice best;
-  auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
+  auto loses = [&](Time lb) { return best.loses(lb); };
   const Time aging = aging_now_;
   for (const auto& [blb, i] : order_) {
     if (loses(blb)) break;
@@ -255,7 +260,7 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
       if (start == kNever || loses(start)) continue;
       Choice c;
       c.job = j;
-      c.start = start;
+      c.set_start(start);
       c.created = job.created;
       c.aged = aging != kNever && now - job.created >= aging;
       if (opt_.granularity_tiebreak) {
@@ -382,7 +387,7 @@ Time GmbScheduler::fold_input(BlockId b, MemId m, Time start, Time now, const Sc
 // larger block of the group arrives no earlier. False when no bucket has queued jobs.
 bool GmbScheduler::visit_group(std::int32_t g, DeviceId d, MemId m, Time ready, Time now, const JobPool& pool,
                                const Schedule& s, Choice& best) {
-  auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
+  auto loses = [&](Time lb) { return best.loses(lb); };
   bool any = false;
   const auto& members = arrival_bound_->members(g);
   // (No commit happens while selecting: g's smallest current member stays the same.)
@@ -408,7 +413,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
                                    const Schedule& s, Choice& best) {
   const DeviceGraph& g = s.graph();
   const Bucket& bk = buckets_[static_cast<std::size_t>(i)];
-  auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
+  auto loses = [&](Time lb) { return best.loses(lb); };
   const bool has_key = static_cast<std::size_t>(bk.key) < pool.block_count();
   // FetchBound's lower bound on the key block (select_pruned()'s `blb`), where its
   // arithmetic needs it.
@@ -495,7 +500,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     if (start == kNever || loses(start)) return kNever;
     Choice c;
     c.job = j;
-    c.start = start;
+    c.set_start(start);
     c.created = job.created;
     c.aged = aging != kNever && now - job.created >= aging;
     c.granularity = in_order ? so.jobs[k].first : granularity(j, d, pool, s);
@@ -516,41 +521,39 @@ GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time n
   MemIndex& mi = mem_index_[static_cast<std::size_t>(m)];
   if (!mi.built) {
     mi.built = true;
-    mi.heap.reset(arrival_bound_->group_count());
+    mi.order.reset(arrival_bound_->group_count());
     for (std::size_t g = 0; g < arrival_bound_->group_count(); ++g)
-      mi.heap.defer(static_cast<std::int32_t>(g));
+      mi.order.defer(static_cast<std::int32_t>(g));
   }
   Choice best;
   near_tie_ = false;
   if (no_key_bucket_ >= 0 && open(no_key_bucket_, m) > 0)
     evaluate_bucket(no_key_bucket_, d, m, ready, now, pool, s, best);
-  // Groups re-entered since the last selection here get their keys (bucket_heap.hpp).
+  // Groups re-entered since the last selection here get their keys (bucket_order.hpp).
   // (Stamps: the group's version, +1 so that 0 means none.)
   auto stamp_of = [&](std::int32_t g) { return arrival_bound_->version(g) + 1; };
-  mi.heap.settle([&](std::int32_t g) { return group_key(g, m, now, s); }, stamp_of);
-  auto loses = [&](Time lb) { return best.job != kNone && lb > best.start && !nearly_equal(lb, best.start); };
-  mi.visited.clear();
-  while (!mi.heap.empty()) {
-    const BucketHeap::Entry e = mi.heap.top();
-    if (!mi.heap.current(e)) {
-      mi.heap.pop();
+  mi.order.settle([&](std::int32_t g) { return group_key(g, m, now, s); }, stamp_of);
+  auto loses = [&](Time lb) { return best.loses(lb); };
+  // In key order; a visited group keeps its place (its key is still a lower bound).
+  for (std::size_t k = 0; k < mi.order.size();) {
+    if (!mi.order.current(k)) {
+      mi.order.erase(k);
       continue;
     }
+    const BucketOrder::Entry e = mi.order.at(k);
     // A key computed since the group's version last changed is as high as group_key()
     // would make it (see ArrivalBound::version).
     const std::uint64_t stamp = stamp_of(e.bucket);
     const Time lb = e.stamp == stamp ? e.key : group_key(e.bucket, m, now, s);
     if (lb > e.key) {  // stale from below: raise it and look again
-      mi.heap.pop();
-      mi.heap.push(e.bucket, lb, stamp);
+      mi.order.rekey(k, lb, stamp);
       continue;
     }
     if (loses(std::max(ready, e.key))) break;  // every group left starts later
-    mi.heap.pop();
     // A group with no queued job left is dropped (a block joining it re-inserts it).
-    if (visit_group(e.bucket, d, m, ready, now, pool, s, best)) mi.visited.push_back(e);
+    if (visit_group(e.bucket, d, m, ready, now, pool, s, best)) ++k;
+    else mi.order.erase(k);
   }
-  for (const BucketHeap::Entry& e : mi.visited) mi.heap.restore(e);
   if (near_tie_) return select_pruned(d, ready, now, pool, s);
   return best;
 }
@@ -558,13 +561,13 @@ GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time n
 void GmbScheduler::after_commit(std::size_t activities_before, std::size_t evictions_before, const JobPool& pool,
                                 const Schedule& s) {
   // Blocks whose holders changed may have joined another holder group, which may now
-  // start earlier anywhere: that group re-enters every heap.
+  // start earlier anywhere: that group re-enters every memory device's order.
   auto changed = [&](BlockId b) {
     if (static_cast<std::size_t>(b) >= bucket_of_block_.size() || bucket_of_block_[b] < 0) return;
     if (arrival_bound_->group(s, b) != kNone) return;  // holders as before (or seen already)
     const std::int32_t g = arrival_bound_->assign(s, b);
     for (MemIndex& mi : mem_index_)
-      if (mi.built) mi.heap.defer(g);
+      if (mi.built) mi.order.defer(g);
   };
   for (std::size_t a = activities_before; a < s.activity_count(); ++a) {
     const Activity& act = s.activity(static_cast<ActivityId>(a));

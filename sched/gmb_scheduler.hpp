@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "arrival_bound.hpp"
-#include "bucket_heap.hpp"
+#include "bucket_order.hpp"
 #include "fetch_bound.hpp"
 #include "placer.hpp"
 #include "scheduler.hpp"
@@ -53,10 +53,19 @@ class GmbScheduler final : public Scheduler {
  private:
   struct Choice {
     JobId job = kNone;
-    Time start = kNever;
+    Time start = kNever;     // (kNever while job is kNone)
     double granularity = 0;  // T_SETUP / T_EXEC
     bool aged = false;
     Time created = 0;
+    Time sure_loss = kNever;  // set_start(): a later time above it surely loses
+    void set_start(Time t) {
+      start = t;
+      sure_loss = t + 1e-11 * std::max(1.0, t < 0 ? -t : t);
+    }
+    // Would a job starting at t lose to this one (later, and not within nearly_equal())?
+    // False while there is no job.
+    bool loses(Time t) const { return t > start && (t > sure_loss || !nearly_at_start(t)); }
+    bool nearly_at_start(Time t) const;
   };
   Choice select(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
   Choice evaluate(JobId j, DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
@@ -98,9 +107,9 @@ class GmbScheduler final : public Scheduler {
   void build_index(Time now, const JobPool& pool);
   // Reference selection: every bucket's bound recomputed and sorted at every step.
   Choice select_pruned(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
-  // Incremental selection (same choice): per memory device, a persistent heap of holder
+  // Incremental selection (same choice): per memory device, a persistent order of holder
   // groups of buckets (arrival_bound.hpp) keyed by lower bounds that commits can only make
-  // stale from below (bucket_heap.hpp); within a group, buckets smallest key block first;
+  // stale from below (bucket_order.hpp); within a group, buckets smallest key block first;
   // within a bucket, jobs in granularity order per device timing class, stopping at the
   // first that starts as early as the key block allows.
   Choice select_indexed(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
@@ -137,8 +146,7 @@ class GmbScheduler final : public Scheduler {
   bool prefer_checked(const Choice& c, const Choice& best);  // prefer(), flagging near-ties
   struct MemIndex {
     bool built = false;
-    BucketHeap heap;
-    std::vector<BucketHeap::Entry> visited;
+    BucketOrder order;
   };
   std::vector<MemIndex> mem_index_;
   std::unique_ptr<ArrivalBound> arrival_bound_;  // bounds from exact arrivals seen so far

@@ -552,7 +552,7 @@ TEST(Schedule, ChannelFinishAndHoldersStayInStepWithTimelines) {
   }
 }
 
-// JobPool's queue keeps arrival order through removals (no position rewrite any more) and
+// JobPool's queue keeps arrival order through removals (holes, squeezed out in bulk) and
 // requeues.
 TEST(JobPool, QueueKeepsArrivalOrderThroughRemovalsAndRequeues) {
   std::mt19937 rng(11);
@@ -575,5 +575,6 @@ TEST(JobPool, QueueKeepsArrivalOrderThroughRemovalsAndRequeues) {
     }
     ASSERT_EQ(std::vector<JobId>(pool.queued().begin(), pool.queued().end()), ref) << "step " << step;
     ASSERT_EQ(pool.queued_demand(b), static_cast<int>(ref.size()));
+    ASSERT_EQ(pool.queued_count(), ref.size());
   }
 }
