@@ -5,24 +5,32 @@ namespace rayline {
 void BucketOrder::reset(std::size_t buckets) {
   order_.clear();
   gen_.assign(buckets, 0);
+  placed_.assign(buckets, 0);
   stale_ = 0;
   deferred_.clear();
 }
 
 // Buckets (holder groups) appear one at a time during a pass: gen_ grows geometrically
-// (an unused slot's generation 0 is never read). Each supersession may leave one stale
-// entry behind; once they could be half the array, it is compacted.
+// (an unused slot's generation 0 is never read). Superseding a placed entry leaves it
+// stale; once stale entries are half the array, it is compacted.
 std::uint32_t BucketOrder::supersede(std::int32_t bucket) {
   const auto b = static_cast<std::size_t>(bucket);
-  if (b >= gen_.size()) gen_.resize(std::max(b + 1, 2 * gen_.size()), 0);
-  if (++stale_ > order_.size() / 2 && stale_ > 16) {
-    std::erase_if(order_, [&](const Entry& e) { return gen_[static_cast<std::size_t>(e.bucket)] != e.gen; });
-    stale_ = 1;
+  if (b >= gen_.size()) {
+    gen_.resize(std::max(b + 1, 2 * gen_.size()), 0);
+    placed_.resize(gen_.size(), 0);
+  }
+  if (placed_[b]) {
+    placed_[b] = 0;
+    if (++stale_ > order_.size() / 2 && stale_ > 8) {
+      std::erase_if(order_, [&](const Entry& e) { return gen_[static_cast<std::size_t>(e.bucket)] != e.gen || e.bucket == bucket; });
+      stale_ = 0;
+    }
   }
   return ++gen_[b];
 }
 
 void BucketOrder::insert(const Entry& e) {
+  placed_[static_cast<std::size_t>(e.bucket)] = 1;
   order_.insert(std::upper_bound(order_.begin(), order_.end(), e, before), e);
 }
 
@@ -42,7 +50,8 @@ void BucketOrder::rekey(std::size_t i, Time key, std::uint64_t stamp) {
 }
 
 void BucketOrder::erase(std::size_t i) {
-  if (!current(i) && stale_ > 0) --stale_;
+  if (current(i)) placed_[static_cast<std::size_t>(order_[i].bucket)] = 0;
+  else --stale_;
   order_.erase(order_.begin() + static_cast<std::ptrdiff_t>(i));
 }
 

@@ -62,7 +62,8 @@ class BucketOrder {
   std::uint32_t supersede(std::int32_t bucket);  // the bucket's next generation
   std::vector<Entry> order_;  // sorted by before()
   std::vector<std::uint32_t> gen_;
-  std::size_t stale_ = 0;  // superseded entries still in order_ (an upper bound)
+  std::vector<char> placed_;  // per bucket: its current entry is in order_
+  std::size_t stale_ = 0;     // superseded entries still in order_
   std::vector<std::pair<std::int32_t, std::uint32_t>> deferred_;  // (bucket, gen)
 };
 

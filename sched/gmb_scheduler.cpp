@@ -281,7 +281,7 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
 // order-independent unless two compared values are within 1e-12 but different; that is
 // detected (near_tie_) and the selection is then redone by select_pruned().
 
-bool GmbScheduler::prefer_checked(const Choice& c, const Choice& best) {
+bool GmbScheduler::prefer_checked_full(const Choice& c, const Choice& best) {
   if (best.job != kNone && c.aged == best.aged) {
     if (nearly_equal(c.start, best.start)) {
       if (c.start != best.start) near_tie_ = true;

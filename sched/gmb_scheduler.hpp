@@ -143,7 +143,16 @@ class GmbScheduler final : public Scheduler {
     return open_[static_cast<std::size_t>(i) * mem_index_.size() + static_cast<std::size_t>(m)];
   }
   bool prefer(const Choice& c, const Choice& best) const;
-  bool prefer_checked(const Choice& c, const Choice& best);  // prefer(), flagging near-ties
+  // prefer(), flagging near-ties. Inline: the two answers that need no tolerance test (c
+  // starts clearly earlier; the same start and granularity), then the full comparison.
+  bool prefer_checked(const Choice& c, const Choice& best) {
+    if (best.job != kNone && !c.aged && !best.aged) {
+      if (best.start > c.sure_loss) return true;
+      if (c.start == best.start && c.granularity == best.granularity) return c.job < best.job;
+    }
+    return prefer_checked_full(c, best);
+  }
+  bool prefer_checked_full(const Choice& c, const Choice& best);
   struct MemIndex {
     bool built = false;
     BucketOrder order;
