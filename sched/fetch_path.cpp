@@ -34,6 +34,14 @@ void FetchPathFinder::build_hops() {
     }
   }
   hops_at_[n_] = static_cast<std::uint32_t>(hops_.size());
+  onward_hops_.clear();
+  onward_at_.assign(n_ + 1, 0);
+  for (std::size_t p = 0; p < n_; ++p) {
+    onward_at_[p] = static_cast<std::uint32_t>(onward_hops_.size());
+    for (const Hop& hop : out_hops(static_cast<MemId>(p)))
+      if (hop.onward_capacity > 0) onward_hops_.push_back(hop);
+  }
+  onward_at_[n_] = static_cast<std::uint32_t>(onward_hops_.size());
 }
 
 void FetchPathFinder::clear() {
@@ -132,18 +140,17 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
   // is at least `direct`, so is every relayed arrival.
   const double* rest_lat = rest_->latency_to(m);
   const double* rest_inv_bw = rest_->inv_bw_to(m);
-  for (const Hop& hop : out_hops(h)) {
+  for (const Hop& hop : blk.bytes > 0 ? onward_hops(h) : out_hops(h)) {
     const auto qi = static_cast<std::size_t>(hop.to);
-    if (hop.to == m || hop.to_capacity < blk.bytes) continue;
+    // (A dead end first: every channel out of q leads back to h or to a device too small.)
+    if (hop.to == m || hop.to_capacity < blk.bytes || hop.onward_capacity < blk.bytes) continue;
     const Time start = std::max(root, schedule_->channel_finish(hop.channel));
     if (!(start + hop.latency < direct)) continue;  // T_TRANS >= T_LAT
     const Time lq = start + hop.transfer(wbytes);  // Eq. 3
     if (!(lq < direct)) continue;
     // ... and then needs the uncontended rest q -> m (through()'s free run).
     const Time free_run = (lq + (rest_lat[qi] + wbytes * rest_inv_bw[qi]) * (1 - 1e-9)) * (1 - 1e-14);
-    if (!(free_run < direct)) continue;
-    // Unless every channel out of q leads back to h or to a device too small (a dead end).
-    if (hop.onward_capacity >= blk.bytes) return kOpen;
+    if (free_run < direct) return kOpen;
   }
   return direct;
 }
