@@ -55,7 +55,19 @@ class FetchPathFinder {
   // on its path and b's holders are unchanged, a lower bound while b's holders are
   // unchanged (costs only grow within a planning pass). No tree is stored.
   template <class Lost>
-  Time arrival_within(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven = nullptr, int* hops = nullptr);
+  Time arrival_within(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven = nullptr, int* hops = nullptr) {
+    // (Inline: a ray queue is usually answered by its first hop, single_holder_direct().)
+    bool single = false;  // single_holder_direct() applied (and left it open)
+    if (!hops && !scene_local_) {
+      const Time a = single_holder_direct(b, m, true, nullptr, &single);
+      if (a == a) {  // (NaN: not settled that way)
+        if (a <= enough || !lost(a)) return a;
+        if (proven) *proven = a;
+        return kNever;
+      }
+    }
+    return arrival_within_open(b, m, enough, lost, proven, hops, single);
+  }
   static constexpr int kMemoHops = 4;
   // What arrival_within() has proved so far: a lower bound on arrival(b, m) (-inf: none).
   Time known_lower_bound(BlockId b, MemId m) const {
@@ -212,7 +224,10 @@ class FetchPathFinder {
   template <class Lost, bool Ties, bool Funnel = true>
   // (direct_checked: the caller found direct_before_relays() open for (b, m) already.)
   Time cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped, bool direct_checked = false);
-  int via_hops(MemId m, MemId* root) const;  // cut_search's path to m (kMemoHops + 1: longer)
+  int via_hops(MemId m, MemId* root) const;
+  // arrival_within() past its single-holder answer (`single`: that was asked, and left open).
+  template <class Lost>
+  Time arrival_within_open(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven, int* hops, bool single);  // cut_search's path to m (kMemoHops + 1: longer)
   // A block on one memory device h != m (a ray queue) with one channel h -> m: when that
   // hop lands no later than any relayed last hop can (cut_search()'s first shortcut), or
   // than any relayed path's first hop out of h followed by the uncontended rest to m, its
@@ -260,7 +275,8 @@ class FetchPathFinder {
 };
 
 template <class Lost>
-Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven, int* hops) {
+Time FetchPathFinder::arrival_within_open(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven, int* hops,
+                                          bool single) {
   auto answer = [&](Time a) {
     if (a <= enough || !lost(a)) return a;
     if (proven) *proven = a;
@@ -273,11 +289,6 @@ Time FetchPathFinder::arrival_within(BlockId b, MemId m, Time enough, const Lost
       *hops = static_cast<int>(p.size());
     }
     return answer(arrival(b, m));
-  }
-  bool single = false;  // single_holder_direct() applied (and left it open)
-  if (!hops) {
-    const Time a = single_holder_direct(b, m, true, nullptr, &single);
-    if (a == a) return answer(a);  // (NaN: not settled that way)
   }
   Memo& f = memo(b, m);  // (cut_search() leaves memos_ alone: the reference stays valid)
   const std::uint64_t stamp_now = f.hops > 0 ? memo_stamp(f) : 0;
