@@ -165,8 +165,8 @@ Time FetchPathFinder::direct_before_relays(BlockId b, MemId m, ChannelId& via, b
   Time best = kNever;
   int n_best = 0;
   for (const Copy& cp : schedule_->copies(b)) {
-    const Time r = std::max(now_, schedule_->copy_ready(cp));
     auto consider = [&](ChannelId c) {
+      const Time r = std::max(now_, schedule_->copy_ready(cp));
       const Time t = std::max(r, schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);  // Eq. 3
       if (t < best) {
         best = t;
