@@ -59,7 +59,8 @@ std::int32_t ArrivalBound::find_or_add_group(std::uint64_t h) {
   if (groups_.size() < n_groups_) groups_.emplace_back();
   Group& grp = groups_[static_cast<std::size_t>(g)];
   grp.members.clear();
-  grp.largest.assign(n_, Rec{});
+  // (Records of an earlier pass are of an earlier epoch: not valid(), nothing to clear.)
+  if (grp.largest.size() != n_) grp.largest.assign(n_, Rec{});
   grp.first = 0;
   grp.unsorted = false;
   grp.version = 0;

@@ -577,9 +577,10 @@ void GmbScheduler::after_commit(std::size_t activities_before, std::size_t evict
       if (static_cast<std::size_t>(act.job) < bucket_of_job_.size() && bucket_of_job_[act.job] >= 0) {
         const std::int32_t i = bucket_of_job_[act.job];
         --buckets_[static_cast<std::size_t>(i)].queued;
+        std::int32_t* open_i = open_.data() + static_cast<std::size_t>(i) * mem_index_.size();
         for (std::size_t m = 0; m < mem_index_.size(); ++m)
-          if (!std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(act.job, static_cast<MemId>(m))))
-            --open_[static_cast<std::size_t>(i) * mem_index_.size() + m];
+          if (blocked_pairs_.empty() || !std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(act.job, static_cast<MemId>(m))))
+            --open_i[m];
       }
       for (BlockId b : pool.job(act.job).inputs) changed(b);
       for (BlockId o : pool.job(act.job).outputs) changed(o);
