@@ -4,6 +4,7 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <set>
 
@@ -293,6 +294,16 @@ bool GmbScheduler::prefer_checked_full(const Choice& c, const Choice& best) {
 
 void GmbScheduler::build_classes(const Schedule& s) {
   const DeviceGraph& g = s.graph();
+  // The classes depend on the Eq. 2 coefficients alone (refitted between plans at run
+  // time): kept while their bytes are the same (a byte compare; different bytes for equal
+  // values, such as -0 and +0, only rebuild them).
+  const std::span<const ExecCoefficients> coef = g.timing.coefficients();
+  const std::size_t n_bytes = coef.size_bytes();
+  if (classes_ > 0 && class_of_device_.size() == g.computes.size() && class_coef_.size() == n_bytes &&
+      (n_bytes == 0 || std::memcmp(class_coef_.data(), coef.data(), n_bytes) == 0))
+    return;
+  class_coef_.resize(n_bytes);
+  if (n_bytes > 0) std::memcpy(class_coef_.data(), coef.data(), n_bytes);
   const auto same = [&](DeviceId a, DeviceId b) {
     for (int t = 0; t < g.timing.job_types(); ++t) {
       const ExecCoefficients& x = g.timing.at(a, static_cast<JobTypeId>(t));

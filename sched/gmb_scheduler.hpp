@@ -170,6 +170,7 @@ class GmbScheduler final : public Scheduler {
   };
   std::vector<Sorted> sorted_;  // bucket x class (never shrunk: the lists keep their capacity)
   std::vector<DeviceId> class_reps_;  // build_classes(): one device per class
+  std::vector<unsigned char> class_coef_;  // the bytes of the coefficients they were built from
   std::vector<std::pair<Time, DeviceId>> device_queue_;  // plan(): devices by ready time (a min-heap)
   void build_classes(const Schedule& s);
   const Sorted& sorted_jobs(std::int32_t i, DeviceId d, const JobPool& pool, const Schedule& s);

@@ -65,6 +65,8 @@ class TimingModel {
   // Eq. 2.
   Time exec_time(DeviceId d, JobTypeId j, std::span<const InputSize> inputs) const;
   Time setup_time(DeviceId d, JobTypeId j) const { return at(d, j).setup; }
+  // Every (device, job type) entry, device-major.
+  std::span<const ExecCoefficients> coefficients() const { return coef_; }
 
   // Non-negative least-squares fit (sched/nnls.hpp) of T_SETUP and T_RATE per (device, job
   // type) from samples; replaces the coefficients it could fit and reports the fit error of each.
