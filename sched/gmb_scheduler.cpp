@@ -473,14 +473,17 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
   const bool in_order = so.monotone;  // else: every job, no early stop
   const std::size_t n = in_order ? so.jobs.size() : bk.jobs.size();
   auto job_at = [&](std::size_t k) { return in_order ? so.jobs[k].second : bk.jobs[k]; };
-  // Can j run on d at all, its key block being fetchable?
+  // Can j run on d at all, its key block being fetchable? (Per bucket: whether the key
+  // must be fetched and is a framebuffer, which only some job types may fetch.)
+  const bool key_framebuffer_fetch = has_key && !key_copy && pool.block(bk.key).kind == DataKind::Framebuffer;
+  const bool any_blocked = !blocked_pairs_.empty();
   auto eligible = [&](JobId j) {
     if (pool.state(j) != JobState::Queued) return false;
     if (deferred(j)) return false;
     const Job& job = pool.job(j);
     if (!g.timing.supports(d, job.type)) return false;
-    if (std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) return false;
-    return !(has_key && !key_copy && !Placer::may_fetch(job, bk.key, s));
+    if (any_blocked && std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) return false;
+    return !(key_framebuffer_fetch && !Placer::may_fetch_framebuffer(job, s));
   };
   // select_pruned()'s per-job step: the exact start (searching only where the bounds
   // leave it open), folded into `best`. Returns the start (kNever: out).
