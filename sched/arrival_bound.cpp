@@ -155,7 +155,7 @@ void ArrivalBound::record(const Schedule& s, BlockId b, MemId m, Time lb) {
   if (!valid(s, big) || group(s, big.block) != g || big.bytes < r.bytes || big.block == b) big = r;
 }
 
-Time ArrivalBound::from(const Rec& r, Bytes bytes, MemId m) const {
+[[gnu::always_inline]] inline Time ArrivalBound::from(const Rec& r, Bytes bytes, MemId m) const {
   if (r.at == kNever) return kNever;  // a larger block fits through no more memory devices
   if (bytes == r.bytes) return r.at;
   Time inc = static_cast<double>(bytes - r.bytes) * min_inv_bw_in_[static_cast<std::size_t>(m)] * (1 - 1e-9);
