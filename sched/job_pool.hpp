@@ -3,6 +3,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <vector>
 
 #include "data_block.hpp"
@@ -70,6 +71,10 @@ class JobPool::Queue {
    public:
     using value_type = JobId;
     using difference_type = std::ptrdiff_t;
+    using reference = JobId;  // (ids by value)
+    using pointer = void;
+    using iterator_category = std::input_iterator_tag;
+    using iterator_concept = std::forward_iterator_tag;
     iterator() = default;
     iterator(const Entry* p, const Entry* end) : p_(p), end_(end) { skip(); }
     JobId operator*() const { return p_->job; }

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <iterator>
 #include <random>
 
 #include "dcg_fixture.hpp"
@@ -554,6 +555,8 @@ TEST(Schedule, ChannelFinishAndHoldersStayInStepWithTimelines) {
 
 // JobPool's queue keeps arrival order through removals (holes, squeezed out in bulk) and
 // requeues.
+static_assert(std::forward_iterator<JobPool::Queue::iterator>);
+
 TEST(JobPool, QueueKeepsArrivalOrderThroughRemovalsAndRequeues) {
   std::mt19937 rng(11);
   JobPool pool;
