@@ -224,10 +224,10 @@ class FetchPathFinder {
   template <class Lost, bool Ties, bool Funnel = true>
   // (direct_checked: the caller found direct_before_relays() open for (b, m) already.)
   Time cut_search(BlockId b, MemId m, Time enough, const Lost& lost, Time& dropped, bool direct_checked = false);
-  int via_hops(MemId m, MemId* root) const;
+  int via_hops(MemId m, MemId* root) const;  // cut_search's path to m (kMemoHops + 1: longer)
   // arrival_within() past its single-holder answer (`single`: that was asked, and left open).
   template <class Lost>
-  Time arrival_within_open(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven, int* hops, bool single);  // cut_search's path to m (kMemoHops + 1: longer)
+  Time arrival_within_open(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven, int* hops, bool single);
   // A block on one memory device h != m (a ray queue) with one channel h -> m: when that
   // hop lands no later than any relayed last hop can (cut_search()'s first shortcut), or
   // than any relayed path's first hop out of h followed by the uncontended rest to m, its

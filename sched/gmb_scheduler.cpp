@@ -91,11 +91,6 @@ GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Tim
 // Sec. 4.3 order: aged jobs first (oldest first); then the earliest possible start (the
 // smallest fetching overhead); ties to the smallest T_SETUP/T_EXEC (highest granularity);
 // then the job that entered the queue first.
-// Above `start + 1e-11 max(1, |start|)` a time t > start is never nearly_equal() to start:
-// t - start > 1e-11 M (M = max(1, |start|)) exceeds 1e-12 max(1, t) <= 1e-12 (M + t - start)
-// tenfold, far beyond rounding. Between the two the exact test decides.
-bool GmbScheduler::Choice::nearly_at_start(Time t) const { return nearly_equal(t, start); }
-
 bool GmbScheduler::prefer(const Choice& c, const Choice& best) const {
   if (best.job == kNone) return true;
   if (c.aged != best.aged) return c.aged;
@@ -281,6 +276,12 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
 // look at, and skip only what cannot win. Under nearly_equal()'s tolerance the fold is
 // order-independent unless two compared values are within 1e-12 but different; that is
 // detected (near_tie_) and the selection is then redone by select_pruned().
+
+// Choice::loses()'s threshold: above `start + 1e-11 max(1, |start|)` a time t > start is never
+// nearly_equal() to start: t - start > 1e-11 M (M = max(1, |start|)) exceeds
+// 1e-12 max(1, t) <= 1e-12 (M + t - start) tenfold, far beyond rounding. Between the two
+// the exact test decides.
+bool GmbScheduler::Choice::nearly_at_start(Time t) const { return nearly_equal(t, start); }
 
 bool GmbScheduler::prefer_checked_full(const Choice& c, const Choice& best) {
   if (best.job != kNone && c.aged == best.aged) {

@@ -57,7 +57,7 @@ class GmbScheduler final : public Scheduler {
     double granularity = 0;  // T_SETUP / T_EXEC
     bool aged = false;
     Time created = 0;
-    Time sure_loss = kNever;  // set_start(): a later time above it surely loses
+    Time sure_loss = kNever;  // set_start(): a later time above it surely loses (see gmb_scheduler.cpp)
     void set_start(Time t) {
       start = t;
       sure_loss = t + 1e-11 * std::max(1.0, t < 0 ? -t : t);
