@@ -6,10 +6,10 @@
 #include <iostream>
 #include <unistd.h>
 
-#include "sched/error.hpp"
-#include "sched/output_folder.hpp"
-#include "sched/unfinished_output.hpp"
-#include "sched/units.hpp"
+#include "common/error.hpp"
+#include "common/output_folder.hpp"
+#include "common/unfinished_output.hpp"
+#include "common/units.hpp"
 
 namespace rayline::cli {
 

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "sched/types.hpp"
+#include "sched/core/types.hpp"
 
 namespace rayline::cli {
 

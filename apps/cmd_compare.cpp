@@ -16,7 +16,7 @@
 
 #include "apps/cli_common.hpp"
 #include "apps/interrupt.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::cli {
 

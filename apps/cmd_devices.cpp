@@ -10,7 +10,7 @@
 #include "apps/cmd_partition.hpp"
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/workstation.hpp"
-#include "sched/data_block.hpp"
+#include "sched/core/data_block.hpp"
 
 namespace rayline::cli {
 

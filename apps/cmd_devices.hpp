@@ -1,4 +1,4 @@
-// `rayline devices` (issue 7): every Vulkan device this machine has (lavapipe flagged as
+// `rayline devices`: every Vulkan device this machine has (lavapipe flagged as
 // CPU-backed), and the device connectivity graph the renderer would drive with the same
 // options: compute and memory devices, channels, and the timing model in use.
 #pragma once

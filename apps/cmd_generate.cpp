@@ -11,7 +11,7 @@
 #include "apps/cli_common.hpp"
 #include "render/scene/assets.hpp"
 #include "render/scene/generators.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::cli {
 

@@ -12,8 +12,8 @@
 #include "apps/cli_common.hpp"
 #include "render/partition/partition.hpp"
 #include "render/scene/scene.hpp"
-#include "sched/error.hpp"
-#include "sched/progress_line.hpp"
+#include "common/error.hpp"
+#include "common/progress_line.hpp"
 
 namespace rayline::cli {
 

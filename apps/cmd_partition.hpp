@@ -1,5 +1,5 @@
 // `rayline partition --scene F --blocks N --out DIR`: split a scene into N spatially
-// coherent blocks on disk by a streaming median-split kd-tree (issue 6; format in
+// coherent blocks on disk by a streaming median-split kd-tree (format in
 // render/partition/block_file.hpp and partition.hpp).
 #pragma once
 #include <cstdint>

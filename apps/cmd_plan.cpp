@@ -8,16 +8,16 @@
 
 #include "apps/cli_common.hpp"
 #include "apps/platform_path.hpp"
-#include "sched/error.hpp"
-#include "sched/exact_executor.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/job_set.hpp"
-#include "sched/platform_loader.hpp"
-#include "sched/runtime_loop.hpp"
-#include "sched/trace_output.hpp"
-#include "sched/unplaced.hpp"
-#include "sched/units.hpp"
-#include "sched/utilisation.hpp"
+#include "common/error.hpp"
+#include "sched/runtime/exact_executor.hpp"
+#include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "workload/job_set.hpp"
+#include "sched/io/platform_loader.hpp"
+#include "sched/runtime/runtime_loop.hpp"
+#include "sched/io/trace_output.hpp"
+#include "sched/policy/unplaced.hpp"
+#include "common/units.hpp"
+#include "sched/timeline/utilisation.hpp"
 
 namespace rayline::cli {
 

@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/platform_path.hpp"
-#include "sched/error.hpp"
-#include "sched/platform_loader.hpp"
-#include "sched/units.hpp"
+#include "common/error.hpp"
+#include "sched/io/platform_loader.hpp"
+#include "common/units.hpp"
 
 namespace rayline::cli {
 

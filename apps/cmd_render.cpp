@@ -19,9 +19,9 @@
 #include "render/image/image_io.hpp"
 #include "render/scene/gltf_reader.hpp"
 #include "render/scene/scene.hpp"
-#include "sched/error.hpp"
-#include "sched/progress_line.hpp"
-#include "sched/unfinished_output.hpp"
+#include "common/error.hpp"
+#include "common/progress_line.hpp"
+#include "common/unfinished_output.hpp"
 
 namespace rayline::cli {
 
@@ -223,7 +223,7 @@ int run_render(const RenderCliOptions& opt) {
   return kExitOk;
 }
 
-// One fit's quality for the console (sched/fit_errors.hpp): the error on the measured time
+// One fit's quality for the console (sched/core/fit_errors.hpp): the error on the measured time
 // first, since the worst relative error belongs to the shortest samples.
 std::string fit_quality(const FitErrors& f, const char* sample) {
   char buf[200];

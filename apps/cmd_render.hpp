@@ -1,4 +1,4 @@
-// `rayline render` and `rayline calibrate` (issue 6): the real out-of-core path tracer on
+// `rayline render` and `rayline calibrate`: the real out-of-core path tracer on
 // this machine, planned by the same Scheduler objects as `rayline simulate`.
 #pragma once
 #include <cstdint>
@@ -23,11 +23,11 @@ struct RenderCliOptions {
   std::string read_ahead = "on";     // --read-ahead on|off
   std::string skip_empty = "on";     // --skip-empty on|off
   int loaders = 0;                   // --loaders N (0 = the platform's)
-  std::string gpu = "auto";          // none | auto | index | name (issue 7)
+  std::string gpu = "auto";          // none | auto | index | name
   std::string gpu_memory_budget;     // "4GiB"; empty: half of the device's memory
   std::string out = "out/render.exr";
   bool quiet = false;
-  // Issue 4: per-cell ray statistics / a replay log from the renderer's kernels.
+  // per-cell ray statistics / a replay log from the renderer's kernels.
   std::string record_profile, record_replay;
   std::string record_tiles = "8x8";
   int record_keyframe = 0;

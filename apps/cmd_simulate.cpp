@@ -10,8 +10,8 @@
 #include "apps/cli_common.hpp"
 #include "apps/interrupt.hpp"
 #include "apps/platform_path.hpp"
-#include "sched/error.hpp"
-#include "sched/units.hpp"
+#include "common/error.hpp"
+#include "common/units.hpp"
 #include "sim/simulation.hpp"
 
 namespace rayline::cli {

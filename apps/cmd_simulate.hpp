@@ -1,4 +1,4 @@
-// `rayline simulate`: run a schedule on the SimGrid virtual platform (issue 3).
+// `rayline simulate`: run a schedule on the SimGrid virtual platform.
 #pragma once
 #include <cstdint>
 #include <string>

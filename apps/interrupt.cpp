@@ -26,7 +26,7 @@
 #include <thread>
 #include <vector>
 
-#include "sched/unfinished_output.hpp"
+#include "common/unfinished_output.hpp"
 
 namespace rayline::cli {
 

@@ -1,5 +1,5 @@
 // SIGINT, SIGTERM and SIGHUP end a run without litter: the unfinished outputs registered
-// in sched/unfinished_output.hpp are removed, the results of earlier runs are untouched
+// in common/unfinished_output.hpp are removed, the results of earlier runs are untouched
 // (they are replaced only by a rename once complete), and the exit code is 128 + signal.
 #pragma once
 #include <sys/types.h>

@@ -1,4 +1,4 @@
-// GPU ray-intersection throughput (issue 7): kernel-only rays/s of the Vulkan traversal
+// GPU ray-intersection throughput: kernel-only rays/s of the Vulkan traversal
 // kernels (render/gpu) on one block with the rays already on the GPU, for coherent primary
 // rays (a pinhole camera's rays in 8x8 tile order) and incoherent rays (random origins
 // inside the scene bounds, random directions), closest hit and any hit; also the CPU BVH

@@ -1,4 +1,4 @@
-// Import throughput (issue 8): streams each mesh file given on the command line through
+// Import throughput: streams each mesh file given on the command line through
 // Rayline's native readers (or assimp with --assimp), counting triangles, and prints
 // M triangles/s, MB/s of file and the process's peak RSS. Run one file per process for a
 // clean peak: `build/bench/bench_import FILE [--assimp]`. Numbers in scenes/README.md.

@@ -1,4 +1,4 @@
-// GMB planning speed (issue 2): placements per second and wall time to plan a full 2 s
+// GMB planning speed: placements per second and wall time to plan a full 2 s
 // horizon on the paper cluster with 129 scene blocks and 1 000 queued RayIntersect jobs.
 // A placement is one committed E-job or T-job. Run: build/bench/bench_sched_gmb
 // The *_reference cases plan the same instances with GmbOptions::reference_selection (the
@@ -11,8 +11,8 @@
 #include <optional>
 
 #include "bench/gmb_bench_instance.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/platform_loader.hpp"
+#include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "sched/io/platform_loader.hpp"
 
 using namespace rayline;
 

@@ -1,12 +1,12 @@
-// The GMB planning instance of issue 2's benchmark, shared by bench_sched_gmb (wall time)
+// The GMB planning-speed benchmark instance, shared by bench_sched_gmb (wall time)
 // and plan_instructions (instruction counts) so both measure the same thing: 129 scene
 // blocks on every node's disk and 1 000 queued RayIntersect jobs (synthetic_ray_batching,
 // seed 42), each plan on a fresh copy of the job set and a fresh Schedule.
 #pragma once
 #include <memory>
 
-#include "sched/job_set.hpp"
-#include "sched/schedule.hpp"
+#include "workload/job_set.hpp"
+#include "sched/timeline/schedule.hpp"
 
 namespace rayline::bench {
 

@@ -1,4 +1,4 @@
-// Deterministic cost of GMB planning (issue 2): the bench instance of bench_sched_gmb (129
+// Deterministic cost of GMB planning: the bench instance of bench_sched_gmb (129
 // scene blocks, 1 000 queued RayIntersect jobs) planned N times by one kept GmbScheduler,
 // each on a fresh Schedule, after one warm-up plan; under valgrind's callgrind, collection is
 // toggled around plan() alone, so "instructions / N" is the instruction count of one warm
@@ -14,9 +14,9 @@
 #include <string>
 
 #include "bench/gmb_bench_instance.hpp"
-#include "sched/error.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/platform_loader.hpp"
+#include "common/error.hpp"
+#include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "sched/io/platform_loader.hpp"
 
 using namespace rayline;
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# GPU ray-traversal benchmark (issue 7), for a machine with a real GPU (it also runs on
+# GPU ray-traversal benchmark, for a machine with a real GPU (it also runs on
 # lavapipe, slowly). Configures BUILD_DIR once, builds only bench_gpu_trace, runs it with
 # the defaults below and writes its JSON to OUT_JSON; further arguments go to
 # bench_gpu_trace and override the defaults (e.g. --device H100 --repeat 20).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End-to-end renderer benchmark (issue 6): a generated museum-like scene of TRIANGLES
+# End-to-end renderer benchmark: a generated museum-like scene of TRIANGLES
 # triangles rendered in core and at 25 % and 10 % memory budgets, and the same mesh through
 # Embree's own `pathtracer` tutorial (Debian embree-tools) at the same resolution, spp, path
 # length and camera as the in-core anchor.

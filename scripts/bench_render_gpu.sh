@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Whole-render benchmark of issue 7: CPU threads alone against CPU threads + the Vulkan GPU,
+# Whole-render benchmark of CPU threads alone against CPU threads + the Vulkan GPU,
 # in core and out of core (25 % RAM budget), on a generated museum-like scene of TRIANGLES
 # triangles. Same scene, partition, resolution, spp and seed in every run: the images must
 # match (each GPU run's EXR pixel data against the CPU run's at the same budget; the tests

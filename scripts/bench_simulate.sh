@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End-to-end simulation benchmark (issue 3): wall time to simulate DURATION of a platform
+# End-to-end simulation benchmark: wall time to simulate DURATION of a platform
 # under the saturating ray stream, for a few settings; prints a Markdown table built from
 # each run's metrics.json. Usage: scripts/bench_simulate.sh [DURATION=60s] [REPEATS=3]
 # The last two rows are a path-tracing run at 14 and 18 simulated seconds (fixed): it turns

@@ -1,5 +1,5 @@
 #!/bin/bash
-# Instructions per warm GMB plan of the bench_sched_gmb instance (issue 2), counted by
+# Instructions per warm GMB plan of the bench_sched_gmb instance, counted by
 # valgrind's callgrind around plan() alone: deterministic, unlike wall time on a shared
 # machine. Usage: scripts/count_plan_instructions.sh [--cold] [PLATFORM.json] [HORIZON_S] [PLANS]
 #   defaults: platforms/paper-cluster.json 2 10.  BUILD_DIR (default build) holds the binary.

@@ -4,7 +4,7 @@ subsets of its scaling study (Fig. 8), and a multi-GPU workstation. Every number
 assumption documented in platforms/README.md; edit here, then run this script."""
 import json, os
 
-RAY = 64  # bytes per ray record (DESIGN.md: 32-64 B)
+RAY = 64  # bytes per ray record (docs/architecture.md: 32-64 B)
 
 def rays(mrays_per_s):  # throughput of a RayQueue / ShadowRayQueue in bytes/s
     return f"{mrays_per_s * RAY:g}MB/s"

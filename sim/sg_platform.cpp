@@ -19,7 +19,7 @@
 #include <string>
 #include <utility>
 
-#include "sched/error.hpp"
+#include "common/error.hpp"
 #include "sim/sg_platform_internal.hpp"
 
 namespace sg4 = simgrid::s4u;
@@ -30,7 +30,7 @@ namespace {
 
 bool g_engine_created = false;  // SimGrid's engine is a process-wide singleton
 
-// The exact-timing recipe (notes/simgrid-3.32.md, Sec. 3): no latency/bandwidth factors,
+// The exact-timing recipe (sim/README.md, Sec. 3): no latency/bandwidth factors,
 // no 5% cross-traffic, no TCP window bound. Must precede the first zone.
 void configure_engine(const SgOptions& options) {
   xbt_log_control_set(options.log_control.c_str());

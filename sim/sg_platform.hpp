@@ -31,8 +31,8 @@
 #include <string>
 #include <vector>
 
-#include "sched/device_graph.hpp"
-#include "sched/types.hpp"
+#include "sched/core/device_graph.hpp"
+#include "sched/core/types.hpp"
 
 namespace rayline::sim {
 

@@ -1,4 +1,4 @@
-// SimExecutor: the Executor seam on SimGrid (issue 3). Activities are started from
+// SimExecutor: the Executor seam on SimGrid. Activities are started from
 // maestro as their dependencies allow, each compute device runs its E-jobs in plan order,
 // each channel its T-jobs in plan order (the paper's per-channel timelines, Sec. 4.1).
 // The planner serialises T-jobs per *resource*; by default SimGrid does not: two channels
@@ -11,7 +11,7 @@
 #include <functional>
 #include <vector>
 
-#include "sched/executor.hpp"
+#include "sched/runtime/executor.hpp"
 #include "sim/sg_platform.hpp"
 
 namespace rayline::sim {

@@ -11,18 +11,18 @@
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 
-#include "sched/error.hpp"
-#include "sched/job_set.hpp"
-#include "sched/output_folder.hpp"
-#include "sched/unfinished_output.hpp"
-#include "sched/path_trace_workload.hpp"
-#include "sched/platform_loader.hpp"
-#include "sched/ray_stream.hpp"
-#include "sched/runtime_loop.hpp"
-#include "sched/scheduler_factory.hpp"
-#include "sched/trace_output.hpp"
-#include "sched/unplaced.hpp"
-#include "sched/utilisation.hpp"
+#include "common/error.hpp"
+#include "workload/job_set.hpp"
+#include "common/output_folder.hpp"
+#include "common/unfinished_output.hpp"
+#include "workload/path_trace_workload.hpp"
+#include "sched/io/platform_loader.hpp"
+#include "workload/ray_stream.hpp"
+#include "sched/runtime/runtime_loop.hpp"
+#include "sched/policy/scheduler_factory.hpp"
+#include "sched/io/trace_output.hpp"
+#include "sched/policy/unplaced.hpp"
+#include "sched/timeline/utilisation.hpp"
 #include "sim/sim_executor.hpp"
 
 namespace rayline::sim {

@@ -1,13 +1,13 @@
-// One simulation run (issue 3): platform -> SimGrid, workload -> JobPool, scheduler ->
+// One simulation run: platform -> SimGrid, workload -> JobPool, scheduler ->
 // Schedule, SimExecutor under the runtime loop; then metrics, jobs CSV and Chrome trace.
 // Outputs go to OUT.partial.<pid>@<host>/ and are renamed to OUT/ only when complete; an existing
-// OUT is replaced only when it holds nothing but a run's results (sched/output_folder.hpp).
+// OUT is replaced only when it holds nothing but a run's results (common/output_folder.hpp).
 #pragma once
 #include <cstdint>
 #include <string>
 
-#include "sched/progress_line.hpp"
-#include "sched/types.hpp"
+#include "common/progress_line.hpp"
+#include "sched/core/types.hpp"
 
 namespace rayline::sim {
 
@@ -50,7 +50,7 @@ struct SimulationSummary {
   std::uint64_t activities = 0;
   bool stalled = false;        // queued jobs that no device could ever take
   std::size_t queued_at_end = 0;
-  std::string stalled_reason;  // when stalled: which job, and why no device can take it (sched/unplaced.hpp)
+  std::string stalled_reason;  // when stalled: which job, and why no device can take it (sched/policy/unplaced.hpp)
   // Path-tracing workload only.
   bool path_trace = false;
   double steady_rays_per_second = 0;    // rays intersected per second after the warm-up

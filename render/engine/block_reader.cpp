@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::engine {
 

@@ -1,4 +1,4 @@
-// Reading a block file the way the disk→RAM channel must be measured (issue 6): with
+// Reading a block file the way the disk→RAM channel must be measured: with
 // O_DIRECT, so the OS page cache never turns a later read into a memory copy. Where the
 // file system refuses O_DIRECT (tmpfs, some overlay file systems) the file is read
 // normally and its pages are dropped afterwards (posix_fadvise DONTNEED); which of the

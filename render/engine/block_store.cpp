@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <future>
 
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::engine {
 

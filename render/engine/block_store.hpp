@@ -1,4 +1,4 @@
-// The RAM side of the disk→RAM channel (issue 6, "Memory devices and channels of this
+// The RAM side of the disk→RAM channel ("Memory devices and channels of this
 // machine"): scene blocks resident in host memory, each as a traceable BlockGeometry.
 // A block enters only through a planned T-job (load) and leaves only through a planned
 // eviction, so what is resident mirrors the Schedule's copies on the RAM memory device,

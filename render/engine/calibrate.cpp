@@ -5,8 +5,8 @@
 #include <stdexcept>
 
 #include "render/engine/temp_partition.hpp"
-#include "sched/data_block.hpp"
-#include "sched/timing_model.hpp"
+#include "sched/core/data_block.hpp"
+#include "sched/core/timing_model.hpp"
 
 namespace rayline::engine {
 
@@ -120,7 +120,7 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
     c.model.shadow_setup = b.setup;
     c.model.shadow_rate = b.rate[int(DataKind::ShadowRayQueue)];
   }
-  // The GPU (issue 7): its Eq. 2 per job type (dispatch + hit download + host shading) and
+  // The GPU: its Eq. 2 per job type (dispatch + hit download + host shading) and
   // the RAM->GPU channel's Eq. 1 over every upload (blocks with their BVH build, ray queues).
   if (r.gpu_device_id >= 0) {
     GpuModel gm;

@@ -1,4 +1,4 @@
-// `rayline calibrate` (issue 6): measure this machine by rendering a scene under a memory
+// `rayline calibrate`: measure this machine by rendering a scene under a memory
 // budget that forces block loads, then fit the timing model (Sec. 3.2) by least squares:
 //   Eq. 1 for the disk→RAM channel: T = LAT + bytes / BW over every measured load
 //     (read with O_DIRECT + BVH build);
@@ -13,17 +13,17 @@
 
 #include "render/engine/renderer.hpp"
 #include "render/engine/workstation.hpp"
-#include "sched/fit_errors.hpp"
+#include "sched/core/fit_errors.hpp"
 
 namespace rayline::engine {
 
 struct CalibrationResult {
   WorkstationModel model;
   int load_samples = 0, exec_samples = 0;
-  // How well each fit predicts its own samples (sched/fit_errors.hpp): Eq. 1 of the loads,
+  // How well each fit predicts its own samples (sched/core/fit_errors.hpp): Eq. 1 of the loads,
   // Eq. 2 per CPU thread of RayIntersect and ShadowIntersect.
   FitErrors load_fit, intersect_fit, shadow_fit;
-  // The GPU, when one was used (issue 7): samples and whether each fit replaced the defaults.
+  // The GPU, when one was used: samples and whether each fit replaced the defaults.
   std::string gpu_device;
   int gpu_exec_samples = 0, pcie_samples = 0;
   bool gpu_intersect_fitted = false, gpu_shadow_fitted = false;

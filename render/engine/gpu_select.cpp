@@ -1,6 +1,6 @@
 #include "render/engine/gpu_select.hpp"
 
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::engine {
 

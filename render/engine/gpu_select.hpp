@@ -1,11 +1,11 @@
-// Choosing the Vulkan device of `--gpu` and its memory budget (issue 7), shared by
+// Choosing the Vulkan device of `--gpu` and its memory budget, shared by
 // `rayline render`, `rayline calibrate` and `rayline devices`.
 #pragma once
 #include <memory>
 #include <string>
 
 #include "render/gpu/vulkan_device.hpp"
-#include "sched/types.hpp"
+#include "sched/core/types.hpp"
 
 namespace rayline::engine {
 

@@ -1,4 +1,4 @@
-// The GPU side of the RAM<->GPU channel (issue 7; Fig. 2's GPU memory device): scene blocks
+// The GPU side of the RAM<->GPU channel (Fig. 2's GPU memory device): scene blocks
 // and ray queues resident in the memory of one Vulkan device. As in BlockStore, a block
 // enters only through a planned T-job (upload: its triangles rebuilt from the RAM copy, a
 // GPU BVH built on the CPU) and leaves only through a planned eviction; a ray queue is
@@ -19,7 +19,7 @@
 #include "render/engine/block_store.hpp"
 #include "render/gpu/gpu_kernels.hpp"
 #include "render/trace/path_kernels.hpp"
-#include "sched/types.hpp"
+#include "sched/core/types.hpp"
 
 namespace rayline::engine {
 

@@ -1,4 +1,4 @@
-// The Executor seam (DESIGN.md) on this machine: one worker thread per compute device (a
+// The Executor seam (docs/architecture.md) on this machine: one worker thread per compute device (a
 // CPU hardware thread, as in the paper) and one per channel resource (the disk→RAM
 // channel: reads and BVH builds). Each thread runs its timeline in commit order; an
 // activity starts once its dependencies and its timeline predecessors have finished.
@@ -20,7 +20,7 @@
 #include <thread>
 #include <vector>
 
-#include "sched/executor.hpp"
+#include "sched/runtime/executor.hpp"
 
 namespace rayline::engine {
 

@@ -1,11 +1,11 @@
-// Per-cell ray statistics and replay logs recorded from the real renderer (issue 4): the
+// Per-cell ray statistics and replay logs recorded from the real renderer: the
 // data behind the simulator's Markov and replay fidelity levels (docs/scene-profiles.md),
 // taken from the renderer's own kernels instead of a synthetic tracer.
 //
 // With a recorder, the renderer runs each CPU E-job's kernel one ray at a time (the same
 // ray_intersect / shadow_intersect, so the image is unchanged) and classifies every ray
 // by what the kernel did with it. Outcomes are mapped onto the simulator's job graph
-// (sched/path_trace_model.hpp, Fig. 3), which has a separate Shade stage and exactly one
+// (workload/path_trace_model.hpp, Fig. 3), which has a separate Shade stage and exactly one
 // shadow ray per hit, on the hit's block:
 //   * path ray in cell b, bounce k, tile t -> Intersect(t, k, b): hit | escape | neighbour n;
 //   * a hit -> Shade(t, k, b): survive (a continuation was created) | terminate;
@@ -39,8 +39,8 @@
 #include "render/engine/render_workload.hpp"
 #include "render/partition/partition.hpp"
 #include "render/trace/block_geometry.hpp"
-#include "sched/path_trace_model.hpp"
-#include "sched/scene_profile.hpp"
+#include "workload/path_trace_model.hpp"
+#include "workload/scene_profile.hpp"
 
 namespace rayline::engine {
 
@@ -65,7 +65,7 @@ class ProfileRecorder {
   // shadow_intersect over job.rays would) and records every ray's outcome.
   void trace_job(const trace::TraceSettings& ts, const trace::BlockGeometry& geo, RayJob& job);
 
-  // Totals per (stage, block): dense outcome counts (categories of sched/path_trace_model.hpp).
+  // Totals per (stage, block): dense outcome counts (categories of workload/path_trace_model.hpp).
   const std::vector<std::uint64_t>& totals(RayStage stage, std::uint32_t block) const;
   std::uint64_t camera_total() const { return camera_total_; }
   const std::vector<std::uint64_t>& entry() const { return entry_; }  // [background, cell 0..]

@@ -6,7 +6,7 @@
 #include <set>
 
 #include "render/engine/renderer.hpp"
-#include "sched/utilisation.hpp"
+#include "sched/timeline/utilisation.hpp"
 
 namespace rayline::engine {
 
@@ -58,7 +58,7 @@ double overlap(const Intervals& x, const Intervals& y) {  // both sorted and dis
   return t;
 }
 
-// Issue 6: "disk channel busy >= 80 % of the time whenever the run is I/O-bound". The run
+// "disk channel busy >= 80 % of the time whenever the run is I/O-bound". The run
 // is I/O-bound while no compute device runs an E-job: every device then waits for data the
 // disk->RAM channel brings (or for nothing, at the very start and end, which the window
 // [first disk T-job start, last disk T-job end] leaves out). Returns (I/O-bound seconds,
@@ -187,7 +187,7 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
                     {"true_idle_s", t.idle}});
   }
   m["devices"] = devs;
-  // The Vulkan device (issue 7): what ran there, what fell back to the CPU path and why.
+  // The Vulkan device: what ran there, what fell back to the CPU path and why.
   m["gpu"] = {{"device", r.gpu_device},
               {"cpu_backed", r.gpu_cpu_backed},
               {"status", r.gpu_status},

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "sched/schedule.hpp"
+#include "sched/timeline/schedule.hpp"
 
 namespace rayline::engine {
 

@@ -1,4 +1,4 @@
-// The real path tracer as a Workload (DESIGN.md control loop; Fig. 3, Sec. 3.1, 5.1):
+// The real path tracer as a Workload (docs/architecture.md control loop; Fig. 3, Sec. 3.1, 5.1):
 // camera rays are generated in waves (at most `path_cap` paths alive, which bounds ray
 // memory), every ray waits in the queue of the cell it is in, and a queue becomes a
 // RayIntersect / ShadowIntersect E-job on (SceneData_b, RayQueue_b). A job's output rays
@@ -16,7 +16,7 @@
 
 #include "render/trace/camera.hpp"
 #include "render/trace/path_kernels.hpp"
-#include "sched/workload.hpp"
+#include "sched/runtime/workload.hpp"
 
 namespace rayline::engine {
 
@@ -27,7 +27,7 @@ struct RenderWorkloadOptions {
   std::uint32_t path_cap = 1u << 17;   // paths alive at once (RenderOptions: 0 = auto, renderer.cpp)
   std::uint32_t min_batch = 4096;      // rays per job before a queue is worth a job
   std::uint32_t max_batch = 1u << 16;  // rays per job at most (load balance)
-  // Issue 4: per-cell statistics / replay log of every ray (profile_recorder.hpp); the
+  // per-cell statistics / replay log of every ray (profile_recorder.hpp); the
   // renderer then runs CPU kernels ray by ray and uses no GPU.
   ProfileRecorder* recorder = nullptr;
 };

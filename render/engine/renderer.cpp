@@ -24,10 +24,10 @@
 #include "render/scene/scene.hpp"
 #include "render/scene/scene_stream.hpp"
 #include "render/trace/camera.hpp"
-#include "sched/error.hpp"
-#include "sched/scheduler_factory.hpp"
-#include "sched/trace_output.hpp"
-#include "sched/unplaced.hpp"
+#include "common/error.hpp"
+#include "sched/policy/scheduler_factory.hpp"
+#include "sched/io/trace_output.hpp"
+#include "sched/policy/unplaced.hpp"
 
 namespace rayline::engine {
 
@@ -65,7 +65,7 @@ std::uint32_t auto_blocks(std::uint64_t triangles, Bytes budget) {
   return std::uint32_t(std::clamp<double>(std::max(std::ceil(4 * fp / double(budget)), by_size), 8, 1024));
 }
 
-// The Vulkan device of --gpu (issue 7), with the test hook of RenderOptions.
+// The Vulkan device of --gpu, with the test hook of RenderOptions.
 std::unique_ptr<gpu::GpuContext> open_gpu(const RenderOptions& opt, RenderResult& res) {
   auto ctx = select_gpu(opt.gpu, res.gpu_status);
   if (!ctx) return nullptr;
@@ -128,7 +128,7 @@ RenderResult render(const RenderOptions& opt) {
   const partition::BlockIndex index = partition::load_block_index(dir);
   const auto nb = static_cast<std::uint32_t>(index.blocks.size());
   res.blocks = nb;
-  if (opt.batching.recorder) {  // issue 4: per-cell statistics of this render
+  if (opt.batching.recorder) {  // per-cell statistics of this render
     try {
       opt.batching.recorder->begin(index, res.width, res.height, res.spp, res.max_depth);
     } catch (const std::invalid_argument& e) {
@@ -177,7 +177,7 @@ RenderResult render(const RenderOptions& opt) {
     ram_capacity = res.scene_block_bytes + Bytes(wo.path_cap) * per_path;
   }
   res.path_cap = wo.path_cap;
-  // A profile recorder (issue 4) classifies rays in the CPU kernels: no GPU then.
+  // A profile recorder classifies rays in the CPU kernels: no GPU then.
   std::unique_ptr<gpu::GpuContext> gpu_ctx = opt.batching.recorder ? nullptr : open_gpu(opt, res);
   WorkstationModel wm = workstation_model(opt.platform);
   wm.threads = threads;
@@ -310,7 +310,7 @@ RenderResult render(const RenderOptions& opt) {
       return [&ts, &store, job, rec = opt.batching.recorder, evict = std::move(evict), do_evict] {
         do_evict(evict);
         const auto geo = store.get(job->cell);
-        if (rec) rec->trace_job(ts, *geo, *job);  // issue 4: the same kernels, ray by ray
+        if (rec) rec->trace_job(ts, *geo, *job);  // the same kernels, ray by ray
         else trace::intersect(ts, *geo, job->kind, job->rays, job->out, job->counts);
         std::vector<trace::RayRecord>().swap(job->rays);
       };

@@ -1,4 +1,4 @@
-// `rayline render` without the command line (issue 6): scene → blocks on disk → the
+// `rayline render` without the command line: scene → blocks on disk → the
 // workstation's DCG → the same Scheduler objects the simulator uses → LocalExecutor →
 // an image, metrics and a timeline. Tests call render() directly.
 #pragma once
@@ -11,8 +11,8 @@
 #include "render/engine/gpu_store.hpp"
 #include "render/engine/render_workload.hpp"
 #include "render/trace/path_kernels.hpp"
-#include "sched/runtime_loop.hpp"
-#include "sched/timing_model.hpp"
+#include "sched/runtime/runtime_loop.hpp"
+#include "sched/core/timing_model.hpp"
 
 namespace rayline::partition {
 struct PartitionProgress;
@@ -41,7 +41,7 @@ struct RenderOptions {
   // rebuilt on every load, medium in core. The image does not depend on it.
   std::string bvh_quality = "auto";
   RenderWorkloadOptions batching;
-  // Vulkan compute device (issue 7): "none", "auto" (the first non-CPU-backed device, none
+  // Vulkan compute device: "none", "auto" (the first non-CPU-backed device, none
   // when there is no such device), an index, or a substring of the device name (an error
   // when it is not found). Its memory budget: 0 = half of the device's local memory.
   std::string gpu = "auto";
@@ -92,7 +92,7 @@ struct RenderResult {
   // T-job as (bytes, seconds).
   std::vector<TimingSample> exec_samples;
   std::vector<std::pair<Bytes, Time>> load_samples;
-  // The GPU (issue 7): the device used ("" when none), why none or what failed.
+  // The GPU: the device used ("" when none), why none or what failed.
   std::string gpu_device, gpu_status = "none";
   int gpu_device_id = -1;                 // its compute device in the DCG (TimingSample::device)
   bool gpu_cpu_backed = false;

@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <system_error>
 
-#include "sched/unfinished_output.hpp"
+#include "common/unfinished_output.hpp"
 
 namespace rayline::engine {
 

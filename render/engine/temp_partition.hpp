@@ -1,7 +1,7 @@
 // A temporary partition folder, /tmp/rayline-blocks-<ns>.partial.<pid>@<host>, for a render
 // (or a calibration's renders) given no --blocks-dir. Registered as unfinished output, so an
 // interrupted run removes it too; what killed runs left under that prefix on this host is
-// swept first (sched/unfinished_output.hpp). Removed when the object goes.
+// swept first (common/unfinished_output.hpp). Removed when the object goes.
 #pragma once
 #include <string>
 

@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <string>
 
-#include "sched/error.hpp"
-#include "sched/platform_loader.hpp"
+#include "common/error.hpp"
+#include "sched/io/platform_loader.hpp"
 
 namespace rayline::engine {
 

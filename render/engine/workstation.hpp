@@ -1,7 +1,7 @@
 // The device connectivity graph of this machine (Sec. 3.2) for the real renderer: the
 // block store (disk), host RAM with the memory budget as its capacity, one compute device
 // per worker thread (a CPU hardware thread, as in the paper), and the disk→RAM channel
-// whose T-jobs read a block and build its BVH. With a Vulkan device (issue 7) the graph
+// whose T-jobs read a block and build its BVH. With a Vulkan device the graph
 // gains, as in the paper's Fig. 2, a GPU compute device on its own memory device (capacity
 // = the GPU memory budget) and a full-duplex PCIe channel RAM<->GPU whose T-jobs upload
 // blocks (+ their GPU BVH) and ray queues. Timing comes from `rayline calibrate`
@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "sched/device_graph.hpp"
+#include "sched/core/device_graph.hpp"
 
 namespace rayline::engine {
 

@@ -1,4 +1,4 @@
-// A Vulkan compute device (issue 7): headless (no surface, no window system), Vulkan 1.1
+// A Vulkan compute device: headless (no surface, no window system), Vulkan 1.1
 // core compute only, so Mesa's lavapipe (CPU) and real GPUs share one code path.
 // Vulkan types stay out of this header (pimpl).
 #pragma once

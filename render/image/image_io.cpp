@@ -23,8 +23,8 @@
 #include <filesystem>
 #include <set>
 
-#include "sched/error.hpp"
-#include "sched/unfinished_output.hpp"
+#include "common/error.hpp"
+#include "common/unfinished_output.hpp"
 
 namespace rayline::image {
 

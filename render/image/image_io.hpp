@@ -1,4 +1,4 @@
-// Image outputs users expect (DESIGN.md): OpenEXR (linear RGB, 32-bit float, with the
+// Image outputs users expect (docs/architecture.md): OpenEXR (linear RGB, 32-bit float, with the
 // run's metadata as header attributes) and an 8-bit sRGB PNG preview. Both are written to
 // `path + ".partial.<pid>@<host>"` in the target folder, flushed to disk, then renamed over
 // `path`, so a failed write never leaves a half-written file in place of a good one (and

@@ -9,7 +9,7 @@
 #include <memory>
 
 #include "render/scene/little_endian.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::partition {
 namespace {

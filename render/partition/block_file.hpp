@@ -1,4 +1,4 @@
-// On-disk block files of a partitioned scene (`rayline partition`, issue 6).
+// On-disk block files of a partitioned scene (`rayline partition`).
 //
 // A block file holds the triangles referenced by one kd-tree cell. Layout, all
 // little-endian regardless of the host:

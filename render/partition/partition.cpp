@@ -14,9 +14,9 @@
 #include <sstream>
 
 #include "render/scene/scene_stream.hpp"
-#include "sched/error.hpp"
-#include "sched/output_folder.hpp"
-#include "sched/unfinished_output.hpp"
+#include "common/error.hpp"
+#include "common/output_folder.hpp"
+#include "common/unfinished_output.hpp"
 
 namespace rayline::partition {
 namespace fs = std::filesystem;
@@ -229,7 +229,7 @@ void find_neighbours(BlockIndex& idx) {
 }
 
 // An existing --out is replaced only when it holds nothing but an earlier partition's files
-// (sched/output_folder.hpp); a new one needs its parent folder.
+// (common/output_folder.hpp); a new one needs its parent folder.
 const OwnFiles kPartitionFiles = {"blocks.json", "block_*.rlb"};
 
 fs::path check_target(const std::string& out_dir, const std::string& flag) {

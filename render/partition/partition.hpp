@@ -1,4 +1,4 @@
-// Streaming median-split kd-tree partitioner (issue 6, "Blocks on disk"; paper Sec. 6).
+// Streaming median-split kd-tree partitioner ("Blocks on disk"; paper Sec. 6).
 //
 // Splits a scene into N spatially coherent blocks of about equal triangle count, in
 // bounded memory, in two streaming passes over the scene:

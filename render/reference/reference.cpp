@@ -18,7 +18,7 @@
 #include <string>
 
 #include "render/scene/scene_stream.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::reference {
 

@@ -15,7 +15,7 @@
 #include "render/scene/builder.hpp"
 #include "render/scene/generators.hpp"
 #include "render/scene/rng.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

@@ -9,8 +9,8 @@
 #include "render/scene/builder.hpp"
 #include "render/scene/ply_writer.hpp"
 #include "render/scene/rng.hpp"
-#include "sched/error.hpp"
-#include "sched/unfinished_output.hpp"
+#include "common/error.hpp"
+#include "common/unfinished_output.hpp"
 
 namespace rayline::scene {
 namespace {

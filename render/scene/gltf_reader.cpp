@@ -15,7 +15,7 @@
 
 #include "render/scene/mapped_file.hpp"
 #include "render/scene/triangle_emitter.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

@@ -7,7 +7,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 

@@ -13,7 +13,7 @@
 #include "render/scene/off_reader.hpp"
 #include "render/scene/ply_reader.hpp"
 #include "render/scene/stl_reader.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

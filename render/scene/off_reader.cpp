@@ -7,7 +7,7 @@
 #include "render/scene/spill_file.hpp"
 #include "render/scene/text_reader.hpp"
 #include "render/scene/triangle_emitter.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

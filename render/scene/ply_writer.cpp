@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

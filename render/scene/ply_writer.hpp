@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "render/scene/mesh_sink.hpp"
-#include "sched/unfinished_output.hpp"
+#include "common/unfinished_output.hpp"
 
 namespace rayline::scene {
 

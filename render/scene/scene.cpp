@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <set>
 
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

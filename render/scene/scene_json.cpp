@@ -10,7 +10,7 @@
 #include "render/scene/generators.hpp"
 #include "render/scene/mesh_import.hpp"
 #include "render/scene/scene.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

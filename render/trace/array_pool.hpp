@@ -1,5 +1,5 @@
 // Recycles the large per-block arrays (vertices, indices, materials) of evicted blocks for
-// the next load (issue 6, out-of-core speed). Out of core every load builds a block from
+// the next load (out-of-core speed). Out of core every load builds a block from
 // scratch; freshly allocated arrays are mapped page by page on first touch, and on the
 // development VM a 4 KiB page fault costs ≈ 17 µs, so the arrays of one 630 k-triangle
 // block (33 MB) cost ≈ 140 ms of faults, more than its BVH build. Recycled arrays are

@@ -1,4 +1,4 @@
-// Pinhole camera (issue 6): pixel (x, y), y = 0 the top row, sample position (x+u, y+v)
+// Pinhole camera: pixel (x, y), y = 0 the top row, sample position (x+u, y+v)
 // with (u, v) keyed by (pixel, sample) so a pixel's samples never depend on scheduling.
 #pragma once
 #include <cstdint>

@@ -1,4 +1,4 @@
-// The ray order through cells (issue 6: "a small top-level structure (cell bounds and ray
+// The ray order through cells ("a small top-level structure (cell bounds and ray
 // order through cells) is always resident"): kd-restart traversal (Foley & Sugerman 2005)
 // of the partition's kd-tree. Given a ray and the parameter where it stands, find the
 // leaf cell it is in and the parameter where it leaves that cell.

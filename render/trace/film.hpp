@@ -1,4 +1,4 @@
-// Order-independent accumulation (issue 6, "Determinism"): every contribution is rounded
+// Order-independent accumulation ("Determinism"): every contribution is rounded
 // once to 64-bit fixed point (2^-24 units) and added atomically. Integer addition is
 // associative, so the sum — and the image — is bit-identical whatever the order in which
 // threads, batches and blocks deliver their contributions.

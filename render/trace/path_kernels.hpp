@@ -39,7 +39,7 @@ struct TraceSettings {
 };
 
 // What happened to the rays of one job; sums over a frame give the conservation law
-// created = ended (DESIGN.md invariant).
+// created = ended (docs/architecture.md invariant).
 struct RayCounts {
   std::uint64_t traced = 0;          // rays processed in a cell
   std::uint64_t created = 0;         // new rays (camera, continuation, shadow)

@@ -1,5 +1,5 @@
 // The ray record of ray batching (Sec. 3.1, 5.1): what a RayQueue_b / ShadowRayQueue_b
-// holds. 64 bytes, the size the timing model charges per ray (DESIGN.md: 32–64 bytes).
+// holds. 64 bytes, the size the timing model charges per ray (docs/architecture.md: 32–64 bytes).
 //
 // A ray walks the kd-tree cells front to back (cell_walk.hpp). `tnear`/`texit` are the
 // interval of the current cell: a hit with t in (tnear, texit] is final because cells

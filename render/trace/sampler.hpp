@@ -1,6 +1,6 @@
-// Keyed random numbers (issue 6, "Determinism"): every random decision of a path is a pure
+// Keyed random numbers ("Determinism"): every random decision of a path is a pure
 // function of (seed, pixel, sample, bounce, purpose, dimension), so the image does not
-// depend on which thread traced a ray, in which batch, or in which order (DESIGN.md
+// depend on which thread traced a ray, in which batch, or in which order (docs/architecture.md
 // invariant). SplitMix64's finaliser mixes the key; no state is carried between rays.
 #pragma once
 #include <cstdint>

@@ -1,4 +1,4 @@
-// `rayline devices` and the --gpu flags (issue 7): the listing, its JSON, and clear errors
+// `rayline devices` and the --gpu flags: the listing, its JSON, and clear errors
 // (exit 2, naming the flag) for a device that does not exist.
 #include <gtest/gtest.h>
 

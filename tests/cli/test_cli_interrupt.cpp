@@ -140,7 +140,7 @@ TEST_F(Interrupt, GenerateRemovesItsHalfWrittenMesh) {
 }
 
 // SIGKILL (or the OOM killer, a crash) gives no handler a chance: the killed run's partial
-// folder stays, and the next run into the same --out removes it (sched/unfinished_output.hpp).
+// folder stays, and the next run into the same --out removes it (common/unfinished_output.hpp).
 TEST_F(Interrupt, AKilledRunsPartialFolderIsRemovedByTheNextRun) {
   start({"simulate", "--duration", "1000000s", "--no-timeline", "--no-progress", "--out", path("run")});
   ASSERT_TRUE(wait_until([&] { return any_starting(dir_, "run.partial."); })) << err();

@@ -1,5 +1,5 @@
-// Results folders and output files never take the user's data with them (DESIGN.md, "Bad
-// input": nothing lost; sched/output_folder.hpp). `simulate --out DIR` used to delete DIR
+// Results folders and output files never take the user's data with them (docs/architecture.md, "Bad
+// input": nothing lost; common/output_folder.hpp). `simulate --out DIR` used to delete DIR
 // whatever it held, and `--out .` emptied the current folder and then lost the results too.
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // `rayline platform check`: runs the real binary (RAYLINE_BINARY). Exit codes: 0 ok,
-// 2 bad input with "FILE: FIELD: message" on stderr (DESIGN.md, "Bad input").
+// 2 bad input with "FILE: FIELD: message" on stderr (docs/architecture.md, "Bad input").
 #include <gtest/gtest.h>
 
 #include "cli_run.hpp"

@@ -1,4 +1,4 @@
-// `rayline render` / `rayline calibrate` (issue 6): outputs, metrics, memory bound, and
+// `rayline render` / `rayline calibrate`: outputs, metrics, memory bound, and
 // bad inputs (exit 2, a clear message naming file and field, no half-written image).
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -232,7 +232,7 @@ TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
   ASSERT_EQ(r.code, 0) << r.all;
   EXPECT_NE(r.out.find("Eq. 1"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("Eq. 2"), std::string::npos) << r.out;
-  // Each fit's error on the measured time, its median and worst (sched/fit_errors.hpp), all
+  // Each fit's error on the measured time, its median and worst (sched/core/fit_errors.hpp), all
   // defined: the loads, RayIntersect and ShadowIntersect.
   std::size_t fits = 0;
   for (std::size_t at = 0; (at = r.out.find("% of the measured time (median", at)) != std::string::npos; ++at) ++fits;
@@ -245,7 +245,7 @@ TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
   EXPECT_EQ(metrics("p").at("platform"), path("me.json"));
 }
 
-// Issue 7: calibration measures the GPU too (its jobs' Eq. 2, the RAM->GPU channel's
+// calibration measures the GPU too (its jobs' Eq. 2, the RAM->GPU channel's
 // Eq. 1) and writes it into the platform file; the renderer drives that GPU from it.
 TEST_F(CliRender, CalibrateCoversTheGpu) {
   auto d = rayline_cli("devices --json --gpu none");

@@ -1,4 +1,4 @@
-// The Vulkan device layer (issue 7): listing and selection, errors and their kinds, fault
+// The Vulkan device layer: listing and selection, errors and their kinds, fault
 // injection (DeviceLost poisons the context), memory accounting, and uploads concurrent
 // with dispatches from two threads giving the same hits.
 #include <gtest/gtest.h>

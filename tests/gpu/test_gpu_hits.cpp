@@ -1,4 +1,4 @@
-// GPU traversal (issue 7) against Embree 3 on the same block records: the same closest
+// GPU traversal against Embree 3 on the same block records: the same closest
 // prim with |t_gpu - t_embree| <= 1e-5 max(1, t), and the same any-hit answers, on random
 // soups, generated-scene blocks, clipped intervals, axis-aligned rays, rays starting inside
 // boxes, empty and tiny blocks, every build quality, and more rays than one dispatch binds.

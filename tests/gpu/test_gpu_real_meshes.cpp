@@ -1,4 +1,4 @@
-// Issue 7 acceptance on real scans: every ray the GPU kernels call certain gets Embree's
+// Acceptance on real scans: every ray the GPU kernels call certain gets Embree's
 // answer exactly (same triangle, t within gpu_test_util's epsilon, same occlusion) on the
 // Stanford bunny and dragon (fetched by scripts/fetch_assets.sh; the test skips with the
 // reason when they are missing). Camera rays from outside and random rays inside the mesh

@@ -1,4 +1,4 @@
-// The RAM side of the disk->RAM channel (issue 6): BlockStore loads and evictions, the
+// The RAM side of the disk->RAM channel: BlockStore loads and evictions, the
 // read-ahead that overlaps a block's read with the previous build, the ArrayPool that
 // recycles evicted blocks' arrays, and LocalExecutor's hints that start read-aheads.
 #include <gtest/gtest.h>
@@ -20,7 +20,7 @@
 #include "render/engine/local_executor.hpp"
 #include "render/partition/partition.hpp"
 #include "render/trace/array_pool.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace fs = std::filesystem;
 using namespace rayline;

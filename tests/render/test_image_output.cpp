@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "render/image/image_io.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace fs = std::filesystem;
 using namespace rayline::image;

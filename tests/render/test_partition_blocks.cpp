@@ -1,4 +1,4 @@
-// Streaming kd-tree partitioner and block files (issue 6, "Blocks on disk").
+// Streaming kd-tree partitioner and block files ("Blocks on disk").
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,8 +11,8 @@
 #include <unistd.h>
 
 #include "render/partition/partition.hpp"
-#include "sched/unfinished_output.hpp"
-#include "sched/error.hpp"
+#include "common/unfinished_output.hpp"
+#include "common/error.hpp"
 
 namespace fs = std::filesystem;
 using namespace rayline::partition;

@@ -1,4 +1,4 @@
-// Issue 4: per-cell statistics and replay logs recorded from the real renderer's kernels
+// per-cell statistics and replay logs recorded from the real renderer's kernels
 // (render/engine/profile_recorder.hpp). The recorder leaves the image unchanged, its
 // counts add up to the renderer's own RayCounts, and a renderer-recorded replay log fed
 // to the simulator's path-tracing workload (profile from the same render) gives every
@@ -16,11 +16,11 @@
 #include "render/engine/profile_recorder.hpp"
 #include "render/engine/renderer.hpp"
 #include "small_render.hpp"
-#include "sched/exact_executor.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/path_trace_workload.hpp"
-#include "sched/platform_loader.hpp"
-#include "sched/runtime_loop.hpp"
+#include "sched/runtime/exact_executor.hpp"
+#include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "workload/path_trace_workload.hpp"
+#include "sched/io/platform_loader.hpp"
+#include "sched/runtime/runtime_loop.hpp"
 
 using namespace rayline;
 using engine::ProfileRecorder;
@@ -180,7 +180,7 @@ TEST(ProfileRecorder, RendererRecordedLogReplaysEveryContextExactly) {
       EXPECT_EQ(got.at(key), cats) << key;
     }
   }
-  // Replay follows each context's recorded order (sched/path_trace_model.cpp), so every
+  // Replay follows each context's recorded order (workload/path_trace_model.cpp), so every
   // context gets exactly its recorded outcomes although the simulator batches differently.
   EXPECT_EQ(got, want);
   EXPECT_EQ(t.hit, r.counts.terminated);

@@ -32,7 +32,7 @@
 #include "render/reference/reference.hpp"
 #include "render/scene/ply_writer.hpp"
 #include "render/scene/scene.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace fs = std::filesystem;
 using rayline::reference::ReferenceImage;

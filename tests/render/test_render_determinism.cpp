@@ -1,4 +1,4 @@
-// Issue 6 acceptance: the same image bit for bit whatever the memory budget, thread count,
+// Acceptance: the same image bit for bit whatever the memory budget, thread count,
 // block count and scheduler (random numbers keyed by pixel/sample/bounce, fixed-point
 // accumulation); conservation of rays and samples; the plan is obeyed (no block used
 // before its planned load).

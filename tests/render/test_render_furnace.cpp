@@ -1,4 +1,4 @@
-// Furnace test (issue 6): inside a closed diffuse sphere of albedo a and uniform emission
+// Furnace test: inside a closed diffuse sphere of albedo a and uniform emission
 // E, with max_depth = D surface hits, every pixel converges to L = E·Σ_{i<D} a^i (Russian
 // roulette keeps the estimator unbiased). Statistic: the image mean (pixels are i.i.d.
 // estimates) must lie within 4 standard errors of L, the standard error estimated from the

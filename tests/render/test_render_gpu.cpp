@@ -1,4 +1,4 @@
-// Issue 7 acceptance, on whatever Vulkan device exists (lavapipe in CI): the image is the
+// Acceptance, on whatever Vulkan device exists (lavapipe in CI): the image is the
 // same bit for bit with the GPU on and off, in core and out of core — by construction:
 // rays the kernels cannot decide exactly as Embree would are flagged doubtful and traced by
 // a CPU device (render/gpu/README.md, "Doubtful rays"); a scene built to crack shows it.
@@ -21,7 +21,7 @@
 #include "small_render.hpp"
 #include "z_fighting_scene.hpp"
 #include "render/gpu/vulkan_device.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 using rayline::engine::render;
 using rayline::engine::RenderOptions;

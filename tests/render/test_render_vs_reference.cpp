@@ -1,4 +1,4 @@
-// The batching renderer against an independent reference (issue 6 acceptance): the plain
+// The batching renderer against an independent reference (acceptance): the plain
 // in-core Embree path tracer of render/reference (own random numbers, one BVH, no cells,
 // no batching) renders the same scene; the two must agree within Monte Carlo noise.
 // Statistic: for every 8x8 tile and colour channel, z = (ours - reference) / SE, where SE

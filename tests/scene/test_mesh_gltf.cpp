@@ -8,7 +8,7 @@
 #include "render/scene/gltf_reader.hpp"
 #include "render/scene/mesh_import.hpp"
 #include "scene_fixture.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

@@ -14,7 +14,7 @@
 #include "render/scene/mesh_import.hpp"
 #include "render/scene/spill_file.hpp"
 #include "scene_fixture.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

@@ -12,7 +12,7 @@
 #include "render/scene/ply_reader.hpp"
 #include "render/scene/stl_reader.hpp"
 #include "scene_fixture.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

@@ -11,7 +11,7 @@
 #include "render/scene/mesh_import.hpp"
 #include "render/scene/scene_stream.hpp"
 #include "scene_fixture.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

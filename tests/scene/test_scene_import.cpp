@@ -11,7 +11,7 @@
 #include "render/scene/scene.hpp"
 #include "render/scene/stl_reader.hpp"
 #include "scene_fixture.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

@@ -5,7 +5,7 @@
 #include "render/scene/scene.hpp"
 #include "render/scene/scene_stream.hpp"
 #include "scene_fixture.hpp"
-#include "sched/error.hpp"
+#include "common/error.hpp"
 
 namespace rayline::scene {
 namespace {

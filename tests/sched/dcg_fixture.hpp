@@ -1,13 +1,13 @@
 // Test support: build small device connectivity graphs by hand (no JSON), and an
-// independent checker of the invariants of DESIGN.md over a finished schedule.
+// independent checker of the invariants of docs/architecture.md over a finished schedule.
 #pragma once
 #include <algorithm>
 #include <map>
 #include <string>
 #include <vector>
 
-#include "sched/device_graph.hpp"
-#include "sched/schedule.hpp"
+#include "sched/core/device_graph.hpp"
+#include "sched/timeline/schedule.hpp"
 
 namespace rayline::testing {
 

@@ -1,7 +1,7 @@
 // An independent reference for non-negative least squares, for tests only: the optimum of
 // min ||A x - t|| over x >= 0 has x_P = the unconstrained least-squares solution on its
 // support P, so it is the best of the subsets' solutions that are >= 0. Enumerating all 2^m
-// subsets (m <= ~10) gives it exactly, with a solver that shares nothing with sched/nnls.cpp:
+// subsets (m <= ~10) gives it exactly, with a solver that shares nothing with sched/core/nnls.cpp:
 // normal equations in long double, Gauss-Jordan with partial pivoting.
 #pragma once
 

@@ -1,4 +1,4 @@
-// ActivityList (sched/activity_list.hpp) against std::vector as the reference: random
+// ActivityList (sched/timeline/activity_list.hpp) against std::vector as the reference: random
 // sequences of the operations Schedule and the executors use, across the inline / heap
 // boundary, with copies and moves in both directions.
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "sched/activity_list.hpp"
+#include "sched/timeline/activity_list.hpp"
 
 namespace rayline {
 namespace {

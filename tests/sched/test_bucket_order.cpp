@@ -1,4 +1,4 @@
-// BucketOrder (sched/bucket_order.hpp) against a reference model: the current entry of
+// BucketOrder (sched/policy/gmb/bucket_order.hpp) against a reference model: the current entry of
 // every bucket in a std::map, scanned in (key, bucket) order. Random sequences of what GMB's
 // selection does (push, defer, settle, scans that visit, raise and drop entries), with
 // many equal keys so that ties are ordered by bucket.
@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "sched/bucket_order.hpp"
+#include "sched/policy/gmb/bucket_order.hpp"
 
 namespace rayline {
 namespace {

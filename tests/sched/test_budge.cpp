@@ -1,13 +1,13 @@
-// Budge et al. 2009 as parametrised in sched/budge.hpp: each rule pinned on a hand-built
+// Budge et al. 2009 as parametrised in sched/policy/budge.hpp: each rule pinned on a hand-built
 // state, and the schedule invariants on random instances.
 #include <gtest/gtest.h>
 
 #include <random>
 
 #include "dcg_fixture.hpp"
-#include "sched/budge.hpp"
-#include "sched/exact_executor.hpp"
-#include "sched/runtime_loop.hpp"
+#include "sched/policy/budge.hpp"
+#include "sched/runtime/exact_executor.hpp"
+#include "sched/runtime/runtime_loop.hpp"
 
 using namespace rayline;
 

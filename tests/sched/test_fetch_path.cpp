@@ -1,6 +1,6 @@
 // SDC details beyond the paper's examples: a memory device that holds (or is receiving) a
 // block never gets a second copy routed into it, and FetchBound's bounds bracket SDC. The
-// planning-speed caches (issue 2) answer exactly what a fresh computation answers.
+// planning-speed caches answer exactly what a fresh computation answers.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,9 +9,9 @@
 #include <random>
 
 #include "dcg_fixture.hpp"
-#include "sched/arrival_bound.hpp"
-#include "sched/fetch_bound.hpp"
-#include "sched/fetch_path.hpp"
+#include "sched/policy/gmb/arrival_bound.hpp"
+#include "sched/sdc/fetch_bound.hpp"
+#include "sched/sdc/fetch_path.hpp"
 
 using namespace rayline;
 
@@ -79,7 +79,7 @@ TEST(FetchPath, SingleHolderTieTakesTheDirectHopAsTheTreeDoes) {
 // A memoised path proved the only best one stops being so once bookings on a resource it
 // shares with another path delay both to the same arrival. arrival_within() re-stamps the
 // delayed path when it meets a lower bound raised in between; path() must not then take it
-// as the only best one (it did: found at stop 35 by GmbEquivalence's random instances), but
+// as the only best one (GmbEquivalence's random instances found a case), but
 // ask the tree, which here takes the other holder's channel (popped first).
 TEST(FetchPath, RestampedPathAfterARaisedBoundIsNoLongerUnique) {
   rayline::testing::DcgBuilder b;
@@ -169,7 +169,7 @@ TEST(FetchPath, BoundsBracketSdcOnRandomGraphs) {
   EXPECT_GT(checked, 1000);
 }
 
-// ---- planning-speed caches (issue 2): cached / cut answers equal fresh ones ------------
+// ---- planning-speed caches: cached / cut answers equal fresh ones ------------
 namespace {
 
 struct RandomState {

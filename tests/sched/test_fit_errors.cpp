@@ -1,11 +1,11 @@
-// The error summary of a timing fit (sched/fit_errors.hpp).
+// The error summary of a timing fit (sched/core/fit_errors.hpp).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <stdexcept>
 #include <vector>
 
-#include "sched/fit_errors.hpp"
+#include "sched/core/fit_errors.hpp"
 
 namespace rayline {
 namespace {

@@ -1,4 +1,4 @@
-// Behaviour lock for GMB's planning speed-ups (issue 2, "GMB placements per second"): the
+// Behaviour lock for GMB's planning speed-ups ("GMB placements per second"): the
 // cached selection (sched/bucket_heap.*, sched/arrival_bound.*) must choose exactly what
 // the straightforward selection chooses, on every instance.
 //
@@ -28,14 +28,14 @@
 #include <string>
 
 #include "dcg_fixture.hpp"
-#include "sched/budge.hpp"
-#include "sched/exact_executor.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/job_set.hpp"
-#include "sched/load_any_once.hpp"
-#include "sched/platform_loader.hpp"
-#include "sched/ray_stream.hpp"
-#include "sched/runtime_loop.hpp"
+#include "sched/policy/budge.hpp"
+#include "sched/runtime/exact_executor.hpp"
+#include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "workload/job_set.hpp"
+#include "sched/policy/load_any_once.hpp"
+#include "sched/io/platform_loader.hpp"
+#include "workload/ray_stream.hpp"
+#include "sched/runtime/runtime_loop.hpp"
 
 using namespace rayline;
 using rayline::testing::DcgBuilder;
@@ -412,7 +412,7 @@ std::vector<std::pair<std::string, std::uint64_t>> golden_cases(bool reference) 
   return out;
 }
 
-// Recorded before the caches (see the file comment). Re-recorded once, at stop 33, for a
+// Recorded before the caches (see the file comment). Re-recorded once, for a
 // behaviour change in Schedule::admission (capacity): room freed beyond the need stays
 // reserved until the activities that free it end, and candidates the rest make unneeded
 // are given back. 32 of 95 digests changed: in 8 only dependencies, eviction times and

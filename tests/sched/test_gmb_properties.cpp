@@ -1,4 +1,4 @@
-// Property tests over random platforms and job sets (issue 2 acceptance):
+// Property tests over random platforms and job sets (acceptance):
 //   no overlap on any timeline, no E-job before its inputs are resident, capacities never
 //   exceeded, every job scheduled exactly once, makespan never below a lower bound —
 //   with plans executed exactly, and with reality perturbed (reprojection + re-planning).
@@ -10,9 +10,9 @@
 #include <random>
 
 #include "dcg_fixture.hpp"
-#include "sched/exact_executor.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/runtime_loop.hpp"
+#include "sched/runtime/exact_executor.hpp"
+#include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "sched/runtime/runtime_loop.hpp"
 
 using namespace rayline;
 using rayline::testing::check_schedule;
@@ -275,7 +275,7 @@ TEST_P(GmbProperty, InvariantsHoldOnRandomInstances) {
 
 INSTANTIATE_TEST_SUITE_P(Modes, GmbProperty, ::testing::Values(0, 1, 2, 3, 4, 5));
 
-// Instances a soak of 6 000 seeds per mode found (stop 33), kept as regressions:
+// Instances a soak of 6 000 seeds per mode found, kept as regressions:
 //   * modes 3 and 4: memory over capacity once reality ran late. Room that a leaving ray
 //     queue or an evicted copy freed beyond what the incoming block needed was free at
 //     once, so a later fetch counted on it without waiting for the activities that free it;

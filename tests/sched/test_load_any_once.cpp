@@ -6,9 +6,9 @@
 #include <random>
 
 #include "dcg_fixture.hpp"
-#include "sched/exact_executor.hpp"
-#include "sched/load_any_once.hpp"
-#include "sched/runtime_loop.hpp"
+#include "sched/runtime/exact_executor.hpp"
+#include "sched/policy/load_any_once.hpp"
+#include "sched/runtime/runtime_loop.hpp"
 
 using namespace rayline;
 

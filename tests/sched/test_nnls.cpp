@@ -1,4 +1,4 @@
-// Lawson-Hanson NNLS (sched/nnls.hpp) against an exhaustive reference and its optimality
+// Lawson-Hanson NNLS (sched/core/nnls.hpp) against an exhaustive reference and its optimality
 // (Karush-Kuhn-Tucker) conditions.
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "nnls_reference.hpp"
-#include "sched/nnls.hpp"
+#include "sched/core/nnls.hpp"
 
 namespace rayline {
 namespace {
@@ -36,7 +36,7 @@ TEST(Nnls, IdentityClipsTheNegativeEntries) {
 
 // A dropped column must be able to come back. The unconstrained optimum here is
 // (15, -3, -6): (15, -9, -12) with the columns scaled to unit max-abs. Dropping the most
-// negative scaled coefficient and refitting, as TimingModel::fit did until stop 32, drops
+// negative scaled coefficient and refitting, (a tempting shortcut for NNLS) drops
 // column 2, then column 1, and ends at (1.5, 0, 0) with residual^2 11. The optimum brings
 // column 2 back and drops column 0: (0, 0, 12/13), residual^2 116/13.
 TEST(Nnls, ADroppedColumnComesBack) {

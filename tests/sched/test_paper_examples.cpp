@@ -6,9 +6,9 @@
 #include <memory>
 
 #include "dcg_fixture.hpp"
-#include "sched/exact_executor.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/runtime_loop.hpp"
+#include "sched/runtime/exact_executor.hpp"
+#include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "sched/runtime/runtime_loop.hpp"
 
 using namespace rayline;
 using rayline::testing::DcgBuilder;

@@ -8,12 +8,12 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "sched/error.hpp"
-#include "sched/job_set.hpp"
-#include "sched/path_trace_model.hpp"
-#include "sched/platform_loader.hpp"
-#include "sched/scene_profile.hpp"
-#include "sched/timing_samples.hpp"
+#include "common/error.hpp"
+#include "workload/job_set.hpp"
+#include "workload/path_trace_model.hpp"
+#include "sched/io/platform_loader.hpp"
+#include "workload/scene_profile.hpp"
+#include "sched/io/timing_samples.hpp"
 
 namespace {
 

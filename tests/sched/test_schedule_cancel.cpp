@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "dcg_fixture.hpp"
-#include "sched/exact_executor.hpp"
+#include "sched/runtime/exact_executor.hpp"
 
 using namespace rayline;
 using namespace rayline::testing;

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "dcg_fixture.hpp"
-#include "sched/unplaced.hpp"
+#include "sched/policy/unplaced.hpp"
 
 using namespace rayline;
 using namespace rayline::testing;
@@ -34,7 +34,7 @@ TEST(ScheduleCapacity, OverfullDeviceAdmitsNothingUntilFreed) {
   EXPECT_EQ(s.admission(ram, 200, {}).at, kNever);
 }
 
-// why_unplaceable (sched/unplaced.hpp): the static reason a job can run nowhere, for the
+// why_unplaceable (sched/policy/unplaced.hpp): the static reason a job can run nowhere, for the
 // device that comes closest; empty when some device could take it.
 TEST(Unplaceable, NamesTheSizeThePathOrTheJobType) {
   DcgBuilder b;

@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "nnls_reference.hpp"
-#include "sched/device_graph.hpp"
-#include "sched/error.hpp"
-#include "sched/timing_model.hpp"
-#include "sched/timing_samples.hpp"
+#include "sched/core/device_graph.hpp"
+#include "common/error.hpp"
+#include "sched/core/timing_model.hpp"
+#include "sched/io/timing_samples.hpp"
 
 namespace rayline {
 namespace {
@@ -307,7 +307,7 @@ TEST(TimingModelFit, NegativeCoefficientIsClampedByRefit) {
 }
 
 // The fit is the exact non-negative optimum, not "drop the most negative coefficient and
-// refit" (what fit() did until stop 32). First the case that tells them apart (setup,
+// refit" (a shortcut that misses it). First the case that tells them apart (setup,
 // SceneData, RayQueue; tests/sched/test_nnls.cpp's Nnls.ADroppedColumnComesBack): the
 // optimum is a RayQueue rate of 12/13 alone, residual^2 116/13 (the old answer: setup 1.5
 // alone, 11). Then random Eq. 2 problems (positive sizes, 2-4

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "sched/device_graph.hpp"
+#include "sched/core/device_graph.hpp"
 
 namespace rayline::testing {
 

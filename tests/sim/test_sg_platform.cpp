@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "sched/error.hpp"
+#include "common/error.hpp"
 #include "sim/sg_platform.hpp"
 #include "sim_fixture.hpp"
 

@@ -1,9 +1,9 @@
-// Several GPUs on one PCIe root (issue 3: "when the plan and reality differ ... several
+// Several GPUs on one PCIe root ("when the plan and reality differ ... several
 // GPUs on one PCIe root"): channels naming one medium share its bandwidth in SimGrid, and
 // the planner serialises them on its timeline. Each TEST is its own process.
 #include <gtest/gtest.h>
 
-#include "sched/platform_loader.hpp"
+#include "sched/io/platform_loader.hpp"
 #include "sim/sg_platform.hpp"
 
 using namespace rayline;

@@ -1,4 +1,4 @@
-// The SimGrid executor driven by the runtime loop and GMB (issue 3): with no contention a
+// The SimGrid executor driven by the runtime loop and GMB: with no contention a
 // plan runs exactly as predicted; with contention (channels sharing a NIC) reality departs,
 // every job still completes, and the gap is measured. Each TEST is its own process.
 #include <gtest/gtest.h>
@@ -6,8 +6,8 @@
 #include <memory>
 
 #include "../sched/dcg_fixture.hpp"
-#include "sched/gmb_scheduler.hpp"
-#include "sched/runtime_loop.hpp"
+#include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "sched/runtime/runtime_loop.hpp"
 #include "sim/sim_executor.hpp"
 
 using namespace rayline;

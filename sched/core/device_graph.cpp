@@ -1,0 +1,99 @@
+#include "sched/core/device_graph.hpp"
+
+#include <algorithm>
+#include <queue>
+
+#include "common/error.hpp"
+
+namespace rayline {
+
+std::string_view to_string(MemoryKind k) {
+  switch (k) {
+    case MemoryKind::Disk: return "disk";
+    case MemoryKind::Host: return "host";
+    case MemoryKind::Gpu: return "gpu";
+  }
+  return "?";
+}
+
+std::string_view to_string(ComputeKind k) { return k == ComputeKind::Cpu ? "cpu" : "gpu"; }
+
+void DeviceGraph::finalize() {
+  const auto nm = memories.size();
+  out_.assign(nm, {});
+  in_.assign(nm, {});
+  attached_.assign(nm, {});
+  for (std::size_t i = 0; i < channels.size(); ++i) {
+    const Channel& c = channels[i];
+    const std::string field = "channels[" + c.name + "]";
+    if (c.from < 0 || c.from >= static_cast<MemId>(nm) || c.to < 0 || c.to >= static_cast<MemId>(nm))
+      throw InputError(source_file, field, "channel endpoint is not a memory device");
+    if (c.from == c.to) throw InputError(source_file, field, "channel connects a memory device to itself");
+    if (!(c.bandwidth > 0)) throw InputError(source_file, field + ".bandwidth", "must be > 0");
+    if (!(c.latency >= 0)) throw InputError(source_file, field + ".latency", "must be >= 0");
+    if (c.resources.empty()) throw InputError(source_file, field, "channel uses no resource");
+    for (ResourceId r : c.resources)
+      if (r < 0 || r >= static_cast<ResourceId>(resources.size()))
+        throw InputError(source_file, field, "unknown resource");
+    out_[c.from].push_back(static_cast<ChannelId>(i));
+    in_[c.to].push_back(static_cast<ChannelId>(i));
+  }
+  for (std::size_t d = 0; d < computes.size(); ++d) {
+    const ComputeDevice& cd = computes[d];
+    if (cd.memory < 0 || cd.memory >= static_cast<MemId>(nm))
+      throw InputError(source_file, "compute[" + cd.name + "].memory", "compute device has no memory device");
+    attached_[cd.memory].push_back(static_cast<DeviceId>(d));
+  }
+  if (timing.devices() != static_cast<int>(computes.size()) ||
+      timing.job_types() != static_cast<int>(job_types.size()))
+    timing.resize(static_cast<int>(computes.size()), static_cast<int>(job_types.size()));
+}
+
+JobTypeId DeviceGraph::job_type(std::string_view n) const {
+  for (std::size_t i = 0; i < job_types.size(); ++i)
+    if (job_types[i] == n) return static_cast<JobTypeId>(i);
+  return kNone;
+}
+
+JobTypeId DeviceGraph::add_job_type(std::string_view n) {
+  if (JobTypeId j = job_type(n); j != kNone) return j;
+  job_types.emplace_back(n);
+  timing.resize(static_cast<int>(computes.size()), static_cast<int>(job_types.size()));
+  return static_cast<JobTypeId>(job_types.size() - 1);
+}
+
+template <class V>
+static std::int32_t find_by_name(const V& v, std::string_view n) {
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (v[i].name == n) return static_cast<std::int32_t>(i);
+  return kNone;
+}
+MemId DeviceGraph::find_memory(std::string_view n) const { return find_by_name(memories, n); }
+DeviceId DeviceGraph::find_compute(std::string_view n) const { return find_by_name(computes, n); }
+NodeId DeviceGraph::find_node(std::string_view n) const { return find_by_name(nodes, n); }
+
+std::vector<Time> DeviceGraph::shortest_fetch_times(const std::vector<MemId>& sources, Bytes bytes) const {
+  std::vector<Time> dist(memories.size(), kNever);
+  using Item = std::pair<Time, MemId>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> heap;
+  for (MemId s : sources) {
+    dist[s] = 0;
+    heap.emplace(0.0, s);
+  }
+  while (!heap.empty()) {
+    auto [t, m] = heap.top();
+    heap.pop();
+    if (t > dist[m]) continue;
+    for (ChannelId c : out_[m]) {
+      const Time nt = t + transfer_time(c, bytes);
+      const MemId q = channels[c].to;
+      if (nt < dist[q]) {
+        dist[q] = nt;
+        heap.emplace(nt, q);
+      }
+    }
+  }
+  return dist;
+}
+
+}  // namespace rayline

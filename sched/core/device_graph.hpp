@@ -1,0 +1,103 @@
+// Device connectivity graph (DCG, Sec. 3.2, Fig. 2): memory devices are vertices,
+// channels are directed edges with latency and bandwidth (Eq. 1), and each compute
+// device is attached to exactly one memory device.
+//
+// Contention (our extension of the paper's per-channel FinishTime(c), Eq. 3): every
+// channel uses one or more Resources. A half-duplex medium is ONE resource used by both
+// directions; a full-duplex medium is one resource per direction; a LAN channel
+// X.ram -> Y.ram uses X's NIC-out and Y's NIC-in resources, so every transfer leaving
+// X over the LAN contends for X's port. The planner keeps one timeline per resource and
+// a T-job occupies all resources of its channel for its whole interval.
+#pragma once
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "sched/core/timing_model.hpp"
+#include "sched/core/types.hpp"
+
+namespace rayline {
+
+enum class MemoryKind : std::uint8_t { Disk, Host, Gpu };
+enum class ComputeKind : std::uint8_t { Cpu, Gpu };
+enum class Duplex : std::uint8_t { Half, Full };
+
+std::string_view to_string(MemoryKind k);
+std::string_view to_string(ComputeKind k);
+
+struct Node {
+  std::string name;
+  std::vector<MemId> memories;
+  std::vector<DeviceId> computes;
+};
+
+struct MemoryDevice {
+  std::string name;  // qualified: "A0.ram", "A0.gpu0.mem"
+  MemoryKind kind = MemoryKind::Host;
+  Bytes capacity = 0;
+  NodeId node = kNone;
+};
+
+struct ComputeDevice {
+  std::string name;   // qualified: "A0.cpu3", "A0.gpu0"
+  std::string model;  // the platform entry it came from ("cpu", "gpu0"): identical hw threads share it
+  ComputeKind kind = ComputeKind::Cpu;
+  MemId memory = kNone;
+  NodeId node = kNone;
+};
+
+struct Resource {
+  std::string name;        // "A0.sata", "A0.nic.out", "lan1g.switch"
+  double bandwidth = 0;    // bytes/s, for the simulator's link and utilisation metrics
+};
+
+struct Channel {
+  std::string name;   // "A0.sata", "A0.pcie0.up", "lan:A0->A1"
+  std::string kind;   // free text from the platform file: "sata", "pcie", "lan"
+  MemId from = kNone, to = kNone;
+  Time latency = 0;        // T_LAT, seconds
+  double bandwidth = 0;    // T_BW, bytes/s
+  std::vector<ResourceId> resources;
+};
+
+class DeviceGraph {
+ public:
+  std::string name;
+  std::string source_file;  // for error messages
+  std::vector<Node> nodes;
+  std::vector<MemoryDevice> memories;
+  std::vector<ComputeDevice> computes;
+  std::vector<Resource> resources;
+  std::vector<Channel> channels;
+  std::vector<std::string> job_types;  // JobTypeId -> name
+  TimingModel timing;                  // per compute device x job type (Eq. 2)
+
+  // Build adjacency and check structural invariants; throws InputError naming the field.
+  void finalize();
+
+  const std::vector<ChannelId>& out_channels(MemId m) const { return out_[m]; }
+  const std::vector<ChannelId>& in_channels(MemId m) const { return in_[m]; }
+  const std::vector<DeviceId>& computes_on(MemId m) const { return attached_[m]; }
+
+  // Eq. 1: T_TRANS(c, w) = T_LAT(c) + |w| / T_BW(c).
+  Time transfer_time(ChannelId c, Bytes bytes) const {
+    const Channel& ch = channels[c];
+    return ch.latency + static_cast<double>(bytes) / ch.bandwidth;
+  }
+
+  JobTypeId job_type(std::string_view name) const;  // kNone when unknown
+  JobTypeId add_job_type(std::string_view name);    // idempotent
+  MemId find_memory(std::string_view name) const;   // kNone when unknown
+  DeviceId find_compute(std::string_view name) const;
+  NodeId find_node(std::string_view name) const;
+
+  // Shortest uncontended T_TRANS for a block of `bytes` from any of `sources` to every
+  // memory device (plain Dijkstra on Eq. 1 weights); kNever where unreachable.
+  std::vector<Time> shortest_fetch_times(const std::vector<MemId>& sources, Bytes bytes) const;
+
+ private:
+  std::vector<std::vector<ChannelId>> out_, in_;
+  std::vector<std::vector<DeviceId>> attached_;
+};
+
+}  // namespace rayline

@@ -1,0 +1,218 @@
+#include "sched/io/trace_output.hpp"
+
+#include <charconv>
+#include <cstdio>
+#include <sstream>
+#include <string_view>
+
+namespace rayline {
+
+namespace {
+
+// A JSON writer for the trace's flat events. The trace of a long path-tracing run holds
+// ~10^6 events; building each as an nlohmann::json object (a std::map per event) took a
+// quarter of such a run, so events are written directly. Strings are escaped per RFC 8259
+// Sec. 7; numbers use the shortest round-trip form (std::to_chars).
+struct JsonOut {
+  std::string s;
+  std::ostream* sink = nullptr;  // where full buffers go (nullptr: s keeps everything)
+  // Between events: hand the buffer on once it holds 1 MiB, so a long run's trace is never
+  // in memory whole (the 16 s workstation run's is 0.24 GB).
+  void drain(bool all = false) {
+    if (sink && (all || s.size() >= (std::size_t{1} << 20))) {
+      sink->write(s.data(), static_cast<std::streamsize>(s.size()));
+      s.clear();
+    }
+  }
+  void str(std::string_view v) {
+    s += '"';
+    for (const char c : v) {
+      const auto u = static_cast<unsigned char>(c);
+      if (c == '"' || c == '\\') {
+        s += '\\';
+        s += c;
+      } else if (u < 0x20) {
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\u%04x", u);
+        s += buf;
+      } else {
+        s += c;
+      }
+    }
+    s += '"';
+  }
+  template <class T>
+  void num(T v) {
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    s.append(buf, r.ptr);
+  }
+  void key(std::string_view k, bool first = false) {  // ,"k":  (keys are plain identifiers)
+    if (!first) s += ',';
+    s += '"';
+    s += k;
+    s += "\":";
+  }
+  void ph_pid_tid(char ph, int pid, int tid) {  // ,"ph":"X","pid":1,"tid":2
+    s += ",\"ph\":\"";
+    s += ph;
+    s += "\",\"pid\":";
+    num(pid);
+    s += ",\"tid\":";
+    num(tid);
+  }
+};
+
+}  // namespace
+
+// Timelines as Chrome trace JSON (the Trace Event Format's "X" complete events and "M"
+// metadata events): one process per node, one per channel group, a track per device and
+// per channel resource.
+void write_chrome_trace(const Schedule& s, bool include_actual, std::ostream& out) {
+  const DeviceGraph& g = s.graph();
+  const JobPool& pool = s.pool();
+  JsonOut o;
+  o.sink = &out;
+  o.s.reserve((std::size_t{1} << 20) + 4096);
+  o.s += "{\"displayTimeUnit\":\"ms\",\"otherData\":{\"platform\":";
+  o.str(g.name);
+  o.s += "},\"traceEvents\":[";
+  bool first = true;
+  auto begin_event = [&] {
+    if (!first) o.s += ',';
+    first = false;
+  };
+  const int pid_channels = static_cast<int>(g.nodes.size());
+  auto meta = [&](int pid, int tid, const char* what, const std::string& name) {
+    begin_event();
+    o.s += "{\"args\":{\"name\":";
+    o.str(name);
+    o.s += "},\"name\":\"";
+    o.s += what;
+    o.s += '"';
+    o.ph_pid_tid('M', pid, tid);
+    o.s += '}';
+  };
+  for (std::size_t n = 0; n < g.nodes.size(); ++n) meta(static_cast<int>(n), 0, "process_name", g.nodes[n].name + " (compute)");
+  meta(pid_channels, 0, "process_name", "channels");
+  for (std::size_t d = 0; d < g.computes.size(); ++d)
+    meta(std::max(0, g.computes[d].node), static_cast<int>(d), "thread_name", g.computes[d].name);
+  for (std::size_t r = 0; r < g.resources.size(); ++r) meta(pid_channels, static_cast<int>(r), "thread_name", g.resources[r].name);
+  // One "X" event; `args` is the inside of its args object (keys in alphabetical order, like the rest).
+  auto event = [&](std::string_view args, const std::string& name, const char* cat, double ts, double dur, int pid, int tid) {
+    begin_event();
+    o.s += "{\"args\":{";
+    o.s += args;
+    o.s += "},\"cat\":\"";
+    o.s += cat;
+    o.s += "\",\"dur\":";
+    o.num(dur);
+    o.s += ",\"name\":";
+    o.str(name);
+    o.ph_pid_tid('X', pid, tid);
+    o.s += ",\"ts\":";
+    o.num(ts);
+    o.s += '}';
+    o.drain();
+  };
+  JsonOut args_out;
+  auto emit = [&](const Activity& a, ActivityId id, bool actual) {
+    const double ts = (actual ? a.start : a.planned_start) * 1e6;
+    const double dur = ((actual ? a.end : a.planned_end) - (actual ? a.start : a.planned_start)) * 1e6;
+    const bool exec = a.kind == ActivityKind::Exec;
+    const char* cat = exec ? (actual ? "E-job,actual" : "E-job,planned") : (actual ? "T-job,actual" : "T-job,planned");
+    // The args once per activity (a T-job is shown on each resource of its channel).
+    JsonOut& w = args_out;
+    w.s.clear();
+    w.key("activity", true);
+    w.num(id);
+    if (exec) {
+      w.key("job");
+      w.str(pool.job(a.job).name);
+      w.key("setup_us");
+      w.num(a.setup * 1e6);
+      w.key("type");
+      w.str(g.job_types[pool.job(a.job).type]);
+      event(w.s, pool.job(a.job).name, cat, ts, dur, std::max(0, g.computes[a.device].node), a.device);
+    } else {
+      w.key("block");
+      w.str(pool.block(a.block).name);
+      w.key("bytes");
+      w.num(a.bytes);
+      w.key("channel");
+      w.str(g.channels[a.channel].name);
+      if (a.job != kNone) {
+        w.key("job");
+        w.str(pool.job(a.job).name);
+      }
+      w.key("move");
+      w.s += a.move ? "true" : "false";
+      for (ResourceId r : g.channels[a.channel].resources) event(w.s, pool.block(a.block).name, cat, ts, dur, pid_channels, r);
+    }
+  };
+  for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
+    const Activity& a = s.activity(id);
+    if (a.cancelled) continue;  // withdrawn before it ran: nothing to show (jobs.csv lists it)
+    emit(a, id, false);
+    if (include_actual && a.state == ActivityState::Done) emit(a, id, true);
+  }
+  o.s += "]}\n";
+  o.drain(true);
+}
+
+std::string chrome_trace_json(const Schedule& s, bool include_actual) {
+  std::ostringstream out;
+  write_chrome_trace(s, include_actual, out);
+  return std::move(out).str();
+}
+
+namespace {
+
+// RFC 4180: a field with a comma, quote or line break is quoted, its quotes doubled.
+std::string csv_field(const std::string& v) {
+  if (v.find_first_of(",\"\r\n") == std::string::npos) return v;
+  std::string q = "\"";
+  for (const char c : v) {
+    if (c == '"') q += '"';
+    q += c;
+  }
+  return q + '"';
+}
+
+}  // namespace
+
+void write_jobs_csv(const Schedule& s, std::ostream& out) {
+  const DeviceGraph& g = s.graph();
+  const JobPool& pool = s.pool();
+  out << "activity,kind,job,type,device_or_channel,block,bytes,planned_start,planned_end,actual_start,actual_end,state\n";
+  char buf[256];
+  for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
+    const Activity& a = s.activity(id);
+    const bool done = a.state == ActivityState::Done;
+    Bytes bytes = a.bytes;
+    if (a.kind == ActivityKind::Exec)
+      for (BlockId b : pool.job(a.job).inputs) bytes += pool.block(b).bytes;
+    out << id << ',' << (a.kind == ActivityKind::Exec ? "E" : "T") << ','
+        << (a.job == kNone ? std::string() : csv_field(pool.job(a.job).name)) << ','
+        << csv_field(a.kind == ActivityKind::Exec ? g.job_types[pool.job(a.job).type] : std::string("transfer")) << ','
+        << csv_field(a.kind == ActivityKind::Exec ? g.computes[a.device].name : g.channels[a.channel].name) << ','
+        << (a.block == kNone ? std::string() : csv_field(pool.block(a.block).name)) << ',' << bytes << ',';
+    std::snprintf(buf, sizeof buf, "%.9f,%.9f,", a.planned_start, a.planned_end);
+    out << buf;
+    if (done) {
+      std::snprintf(buf, sizeof buf, "%.9f,%.9f,", a.start, a.end);
+      out << buf;
+    } else {
+      out << ",,";
+    }
+    out << (a.cancelled ? "cancelled" : done ? "done" : "planned") << '\n';
+  }
+}
+
+std::string jobs_csv(const Schedule& s) {
+  std::ostringstream out;
+  write_jobs_csv(s, out);
+  return std::move(out).str();
+}
+
+}  // namespace rayline

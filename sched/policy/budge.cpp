@@ -1,0 +1,195 @@
+#include "sched/policy/budge.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+namespace rayline {
+
+std::string BudgeScheduler::describe() const {
+  return std::string("budge2009{image-space nodes; greedy per idle device; resident_first=") +
+         (opt_.resident_first ? "1" : "0") + "; largest_queue=" + (opt_.largest_queue ? "1" : "0") +
+         "; gpu_preferred=" + (opt_.gpu_preferred ? "1" : "0") + "; cache=" + (opt_.lru ? "LRU" : "queue-aware") +
+         "; image_split=" + (opt_.split_by_throughput ? "by-throughput" : "equal") + "}";
+}
+
+NodeId budge_image_node(JobId j, const DeviceGraph& g, bool split_by_throughput) {
+  // Weight of a node: its devices' peak RayIntersect throughput on ray queues (bytes/s,
+  // 1 / rate), or 1 for an equal split; nodes without compute devices get nothing.
+  const JobTypeId ri = g.job_type("RayIntersect");
+  std::vector<double> w(g.nodes.size(), 0.0);
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    const NodeId n = g.computes[d].node;
+    if (n < 0 || static_cast<std::size_t>(n) >= w.size()) continue;
+    if (!split_by_throughput || ri == kNone) {
+      w[static_cast<std::size_t>(n)] = 1.0;
+      continue;
+    }
+    if (!g.timing.supports(static_cast<DeviceId>(d), ri)) continue;
+    const double rate = g.timing.at(static_cast<DeviceId>(d), ri).rate[static_cast<std::size_t>(DataKind::RayQueue)];
+    if (rate > 0) w[static_cast<std::size_t>(n)] += 1.0 / rate;
+  }
+  double total = 0;
+  for (double x : w) total += x;
+  if (total <= 0) return kNone;
+  // A fixed, well-mixed point in [0, 1) per job id (like a tile's place in the image).
+  std::uint64_t h = static_cast<std::uint64_t>(j) + 0x9e3779b97f4a7c15ull;
+  h = (h ^ (h >> 30)) * 0xbf58476d1ce4e5b9ull;
+  h = (h ^ (h >> 27)) * 0x94d049bb133111ebull;
+  h ^= h >> 31;
+  const double u = static_cast<double>(h >> 11) * 0x1.0p-53 * total;
+  double acc = 0;
+  NodeId last = kNone;
+  for (std::size_t n = 0; n < w.size(); ++n) {
+    if (w[n] <= 0) continue;
+    acc += w[n];
+    last = static_cast<NodeId>(n);
+    if (u < acc) return last;
+  }
+  return last;
+}
+
+namespace {
+// The node a job belongs to (image-space decomposition): where its non-scene inputs are;
+// a GenerateRays job on a client's request (only Generic inputs) belongs to the node its
+// part of the image is assigned to.
+NodeId home_node(JobId j, const Job& job, const JobPool& pool, const Schedule& s, bool by_throughput) {
+  const DeviceGraph& g = s.graph();
+  bool generic_only = !job.inputs.empty();
+  for (BlockId b : job.inputs) generic_only = generic_only && pool.block(b).kind == DataKind::Generic;
+  if (generic_only && g.job_types[static_cast<std::size_t>(job.type)] == "GenerateRays")
+    return budge_image_node(j, g, by_throughput);
+  for (BlockId b : job.inputs) {
+    if (pool.block(b).kind == DataKind::SceneData) continue;
+    for (const Copy& c : s.copies(b)) return g.memories[c.mem].node;
+  }
+  return kNone;  // scene-only job: any node
+}
+}  // namespace
+
+const BudgeScheduler::Inputs& BudgeScheduler::inputs_of(JobId j, const JobPool& pool) {
+  if (inputs_.size() < pool.job_count()) inputs_.resize(pool.job_count());
+  Inputs& in = inputs_[static_cast<std::size_t>(j)];
+  const std::vector<BlockId>& all = pool.job(j).inputs;  // only ever appended to
+  for (; in.seen < all.size(); ++in.seen) {
+    const BlockId b = all[in.seen];
+    const DataBlock& blk = pool.block(b);
+    if (blk.kind == DataKind::SceneData) in.scene.push_back(b);
+    else if (blk.consumed) in.fixed_rays += blk.bytes;
+    else in.live.push_back(b);
+  }
+  return in;
+}
+
+PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PlanStats st;
+  if (bound_ != &s || !placer_) {
+    placer_ = std::make_unique<Placer>(s);
+    bound_ = &s;
+    homes_.clear();
+    inputs_.clear();
+  }
+  s.set_eviction_policy(opt_.lru ? Schedule::EvictionPolicy::Lru : Schedule::EvictionPolicy::QueueAware);
+  const DeviceGraph& g = s.graph();
+  // Greedy: each idle device takes one job, GPUs first (they are preferred for intersection).
+  // Nothing idle or nothing queued: nothing to decide (most events of a busy run).
+  std::vector<DeviceId> idle;
+  if (pool.queued_count() > 0)
+    for (std::size_t d = 0; d < g.computes.size(); ++d)
+      if (s.unfinished_on_device(static_cast<DeviceId>(d)) == 0) idle.push_back(static_cast<DeviceId>(d));
+  if (idle.empty()) {
+    st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return st;
+  }
+  s.reproject(now);
+  placer_->finder().clear();
+  placer_->finder().set_now(now);
+  placer_->finder().set_scene_from_origin_or_local(true);  // no scene data between nodes
+  std::stable_sort(idle.begin(), idle.end(), [&](DeviceId a, DeviceId b) {
+    return g.computes[a].kind == ComputeKind::Gpu && g.computes[b].kind != ComputeKind::Gpu;
+  });
+  struct Cand {
+    JobId job;
+    bool resident;
+    Bytes rays;
+    std::size_t pos;
+  };
+  std::vector<Cand> cand;
+  // A job's home node never changes once known (its rays never leave their node), so it is
+  // remembered across calls; "any node" (kNone) is recomputed.
+  if (homes_.size() < pool.job_count()) homes_.resize(pool.job_count(), kNone);
+  auto home_of = [&](JobId j) {
+    NodeId& h = homes_[static_cast<std::size_t>(j)];
+    if (h == kNone) h = home_node(j, pool.job(j), pool, s, opt_.split_by_throughput);
+    return h;
+  };
+  // Queued jobs bucketed by home node (the last bucket: any node), in queue order, so each
+  // device scans only its own node's part of the image.
+  struct Queued {
+    JobId job;
+    Bytes rays;
+    std::size_t pos;
+  };
+  std::vector<std::vector<Queued>> by_node(g.nodes.size() + 1);
+  {
+    std::size_t pos = 0;
+    for (JobId j : pool.queued()) {
+      ++pos;
+      const NodeId home = home_of(j);
+      const Inputs& in = inputs_of(j, pool);
+      Bytes rays = in.fixed_rays;
+      for (BlockId b : in.live) rays += pool.block(b).bytes;
+      by_node[home == kNone ? g.nodes.size() : static_cast<std::size_t>(home)].push_back({j, rays, pos});
+    }
+  }
+  for (DeviceId d : idle) {
+    const MemId m = g.computes[d].memory;
+    const NodeId node = g.computes[d].node;
+    // A GPU of this node that is idle now (it will take intersection work it can hold).
+    MemId idle_gpu_mem = kNone;
+    if (opt_.gpu_preferred && g.computes[d].kind == ComputeKind::Cpu)
+      for (DeviceId o : g.nodes[static_cast<std::size_t>(node)].computes)
+        if (g.computes[o].kind == ComputeKind::Gpu && s.unfinished_on_device(o) == 0) idle_gpu_mem = g.computes[o].memory;
+    // Candidates of this device with their keys; feasibility (a fetch-path search) is
+    // checked only in priority order, so the first feasible one is the same pick as the
+    // best feasible one: resident first, then the largest queue, then queue order.
+    cand.clear();
+    for (const auto* bucket : {&by_node[static_cast<std::size_t>(node)], &by_node.back()})
+      for (const Queued& q : *bucket) {
+        if (pool.state(q.job) != JobState::Queued) continue;  // taken by an earlier device
+        const Job& job = pool.job(q.job);
+        if (!g.timing.supports(d, job.type)) continue;
+        bool resident = true;
+        Bytes scene = 0;
+        for (BlockId b : inputs_of(q.job, pool).scene) {
+          resident = resident && s.copy_at(b, m) != nullptr;
+          scene += pool.block(b).bytes;
+        }
+        if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
+        cand.push_back({q.job, opt_.resident_first && resident, opt_.largest_queue ? q.rays : 0, q.pos});
+      }
+    // Candidates in priority order until one is feasible: a heap, since usually the first
+    // one is (a full sort of thousands of queued jobs per idle device was most of a plan).
+    // `pos` is unique, so the order is total and the same as sorting.
+    auto after = [](const Cand& a, const Cand& b) {  // a comes after b
+      if (a.resident != b.resident) return b.resident;
+      if (a.rays != b.rays) return a.rays < b.rays;
+      return a.pos > b.pos;
+    };
+    std::make_heap(cand.begin(), cand.end(), after);
+    JobId best = kNone;
+    for (auto end = cand.end(); end != cand.begin(); --end) {
+      std::pop_heap(cand.begin(), end, after);
+      const Cand& c = *(end - 1);
+      if (placer_->earliest_start(c.job, d, now, s) != kNever) {
+        best = c.job;
+        break;
+      }
+    }
+    if (best != kNone) placer_->place(best, d, std::max(now, s.device_timeline(d).busy_until), now, pool, s, st);
+  }
+  st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return st;
+}
+
+}  // namespace rayline

@@ -1,0 +1,85 @@
+#include "sched/policy/placer.hpp"
+
+#include <algorithm>
+
+namespace rayline {
+
+bool Placer::may_fetch_framebuffer(const Job& j, const Schedule& s) {
+  return s.graph().job_types[static_cast<std::size_t>(j.type)] == "AdditiveCompose";
+}
+
+Time Placer::earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s) {
+  const MemId m = s.graph().computes[d].memory;
+  Time arrive = s.after_deps_ready(j);
+  if (arrive == kNever) return kNever;
+  const Job& job = s.pool().job(j);
+  for (BlockId b : job.inputs) {
+    const Copy* c = s.copy_at(b, m);
+    if (!c && !may_fetch(job, b, s)) return kNever;
+    arrive = std::max(arrive, c ? s.copy_ready(*c) : finder_.arrival(b, m));
+    if (arrive == kNever) return kNever;
+  }
+  return std::max(ready, arrive);
+}
+
+bool Placer::place(JobId j, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s, PlanStats& st) {
+  const DeviceGraph& g = s.graph();
+  const MemId m = g.computes[d].memory;
+  const Job& job = pool.job(j);
+  const std::vector<BlockId>& keep = job.inputs;
+  finder_.set_now(now);
+  // Feasibility first, so a job that cannot fit leaves no half-built chain behind.
+  Bytes need_here = 0;
+  paths_.clear();
+  path_end_.clear();
+  for (BlockId b : job.inputs) {
+    if (s.copy_at(b, m)) continue;
+    if (!may_fetch(job, b, s)) return false;
+    need_here += pool.block(b).bytes;
+    finder_.path(b, m, path_);
+    if (path_.empty()) return false;
+    paths_.insert(paths_.end(), path_.begin(), path_.end());
+    path_end_.push_back(paths_.size());
+    for (std::size_t h = 0; h + 1 < path_.size(); ++h)
+      if (s.admission(g.channels[path_[h]].to, pool.block(b).bytes, keep).at == kNever) return false;
+  }
+  for (BlockId o : job.outputs) need_here += pool.block(o).bytes;
+  if (s.admission(m, need_here, keep).at == kNever) return false;
+
+  // Sec. 4.4: chained T-jobs along each SDC path, then the E-job.
+  const std::size_t evictions_before = s.evictions().size();
+  const std::size_t activities_before = s.activity_count();
+  std::size_t fetched = 0;
+  for (BlockId b : job.inputs) {
+    if (s.copy_at(b, m)) continue;
+    // Until something is committed the schedule is as the feasibility pass saw it, and
+    // path() would answer the same.
+    if (s.activity_count() == activities_before && fetched < path_end_.size()) {
+      path_.assign(paths_.begin() + static_cast<std::ptrdiff_t>(fetched ? path_end_[fetched - 1] : 0),
+                   paths_.begin() + static_cast<std::ptrdiff_t>(path_end_[fetched]));
+    } else {
+      finder_.path(b, m, path_);
+    }
+    ++fetched;
+    for (ChannelId ch : path_) {
+      const auto adm = s.admission(g.channels[ch].to, pool.block(b).bytes, keep);
+      // Rare: an earlier hop of another input took the room. What was placed stays as a
+      // prefetch (the data is moved closer); the job is retried later.
+      if (adm.at == kNever) return false;
+      s.commit_transfer(b, ch, j, now, adm);
+      ++st.transfers;
+      for (ResourceId r : g.channels[ch].resources) finder_.resource_changed(r);
+    }
+  }
+  Bytes out_bytes = 0;
+  for (BlockId o : job.outputs) out_bytes += pool.block(o).bytes;
+  const auto out_adm = s.admission(m, out_bytes, keep);
+  if (out_adm.at == kNever) return false;
+  const ActivityId e = s.commit_exec(j, d, ready, out_adm);
+  pool.mark_planned(j, e);
+  ++st.execs;
+  st.evictions += static_cast<int>(s.evictions().size() - evictions_before);
+  return true;
+}
+
+}  // namespace rayline

@@ -1,0 +1,117 @@
+#include "sched/policy/unplaced.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <vector>
+
+#include "sched/core/job_pool.hpp"
+#include "sched/policy/placer.hpp"
+#include "sched/timeline/schedule.hpp"
+
+namespace rayline {
+
+namespace {
+
+std::string gb(double bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g GB", bytes / 1e9);
+  return buf;
+}
+
+// Memory devices a copy of b can reach hop by hop from its holders, each hop's memory
+// device big enough to hold it (Placer::place admits the block on every hop, Sec. 4.4).
+std::vector<bool> reachable(BlockId b, const Schedule& s) {
+  const DeviceGraph& g = s.graph();
+  const double bytes = static_cast<double>(s.pool().block(b).bytes);
+  std::vector<bool> seen(g.memories.size(), false);
+  std::vector<MemId> todo;
+  for (std::size_t m = 0; m < g.memories.size(); ++m)
+    if (s.copy_at(b, static_cast<MemId>(m))) {
+      seen[m] = true;
+      todo.push_back(static_cast<MemId>(m));
+    }
+  while (!todo.empty()) {
+    const MemId u = todo.back();
+    todo.pop_back();
+    for (const Channel& c : g.channels) {
+      const auto v = static_cast<std::size_t>(c.to);
+      if (c.from != u || seen[v] || static_cast<double>(g.memories[v].capacity) < bytes) continue;
+      seen[v] = true;
+      todo.push_back(c.to);
+    }
+  }
+  return seen;
+}
+
+}  // namespace
+
+std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
+  const DeviceGraph& g = s.graph();
+  const Job& job = pool.job(j);
+  const std::string type = g.job_types[static_cast<std::size_t>(job.type)];
+  double need = 0;
+  for (BlockId b : job.inputs) need += static_cast<double>(pool.block(b).bytes);
+  for (BlockId o : job.outputs) need += static_cast<double>(pool.block(o).bytes);
+  // Where each input can get to, once for every device. An input no memory device holds
+  // yet is the output of a job still to run (a DAG): it is no obstacle, left empty.
+  std::vector<std::vector<bool>> reach(job.inputs.size());
+  for (std::size_t i = 0; i < job.inputs.size(); ++i) {
+    reach[i] = reachable(job.inputs[i], s);
+    if (std::find(reach[i].begin(), reach[i].end(), true) == reach[i].end()) reach[i].clear();
+  }
+  // Reasons by preference: the one of a device whose memory is big enough says more.
+  std::string too_small, blocked;
+  double largest = -1;
+  bool any_device = false;
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    if (!g.timing.supports(static_cast<DeviceId>(d), job.type)) continue;
+    any_device = true;
+    const MemId m = g.computes[d].memory;
+    const MemoryDevice& mem = g.memories[static_cast<std::size_t>(m)];
+    if (need > static_cast<double>(mem.capacity)) {
+      if (static_cast<double>(mem.capacity) > largest) {
+        largest = static_cast<double>(mem.capacity);
+        too_small = "its inputs and outputs need " + gb(need) + " in one memory device, and the largest that a device "
+                    "running " + type + " works from (" + mem.name + ") holds " + gb(largest);
+      }
+      continue;
+    }
+    std::string reason;
+    for (std::size_t i = 0; i < job.inputs.size(); ++i) {
+      const BlockId b = job.inputs[i];
+      if (s.copy_at(b, m)) continue;
+      const std::string& bn = pool.block(b).name;
+      if (!Placer::may_fetch(job, b, s)) {
+        reason = "input '" + bn + "' may not move (a framebuffer moves only for AdditiveCompose, Sec. 5.1) and is not on " + mem.name;
+        break;
+      }
+      if (!reach[i].empty() && !reach[i][static_cast<std::size_t>(m)]) {
+        reason = "no chain of channels, each hop with room for input '" + bn + "' (" +
+                 gb(static_cast<double>(pool.block(b).bytes)) + "), leads from its holders to " + mem.name;
+        break;
+      }
+    }
+    if (reason.empty()) return "";  // d could take it: the obstacle is what else is planned
+    if (blocked.empty()) blocked = "on " + g.computes[d].name + ": " + reason;
+  }
+  if (!any_device) return "no compute device of the platform runs job type " + type;
+  return blocked.empty() ? too_small : blocked;
+}
+
+JobId first_unplaceable(const JobPool& pool, const Schedule& s) {
+  for (JobId j : pool.queued())
+    if (!why_unplaceable(j, pool, s).empty()) return j;
+  return kNone;
+}
+
+std::string unplaced_summary(const JobPool& pool, const Schedule& s) {
+  std::string msg = std::to_string(pool.queued_count()) + " job(s) could not be placed on any device";
+  if (pool.queued_count() == 0) return msg;
+  const JobId first = first_unplaceable(pool, s);
+  const JobId j = first != kNone ? first : *pool.queued().begin();
+  const std::string why = first != kNone ? why_unplaceable(j, pool, s) : std::string();
+  return msg + "; job '" + pool.job(j).name + "': " +
+         (why.empty() ? "no device had room for its inputs next to the blocks that planned jobs keep" : why);
+}
+
+}  // namespace rayline

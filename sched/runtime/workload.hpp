@@ -1,0 +1,29 @@
+// The Workload seam (docs/architecture.md): turns finished jobs into new jobs. A static job set adds
+// everything at the start; the ray-batching and path-tracing workloads add jobs as rays
+// spawn rays (Sec. 3.1).
+#pragma once
+#include "sched/core/job_pool.hpp"
+#include "sched/timeline/schedule.hpp"
+
+namespace rayline {
+
+class Workload {
+ public:
+  virtual ~Workload() = default;
+  virtual void start(Time now, JobPool& pool, Schedule& schedule) = 0;
+  // An E-job finished at `now`; add the jobs (and blocks) it gives rise to.
+  virtual void on_job_finished(JobId job, Time now, JobPool& pool, Schedule& schedule) = 0;
+  // Called when nothing is in flight and nothing is queued: may add more (e.g. next frame).
+  virtual void on_idle(Time /*now*/, JobPool& /*pool*/, Schedule& /*schedule*/) {}
+  virtual bool finished() const = 0;
+};
+
+// All jobs known up front (rayline plan, tests). Blocks and jobs are already in the pool.
+class StaticWorkload final : public Workload {
+ public:
+  void start(Time, JobPool&, Schedule&) override {}
+  void on_job_finished(JobId, Time, JobPool&, Schedule&) override {}
+  bool finished() const override { return true; }
+};
+
+}  // namespace rayline

@@ -1,0 +1,167 @@
+#include "sched/sdc/fetch_bound.hpp"
+
+#include <algorithm>
+
+namespace rayline {
+
+FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
+  lat_.assign(n_ * n_, kNever);
+  inv_bw_.assign(n_ * n_, kNever);
+  for (std::size_t i = 0; i < n_; ++i) lat_[i * n_ + i] = inv_bw_[i * n_ + i] = 0;
+  for (const Channel& c : g.channels) {
+    const std::size_t k = static_cast<std::size_t>(c.from) * n_ + static_cast<std::size_t>(c.to);
+    lat_[k] = std::min(lat_[k], c.latency);
+    inv_bw_[k] = std::min(inv_bw_[k], 1.0 / c.bandwidth);
+  }
+  // Floyd-Warshall, twice (rows that cannot reach k yet are skipped: min(x, inf) = x; and
+  // d[i][k] does not change while row i is relaxed through k, as d[k][k] = 0).
+  auto relax = [n = n_](std::vector<double>& d) {
+    for (std::size_t k = 0; k < n; ++k) {
+      const double* dk = d.data() + k * n;
+      for (std::size_t i = 0; i < n; ++i) {
+        double* di = d.data() + i * n;
+        const double dik = di[k];
+        if (dik == kNever || i == k) continue;
+        for (std::size_t j = 0; j < n; ++j) di[j] = std::min(di[j], dik + dk[j]);
+      }
+    }
+  };
+  relax(lat_);
+  relax(inv_bw_);
+  relay_in_.resize(n_);
+  own_in_.resize(n_);
+  direct_to_.assign(n_ * n_, kNone);
+  for (std::size_t c = 0; c < g.channels.size(); ++c) {
+    const Channel& ch = g.channels[c];
+    ChannelId& d = direct_to_[static_cast<std::size_t>(ch.to) * n_ + static_cast<std::size_t>(ch.from)];
+    d = d == kNone ? static_cast<ChannelId>(c) : kSeveral;
+    bool relay = false;
+    for (ChannelId in : g.in_channels(ch.from)) relay = relay || g.channels[in].from != ch.to;
+    (relay ? relay_in_ : own_in_)[static_cast<std::size_t>(ch.to)].push_back(
+        {static_cast<ChannelId>(c), ch.from, g.memories[static_cast<std::size_t>(ch.from)].capacity, ch.latency, ch.bandwidth});
+  }
+  lat_to_.resize(n_ * n_);
+  inv_bw_to_.resize(n_ * n_);
+  for (std::size_t i = 0; i < n_; ++i)
+    for (std::size_t j = 0; j < n_; ++j) {
+      lat_to_[j * n_ + i] = lat_[i * n_ + j];
+      inv_bw_to_[j * n_ + i] = inv_bw_[i * n_ + j];
+    }
+}
+
+void FetchBound::add_slot(BlockId b) const {
+  const auto bi = static_cast<std::size_t>(b);
+  if (bi >= slot_of_block_.size()) slot_of_block_.resize(std::max(2 * slot_of_block_.size(), bi + 1), -1);
+  if (slot_of_block_[bi] < 0) {
+    slot_of_block_[bi] = static_cast<std::int32_t>(memos_.size() / n_);
+    memos_.resize(memos_.size() + n_);
+  }
+}
+
+
+std::uint64_t FetchBound::channel_stamp(const Schedule& s, ChannelId c) const {
+  std::uint64_t v = 0;
+  for (ResourceId r : s.graph().channels[static_cast<std::size_t>(c)].resources) v += s.resource_version(r);
+  return v;
+}
+
+// Within a planning pass every term of the minimum only grows (channels get busier, the
+// holders term is fixed while the holders are): while the attaining channel is unchanged,
+// so is the minimum.
+Time FetchBound::lower_bound(const Schedule& s, BlockId b, MemId m, Time now) const {
+  Memo& e = memo(b, m).lower;
+  const std::uint64_t hv = s.holders_version(b);
+  if (e.epoch == epoch_ && e.holders == hv && (e.arg == kNone || e.in == channel_stamp(s, e.arg))) return e.value;
+  ChannelId arg = kNone;
+  e.value = lower_bound_uncached(s, b, m, now, true, &arg);
+  e.holders = hv;
+  e.arg = arg;
+  e.in = arg == kNone ? 0 : channel_stamp(s, arg);
+  e.epoch = epoch_;
+  return e.value;
+}
+
+Time FetchBound::lower_bound_once(const Schedule& s, BlockId b, MemId m, Time now) const {
+  return lower_bound_uncached(s, b, m, now, false);
+}
+
+Time FetchBound::lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now, bool memoised_holders,
+                                      ChannelId* arg) const {
+  if (const Copy* c = s.copy_at(b, m)) return std::max(now, s.copy_ready(*c));
+  const DeviceGraph& g = s.graph();
+  const Bytes bytes = s.pool().block(b).bytes;
+  Time best = kNever;
+  for (ChannelId c : g.in_channels(m)) {
+    // A hop whose start bound + T_LAT already does not beat the minimum is skipped before
+    // the holders term and Eq. 1's division: |w|/T_BW >= 0 and rounding is monotone, so
+    // its sum would not beat it either (the minimum and its channel are bit-identical).
+    const Channel& ch = g.channels[static_cast<std::size_t>(c)];
+    const Time finish = s.channel_finish(c);
+    if (!(finish + ch.latency < best)) continue;
+    const Time at_src = memoised_holders ? holders_bound(s, b, ch.from, now) : holders_bound_uncached(s, b, ch.from, now);
+    if (at_src == kNever) continue;
+    const Time start = std::max(at_src, finish);
+    if (!(start + ch.latency < best)) continue;
+    const Time t = start + g.transfer_time(c, bytes);
+    if (t < best) {
+      best = t;
+      if (arg) *arg = c;
+    }
+  }
+  return best;
+}
+
+Time FetchBound::direct_upper_bound(const Schedule& s, BlockId b, MemId m, Time now) const {
+  if (const Copy* c = s.copy_at(b, m)) return std::max(now, s.copy_ready(*c));
+  const DeviceGraph& g = s.graph();
+  const Bytes bytes = s.pool().block(b).bytes;
+  Time best = kNever;
+  for (const Copy& h : s.copies(b))
+    for (ChannelId c : g.out_channels(h.mem)) {
+      const MemId p = g.channels[c].to;
+      if (s.copy_at(b, p)) continue;  // a holder takes no second copy (as in SDC)
+      const Time t1 = std::max({now, s.copy_ready(h), s.channel_finish(c)}) + g.transfer_time(c, bytes);
+      if (p == m) {
+        best = std::min(best, t1);
+        continue;
+      }
+      if (t1 >= best || g.memories[p].capacity < bytes) continue;
+      for (ChannelId c2 : g.out_channels(p))
+        if (g.channels[c2].to == m) best = std::min(best, std::max(t1, s.channel_finish(c2)) + g.transfer_time(c2, bytes));
+    }
+  return best;
+}
+
+Time FetchBound::last_hop_floor(const Schedule& s, BlockId b, MemId m) const {
+  const double w = static_cast<double>(s.pool().block(b).bytes);
+  Time best = kNever;
+  auto term = [&](const Relay& r) {
+    if (const Time t = r.lands_before(s.channel_finish(r.channel), w, best); t < best) best = t;
+  };
+  for (const Relay& r : relay_in_[static_cast<std::size_t>(m)]) term(r);
+  // A holder's own channel into m that is no relay channel (from m's GPU memory or disk).
+  for (const Relay& r : own_in_[static_cast<std::size_t>(m)])
+    if (s.copy_at(b, r.from)) term(r);
+  return best;
+}
+
+Time FetchBound::holders_bound_fill(const Schedule& s, BlockId b, MemId m, Time now, Memo& e, std::uint64_t hv) const {
+  e.value = holders_bound_uncached(s, b, m, now);
+  e.holders = hv;
+  e.epoch = epoch_;
+  return e.value;
+}
+
+Time FetchBound::holders_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now) const {
+  const double bytes = static_cast<double>(s.pool().block(b).bytes);
+  Time best = kNever;
+  for (const Copy& c : s.copies(b)) {
+    const Time ready = std::max(now, s.copy_ready(c));
+    if (c.mem == m) return ready;
+    const std::size_t k = static_cast<std::size_t>(c.mem) * n_ + static_cast<std::size_t>(m);
+    best = std::min(best, ready + lat_[k] + bytes * inv_bw_[k]);
+  }
+  return best;
+}
+
+}  // namespace rayline

@@ -1,0 +1,544 @@
+#include "sched/timeline/schedule.hpp"
+
+#include <algorithm>
+#include <array>
+#include <iterator>
+#include <span>
+#include <stdexcept>
+
+namespace rayline {
+
+namespace {
+}
+
+Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
+    : graph_(&graph),
+      pool_(&pool),
+      device_tl_(graph.computes.size()),
+      resource_tl_(graph.resources.size()),
+      channel_finish_(graph.channels.size(), 0.0),
+      resource_version_(graph.resources.size(), 0),
+      memory_version_(graph.memories.size(), 0),
+      used_(graph.memories.size(), 0),
+      device_pending_(graph.computes.size(), 0) {
+  resource_channels_first_.assign(graph.resources.size() + 1, 0);
+  for (const Channel& c : graph.channels)
+    for (ResourceId r : c.resources) ++resource_channels_first_[static_cast<std::size_t>(r) + 1];
+  for (std::size_t r = 0; r < graph.resources.size(); ++r) resource_channels_first_[r + 1] += resource_channels_first_[r];
+  resource_channels_.resize(static_cast<std::size_t>(resource_channels_first_.back()));
+  std::vector<std::int32_t> fill(resource_channels_first_.begin(), resource_channels_first_.end() - 1);
+  for (std::size_t c = 0; c < graph.channels.size(); ++c)
+    for (ResourceId r : graph.channels[c].resources) resource_channels_[static_cast<std::size_t>(fill[static_cast<std::size_t>(r)]++)] = static_cast<ChannelId>(c);
+}
+
+// Same arithmetic as before the cache: max(0, busy_until of each resource in order).
+void Schedule::resource_busy_changed(ResourceId r) {
+  const auto first = static_cast<std::size_t>(resource_channels_first_[static_cast<std::size_t>(r)]);
+  const auto last = static_cast<std::size_t>(resource_channels_first_[static_cast<std::size_t>(r) + 1]);
+  for (std::size_t k = first; k < last; ++k) {
+    const ChannelId c = resource_channels_[k];
+    Time t = 0;
+    for (ResourceId q : graph_->channels[c].resources) t = std::max(t, resource_tl_[q].busy_until);
+    channel_finish_[static_cast<std::size_t>(c)] = t;
+  }
+}
+
+void Schedule::resource_busy_raised(ResourceId r, Time t) {
+  const auto first = static_cast<std::size_t>(resource_channels_first_[static_cast<std::size_t>(r)]);
+  const auto last = static_cast<std::size_t>(resource_channels_first_[static_cast<std::size_t>(r) + 1]);
+  for (std::size_t k = first; k < last; ++k) {
+    Time& f = channel_finish_[static_cast<std::size_t>(resource_channels_[k])];
+    f = std::max(f, t);
+  }
+}
+
+Copy* Schedule::mutable_copy(BlockId b, MemId m) {
+  return const_cast<Copy*>(static_cast<const Schedule*>(this)->copy_at(b, m));
+}
+
+void Schedule::add_copy(BlockId b, Copy c) {
+  if (static_cast<std::size_t>(b) >= copies_.size()) {
+    copies_.resize(pool_->block_count());
+    holders_version_.resize(pool_->block_count(), 0);
+    holder_mask_.resize(pool_->block_count(), 0);
+  }
+  if (copy_at(b, c.mem)) throw std::logic_error("block already on that memory device: " + pool_->block(b).name);
+  used_[c.mem] += pool_->block(b).bytes;
+  ++memory_version_[c.mem];
+  ++holders_version_[b];
+  if (static_cast<std::uint32_t>(c.mem) < 64u) holder_mask_[static_cast<std::size_t>(b)] |= std::uint64_t{1} << c.mem;
+  copies_[b].push_back(std::move(c));
+}
+
+void Schedule::put_initial(BlockId b, MemId m, Time ready, bool origin) {
+  Copy c;
+  c.mem = m;
+  c.initial_ready = ready;
+  c.origin = origin;
+  add_copy(b, std::move(c));
+}
+
+// Capacity: eviction is a decision the plan makes and can explain. Candidates,
+// cheapest first:
+//   1. bytes already leaving m at a planned time (a consumed ray queue, a queue moved on);
+//   2. cached copies nobody queued wants any more (next use = never: Belady's first pick);
+//   3. cached copies wanted by fewer queued jobs.
+// Within a class the copy whose last planned use ends first goes first (it frees soonest).
+// Candidates are taken in that order until the room suffices; then any taken one the rest
+// make unnecessary is given back, latest first (a leaving entry that
+// frees late, taken before a victim that alone suffices, only delayed the data, and a
+// small victim taken before a large one was evicted for nothing).
+// Room is handed over only as far as needed: what a leaving entry or the last victim frees
+// beyond the need stays reserved until the activities that free it end, and whoever counts
+// on it later waits for them too (before, it was free at once, so a later fetch could
+// start while the evicted copy was still in use: over capacity once reality ran late).
+// Never evicted: a block's origin copy, ray queues (unique data), the job's own inputs.
+Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<BlockId>& keep) const {
+  Admission adm;
+  const Bytes cap = graph_->memories[m].capacity;
+  if (bytes > cap) {
+    adm.at = kNever;
+    return adm;
+  }
+  // Nothing to place: nothing to evict (even on an overfull device).
+  if (bytes == 0) return adm;
+  // used_ may exceed the capacity: data put in place by a workload (new ray queues) is
+  // not admitted; the difference must then be freed first (signed arithmetic).
+  if (used_[m] <= cap && cap - used_[m] >= bytes) return adm;
+  constexpr std::uint32_t kCopy = ~std::uint32_t{0};
+  struct Cand { int value; Time at; Bytes bytes; BlockId block; std::uint32_t leaving; };
+  std::vector<Cand> cands;
+  for (std::uint32_t i = 0; i < leaving_.size(); ++i)
+    if (leaving_[i].mem == m) cands.push_back({-1, leaving_at(leaving_[i]), leaving_[i].bytes, leaving_[i].block, i});
+  for (std::size_t b = 0; b < copies_.size(); ++b) {
+    const DataBlock& blk = pool_->block(static_cast<BlockId>(b));
+    if (blk.consumed || !blk.movable) continue;
+    if (std::find(keep.begin(), keep.end(), static_cast<BlockId>(b)) != keep.end()) continue;
+    for (const Copy& c : copies_[b]) {
+      if (c.mem != m || c.origin) continue;
+      // The last copy of a block the queue still wants is data, not cache.
+      if (copies_[b].size() == 1 && pool_->queued_demand(static_cast<BlockId>(b)) > 0) continue;
+      Time at = copy_ready(c);
+      for (ActivityId u : c.users) at = std::max(at, end_of(u));
+      cands.push_back({pool_->queued_demand(static_cast<BlockId>(b)), at, blk.bytes, static_cast<BlockId>(b), kCopy});
+    }
+  }
+  const bool lru = eviction_policy_ == EvictionPolicy::Lru;
+  std::sort(cands.begin(), cands.end(), [lru](const Cand& a, const Cand& b) {
+    if (!lru && a.value != b.value) return a.value < b.value;
+    if (lru && (a.value < 0) != (b.value < 0)) return a.value < 0;  // leaving bytes are free either way
+    if (a.at != b.at) return a.at < b.at;
+    return a.block < b.block;
+  });
+  const auto free0 = static_cast<std::int64_t>(cap) - static_cast<std::int64_t>(used_[m]);
+  const auto want = static_cast<std::int64_t>(bytes);
+  // Candidates in that order until the room suffices, then those no longer needed dropped,
+  // the one that frees last first: a late leaving entry taken before a victim that alone
+  // suffices would only delay the incoming data.
+  std::vector<std::uint32_t> chosen;
+  std::int64_t free = free0;
+  for (std::uint32_t i = 0; i < cands.size() && free < want; ++i) {
+    free += static_cast<std::int64_t>(cands[i].bytes);
+    chosen.push_back(i);
+  }
+  if (free < want) {
+    adm.at = kNever;
+    return adm;
+  }
+  if (chosen.size() > 1) {
+    std::vector<std::uint32_t> by_late(chosen);
+    std::stable_sort(by_late.begin(), by_late.end(), [&](std::uint32_t a, std::uint32_t b) { return cands[a].at > cands[b].at; });
+    for (std::uint32_t i : by_late)
+      if (free - static_cast<std::int64_t>(cands[i].bytes) >= want) {
+        free -= static_cast<std::int64_t>(cands[i].bytes);
+        std::erase(chosen, i);
+      }
+  }
+  // Every candidate left is needed, so only the last one can free more than the need.
+  free = free0;
+  for (std::uint32_t i : chosen) {
+    const Cand& c = cands[i];
+    const std::int64_t need = want - free;
+    free += static_cast<std::int64_t>(c.bytes);
+    adm.at = std::max(adm.at, c.at);
+    if (c.leaving != kCopy) {
+      // Only the bytes needed change hands; the rest of the entry stays reserved until its
+      // activities end, so no later admission counts on it without waiting for them too.
+      const Leaving& l = leaving_[c.leaving];
+      adm.wait_for.insert(adm.wait_for.end(), l.after.begin(), l.after.end());
+      adm.taken.push_back({c.leaving, c.block, static_cast<Bytes>(std::min<std::int64_t>(need, static_cast<std::int64_t>(c.bytes)))});
+    } else {
+      adm.victims.emplace_back(c.block, m);
+      adm.victim_at.push_back(c.at);
+      const Copy* cp = copy_at(c.block, m);
+      if (cp->producer != kNone) adm.wait_for.push_back(cp->producer);
+      adm.wait_for.insert(adm.wait_for.end(), cp->users.begin(), cp->users.end());
+      if (free > want) adm.victim_surplus = static_cast<Bytes>(free - want);
+    }
+  }
+  return adm;
+}
+
+void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const std::string& reason) {
+  auto& v = copies_[b];
+  auto it = std::find_if(v.begin(), v.end(), [m](const Copy& c) { return c.mem == m; });
+  if (it == v.end()) throw std::logic_error("evicting a copy that is not there");
+  std::vector<ActivityId> after(it->users.begin(), it->users.end());
+  if (it->producer != kNone) {
+    after.push_back(it->producer);
+    if (!it->users.empty()) evicted_readers_[it->producer].append(it->users.begin(), it->users.end());
+  }
+  used_[m] -= pool_->block(b).bytes;
+  v.erase(it);
+  ++holders_version_[b];
+  forget_holder(b, m);
+  ++memory_version_[m];
+  evictions_.push_back({b, m, at, for_activity, pool_->queued_demand(b), reason, std::move(after)});
+}
+
+// Belady-style explanation: the victim had no (or the least) queued demand, i.e. its next
+// use is the farthest we know of; its last planned use ends by `adm.at`.
+template <class What>
+void Schedule::apply_evictions(const Admission& adm, MemId m, ActivityId for_activity, const What& what) {
+  for (std::size_t i = 0; i < adm.victims.size(); ++i) {
+    const auto [vb, vm] = adm.victims[i];
+    const Time at = i < adm.victim_at.size() ? adm.victim_at[i] : adm.at;
+    evict(vb, vm, at, for_activity,
+          "room for " + what() + "; victim wanted by " + std::to_string(pool_->queued_demand(vb)) +
+              " queued job(s), last planned use ends by t=" + std::to_string(at) + " s");
+  }
+  // Leaving bytes the incoming data counts on: handed over (their room now belongs to it,
+  // from `adm.at` on, and the activity waits for the ones that free it).
+  bool emptied = false;
+  for (const Admission::Taken& t : adm.taken) {
+    Leaving& l = leaving_[t.leaving];
+    if (l.mem != m || l.block != t.block || l.bytes < t.bytes)
+      throw std::logic_error("an admission applied to a schedule that changed since it was made");
+    l.bytes -= t.bytes;
+    used_[m] -= t.bytes;
+    emptied = emptied || l.bytes == 0;
+  }
+  if (emptied) std::erase_if(leaving_, [m](const Leaving& l) { return l.mem == m && l.bytes == 0; });
+  // The last victim's room beyond the need is free only once its producer and users end.
+  if (adm.victim_surplus > 0 && !adm.victims.empty()) {
+    const Eviction& e = evictions_.back();
+    Leaving l{e.block, e.mem, {}, adm.victim_surplus};
+    for (ActivityId a : e.after)
+      if (acts_[a].state != ActivityState::Done) l.after.push_back(a);
+    if (!l.after.empty()) {
+      used_[e.mem] += l.bytes;
+      leaving_.push_back(std::move(l));
+    }
+  }
+}
+
+Time Schedule::leaving_at(const Leaving& l) const {
+  Time t = 0;
+  for (ActivityId a : l.after) t = std::max(t, end_of(a));
+  return t;
+}
+
+void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
+  auto& v = copies_[b];
+  auto it = std::find_if(v.begin(), v.end(), [m](const Copy& c) { return c.mem == m; });
+  if (it == v.end()) throw std::logic_error("dropping a copy that is not there");
+  v.erase(it);
+  ++holders_version_[b];
+  forget_holder(b, m);
+  leaving_.push_back({b, m, {}, pool_->block(b).bytes});
+  leaving_.back().after.push_back(leaving_with);
+}
+
+
+ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time not_before, const Admission& adm) {
+  const Channel& ch = graph_->channels[c];
+  const Copy* src = copy_at(b, ch.from);
+  if (!src) throw std::logic_error("transfer source holds no copy of " + pool_->block(b).name);
+  if (copy_at(b, ch.to)) throw std::logic_error("transfer destination already holds " + pool_->block(b).name);
+  if (adm.at == kNever) throw std::logic_error("transfer committed without room at the destination");
+  const DataBlock& blk = pool_->block(b);
+  const auto id = static_cast<ActivityId>(acts_.size());
+  Activity a;
+  a.kind = ActivityKind::Transfer;
+  a.job = for_job;
+  a.block = b;
+  a.channel = c;
+  a.bytes = blk.bytes;
+  a.move = blk.consumed;  // Sec. 5.1: ray queues move (and merge on arrival), scene data is copied
+  a.duration = graph_->transfer_time(c, blk.bytes);  // Eq. 1
+  // Eq. 3: the hop starts when the data is at the source and the channel is free.
+  const Time start = std::max({not_before, copy_ready(*src), channel_finish(c), adm.at});
+  a.start = a.planned_start = start;
+  a.end = a.planned_end = start + a.duration;
+  // Sizes known up front: at most one allocation, and none for a short list.
+  a.deps.reserve((src->producer != kNone ? 1 : 0) + adm.wait_for.size());
+  std::size_t prev = 0;
+  for (ResourceId r : ch.resources) prev += resource_tl_[r].items.empty() ? 0 : 1;
+  a.timeline_prev.reserve(prev);
+  if (src->producer != kNone) a.deps.push_back(src->producer);
+  a.deps.append(adm.wait_for.begin(), adm.wait_for.end());
+  for (ResourceId r : ch.resources) {
+    Timeline& tl = resource_tl_[r];
+    if (!tl.items.empty()) a.timeline_prev.push_back(tl.items.back());
+    tl.items.push_back(id);
+    tl.busy_until = a.end;
+    ++resource_version_[r];
+  }
+  // (start >= FinishTime(c) >= every busy_until on c, so each was raised to a.end.)
+  for (ResourceId r : ch.resources) resource_busy_raised(r, a.end);
+  acts_.push_back(std::move(a));
+  pending_.push_back(id);
+  ++unfinished_;
+  if (for_job >= 0) {
+    if (static_cast<std::size_t>(for_job) >= job_transfers_.size()) job_transfers_.resize(static_cast<std::size_t>(for_job) + 1);
+    job_transfers_[static_cast<std::size_t>(for_job)].push_back(id);
+  }
+  apply_evictions(adm, ch.to, id, [&] { return blk.name + " (" + std::to_string(blk.bytes) + " B)"; });
+  if (blk.consumed) {
+    drop_copy_later(b, ch.from, id);
+  } else {
+    mutable_copy(b, ch.from)->users.push_back(id);
+  }
+  Copy dst;
+  dst.mem = ch.to;
+  dst.producer = id;
+  add_copy(b, std::move(dst));
+  return id;
+}
+
+ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Admission& out_adm) {
+  const Job& job = pool_->job(j);
+  const MemId m = graph_->computes[d].memory;
+  if (out_adm.at == kNever) throw std::logic_error("E-job committed without room for its outputs");
+  const auto id = static_cast<ActivityId>(acts_.size());
+  Activity a;
+  a.kind = ActivityKind::Exec;
+  a.job = j;
+  a.device = d;
+  // Eq. 2's input sizes (on the stack for the usual few inputs).
+  std::array<InputSize, 8> few;
+  std::vector<InputSize> many;
+  std::size_t n_sizes = 0;
+  Time ready = 0;
+  a.deps.reserve(job.inputs.size() + job.after.size() + out_adm.wait_for.size());  // (at most that many)
+  for (BlockId b : job.inputs) {
+    const Copy* c = copy_at(b, m);
+    if (!c) throw std::logic_error("E-job committed before input " + pool_->block(b).name + " is on its memory");
+    ready = std::max(ready, copy_ready(*c));
+    if (c->producer != kNone) a.deps.push_back(c->producer);
+    const InputSize sz{pool_->block(b).kind, pool_->block(b).bytes};
+    if (n_sizes < few.size()) {
+      few[n_sizes] = sz;
+    } else {
+      if (many.empty()) many.assign(few.begin(), few.end());
+      many.push_back(sz);
+    }
+    ++n_sizes;
+  }
+  for (JobId p : job.after) {
+    const ActivityId pa = pool_->activity(p);
+    if (pa == kNone) throw std::logic_error("E-job committed before a job it must follow");
+    a.deps.push_back(pa);
+    ready = std::max(ready, acts_[pa].end);
+  }
+  a.deps.append(out_adm.wait_for.begin(), out_adm.wait_for.end());
+  ready = std::max(ready, out_adm.at);
+  a.data_ready = ready;
+  const std::span<const InputSize> sizes = n_sizes <= few.size() ? std::span<const InputSize>(few.data(), n_sizes)
+                                                                  : std::span<const InputSize>(many);
+  a.duration = graph_->timing.exec_time(d, job.type, sizes);  // Eq. 2
+  a.setup = a.duration > 0 ? graph_->timing.setup_time(d, job.type) : 0;
+  Timeline& tl = device_tl_[d];
+  const Time start = std::max({not_before, tl.busy_until, ready});
+  a.start = a.planned_start = start;
+  a.end = a.planned_end = start + a.duration;
+  if (!tl.items.empty()) a.timeline_prev.push_back(tl.items.back());
+  tl.items.push_back(id);
+  tl.busy_until = a.end;
+  acts_.push_back(std::move(a));
+  pending_.push_back(id);
+  ++unfinished_;
+  ++device_pending_[d];
+  apply_evictions(out_adm, m, id, [&] { return "outputs of " + job.name; });
+  for (BlockId b : job.inputs) {
+    if (pool_->block(b).consumed) drop_copy_later(b, m, id);
+    else mutable_copy(b, m)->users.push_back(id);
+  }
+  for (BlockId o : job.outputs) {
+    Copy c;
+    c.mem = m;
+    c.producer = id;
+    add_copy(o, std::move(c));
+  }
+  return id;
+}
+
+const ActivityList& Schedule::transfers_for(JobId j) const {
+  static const ActivityList kNoTransfers;
+  return j >= 0 && static_cast<std::size_t>(j) < job_transfers_.size() ? job_transfers_[static_cast<std::size_t>(j)]
+                                                                         : kNoTransfers;
+}
+
+void Schedule::forget_user(Copy* c, ActivityId a) {
+  if (c) c->users.erase(a);
+}
+
+// The copy of b on m that `producer` makes leaves the plan now; its bytes stay reserved
+// until `producer` ends (a Leaving entry), so no later admission counts on room that the
+// producer's own evictions free only once their users are done. A copy evicted since
+// (or replaced by another producer's) is left alone. False: a live activity still uses it.
+bool Schedule::withdraw_copy(BlockId b, MemId m, ActivityId producer) {
+  auto& v = copies_[b];
+  auto it = std::find_if(v.begin(), v.end(), [&](const Copy& c) { return c.mem == m && c.producer == producer; });
+  if (it == v.end()) return true;
+  if (!it->users.empty()) return false;
+  v.erase(it);
+  ++holders_version_[b];
+  forget_holder(b, m);
+  ++memory_version_[m];
+  leaving_.push_back({b, m, {}, pool_->block(b).bytes});
+  leaving_.back().after.push_back(producer);
+  return true;
+}
+
+bool Schedule::read_after_eviction(ActivityId producer) const {
+  const auto it = evicted_readers_.find(producer);
+  if (it == evicted_readers_.end()) return false;
+  for (ActivityId u : it->second)
+    if (!acts_[u].cancelled) return true;
+  return false;
+}
+
+bool Schedule::cancel(ActivityId id) {
+  Activity& a = acts_[id];
+  if (a.state != ActivityState::Planned || a.cancelled) return false;
+  auto unused = [&](BlockId b, MemId m) {
+    const Copy* c = copy_at(b, m);
+    return (!c || c->producer != id || c->users.empty()) && !read_after_eviction(id);
+  };
+  if (a.kind == ActivityKind::Transfer) {
+    const Channel& ch = graph_->channels[a.channel];
+    if (a.move || !unused(a.block, ch.to)) return false;
+    withdraw_copy(a.block, ch.to, id);
+    forget_user(mutable_copy(a.block, ch.from), id);
+    for (ResourceId r : ch.resources) ++resource_version_[r];
+  } else {
+    const Job& job = pool_->job(a.job);
+    const MemId m = graph_->computes[a.device].memory;
+    for (BlockId b : job.inputs)
+      if (pool_->block(b).consumed) return false;
+    for (BlockId o : job.outputs)
+      if (!unused(o, m)) return false;
+    for (BlockId o : job.outputs) withdraw_copy(o, m, id);
+    for (BlockId b : job.inputs) forget_user(mutable_copy(b, m), id);
+  }
+  a.cancelled = true;
+  a.duration = a.setup = 0;
+  a.end = a.start;
+  return true;
+}
+
+bool Schedule::retime(ActivityId id, Time duration) {
+  Activity& a = acts_[id];
+  if (a.kind != ActivityKind::Exec || a.state != ActivityState::Planned || a.cancelled) return false;
+  a.duration = duration;
+  a.setup = std::min(a.setup, duration);
+  a.end = a.start + duration;
+  Timeline& tl = device_tl_[a.device];
+  if (!tl.items.empty() && tl.items.back() == id) tl.busy_until = a.end;
+  return true;
+}
+
+Schedule::CancelCount Schedule::cancel_job(JobId j) {
+  CancelCount n;
+  const ActivityId e = pool_->activity(j);
+  if (e != kNone && cancel(e)) ++n.execs;
+  const ActivityList& ts = transfers_for(j);
+  for (auto it = std::make_reverse_iterator(ts.end()); it != std::make_reverse_iterator(ts.begin()); ++it) {
+    if (acts_[*it].cancelled) continue;
+    if (cancel(*it)) {
+      ++n.transfers;
+      n.bytes += acts_[*it].bytes;
+    } else {
+      ++n.kept_transfers;
+    }
+  }
+  return n;
+}
+
+Time Schedule::inputs_ready_at(JobId j, MemId m) const {
+  Time t = 0;
+  for (BlockId b : pool_->job(j).inputs) {
+    const Copy* c = copy_at(b, m);
+    if (!c) return kNever;
+    t = std::max(t, copy_ready(*c));
+  }
+  return t;
+}
+
+void Schedule::on_started(ActivityId id, Time t) {
+  Activity& a = acts_[id];
+  a.state = ActivityState::Running;
+  a.start = t;
+  a.end = std::max(a.end, t);
+}
+
+void Schedule::on_finished(ActivityId id, Time t) {
+  Activity& a = acts_[id];
+  if (a.state == ActivityState::Done) return;
+  if (a.state == ActivityState::Planned) a.start = t;
+  a.state = ActivityState::Done;
+  a.end = t;
+  --unfinished_;
+  if (a.kind == ActivityKind::Exec) --device_pending_[a.device];
+  std::size_t w = 0;
+  for (std::size_t r = 0; r < leaving_.size(); ++r) {
+    Leaving& l = leaving_[r];
+    if (std::find(l.after.begin(), l.after.end(), id) != l.after.end()) {
+      l.after.erase(id);
+      if (l.after.empty()) {  // every activity it waited for has ended: the room is free
+        used_[l.mem] -= l.bytes;
+        ++memory_version_[l.mem];
+        continue;
+      }
+    }
+    if (w != r) leaving_[w] = std::move(l);
+    ++w;
+  }
+  leaving_.resize(w);
+}
+
+void Schedule::reproject(Time now) {
+  // Over the activities not done yet, in id order (a dependency and a timeline predecessor
+  // always have a smaller id), dropping the ones that finished since the last call.
+  // Activities finish out of commit order, so "everything after the oldest unfinished
+  // one" held ~10^5 finished ones in a long path-tracing run, walked after every event.
+  std::size_t w = 0;
+  for (std::size_t r = 0; r < pending_.size(); ++r) {
+    const ActivityId id = pending_[r];
+    Activity& a = acts_[id];
+    if (a.state == ActivityState::Done) continue;
+    pending_[w++] = id;
+    if (a.state == ActivityState::Running) {
+      a.end = std::max(now, a.start + a.duration);
+      continue;
+    }
+    Time s = now;
+    for (ActivityId p : a.deps) s = std::max(s, acts_[p].end);
+    for (ActivityId p : a.timeline_prev) s = std::max(s, acts_[p].end);
+    a.start = s;
+    a.end = s + a.duration;
+  }
+  pending_.resize(w);
+  for (Timeline& tl : device_tl_)
+    tl.busy_until = tl.items.empty() ? 0 : acts_[tl.items.back()].end;
+  for (std::size_t r = 0; r < resource_tl_.size(); ++r) {
+    Timeline& tl = resource_tl_[r];
+    const Time nb = tl.items.empty() ? 0 : acts_[tl.items.back()].end;
+    if (nb != tl.busy_until) ++resource_version_[r];
+    tl.busy_until = nb;
+    resource_busy_changed(static_cast<ResourceId>(r));
+  }
+}
+
+}  // namespace rayline

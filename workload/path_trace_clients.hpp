@@ -1,0 +1,61 @@
+// Clients of the path-tracing workload (Sec. 6): "a number of client processes ...
+// request a scene along predefined camera movements, feeding an image request in a
+// frame-by-frame manner". Each client renders one frame at a time: the frame's primary
+// rays are generated in waves (GenerateRays jobs) while the client has fewer than
+// `inflight_rays` rays alive, and its next frame is requested when AdditiveCompose has
+// delivered the last one. Frame f of client c uses camera keyframe (c + f) mod K, so
+// clients look at different parts of the scene.
+//
+// Pixel accounting (conservation without per-ray state): a frame is tiles_x x tiles_y
+// tiles; a frame's primary samples are units (pass s, tile t) of tile_pixels(t) rays, in
+// pass-major order; a wave is a run of consecutive units of about wave_rays rays. Every
+// count the workload carries is per (frame, tile, bounce), so "every pixel gets spp
+// samples" is checked exactly per tile.
+#pragma once
+#include <cstdint>
+#include <map>
+#include <vector>
+
+#include "workload/scene_profile.hpp"
+#include "sched/core/types.hpp"
+
+namespace rayline {
+
+// A count of rays (or samples) per key; keys pack (frame uid, tile, bounce). Sorted.
+using RayCounts = std::vector<std::pair<std::uint64_t, std::uint64_t>>;
+inline std::uint64_t ray_key(std::uint32_t frame, int tile, int bounce) {
+  return (static_cast<std::uint64_t>(frame) << 20) | (static_cast<std::uint64_t>(tile) << 8) | static_cast<std::uint64_t>(bounce);
+}
+inline std::uint32_t key_frame(std::uint64_t k) { return static_cast<std::uint32_t>(k >> 20); }
+inline int key_tile(std::uint64_t k) { return static_cast<int>((k >> 8) & 0xFFF); }
+inline int key_bounce(std::uint64_t k) { return static_cast<int>(k & 0xFF); }
+std::uint64_t total(const RayCounts& c);
+void merge_into(RayCounts& into, const RayCounts& add);  // keeps keys sorted, sums counts
+void add_count(RayCounts& c, std::uint64_t key, std::uint64_t n);  // append-or-add (any order; call normalize after)
+void normalize(RayCounts& c);
+
+struct FrameState {
+  int client = 0;
+  int index = 0;                     // along the client's camera path
+  int keyframe = 0;
+  std::uint64_t units_total = 0, next_unit = 0;
+  int generate_pending = 0;          // GenerateRays jobs not finished
+  std::uint64_t alive = 0;           // rays and hit records not yet ended (incl. unissued waves' none)
+  std::uint64_t records_pending = 0; // sample records not yet accumulated
+  std::map<MemId, std::vector<std::uint64_t>> partial;  // per memory: samples per tile accumulated there
+  bool composing = false, delivered = false;
+  Time requested = 0, delivered_at = 0;
+  std::vector<std::uint64_t> delivered_samples;  // per tile, summed over the partial framebuffers
+};
+
+struct ClientState {
+  MemId memory = kNone;       // where its framebuffer is (the compose destination)
+  std::int32_t framebuffer = kNone;  // BlockId of its framebuffer
+  std::int64_t frame = -1;    // uid of its current frame (index into frames), -1: none
+  int frames_done = 0;
+};
+
+// The next wave of a frame: per-tile ray counts at bounce 0, advancing next_unit.
+RayCounts next_wave(const SceneProfile& p, std::uint32_t frame_uid, FrameState& f);
+
+}  // namespace rayline

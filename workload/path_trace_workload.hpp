@@ -1,0 +1,153 @@
+// The path-tracing workload (Sec. 3.1, 5, 6) on a scene profile: N clients request frames
+// along a camera path; the jobs of Fig. 3 (path_trace_graph.hpp) appear as rays spawn rays;
+// a RayFlowModel (analytic | markov | replay) says where each batch's rays go; optional job
+// prediction (Sec. 5.2, JobPredictor) adds the likely next jobs early so GMB can prefetch.
+// Scene blocks: a full copy on every disk (Sec. 6.1).
+//
+// Conservation (tests/sched/test_path_trace_conservation.cpp): rays created (primary +
+// secondary + shadow) = rays ended (hit + escaped + occluded + lit), and every delivered
+// frame has exactly spp samples per pixel (checked per tile: samples summed over the
+// partial framebuffers that AdditiveCompose brings to the client = spp x tile pixels).
+#pragma once
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "sched/core/device_graph.hpp"
+#include "workload/job_predictor.hpp"
+#include "workload/path_trace_clients.hpp"
+#include "workload/path_trace_graph.hpp"
+#include "workload/path_trace_model.hpp"
+#include "sched/runtime/workload.hpp"
+
+namespace rayline {
+
+struct PathTraceOptions {
+  int clients = 1;
+  int prediction_depth = 0;    // 0: no prediction
+  Fidelity fidelity = Fidelity::Markov;
+  std::shared_ptr<ReplayLog> replay;  // required for Fidelity::Replay
+  ReplayLog* record = nullptr;        // when set, every split is recorded (a replay log)
+  int frames_per_client = 0;          // 0: frame after frame until the run ends
+  Time stop_new_frames = kNever;      // no new frame requests after this time
+  MemId client_memory = kNone;        // default: the first host memory of the platform
+  std::uint64_t seed = 1;
+  // Rays arriving where a planned (not yet started) job holds a queue of the same kind and
+  // block join it, so that E-job runs longer than planned (see add_queue). Off: they
+  // wait in the global queue for a new job (Sec. 5.1 read strictly: merge into *queued* jobs).
+  bool merge_planned = true;
+  // ... and the planned E-job is re-timed for its grown queue (Schedule::retime), so the
+  // timelines GMB plans on stay true. Off: it runs longer than planned, unannounced.
+  bool retime_merged = true;
+  // A planned prediction that failed is withdrawn with its T-jobs (Sec. 5.2, Schedule::
+  // cancel_job). Off: it runs empty (0 s) and its prefetches still move their blocks.
+  bool cancel_failed = true;
+};
+
+struct RayTally {
+  std::uint64_t primary = 0, secondary = 0, shadow = 0;         // created
+  std::uint64_t hit = 0, escaped = 0, occluded = 0, lit = 0;    // ended
+  std::uint64_t created() const { return primary + secondary + shadow; }
+  std::uint64_t ended() const { return hit + escaped + occluded + lit; }
+};
+
+struct FrameReport {
+  int client = 0, index = 0;
+  Time requested = 0, delivered = 0;
+  bool exact = false;  // every tile got exactly spp x its pixels samples
+};
+
+class PathTraceWorkload final : public Workload {
+ public:
+  PathTraceWorkload(const DeviceGraph& g, const SceneProfile& profile, PathTraceOptions opt);
+  void start(Time now, JobPool& pool, Schedule& schedule) override;
+  void on_job_finished(JobId job, Time now, JobPool& pool, Schedule& schedule) override;
+  void on_idle(Time now, JobPool& pool, Schedule& schedule) override;
+  bool finished() const override;
+
+  // Actual / planned E-job duration (SimExecutor::exec_factor): a job's queue may have grown
+  // by merges after it was planned, and a predicted job runs for its real rays (0: none).
+  double exec_scale(JobId job, DeviceId device, const Activity& planned) const;
+  Time exec_time_now(JobId job, DeviceId device) const;
+
+  const RayTally& tally() const { return tally_; }
+  std::uint64_t rays_alive() const;
+  const std::vector<FrameReport>& frames() const { return reports_; }
+  const PredictionStats* prediction() const { return predictor_ ? &predictor_->stats() : nullptr; }
+  const RayFlowModel& model() const { return model_; }
+  std::uint64_t merges() const { return merges_; }
+  std::uint64_t merges_into_planned() const { return merges_planned_; }
+  // What withdrawing failed predictions removed from the plan (and the T-jobs it kept
+  // because another job uses their copies).
+  const Schedule::CancelCount& withdrawn() const { return withdrawn_; }
+  std::uint64_t jobs_of(PtJob k) const { return jobs_by_kind_[static_cast<int>(k)]; }
+  // (finish time, rays) of every finished RayIntersect/ShadowIntersect; (time, rays ended).
+  const std::vector<std::pair<Time, std::uint64_t>>& traced() const { return traced_; }
+  const std::vector<std::pair<Time, std::uint64_t>>& ended_series() const { return ended_; }
+  // Per job: the rays it processed (for replay checks), by JobId; 0 for non-ray jobs.
+  std::uint64_t job_rays(JobId j) const;
+
+ private:
+  struct JobInfo {
+    PtJob kind = PtJob::Generate;
+    int block = -1;
+    MemId mem = kNone;          // where its queue was put (merge key)
+    RayCounts rays;             // rays / hit records / primary samples; Accumulate: samples per (frame, tile)
+    RayCounts records;          // Accumulate: records per frame (key(frame, 0, 0))
+    std::uint32_t frame = 0;    // Generate, Compose
+    bool resolved = true;       // predicted jobs: false until their parent ended
+    // Finished: the counts above are released (a long run finishes ~10^5 jobs) and only
+    // their total is kept (rays, or records for Accumulate), for job_rays/exec_time_now.
+    bool finished = false;
+    std::uint64_t processed = 0;
+  };
+  struct Dest {
+    PtJob kind;
+    int block;
+    RayCounts rays;
+  };
+  JobInfo& info(JobId j);
+  Bytes bytes_per(PtJob k) const;
+  BlockId new_queue(PtJob kind, int block, Bytes bytes, bool placeholder, JobPool& pool);
+  Job make_job(PtJob kind, int block, BlockId queue, std::uint64_t work, Time now) const;
+  void add_queue(PtJob kind, int block, MemId mem, RayCounts rays, RayCounts records, Time now, JobPool& pool, Schedule& s);
+  void route(JobId parent, Dest& d, MemId mem, Time now, JobPool& pool, Schedule& s);
+  void request_frame(int client, Time now);
+  void top_up(Time now, JobPool& pool, Schedule& s);
+  void check_frames(Time now, JobPool& pool, Schedule& s);
+  void scan_planned(const Schedule& s, const JobPool& pool);
+  void sample_records(RayCounts& recs, RayCounts& samples, std::uint32_t frame, int tile, std::uint64_t completed,
+                      std::uint64_t contributions);
+  SplitContext context(RayStage stage, std::uint64_t key, int block) const;
+
+  const DeviceGraph& g_;
+  const SceneProfile& p_;
+  PathTraceOptions opt_;
+  RayFlowModel model_;
+  std::unique_ptr<JobPredictor> predictor_;
+  std::array<JobTypeId, kPtJobCount> type_{};
+  // Per kind: the largest memory device a compute device running it works from. A queued
+  // job takes merged queues only while they fit there next to its scene block.
+  std::array<Bytes, kPtJobCount> room_{};
+  Bytes merge_cap(PtJob kind, int block) const;
+  std::vector<BlockId> scene_;
+  std::vector<ClientState> clients_;
+  std::vector<FrameState> frames_;
+  std::vector<JobInfo> info_;
+  std::map<std::tuple<int, int, MemId>, JobId> open_;  // (kind, block, memory) -> queued job holding a queue there
+  std::map<std::tuple<int, int, MemId>, JobId> planned_at_;  // (kind, block, memory) -> latest job planned to run there
+  std::size_t act_cursor_ = 0;
+  std::uint64_t merges_planned_ = 0;
+  Schedule::CancelCount withdrawn_;
+  RayTally tally_;
+  std::vector<FrameReport> reports_;
+  std::vector<std::pair<Time, std::uint64_t>> traced_, ended_;
+  std::array<std::uint64_t, kPtJobCount> jobs_by_kind_{};
+  std::uint64_t merges_ = 0;
+  Time now_ = 0;
+  JobPool* pool_ = nullptr;  // for exec_scale
+  std::vector<std::uint64_t> scratch_;
+  std::vector<RayCounts*> dest_cache_;  // on_job_finished: its destinations, by slot
+};
+
+}  // namespace rayline
