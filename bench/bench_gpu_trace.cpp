@@ -1,5 +1,5 @@
 // GPU ray-intersection throughput: kernel-only rays/s of the Vulkan traversal
-// kernels (render/gpu) on one block with the rays already on the GPU, for coherent primary
+// kernels (render/vulkan) on one block with the rays already on the GPU, for coherent primary
 // rays (a pinhole camera's rays in 8x8 tile order) and incoherent rays (random origins
 // inside the scene bounds, random directions), closest hit and any hit; also the CPU BVH
 // build time (Embree's builder + flattening), upload and hit-download bandwidth.
@@ -22,9 +22,9 @@
 #include <string>
 #include <vector>
 
-#include "render/gpu/gpu_kernels.hpp"
-#include "render/gpu/ray_workloads.hpp"
-#include "render/gpu/vulkan_device.hpp"
+#include "render/vulkan/gpu_kernels.hpp"
+#include "tests/gpu/ray_workloads.hpp"
+#include "render/vulkan/vulkan_device.hpp"
 #include "render/scene/generators.hpp"
 #include "render/scene/mesh_sink.hpp"
 

@@ -11,7 +11,7 @@
 # Measures kernel-only rays/s (GPU timestamps) for coherent primary rays (a 2048x2048
 # pinhole image in 8x8 tiles) and incoherent rays on the 1 M-triangle museum-like block,
 # plus the CPU BVH build time, upload / download bandwidth and the share of rays the kernels
-# flag doubtful (handed to the CPU in a render; render/gpu/README.md).
+# flag doubtful (handed to the CPU in a render; render/vulkan/README.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR="${1:-build-bench-gpu}"

@@ -4,7 +4,7 @@
 # triangles. Same scene, partition, resolution, spp and seed in every run: the images must
 # match (each GPU run's EXR pixel data against the CPU run's at the same budget; the tests
 # compare film sums bit for bit). "doubtful": the share of the GPU's rays its kernels
-# flagged and handed to the CPU devices (render/gpu/README.md). Meant for a machine with a
+# flagged and handed to the CPU devices (render/vulkan/README.md). Meant for a machine with a
 # real GPU (the `device` tool); on lavapipe it runs too.
 # Usage: scripts/bench_render_gpu.sh [TRIANGLES=4000000] [RES=512] [SPP=16] [DEPTH=5] [GPU=auto]
 # Env: RAYLINE_BIN (default build/apps/rayline), BENCH_DIR (default out/bench-render-gpu),

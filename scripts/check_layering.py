@@ -19,6 +19,8 @@ import sys
 
 SCHED_CORE = ["common", "sched/core"]
 SCHED_ALL = ["common", "sched"]
+RENDER_INTEGRATOR = ["common", "render/scene", "render/partition"]
+RENDER_ENGINES = ["render/integrator", "render/embree", "render/vulkan"]
 # folder -> folders (prefixes) its quoted includes may name, besides itself
 LAYERS = {
     "common": [],
@@ -31,12 +33,18 @@ LAYERS = {
     "sched/runtime": SCHED_CORE + ["sched/timeline", "sched/policy/scheduler.hpp"],
     "workload": SCHED_ALL,
     "sim": SCHED_ALL + ["workload"],
+    # render/: the scene, then its blocks, then what a ray does between hits (integrator),
+    # the two traversal engines, where blocks and rays live (store), the seam choosing an
+    # engine per device (accel), and the engine driving it all
     "render/scene": ["common"],
     "render/image": ["common"],
     "render/partition": ["common", "render/scene"],
     "render/reference": ["common", "render/scene"],
-    "render/gpu": ["common", "render/scene"],
-    "render/trace": ["common", "render/scene", "render/partition"],
+    "render/integrator": RENDER_INTEGRATOR,
+    "render/embree": RENDER_INTEGRATOR + ["render/integrator"],
+    "render/vulkan": ["common", "render/scene"],
+    "render/store": RENDER_INTEGRATOR + RENDER_ENGINES + ["sched/core/types.hpp"],
+    "render/accel": RENDER_INTEGRATOR + RENDER_ENGINES + ["render/store", "sched/core/types.hpp"],
     "render/engine": SCHED_ALL + ["workload", "render"],
     "apps": SCHED_ALL + ["workload", "sim", "render", "apps"],
     "tests": None,  # anything
@@ -47,16 +55,16 @@ LAYERS = {
 # ".cpp" restricts it to source files (no header may drag it in)
 THIRD_PARTY = {
     "simgrid/": ["sim/sg_platform.cpp", "sim/sg_platform_internal.hpp"],
-    "embree3/": ["render/trace", "render/gpu", "render/reference"],
-    "vulkan/": ["render/gpu"],
+    "embree3/": ["render/embree", "render/vulkan", "render/reference"],
+    "vulkan/": ["render/vulkan"],
     "CLI/": ["apps/main.cpp"],
     "nlohmann/": ["sched/io/*.cpp", "workload/*.cpp", "sim/*.cpp", "render/*.cpp", "apps/*.cpp"],
     "Eigen/": ["sched/core/nnls.cpp"],
     "Imf": ["render/image"],
     "png.h": ["render/image"],
     "assimp/": ["render/scene"],
-    "tbb/": ["render"],
-    "oneapi/": ["render"],
+    "tbb/": ["render/accel", "render/engine", "render/reference"],
+    "oneapi/": ["render/accel", "render/engine", "render/reference"],
 }
 
 # library target -> its folder (the folder's layer rules apply to what it links)
@@ -69,15 +77,19 @@ TARGETS = {
     "rayline_image": "render/image",
     "rayline_partition": "render/partition",
     "rayline_reference": "render/reference",
-    "rayline_gpu": "render/gpu",
-    "rayline_trace": "render/trace",
+    "rayline_integrator": "render/integrator",
+    "rayline_embree": "render/embree",
+    "rayline_vulkan": "render/vulkan",
+    "rayline_store": "render/store",
+    "rayline_accel": "render/accel",
     "rayline_render": "render/engine",
 }
 TARGET_FOLDER_OF_LINK = {  # what a linked target stands for, as an include prefix
     "rayline_common": "common", "rayline_sched": "sched", "rayline_workload": "workload",
     "rayline_sim": "sim", "rayline_scene": "render/scene", "rayline_image": "render/image",
     "rayline_partition": "render/partition", "rayline_reference": "render/reference",
-    "rayline_gpu": "render/gpu", "rayline_trace": "render/trace", "rayline_render": "render/engine",
+    "rayline_integrator": "render/integrator", "rayline_embree": "render/embree", "rayline_vulkan": "render/vulkan",
+    "rayline_store": "render/store", "rayline_accel": "render/accel", "rayline_render": "render/engine",
 }
 
 SOURCE_EXT = (".cpp", ".hpp", ".h")

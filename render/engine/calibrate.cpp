@@ -4,7 +4,7 @@
 #include <optional>
 #include <stdexcept>
 
-#include "render/engine/temp_partition.hpp"
+#include "render/store/temp_partition.hpp"
 #include "sched/core/data_block.hpp"
 #include "sched/core/timing_model.hpp"
 

@@ -4,7 +4,7 @@
 #include <memory>
 #include <string>
 
-#include "render/gpu/vulkan_device.hpp"
+#include "render/vulkan/vulkan_device.hpp"
 #include "sched/core/types.hpp"
 
 namespace rayline::engine {

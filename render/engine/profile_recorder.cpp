@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "render/embree/embree_kernels.hpp"
+
 namespace rayline::engine {
 
 using trace::RayCounts;
@@ -123,15 +125,16 @@ void ProfileRecorder::camera_rays(std::span<const RayRecord> placed, std::uint64
   }
 }
 
-void ProfileRecorder::trace_job(const trace::TraceSettings& ts, const trace::BlockGeometry& geo, RayJob& job) {
+void ProfileRecorder::trace_job(const trace::TraceSettings& ts, const trace::BlockGeometry& geo, std::uint32_t cell,
+                                std::span<const RayRecord> rays, std::vector<RayRecord>& out, RayCounts& counts) {
   Tally t;
-  const std::uint32_t b = job.cell;
-  for (const RayRecord& r : job.rays) {
+  const std::uint32_t b = cell;
+  for (const RayRecord& r : rays) {
     RayCounts c;
-    const std::size_t before = job.out.size();
+    const std::size_t before = out.size();
     const int tile = tile_of(r.pixel);
     if (r.kind == RayKind::Path) {
-      trace::ray_intersect(ts, geo, std::span<const RayRecord>(&r, 1), job.out, c);
+      trace::ray_intersect(ts, geo, std::span<const RayRecord>(&r, 1), out, c);
       ++t.m.path_rays_traced;
       const int k = r.bounce;
       if (c.terminated > 0) {  // a hit: shaded here (every hit ends its ray exactly once)
@@ -140,8 +143,8 @@ void ProfileRecorder::trace_job(const trace::TraceSettings& ts, const trace::Blo
         add(t, RayStage::Shade, tile, k, b, survived ? kSurvive : kTerminate);
         const RayRecord* shadow = nullptr;
         const RayRecord* cont = nullptr;
-        for (std::size_t i = before; i < job.out.size(); ++i)
-          (job.out[i].kind == RayKind::Shadow ? shadow : cont) = &job.out[i];
+        for (std::size_t i = before; i < out.size(); ++i)
+          (out[i].kind == RayKind::Shadow ? shadow : cont) = &out[i];
         if (shadow) {
           if (shadow->cell != b) {
             move(t, RayStage::Shadow, tile, k, b, shadow->cell);
@@ -163,20 +166,20 @@ void ProfileRecorder::trace_job(const trace::TraceSettings& ts, const trace::Blo
             ++t.m.continuation_started_in_neighbour;
           }
         }
-      } else if (job.out.size() > before) {
-        move(t, RayStage::Intersect, tile, k, b, job.out.back().cell);
+      } else if (out.size() > before) {
+        move(t, RayStage::Intersect, tile, k, b, out.back().cell);
       } else {
         add(t, RayStage::Intersect, tile, k, b, kEscape);
       }
     } else {
-      trace::shadow_intersect(ts, geo, std::span<const RayRecord>(&r, 1), job.out, c);
+      trace::shadow_intersect(ts, geo, std::span<const RayRecord>(&r, 1), out, c);
       ++t.m.shadow_rays_traced;
       const int k = std::max(0, int(r.bounce) - 1);  // keyed by the bounce of the hit that made it
       if (c.occluded > 0) add(t, RayStage::Shadow, tile, k, b, kOccluded);
-      else if (job.out.size() > before) move(t, RayStage::Shadow, tile, k, b, job.out.back().cell);
+      else if (out.size() > before) move(t, RayStage::Shadow, tile, k, b, out.back().cell);
       else add(t, RayStage::Shadow, tile, k, b, kLit);
     }
-    job.counts += c;
+    counts += c;
   }
   merge(t);
 }

@@ -36,9 +36,9 @@
 #include <string>
 #include <vector>
 
-#include "render/engine/render_workload.hpp"
+#include "render/embree/block_geometry.hpp"
+#include "render/integrator/path_kernels.hpp"
 #include "render/partition/partition.hpp"
-#include "render/trace/block_geometry.hpp"
 #include "workload/path_trace_model.hpp"
 #include "workload/scene_profile.hpp"
 
@@ -61,9 +61,10 @@ class ProfileRecorder {
   // Camera rays with indices [first, first + n) (pixel = i % pixels) were generated;
   // `placed` holds those that entered a cell (the others missed the scene).
   void camera_rays(std::span<const trace::RayRecord> placed, std::uint64_t first, std::uint64_t n, std::uint64_t pixels);
-  // Runs the job's kernel ray by ray into job.out / job.counts (as ray_intersect /
-  // shadow_intersect over job.rays would) and records every ray's outcome.
-  void trace_job(const trace::TraceSettings& ts, const trace::BlockGeometry& geo, RayJob& job);
+  // Runs the kernel of an E-job in `cell` ray by ray into `out` / `counts` (as
+  // ray_intersect / shadow_intersect over `rays` would) and records every ray's outcome.
+  void trace_job(const trace::TraceSettings& ts, const trace::BlockGeometry& geo, std::uint32_t cell,
+                 std::span<const trace::RayRecord> rays, std::vector<trace::RayRecord>& out, trace::RayCounts& counts);
 
   // Totals per (stage, block): dense outcome counts (categories of workload/path_trace_model.hpp).
   const std::vector<std::uint64_t>& totals(RayStage stage, std::uint32_t block) const;

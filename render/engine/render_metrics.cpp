@@ -79,10 +79,113 @@ std::pair<double, double> io_bound_busy(const Schedule& s) {
   const double t = length(bound);
   return {t, t > 0 ? overlap(bound, disk) / t : 0.0};
 }
+
+// The disk->RAM channel and the block store: loads, reads, how busy the disk was.
+json io_json(const RenderResult& r, const Schedule& s, const std::vector<double>& lane_busy, double secs) {
+  const DeviceGraph& g = s.graph();
+  // Disk channel: busy share of the run (all resources behind disk→RAM channels).
+  double disk_busy = 0;
+  std::set<ResourceId> disk_res;
+  for (const Channel& c : g.channels)
+    if (g.memories[c.from].kind == MemoryKind::Disk)
+      for (ResourceId x : c.resources) disk_res.insert(x);
+  for (ResourceId x : disk_res) disk_busy = std::max(disk_busy, lane_busy.at(g.computes.size() + std::size_t(x)));
+  // With read-ahead a block's read overlaps the previous T-job: the channel is busy for the
+  // union of reads and builds (BlockStore), which the T-jobs' own time undercounts.
+  disk_busy = std::max(disk_busy, r.store.channel_busy_seconds);
+  const auto [io_bound_s, busy_when_io_bound] = io_bound_busy(s);
+  return {{"loads", r.store.loads},
+          {"loaders", r.loaders},
+          {"evictions", r.store.evictions},
+          {"unplanned_loads", r.store.unplanned_loads},
+          {"bytes_read", r.store.bytes_read},
+          {"read_seconds", r.store.read_seconds},
+          {"bvh_build_seconds", r.store.build_seconds},
+          {"direct_reads", r.store.direct_reads},
+          {"buffered_reads", r.store.buffered_reads},
+          {"mode", r.store.buffered_reads == 0 ? "O_DIRECT" : (r.store.direct_reads == 0 ? "buffered+DONTNEED" : "mixed")},
+          {"read_aheads", r.store.read_aheads},
+          {"recycled_arrays", r.store.recycled_arrays},
+          {"wasted_read_aheads", r.store.wasted_read_aheads},
+          {"disk_read_fraction", r.store.disk_read_busy_seconds / secs},
+          {"disk_busy_fraction", disk_busy / secs},
+          {"io_bound_seconds", io_bound_s},
+          {"disk_busy_when_io_bound", busy_when_io_bound}};
+}
+
+// Cache hits and the timing model's accuracy, from the plan's activities.
+void activity_json(const RenderResult& r, const Schedule& s, json& m) {
+  // Cache hits: E-jobs whose SceneData was already in RAM (no T-job fetched it for them).
+  std::set<JobId> fetched_for;
+  std::uint64_t execs = 0;
+  std::vector<double> err_exec, err_transfer;
+  for (ActivityId a = 0; a < ActivityId(s.activity_count()); ++a) {
+    const Activity& x = s.activity(a);
+    if (x.kind == ActivityKind::Transfer) fetched_for.insert(x.job);
+    else ++execs;
+    if (x.state != ActivityState::Done || x.duration <= 0) continue;
+    const double rel = std::fabs((x.end - x.start) - x.duration) / x.duration;
+    (x.kind == ActivityKind::Exec ? err_exec : err_transfer).push_back(rel);
+  }
+  m["cache"] = {{"exec_jobs", execs},
+                {"hits", execs - std::min<std::uint64_t>(execs, fetched_for.size())},
+                {"hit_ratio", execs ? double(execs - std::min<std::uint64_t>(execs, fetched_for.size())) / double(execs) : 0.0}};
+  m["jobs"] = {{"created", r.jobs}, {"merges", r.merges}, {"plan_calls", r.run.plan_calls},
+               {"scheduler_seconds", r.run.scheduler_wall_seconds}};
+  m["predicted_vs_actual"] = {{"exec_median_rel_error", median(err_exec)},
+                              {"transfer_median_rel_error", median(err_transfer)},
+                              {"exec_samples", err_exec.size()},
+                              {"transfer_samples", err_transfer.size()}};
+}
+
+// Per compute device: utilisation and where its idle time went.
+json devices_json(const RenderResult& r, const Schedule& s) {
+  const DeviceGraph& g = s.graph();
+  const Utilisation u = compute_utilisation(s, 0, r.seconds);
+  json devs = json::array();
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    const DeviceTime& t = u.devices[d];
+    devs.push_back({{"device", g.computes[d].name},
+                    {"utilisation", t.utilisation(u.span)},
+                    {"busy_s", t.busy},
+                    {"setup_s", t.setup},
+                    {"fetching_idle_s", t.fetching},
+                    {"true_idle_s", t.idle}});
+  }
+  return devs;
+}
+
+// The Vulkan device: what ran there, what fell back to the CPU path and why.
+json gpu_json(const RenderResult& r) {
+  return {{"device", r.gpu_device},
+          {"cpu_backed", r.gpu_cpu_backed},
+          {"status", r.gpu_status},
+          {"memory_budget_bytes", r.gpu_memory_budget},
+          {"jobs", r.gpu.gpu_jobs},
+          {"fallback_jobs", r.gpu.fallback_jobs},
+          {"rays", r.gpu.gpu_rays},
+          {"fallback_rays", r.gpu.fallback_rays},
+          // rays the kernels flagged doubtful (render/vulkan/README.md, "Doubtful rays")
+          // and their share of the rays the GPU traced; they ran as CPU-only jobs
+          {"doubtful_rays", r.gpu.doubtful_rays},
+          {"doubtful_fraction", r.gpu.gpu_rays ? double(r.gpu.doubtful_rays) / double(r.gpu.gpu_rays) : 0.0},
+          {"resolve_doubtful", r.gpu_resolve_doubtful},
+          {"kernel_seconds", r.gpu.kernel_seconds},
+          {"block_uploads", r.gpu.block_uploads},
+          {"block_evictions", r.gpu.block_evictions},
+          {"upload_failures", r.gpu.upload_failures},
+          {"ray_uploads", r.gpu.ray_uploads},
+          {"unplanned_ray_uploads", r.gpu.unplanned_ray_uploads},
+          {"block_bytes_uploaded", r.gpu.block_bytes},
+          {"ray_bytes_uploaded", r.gpu.ray_bytes},
+          {"bvh_build_seconds", r.gpu.build_seconds},
+          {"upload_seconds", r.gpu.upload_seconds},
+          {"peak_device_bytes", r.gpu.peak_device_bytes}};
+}
+
 }  // namespace
 
 std::string render_metrics_json(const RenderResult& r, const Schedule& s, const std::vector<double>& lane_busy) {
-  const DeviceGraph& g = s.graph();
   json m;
   m["scene"] = r.scene_name;
   m["resolution"] = {r.width, r.height};
@@ -126,92 +229,10 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
                  {"rss_at_start_bytes", r.rss_start_bytes},
                  {"peak_rss_bytes", r.peak_rss_bytes},
                  {"overhead_bound_bytes", r.overhead_bound_bytes}};
-  // Disk channel: busy share of the run (all resources behind disk→RAM channels).
-  double disk_busy = 0;
-  std::set<ResourceId> disk_res;
-  for (const Channel& c : g.channels)
-    if (g.memories[c.from].kind == MemoryKind::Disk)
-      for (ResourceId x : c.resources) disk_res.insert(x);
-  for (ResourceId x : disk_res) disk_busy = std::max(disk_busy, lane_busy.at(g.computes.size() + std::size_t(x)));
-  // With read-ahead a block's read overlaps the previous T-job: the channel is busy for the
-  // union of reads and builds (BlockStore), which the T-jobs' own time undercounts.
-  disk_busy = std::max(disk_busy, r.store.channel_busy_seconds);
-  const auto [io_bound_s, busy_when_io_bound] = io_bound_busy(s);
-  m["io"] = {{"loads", r.store.loads},
-             {"loaders", r.loaders},
-             {"evictions", r.store.evictions},
-             {"unplanned_loads", r.store.unplanned_loads},
-             {"bytes_read", r.store.bytes_read},
-             {"read_seconds", r.store.read_seconds},
-             {"bvh_build_seconds", r.store.build_seconds},
-             {"direct_reads", r.store.direct_reads},
-             {"buffered_reads", r.store.buffered_reads},
-             {"mode", r.store.buffered_reads == 0 ? "O_DIRECT" : (r.store.direct_reads == 0 ? "buffered+DONTNEED" : "mixed")},
-             {"read_aheads", r.store.read_aheads},
-             {"recycled_arrays", r.store.recycled_arrays},
-             {"wasted_read_aheads", r.store.wasted_read_aheads},
-             {"disk_read_fraction", r.store.disk_read_busy_seconds / secs},
-             {"disk_busy_fraction", disk_busy / secs},
-             {"io_bound_seconds", io_bound_s},
-             {"disk_busy_when_io_bound", busy_when_io_bound}};
-  // Cache hits: E-jobs whose SceneData was already in RAM (no T-job fetched it for them).
-  std::set<JobId> fetched_for;
-  std::uint64_t execs = 0;
-  std::vector<double> err_exec, err_transfer;
-  for (ActivityId a = 0; a < ActivityId(s.activity_count()); ++a) {
-    const Activity& x = s.activity(a);
-    if (x.kind == ActivityKind::Transfer) fetched_for.insert(x.job);
-    else ++execs;
-    if (x.state != ActivityState::Done || x.duration <= 0) continue;
-    const double rel = std::fabs((x.end - x.start) - x.duration) / x.duration;
-    (x.kind == ActivityKind::Exec ? err_exec : err_transfer).push_back(rel);
-  }
-  m["cache"] = {{"exec_jobs", execs},
-                {"hits", execs - std::min<std::uint64_t>(execs, fetched_for.size())},
-                {"hit_ratio", execs ? double(execs - std::min<std::uint64_t>(execs, fetched_for.size())) / double(execs) : 0.0}};
-  m["jobs"] = {{"created", r.jobs}, {"merges", r.merges}, {"plan_calls", r.run.plan_calls},
-               {"scheduler_seconds", r.run.scheduler_wall_seconds}};
-  m["predicted_vs_actual"] = {{"exec_median_rel_error", median(err_exec)},
-                              {"transfer_median_rel_error", median(err_transfer)},
-                              {"exec_samples", err_exec.size()},
-                              {"transfer_samples", err_transfer.size()}};
-  const Utilisation u = compute_utilisation(s, 0, r.seconds);
-  json devs = json::array();
-  for (std::size_t d = 0; d < g.computes.size(); ++d) {
-    const DeviceTime& t = u.devices[d];
-    devs.push_back({{"device", g.computes[d].name},
-                    {"utilisation", t.utilisation(u.span)},
-                    {"busy_s", t.busy},
-                    {"setup_s", t.setup},
-                    {"fetching_idle_s", t.fetching},
-                    {"true_idle_s", t.idle}});
-  }
-  m["devices"] = devs;
-  // The Vulkan device: what ran there, what fell back to the CPU path and why.
-  m["gpu"] = {{"device", r.gpu_device},
-              {"cpu_backed", r.gpu_cpu_backed},
-              {"status", r.gpu_status},
-              {"memory_budget_bytes", r.gpu_memory_budget},
-              {"jobs", r.gpu.gpu_jobs},
-              {"fallback_jobs", r.gpu.fallback_jobs},
-              {"rays", r.gpu.gpu_rays},
-              {"fallback_rays", r.gpu.fallback_rays},
-              // rays the kernels flagged doubtful (render/gpu/README.md, "Doubtful rays")
-              // and their share of the rays the GPU traced; they ran as CPU-only jobs
-              {"doubtful_rays", r.gpu.doubtful_rays},
-              {"doubtful_fraction", r.gpu.gpu_rays ? double(r.gpu.doubtful_rays) / double(r.gpu.gpu_rays) : 0.0},
-              {"resolve_doubtful", r.gpu_resolve_doubtful},
-              {"kernel_seconds", r.gpu.kernel_seconds},
-              {"block_uploads", r.gpu.block_uploads},
-              {"block_evictions", r.gpu.block_evictions},
-              {"upload_failures", r.gpu.upload_failures},
-              {"ray_uploads", r.gpu.ray_uploads},
-              {"unplanned_ray_uploads", r.gpu.unplanned_ray_uploads},
-              {"block_bytes_uploaded", r.gpu.block_bytes},
-              {"ray_bytes_uploaded", r.gpu.ray_bytes},
-              {"bvh_build_seconds", r.gpu.build_seconds},
-              {"upload_seconds", r.gpu.upload_seconds},
-              {"peak_device_bytes", r.gpu.peak_device_bytes}};
+  m["io"] = io_json(r, s, lane_busy, secs);
+  activity_json(r, s, m);
+  m["devices"] = devices_json(r, s);
+  m["gpu"] = gpu_json(r);
   return m.dump(2) + "\n";
 }
 

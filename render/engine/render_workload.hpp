@@ -14,8 +14,8 @@
 #include <utility>
 #include <vector>
 
-#include "render/trace/camera.hpp"
-#include "render/trace/path_kernels.hpp"
+#include "render/integrator/camera.hpp"
+#include "render/integrator/path_kernels.hpp"
 #include "sched/runtime/workload.hpp"
 
 namespace rayline::engine {
@@ -98,7 +98,7 @@ class RenderWorkload final : public Workload {
   std::vector<BlockId> scene_blocks_;
   RenderWorkloadOptions opt_;
   // Slots: 0 path, 1 shadow, 2 and 3 the same kinds flagged kRayCpuOnly (doubtful on a GPU,
-  // render/gpu/README.md): job types RayIntersectCpu / ShadowIntersectCpu, which only CPU
+  // render/vulkan/README.md): job types RayIntersectCpu / ShadowIntersectCpu, which only CPU
   // devices support (renderer.cpp adds them when there is a GPU; without them, 0 and 1).
   static constexpr int kSlots = 4;
   static int slot_of(const trace::RayRecord& r) {

@@ -13,20 +13,21 @@
 #include <optional>
 #include <thread>
 
-
+#include "common/error.hpp"
+#include "render/engine/activity_tasks.hpp"
+#include "render/engine/aggregate_factory.hpp"
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/local_executor.hpp"
 #include "render/engine/profile_recorder.hpp"
 #include "render/engine/render_metrics.hpp"
-#include "render/engine/temp_partition.hpp"
 #include "render/engine/workstation.hpp"
+#include "render/integrator/camera.hpp"
 #include "render/partition/partition.hpp"
 #include "render/scene/scene.hpp"
 #include "render/scene/scene_stream.hpp"
-#include "render/trace/camera.hpp"
-#include "common/error.hpp"
-#include "sched/policy/scheduler_factory.hpp"
+#include "render/store/temp_partition.hpp"
 #include "sched/io/trace_output.hpp"
+#include "sched/policy/scheduler_factory.hpp"
 #include "sched/policy/unplaced.hpp"
 
 namespace rayline::engine {
@@ -77,37 +78,58 @@ std::unique_ptr<gpu::GpuContext> open_gpu(const RenderOptions& opt, RenderResult
   return ctx;
 }
 
-}  // namespace
+// ---- setup: what the options resolve to ----------------------------------------------
 
-RenderResult render(const RenderOptions& opt) {
-  RenderResult res;
-  const scene::Scene sc = opt.scene.empty() ? scene::default_scene() : scene::load_scene(opt.scene);
-  res.scene_name = opt.scene.empty() ? "<built-in>" : opt.scene;
-  const scene::Camera& cam = sc.default_camera();
-  res.width = opt.width > 0 ? opt.width : cam.width;
-  res.height = opt.height > 0 ? opt.height : cam.height;
-  res.spp = opt.spp > 0 ? opt.spp : sc.render.spp;
-  res.max_depth = opt.max_depth > 0 ? opt.max_depth : sc.render.max_depth;
-  res.seed = opt.seed;
-  res.memory_budget = opt.memory_budget;
-  if (res.width <= 0 || res.height <= 0 || std::uint64_t(res.width) * std::uint64_t(res.height) > (1ull << 28))
-    throw InputError("--resolution", "", "must be positive and at most 2^28 pixels");
-  if (std::uint64_t(res.width) * std::uint64_t(res.height) * std::uint64_t(res.spp) >= (1ull << 32))
-    throw InputError("--spp", "", "width x height x spp must stay below 2^32 samples");
+struct Frame {
+  scene::Scene sc;
+  trace::BvhQuality quality = trace::BvhQuality::Medium;
+  int threads = 1;
+};
+
+trace::BvhQuality bvh_quality(const RenderOptions& opt) {
   trace::BvhQuality quality = opt.memory_budget > 0 ? trace::BvhQuality::Low : trace::BvhQuality::Medium;
   if (opt.bvh_quality == "low") quality = trace::BvhQuality::Low;
   else if (opt.bvh_quality == "medium") quality = trace::BvhQuality::Medium;
   else if (opt.bvh_quality == "high") quality = trace::BvhQuality::High;
   else if (opt.bvh_quality != "auto" && !opt.bvh_quality.empty())
     throw InputError("--bvh-quality", "", "unknown quality '" + opt.bvh_quality + "' (auto, low, medium, high)");
-  res.bvh_quality = quality == trace::BvhQuality::Low ? "low" : (quality == trace::BvhQuality::High ? "high" : "medium");
-  const int threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
-  res.threads = threads;
+  return quality;
+}
 
-  // ---- blocks on disk ----------------------------------------------------------------
-  std::optional<TempPartition> tmp;
-  std::string dir = opt.blocks_dir;
-  if (dir.empty()) dir = tmp.emplace().path();
+// The scene, the image, the BVH quality and the compute threads.
+void resolve_frame(const RenderOptions& opt, Frame& f, RenderResult& res) {
+  f.sc = opt.scene.empty() ? scene::default_scene() : scene::load_scene(opt.scene);
+  res.scene_name = opt.scene.empty() ? "<built-in>" : opt.scene;
+  const scene::Camera& cam = f.sc.default_camera();
+  res.width = opt.width > 0 ? opt.width : cam.width;
+  res.height = opt.height > 0 ? opt.height : cam.height;
+  res.spp = opt.spp > 0 ? opt.spp : f.sc.render.spp;
+  res.max_depth = opt.max_depth > 0 ? opt.max_depth : f.sc.render.max_depth;
+  res.seed = opt.seed;
+  res.memory_budget = opt.memory_budget;
+  if (res.width <= 0 || res.height <= 0 || std::uint64_t(res.width) * std::uint64_t(res.height) > (1ull << 28))
+    throw InputError("--resolution", "", "must be positive and at most 2^28 pixels");
+  if (std::uint64_t(res.width) * std::uint64_t(res.height) * std::uint64_t(res.spp) >= (1ull << 32))
+    throw InputError("--spp", "", "width x height x spp must stay below 2^32 samples");
+  f.quality = bvh_quality(opt);
+  res.bvh_quality = f.quality == trace::BvhQuality::Low ? "low" : (f.quality == trace::BvhQuality::High ? "high" : "medium");
+  f.threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
+  res.threads = f.threads;
+}
+
+// ---- setup: blocks on disk ("Blocks on disk") ------------------------------------------
+
+struct Blocks {
+  std::optional<TempPartition> tmp;  // the partition's folder when none was given
+  std::string dir;
+  partition::BlockIndex index;
+  std::vector<std::uint64_t> footprint;  // bytes the plan charges per block in RAM
+  Bytes largest = 0, largest_triangles = 0;
+};
+
+// Partitions the scene into `dir` when it holds no partition yet; an existing partition is
+// used as it is, and a different block count is a mistake.
+void ensure_partition(const RenderOptions& opt, const scene::Scene& sc, const std::string& dir, RenderResult& res) {
   if (!fs::exists(fs::path(dir) / "blocks.json")) {
     const auto t0 = std::chrono::steady_clock::now();
     partition::PartitionOptions po;
@@ -118,40 +140,50 @@ RenderResult render(const RenderOptions& opt) {
     partition::partition_scene(sc, dir, po);
     res.partition_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   } else if (opt.blocks > 0) {
-    // An existing partition is used as it is; a different block count is a mistake.
     const auto idx = partition::load_block_index(dir);
     if (idx.blocks.size() != opt.blocks)
       throw InputError(dir + "/blocks.json", "blocks",
                        "holds " + std::to_string(idx.blocks.size()) + " blocks but --blocks " +
                            std::to_string(opt.blocks) + " was asked for");
   }
-  const partition::BlockIndex index = partition::load_block_index(dir);
-  const auto nb = static_cast<std::uint32_t>(index.blocks.size());
+}
+
+void prepare_blocks(const RenderOptions& opt, const Frame& f, Blocks& b, RenderResult& res) {
+  b.dir = opt.blocks_dir;
+  if (b.dir.empty()) b.dir = b.tmp.emplace().path();
+  ensure_partition(opt, f.sc, b.dir, res);
+  b.index = partition::load_block_index(b.dir);
+  const auto nb = static_cast<std::uint32_t>(b.index.blocks.size());
   res.blocks = nb;
   if (opt.batching.recorder) {  // per-cell statistics of this render
     try {
-      opt.batching.recorder->begin(index, res.width, res.height, res.spp, res.max_depth);
+      opt.batching.recorder->begin(b.index, res.width, res.height, res.spp, res.max_depth);
     } catch (const std::invalid_argument& e) {
       throw InputError("--record-tiles", "", e.what());
     }
   }
-  std::vector<std::uint64_t> footprint(nb);
-  Bytes largest = 0, largest_triangles = 0;
-  for (std::uint32_t b = 0; b < nb; ++b) {
+  b.footprint.resize(nb);
+  for (std::uint32_t i = 0; i < nb; ++i) {
     // Missing or truncated block files are found before anything runs.
-    const auto h = partition::read_block_header((fs::path(dir) / index.blocks[b].file).string());
-    footprint[b] = BlockStore::footprint_of(h.triangle_count, quality);
-    largest = std::max<Bytes>(largest, footprint[b]);
-    largest_triangles = std::max<Bytes>(largest_triangles, h.triangle_count);
-    res.scene_block_bytes += footprint[b];
+    const auto h = partition::read_block_header((fs::path(b.dir) / b.index.blocks[i].file).string());
+    b.footprint[i] = BlockStore::footprint_of(h.triangle_count, f.quality);
+    b.largest = std::max<Bytes>(b.largest, b.footprint[i]);
+    b.largest_triangles = std::max<Bytes>(b.largest_triangles, h.triangle_count);
+    res.scene_block_bytes += b.footprint[i];
   }
-  // ---- the platform: this machine ------------------------------------------------------
-  // The budget holds scene blocks and the ray queues of queued jobs alike (both are data
-  // in RAM the plan accounts for). Rays are bounded by the paths alive at once: a path
-  // holds one path ray and at most one shadow ray per hit. The path cap is lowered so that
-  // the largest block plus every ray always fit: the plan can never deadlock on memory.
-  const Bytes per_path = Bytes(1 + res.max_depth) * sizeof(trace::RayRecord);
-  RenderWorkloadOptions wo = opt.batching;
+}
+
+// ---- setup: the platform, this machine --------------------------------------------------
+
+// Bytes of one path's rays: one path ray and at most one shadow ray per hit.
+Bytes bytes_per_path(const RenderResult& res) { return Bytes(1 + res.max_depth) * sizeof(trace::RayRecord); }
+
+// The budget holds scene blocks and the ray queues of queued jobs alike (both are data in
+// RAM the plan accounts for). Rays are bounded by the paths alive at once. The path cap is
+// lowered so that the largest block plus every ray always fit: the plan can never deadlock
+// on memory. Returns the RAM memory device's capacity.
+Bytes size_paths(const RenderOptions& opt, const Blocks& b, RenderWorkloadOptions& wo, RenderResult& res) {
+  const Bytes per_path = bytes_per_path(res);
   wo.spp = res.spp;
   // path_cap 0 = auto: under a budget, as many paths as the budget can hold next to the
   // largest block (at most the frame's); every path alive is one more ray in each batch,
@@ -163,13 +195,13 @@ RenderResult render(const RenderOptions& opt) {
   if (auto_cap) wo.path_cap = static_cast<std::uint32_t>(std::min<Bytes>(frame_paths, Bytes(1) << 17));
   Bytes ram_capacity = 0;
   if (opt.memory_budget > 0) {
-    const Bytes need = largest + 64 * per_path;
+    const Bytes need = b.largest + 64 * per_path;
     if (opt.memory_budget < need)
       throw InputError("--memory-budget", "",
                        "budget of " + std::to_string(opt.memory_budget) + " bytes is smaller than the largest block (" +
-                           std::to_string(largest) + " bytes in RAM) plus room for 64 paths of rays (" +
+                           std::to_string(b.largest) + " bytes in RAM) plus room for 64 paths of rays (" +
                            std::to_string(need) + " bytes in all); use more blocks or a larger budget");
-    const Bytes fit = (opt.memory_budget - largest) / per_path;
+    const Bytes fit = (opt.memory_budget - b.largest) / per_path;
     wo.path_cap = static_cast<std::uint32_t>(
         auto_cap ? std::min<Bytes>({fit, frame_paths, Bytes(1) << 26}) : std::min<Bytes>(wo.path_cap, fit));
     ram_capacity = opt.memory_budget;
@@ -177,212 +209,146 @@ RenderResult render(const RenderOptions& opt) {
     ram_capacity = res.scene_block_bytes + Bytes(wo.path_cap) * per_path;
   }
   res.path_cap = wo.path_cap;
-  // A profile recorder classifies rays in the CPU kernels: no GPU then.
-  std::unique_ptr<gpu::GpuContext> gpu_ctx = opt.batching.recorder ? nullptr : open_gpu(opt, res);
-  WorkstationModel wm = workstation_model(opt.platform);
-  wm.threads = threads;
-  wm.ram_capacity = ram_capacity;
-  if (opt.loaders > 0) wm.loaders = opt.loaders;
-  res.loaders = wm.loaders;
-  // No GPU: none in the plan. A GPU: the platform file's calibrated timing for it is kept
-  // (set_gpu seeds the defaults only where the file has none).
-  if (!gpu_ctx) {
-    set_gpu(wm, 0);
-  } else {
-    const Bytes budget = gpu_memory_budget(gpu_ctx->info(), opt.gpu_memory_budget);
-    // The largest block and one full ray queue must fit, or a GPU job could never be placed.
-    const Bytes need = largest + Bytes(wo.max_batch) * sizeof(trace::RayRecord);
-    if (budget < need)
-      throw InputError("--gpu-memory-budget", "",
-                       "budget of " + std::to_string(budget) + " bytes is smaller than the largest block plus one ray queue (" +
-                           std::to_string(need) + " bytes); use more blocks or a larger budget");
-    set_gpu(wm, budget);
-    res.gpu_memory_budget = budget;
-  }
-  DeviceGraph g = make_workstation(wm, opt.platform);
-  res.platform = opt.platform.empty() ? "auto" : opt.platform;
+  return ram_capacity;
+}
+
+// The workstation's DCG (Fig. 2) and where its devices are.
+struct Platform {
+  std::unique_ptr<gpu::GpuContext> gpu_ctx;  // the Vulkan device opened (nullptr: none)
+  WorkstationModel wm;
+  DeviceGraph g;
   MemId disk = kNone, ram = kNone, gmem = kNone;
-  for (std::size_t i = 0; i < g.memories.size(); ++i) {
-    if (g.memories[i].kind == MemoryKind::Disk && disk == kNone) disk = MemId(i);
-    if (g.memories[i].kind == MemoryKind::Host && ram == kNone) ram = MemId(i);
-    if (g.memories[i].kind == MemoryKind::Gpu && gmem == kNone) gmem = MemId(i);
-  }
   DeviceId gpu_dev = kNone;
   JobTypeId ri = kNone, si = kNone, ric = kNone, sic = kNone;  // the GPU's job types, the CPU-only ones
+};
+
+// No GPU: none in the plan. A GPU: the platform file's calibrated timing for it is kept
+// (set_gpu seeds the defaults only where the file has none).
+void plan_gpu(const RenderOptions& opt, const Blocks& b, const RenderWorkloadOptions& wo, Platform& p,
+              RenderResult& res) {
+  if (!p.gpu_ctx) {
+    set_gpu(p.wm, 0);
+    return;
+  }
+  const Bytes budget = gpu_memory_budget(p.gpu_ctx->info(), opt.gpu_memory_budget);
+  // The largest block and one full ray queue must fit, or a GPU job could never be placed.
+  const Bytes need = b.largest + Bytes(wo.max_batch) * sizeof(trace::RayRecord);
+  if (budget < need)
+    throw InputError("--gpu-memory-budget", "",
+                     "budget of " + std::to_string(budget) + " bytes is smaller than the largest block plus one ray queue (" +
+                         std::to_string(need) + " bytes); use more blocks or a larger budget");
+  set_gpu(p.wm, budget);
+  res.gpu_memory_budget = budget;
+}
+
+// Rays a GPU kernel cannot decide exactly as Embree would come back flagged kRayCpuOnly
+// (render/vulkan/README.md, "Doubtful rays") and are queued as these job types, which only
+// the CPU devices support, with the CPU's Eq. 2 coefficients: GMB plans them (and the RAM
+// copy of their block) like any CPU job, so no sample is lost and nothing unplanned is loaded.
+void add_cpu_only_job_types(const RenderOptions& opt, Platform& p) {
+  DeviceGraph& g = p.g;
+  p.ri = g.job_type("RayIntersect"), p.si = g.job_type("ShadowIntersect");
+  p.ric = g.add_job_type("RayIntersectCpu"), p.sic = g.add_job_type("ShadowIntersectCpu");
   for (std::size_t d = 0; d < g.computes.size(); ++d)
-    if (g.computes[d].kind == ComputeKind::Gpu) gpu_dev = DeviceId(d);
-  res.gpu_device_id = gpu_dev == kNone ? -1 : int(gpu_dev);
-  if (gpu_dev != kNone) {
-    // Rays a GPU kernel cannot decide exactly as Embree would come back flagged
-    // kRayCpuOnly (render/gpu/README.md, "Doubtful rays") and are queued as these job types,
-    // which only the CPU devices support, with the CPU's Eq. 2 coefficients: GMB plans them
-    // (and the RAM copy of their block) like any CPU job, so no sample is lost and nothing
-    // unplanned is loaded.
-    ri = g.job_type("RayIntersect"), si = g.job_type("ShadowIntersect");
-    ric = g.add_job_type("RayIntersectCpu"), sic = g.add_job_type("ShadowIntersectCpu");
-    for (std::size_t d = 0; d < g.computes.size(); ++d)
-      if (g.computes[d].kind == ComputeKind::Cpu) {
-        g.timing.at(DeviceId(d), ric) = g.timing.at(DeviceId(d), ri);
-        g.timing.at(DeviceId(d), sic) = g.timing.at(DeviceId(d), si);
-        if (opt.plan_gpu_only) g.timing.at(DeviceId(d), ri).supported = g.timing.at(DeviceId(d), si).supported = false;
-      }
-  }
+    if (g.computes[d].kind == ComputeKind::Cpu) {
+      g.timing.at(DeviceId(d), p.ric) = g.timing.at(DeviceId(d), p.ri);
+      g.timing.at(DeviceId(d), p.sic) = g.timing.at(DeviceId(d), p.si);
+      if (opt.plan_gpu_only) g.timing.at(DeviceId(d), p.ri).supported = g.timing.at(DeviceId(d), p.si).supported = false;
+    }
+}
 
-  // ---- the run -------------------------------------------------------------------------
-  JobPool pool;
-  Schedule schedule(g, pool);
-  std::vector<BlockId> scene_blocks(nb);
+void make_platform(const RenderOptions& opt, const Blocks& b, const RenderWorkloadOptions& wo, Bytes ram_capacity,
+                   Platform& p, RenderResult& res) {
+  // A profile recorder classifies rays in the CPU kernels: no GPU then.
+  p.gpu_ctx = opt.batching.recorder ? nullptr : open_gpu(opt, res);
+  p.wm = workstation_model(opt.platform);
+  p.wm.threads = res.threads;
+  p.wm.ram_capacity = ram_capacity;
+  if (opt.loaders > 0) p.wm.loaders = opt.loaders;
+  res.loaders = p.wm.loaders;
+  plan_gpu(opt, b, wo, p, res);
+  p.g = make_workstation(p.wm, opt.platform);
+  res.platform = opt.platform.empty() ? "auto" : opt.platform;
+  const DeviceGraph& g = p.g;
+  for (std::size_t i = 0; i < g.memories.size(); ++i) {
+    if (g.memories[i].kind == MemoryKind::Disk && p.disk == kNone) p.disk = MemId(i);
+    if (g.memories[i].kind == MemoryKind::Host && p.ram == kNone) p.ram = MemId(i);
+    if (g.memories[i].kind == MemoryKind::Gpu && p.gmem == kNone) p.gmem = MemId(i);
+  }
+  for (std::size_t d = 0; d < g.computes.size(); ++d)
+    if (g.computes[d].kind == ComputeKind::Gpu) p.gpu_dev = DeviceId(d);
+  res.gpu_device_id = p.gpu_dev == kNone ? -1 : int(p.gpu_dev);
+  if (p.gpu_dev != kNone) add_cpu_only_job_types(opt, p);
+}
+
+// ---- run ---------------------------------------------------------------------------------
+
+// The scene blocks in the pool, on disk at the start (Fig. 2's disk memory device).
+struct SceneBlocks {
+  std::vector<BlockId> blocks;                 // of cell c
   std::map<BlockId, std::uint32_t> cell_of;
-  for (std::uint32_t b = 0; b < nb; ++b) {
-    DataBlock d;
-    d.name = "scene" + std::to_string(b);
-    d.kind = DataKind::SceneData;
-    d.bytes = footprint[b];
-    scene_blocks[b] = pool.add_block(d);
-    cell_of[scene_blocks[b]] = b;
-    schedule.put_initial(scene_blocks[b], disk, 0, true);
-  }
-  auto scheduler = make_scheduler(opt.scheduler, opt.horizon, opt.aging, opt.adaptive_aging);
-  res.scheduler = opt.scheduler;
-  res.scheduler_parameters = scheduler->describe();
+};
 
-  trace::Film film(res.width, res.height);
+SceneBlocks add_scene_blocks(const Blocks& b, MemId disk, JobPool& pool, Schedule& schedule) {
+  SceneBlocks sb;
+  sb.blocks.resize(b.footprint.size());
+  for (std::uint32_t c = 0; c < b.footprint.size(); ++c) {
+    DataBlock d;
+    d.name = "scene" + std::to_string(c);
+    d.kind = DataKind::SceneData;
+    d.bytes = b.footprint[c];
+    sb.blocks[c] = pool.add_block(d);
+    sb.cell_of[sb.blocks[c]] = c;
+    schedule.put_initial(sb.blocks[c], disk, 0, true);
+  }
+  return sb;
+}
+
+trace::TraceSettings trace_settings(const RenderOptions& opt, const Frame& f, const Blocks& b, trace::Film& film,
+                                    const RenderResult& res) {
   trace::TraceSettings ts;
-  ts.scene = &sc;
-  ts.cells = &index;
-  ts.set_bounds(index.bounds);
+  ts.scene = &f.sc;
+  ts.cells = &b.index;
+  ts.set_bounds(b.index.bounds);
   ts.film = &film;
   ts.seed = opt.seed;
   ts.max_depth = res.max_depth;
   ts.skip_empty = opt.skip_empty;
-  const trace::PinholeCamera camera(cam, res.width, res.height);
-  RenderWorkload workload(ts, camera, g, ram, scene_blocks, wo);
-  // BVH builds may use every core: out of core the compute threads mostly wait for them
-  // (fetching idle), so the disk->RAM channel's T-jobs get done sooner.
-  BlockStore store(index, dir, footprint, static_cast<std::uint32_t>(sc.materials.size()), quality,
-                   opt.build_threads > 0 ? opt.build_threads : threads);
+  return ts;
+}
 
-  store.set_staging_slots(static_cast<std::size_t>(wm.loaders));  // one read-ahead per loader
-  std::unique_ptr<GpuStore> gpu_store;
-  if (gpu_ctx) gpu_store = std::make_unique<GpuStore>(*gpu_ctx, store);
-  if (gpu_store) gpu_store->set_resolve_doubtful(opt.gpu_resolve_doubtful);
+// The aggregate of every compute device (aggregate_factory.hpp), by device id.
+std::vector<std::unique_ptr<accel::Aggregate>> make_aggregates(const DeviceGraph& g, const AggregateSources& sources) {
+  std::vector<std::unique_ptr<accel::Aggregate>> aggregates;
+  for (const auto& c : g.computes) aggregates.push_back(make_aggregate(c.kind, sources));
+  return aggregates;
+}
 
-  // Evictions the plan decided, by the activity that needed the space (Schedule::Eviction):
-  // scene blocks leave RAM or GPU memory, ray queues leave GPU memory.
-  struct Victims {
-    std::vector<std::uint32_t> ram_cells, gpu_cells;
-    std::vector<BlockId> gpu_queues;
-  };
-  std::size_t ev_cursor = 0;
-  std::map<ActivityId, Victims> victims;
-  std::map<BlockId, std::pair<RayJob*, std::pair<std::size_t, std::uint32_t>>> queue_rays;  // RAM->GPU uploads
-  auto task_for = [&](ActivityId id, const Activity& a) -> LocalExecutor::Task {
-    const auto& evs = schedule.evictions();
-    for (; ev_cursor < evs.size(); ++ev_cursor) {
-      const Eviction& e = evs[ev_cursor];
-      auto it = cell_of.find(e.block);
-      if (e.mem == ram && it != cell_of.end()) victims[e.for_activity].ram_cells.push_back(it->second);
-      if (e.mem == gmem && it != cell_of.end()) victims[e.for_activity].gpu_cells.push_back(it->second);
-      if (e.mem == gmem && it == cell_of.end()) victims[e.for_activity].gpu_queues.push_back(e.block);
-    }
-    Victims evict;
-    if (auto v = victims.find(id); v != victims.end()) {
-      evict = std::move(v->second);
-      victims.erase(v);
-    }
-    GpuStore* gs = gpu_store.get();
-    auto do_evict = [&store, gs](const Victims& v) {
-      for (std::uint32_t c : v.ram_cells) store.evict(c);
-      if (!gs) return;
-      for (std::uint32_t c : v.gpu_cells) gs->evict(c);
-      for (BlockId q : v.gpu_queues) gs->drop_rays(q);
-    };
-    if (a.kind == ActivityKind::Exec) {
-      RayJob* job = &workload.job(a.job);
-      if (gs && a.device == gpu_dev) {
-        // The job's queues will be uploaded by T-jobs dispatched later; record where their rays are.
-        return [&ts, gs, job, evict = std::move(evict), do_evict] {
-          do_evict(evict);
-          gs->run_job(ts, job->cell, job->kind, job->rays, job->parts, job->out, job->counts);
-          std::vector<trace::RayRecord>().swap(job->rays);
-        };
-      }
-      return [&ts, &store, job, rec = opt.batching.recorder, evict = std::move(evict), do_evict] {
-        do_evict(evict);
-        const auto geo = store.get(job->cell);
-        if (rec) rec->trace_job(ts, *geo, *job);  // the same kernels, ray by ray
-        else trace::intersect(ts, *geo, job->kind, job->rays, job->out, job->counts);
-        std::vector<trace::RayRecord>().swap(job->rays);
-      };
-    }
-    auto it = cell_of.find(a.block);
-    const MemId to = g.channels[a.channel].to;
-    const bool scene_block = it != cell_of.end();
-    const std::uint32_t cell = scene_block ? it->second : 0;
-    if (gs && to == gmem) {
-      if (scene_block)
-        return [gs, cell, evict = std::move(evict), do_evict] {
-          do_evict(evict);
-          gs->load(cell);
-        };
-      // A ray queue RAM->GPU: the rays of that queue inside the job that consumes it.
-      std::span<const trace::RayRecord> rays;
-      if (const JobId j = workload.consumer(a.block); j != kNone) {
-        RayJob& rj = workload.job(j);
-        std::size_t off = 0;
-        for (const auto& [q, n] : rj.parts) {
-          if (q == a.block) rays = std::span<const trace::RayRecord>(rj.rays).subspan(off, n);
-          off += n;
-        }
-      }
-      return [&ts, gs, q = a.block, rays, evict = std::move(evict), do_evict] {
-        do_evict(evict);
-        if (!rays.empty()) gs->load_rays(q, rays, ts);
-      };
-    }
-    // Disk -> RAM loads a block; ray queues live in host memory shared by every CPU device.
-    const bool load = scene_block && to == ram;
-    return [&store, load, cell, evict = std::move(evict), do_evict] {
-      do_evict(evict);
-      if (load) store.load(cell);
-    };
-  };
-  res.rss_start_bytes = rss_now();
-  // What the run may add beyond the budget (README, "Memory"): the film, ray records in
-  // flight twice over (staged and in jobs), and a fixed allowance for thread stacks,
-  // Embree's and the allocator's own state.
-  // Loading adds, outside the budget, one staged block file (read-ahead) per loader and one
-  // block's idle recycled arrays (ArrayPool): 40 per loader + 52 bytes per triangle of the
-  // largest block.
-  res.overhead_bound_bytes = Bytes(res.width) * Bytes(res.height) * 28 + 2 * Bytes(wo.path_cap) * per_path +
-                             largest_triangles * (40 * Bytes(wm.loaders) + 52) +
-                             Bytes(wm.loaders) * partition::kBlockHeaderBytes + (Bytes(64) << 20);
-  // Read-ahead (LocalExecutor's hints): the next disk->RAM load reads its block file while
-  // the channel still builds the previous block's BVH or waits for its dependencies.
-  auto hint_for = [&](ActivityId, const Activity& a) -> LocalExecutor::Task {
-    if (a.kind != ActivityKind::Transfer || g.channels[a.channel].to != ram || !opt.read_ahead) return {};
-    const auto it = cell_of.find(a.block);
-    if (it == cell_of.end()) return {};
-    return [&store, cell = it->second] { store.read_ahead(cell); };
-  };
-  LocalExecutor executor(g, task_for, hint_for);
-  RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
-  auto last = std::chrono::steady_clock::now();
+// What the run may add beyond the budget (README, "Memory"): the film, ray records in
+// flight twice over (staged and in jobs), and a fixed allowance for thread stacks,
+// Embree's and the allocator's own state. Loading adds, outside the budget, one staged
+// block file (read-ahead) per loader and one block's idle recycled arrays (ArrayPool): 40
+// per loader + 52 bytes per triangle of the largest block.
+Bytes overhead_bound(const RenderResult& res, const RenderWorkloadOptions& wo, const Blocks& b, const Platform& p) {
+  return Bytes(res.width) * Bytes(res.height) * 28 + 2 * Bytes(wo.path_cap) * bytes_per_path(res) +
+         b.largest_triangles * (40 * Bytes(p.wm.loaders) + 52) + Bytes(p.wm.loaders) * partition::kBlockHeaderBytes +
+         (Bytes(64) << 20);
+}
+
+// The loop's progress callback: a failed job stops the workload, a lost GPU leaves the plan,
+// and progress is reported at most every 200 ms.
+struct LoopWatch {
+  const RenderOptions& opt;
+  Platform& p;
+  const LocalExecutor& executor;
+  RenderWorkload& workload;
+  const GpuStore* gpu;
+  std::chrono::steady_clock::time_point last = std::chrono::steady_clock::now();
   bool gpu_disabled = false;
-  loop.on_progress = [&](Time now, const RunStats&) {
+
+  void operator()(Time now, const RunStats&) {
     if (executor.failure()) workload.abort();
-    if (gpu_store && !gpu_disabled && gpu_store->lost()) {
-      // The device is gone: plan no more work for it (jobs already planned there run on
-      // the CPU path inside GpuStore::run_job, so nothing is lost).
-      for (JobTypeId t = 0; t < JobTypeId(g.job_types.size()); ++t) g.timing.at(gpu_dev, t).supported = false;
-      if (opt.plan_gpu_only)  // the CPU threads take the GPU's job types back (their own timing)
-        for (std::size_t d = 0; d < g.computes.size(); ++d)
-          if (g.computes[d].kind == ComputeKind::Cpu) {
-            g.timing.at(DeviceId(d), ri) = g.timing.at(DeviceId(d), ric);
-            g.timing.at(DeviceId(d), si) = g.timing.at(DeviceId(d), sic);
-          }
-      gpu_disabled = true;
-    }
+    if (gpu && !gpu_disabled && gpu->lost()) disable_gpu();
     if (!opt.progress) return;
     const auto t = std::chrono::steady_clock::now();
     if (t - last < std::chrono::milliseconds(200)) return;
@@ -390,13 +356,26 @@ RenderResult render(const RenderOptions& opt) {
     const double total = double(workload.total_camera_rays());
     const double done = double(workload.camera_rays()) - double(workload.paths_alive());
     opt.progress(total > 0 ? done / total : 1.0, now > 0 ? double(workload.counts().created) / now : 0.0);
-  };
-  res.run = loop.run();
-  res.seconds = executor.now();
-  res.peak_rss_bytes = rss_peak();
-  if (auto err = executor.failure()) std::rethrow_exception(err);
-  if (res.run.stalled) throw std::runtime_error("render stalled: " + unplaced_summary(pool, schedule));
+  }
+  // The device is gone: plan no more work for it (jobs already planned there run on the
+  // CPU path inside VulkanAggregate, so nothing is lost).
+  void disable_gpu() {
+    DeviceGraph& g = p.g;
+    for (JobTypeId t = 0; t < JobTypeId(g.job_types.size()); ++t) g.timing.at(p.gpu_dev, t).supported = false;
+    if (opt.plan_gpu_only)  // the CPU threads take the GPU's job types back (their own timing)
+      for (std::size_t d = 0; d < g.computes.size(); ++d)
+        if (g.computes[d].kind == ComputeKind::Cpu) {
+          g.timing.at(DeviceId(d), p.ri) = g.timing.at(DeviceId(d), p.ric);
+          g.timing.at(DeviceId(d), p.si) = g.timing.at(DeviceId(d), p.sic);
+        }
+    gpu_disabled = true;
+  }
+};
 
+// ---- report ------------------------------------------------------------------------------
+
+void report_image(const RenderWorkload& workload, const BlockStore& store, const trace::Film& film,
+                  RenderResult& res) {
   res.counts = workload.counts();
   res.camera_rays = workload.camera_rays();
   res.jobs = workload.jobs_created();
@@ -406,7 +385,13 @@ RenderResult render(const RenderOptions& opt) {
   res.rgb = film.resolve(res.spp);
   res.sums = film.sums();
   res.samples.resize(std::size_t(res.width) * std::size_t(res.height));
-  for (std::size_t p = 0; p < res.samples.size(); ++p) res.samples[p] = film.samples(static_cast<std::uint32_t>(p));
+  for (std::size_t px = 0; px < res.samples.size(); ++px) res.samples[px] = film.samples(static_cast<std::uint32_t>(px));
+}
+
+// Measured activities for `rayline calibrate` (Eq. 1 and Eq. 2 fits).
+void report_samples(const Schedule& schedule, const JobPool& pool, const Platform& p, const SceneBlocks& sb,
+                    RenderResult& res) {
+  const DeviceGraph& g = p.g;
   res.first_exec_start = res.seconds;
   for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
     const Activity& a = schedule.activity(id);
@@ -417,26 +402,88 @@ RenderResult render(const RenderOptions& opt) {
       t.device = a.device;
       const std::string& type_name = g.job_types[std::size_t(pool.job(a.job).type)];
       t.type = type_name == "RayIntersect" || type_name == "RayIntersectCpu" ? 0 : 1;
-      for (BlockId b : pool.job(a.job).inputs) t.inputs.push_back({pool.block(b).kind, pool.block(b).bytes});
+      for (BlockId blk : pool.job(a.job).inputs) t.inputs.push_back({pool.block(blk).kind, pool.block(blk).bytes});
       t.duration = a.end - a.start;
       res.exec_samples.push_back(std::move(t));
-    } else if (cell_of.count(a.block) && g.channels[a.channel].to == ram) {
+    } else if (sb.cell_of.count(a.block) && g.channels[a.channel].to == p.ram) {
       res.load_samples.emplace_back(a.bytes, a.end - a.start);
-    } else if (g.channels[a.channel].to == gmem) {
+    } else if (g.channels[a.channel].to == p.gmem) {
       res.pcie_samples.emplace_back(a.bytes, a.end - a.start);
     }
   }
-  if (gpu_store) {
-    res.gpu = gpu_store->stats();
-    if (!gpu_store->failure().empty())
-      res.gpu_status = std::string(gpu_store->lost() ? "lost: " : "used, with failures: ") + gpu_store->failure();
+}
+
+void report_gpu(const RenderOptions& opt, const GpuStore* gpu, RenderResult& res) {
+  if (gpu) {
+    res.gpu = gpu->stats();
+    if (!gpu->failure().empty())
+      res.gpu_status = std::string(gpu->lost() ? "lost: " : "used, with failures: ") + gpu->failure();
   }
   res.gpu_resolve_doubtful = opt.gpu_resolve_doubtful;
+}
+
+// The plan driven on this machine: GMB's loop (docs/architecture.md control loop) with the
+// LocalExecutor, then what it measured.
+void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const RenderWorkloadOptions& wo, Platform& p,
+         RenderResult& res) {
+  JobPool pool;
+  Schedule schedule(p.g, pool);
+  const SceneBlocks sb = add_scene_blocks(b, p.disk, pool, schedule);
+  auto scheduler = make_scheduler(opt.scheduler, opt.horizon, opt.aging, opt.adaptive_aging);
+  res.scheduler = opt.scheduler;
+  res.scheduler_parameters = scheduler->describe();
+
+  trace::Film film(res.width, res.height);
+  const trace::TraceSettings ts = trace_settings(opt, f, b, film, res);
+  const trace::PinholeCamera camera(f.sc.default_camera(), res.width, res.height);
+  RenderWorkload workload(ts, camera, p.g, p.ram, sb.blocks, wo);
+  // BVH builds may use every core: out of core the compute threads mostly wait for them
+  // (fetching idle), so the disk->RAM channel's T-jobs get done sooner.
+  BlockStore store(b.index, b.dir, b.footprint, static_cast<std::uint32_t>(f.sc.materials.size()), f.quality,
+                   opt.build_threads > 0 ? opt.build_threads : f.threads);
+  store.set_staging_slots(static_cast<std::size_t>(p.wm.loaders));  // one read-ahead per loader
+  std::unique_ptr<GpuStore> gpu_store;
+  if (p.gpu_ctx) gpu_store = std::make_unique<GpuStore>(*p.gpu_ctx, store);
+  const AggregateSources sources{store, gpu_store.get(), opt.batching.recorder, opt.gpu_resolve_doubtful};
+  ActivityTasks tasks({p.g, schedule, workload, ts, sb.cell_of, p.ram, p.gmem, store, gpu_store.get(), opt.read_ahead},
+                      make_aggregates(p.g, sources));
+  res.rss_start_bytes = rss_now();
+  res.overhead_bound_bytes = overhead_bound(res, wo, b, p);
+
+  LocalExecutor executor(
+      p.g, [&tasks](ActivityId id, const Activity& a) { return tasks.task(id, a); },
+      [&tasks](ActivityId id, const Activity& a) { return tasks.hint(id, a); });
+  RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
+  loop.on_progress = LoopWatch{opt, p, executor, workload, gpu_store.get()};
+  res.run = loop.run();
+  res.seconds = executor.now();
+  res.peak_rss_bytes = rss_peak();
+  if (auto err = executor.failure()) std::rethrow_exception(err);
+  if (res.run.stalled) throw std::runtime_error("render stalled: " + unplaced_summary(pool, schedule));
+
+  report_image(workload, store, film, res);
+  report_samples(schedule, pool, p, sb, res);
+  report_gpu(opt, gpu_store.get(), res);
   res.metrics_json = render_metrics_json(res, schedule, executor.busy_seconds());
   if (opt.keep_schedule_outputs) {
     res.timeline_json = chrome_trace_json(schedule, true);
     res.jobs_csv = jobs_csv(schedule);
   }
+}
+
+}  // namespace
+
+RenderResult render(const RenderOptions& opt) {
+  RenderResult res;
+  Frame frame;
+  resolve_frame(opt, frame, res);
+  Blocks blocks;
+  prepare_blocks(opt, frame, blocks, res);
+  RenderWorkloadOptions wo = opt.batching;
+  const Bytes ram_capacity = size_paths(opt, blocks, wo, res);
+  Platform platform;
+  make_platform(opt, blocks, wo, ram_capacity, platform, res);
+  run(opt, frame, blocks, wo, platform, res);
   return res;
 }
 

@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "render/engine/block_store.hpp"
-#include "render/engine/gpu_store.hpp"
+#include "render/store/block_store.hpp"
+#include "render/store/gpu_store.hpp"
 #include "render/engine/render_workload.hpp"
-#include "render/trace/path_kernels.hpp"
+#include "render/integrator/path_kernels.hpp"
 #include "sched/runtime/runtime_loop.hpp"
 #include "sched/core/timing_model.hpp"
 
@@ -50,7 +50,7 @@ struct RenderOptions {
   int gpu_fault_after = 0;
   std::string gpu_fault = "lost";
   // Test hook: false answers the rays a GPU kernel flags doubtful with the kernel's own
-  // guess instead of handing them to a CPU device (render/gpu/README.md, "Doubtful rays"):
+  // guess instead of handing them to a CPU device (render/vulkan/README.md, "Doubtful rays"):
   // the image may then differ from the CPU-only one at edge cracks.
   bool gpu_resolve_doubtful = true;
   bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result

@@ -520,7 +520,7 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
   // Pass 2: route into per-block buffers, append to block files. A triangle within
   // route_eps of a split plane goes to both sides: a renderer's hit found at t a few ulps
   // past the plane (rounding of t versus the plane's t) is then still in the cell whose
-  // interval holds it, so hits never fall between cells (render/trace/cell_walk.hpp).
+  // interval holds it, so hits never fall between cells (render/integrator/cell_walk.hpp).
   const Float3 ext = bounds.extent();
   const float route_eps = 1e-5f * std::max({ext.x, ext.y, ext.z, std::fabs(bounds.lo.x), std::fabs(bounds.lo.y),
                                             std::fabs(bounds.lo.z), std::fabs(bounds.hi.x), std::fabs(bounds.hi.y),

@@ -1,5 +1,5 @@
 // The reference path tracer (conventions: reference.hpp). Written independently of
-// render/trace: own RNG (PCG32 streams keyed by SplitMix64), own Embree scene over the
+// render/integrator: own RNG (PCG32 streams keyed by SplitMix64), own Embree scene over the
 // whole triangle soup, iterative per-sample paths, TBB over tiles.
 #include "render/reference/reference.hpp"
 

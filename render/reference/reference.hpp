@@ -1,5 +1,5 @@
 // An in-core reference path tracer: the test oracle for the out-of-core ray-batching
-// renderer (render/trace, render/engine). It shares no code with that renderer beyond the
+// renderer (render/integrator, render/embree, render/engine). It shares no code with that renderer beyond the
 // scene library: its own random numbers, its own traversal (one Embree 3 scene over every
 // triangle), plain per-pixel iterative path tracing, no batching, no cells. The two must
 // agree within Monte Carlo noise because both implement exactly these conventions:

@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "render/gpu/gpu_kernels.hpp"
-#include "render/gpu/vulkan_device.hpp"
+#include "render/vulkan/gpu_kernels.hpp"
+#include "render/vulkan/vulkan_device.hpp"
 
 namespace rayline::gpu::testing {
 

@@ -9,7 +9,7 @@
 #include <thread>
 
 #include "gpu_test_util.hpp"
-#include "render/gpu/ray_workloads.hpp"
+#include "tests/gpu/ray_workloads.hpp"
 
 using namespace rayline;
 using namespace rayline::gpu;

@@ -11,8 +11,8 @@
 #include <unistd.h>
 
 #include "gpu_test_util.hpp"
-#include "render/gpu/gpu_bvh.hpp"
-#include "render/gpu/ray_workloads.hpp"
+#include "render/vulkan/gpu_bvh.hpp"
+#include "tests/gpu/ray_workloads.hpp"
 #include "render/partition/block_file.hpp"
 #include "render/partition/partition.hpp"
 #include "render/scene/generators.hpp"

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "gpu_test_util.hpp"
-#include "render/gpu/ray_workloads.hpp"
+#include "tests/gpu/ray_workloads.hpp"
 #include "render/scene/mesh_import.hpp"
 
 namespace fs = std::filesystem;

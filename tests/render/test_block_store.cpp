@@ -16,10 +16,10 @@
 #include <unistd.h>
 #include <vector>
 
-#include "render/engine/block_store.hpp"
+#include "render/store/block_store.hpp"
 #include "render/engine/local_executor.hpp"
 #include "render/partition/partition.hpp"
-#include "render/trace/array_pool.hpp"
+#include "render/embree/array_pool.hpp"
 #include "common/error.hpp"
 
 namespace fs = std::filesystem;

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "render/partition/partition.hpp"
-#include "render/trace/cell_walk.hpp"
+#include "render/integrator/cell_walk.hpp"
 
 using rayline::partition::BlockInfo;
 using rayline::partition::Bounds;

@@ -1,7 +1,7 @@
 // Acceptance, on whatever Vulkan device exists (lavapipe in CI): the image is the
 // same bit for bit with the GPU on and off, in core and out of core — by construction:
 // rays the kernels cannot decide exactly as Embree would are flagged doubtful and traced by
-// a CPU device (render/gpu/README.md, "Doubtful rays"); a scene built to crack shows it.
+// a CPU device (render/vulkan/README.md, "Doubtful rays"); a scene built to crack shows it.
 // A GPU that runs out of memory or is lost mid-render costs no sample; a GPU asked for by
 // name must exist. Calibration measures the GPU even where the plan would leave it idle.
 #include <gtest/gtest.h>
@@ -20,7 +20,7 @@
 #include "render/engine/renderer.hpp"
 #include "small_render.hpp"
 #include "z_fighting_scene.hpp"
-#include "render/gpu/vulkan_device.hpp"
+#include "render/vulkan/vulkan_device.hpp"
 #include "common/error.hpp"
 
 using rayline::engine::render;

@@ -1,4 +1,4 @@
-// The closest-hit tie rule the CPU path shares with the GPU kernel (render/trace/tie_break.hpp):
+// The closest-hit tie rule the CPU path shares with the GPU kernel (render/embree/tie_break.hpp):
 // of triangles met at exactly the same t, the smaller prim wins, whatever order Embree's
 // traversal meets them in. Duplicated triangles (identical vertices, so identical t) are
 // scattered among other triangles so the BVH puts them in different leaves.
@@ -9,8 +9,8 @@
 #include <random>
 #include <vector>
 
-#include "render/trace/block_geometry.hpp"
-#include "render/trace/tie_break.hpp"
+#include "render/embree/block_geometry.hpp"
+#include "render/embree/tie_break.hpp"
 
 using namespace rayline::trace;
 

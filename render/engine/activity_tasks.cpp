@@ -1,0 +1,92 @@
+#include "render/engine/activity_tasks.hpp"
+
+#include <span>
+#include <utility>
+
+namespace rayline::engine {
+
+ActivityTasks::ActivityTasks(Setup s, std::vector<std::unique_ptr<accel::Aggregate>> aggregates)
+    : s_(s), aggregates_(std::move(aggregates)) {}
+
+ActivityTasks::Victims ActivityTasks::victims_of(ActivityId id) {
+  const auto& evs = s_.schedule.evictions();
+  for (; ev_cursor_ < evs.size(); ++ev_cursor_) {
+    const Eviction& e = evs[ev_cursor_];
+    const auto it = s_.cell_of.find(e.block);
+    const bool scene_block = it != s_.cell_of.end();
+    if (e.mem == s_.ram && scene_block) victims_[e.for_activity].ram_cells.push_back(it->second);
+    if (e.mem == s_.gmem && scene_block) victims_[e.for_activity].gpu_cells.push_back(it->second);
+    if (e.mem == s_.gmem && !scene_block) victims_[e.for_activity].gpu_queues.push_back(e.block);
+  }
+  Victims v;
+  if (auto it = victims_.find(id); it != victims_.end()) {
+    v = std::move(it->second);
+    victims_.erase(it);
+  }
+  return v;
+}
+
+void ActivityTasks::evict(const Victims& v) const {
+  for (std::uint32_t c : v.ram_cells) s_.store.evict(c);
+  if (!s_.gpu) return;
+  for (std::uint32_t c : v.gpu_cells) s_.gpu->evict(c);
+  for (BlockId q : v.gpu_queues) s_.gpu->drop_rays(q);
+}
+
+LocalExecutor::Task ActivityTasks::task(ActivityId id, const Activity& a) {
+  Victims v = victims_of(id);
+  if (a.kind == ActivityKind::Exec) return exec_task(a, std::move(v));
+  const MemId to = s_.g.channels[a.channel].to;
+  if (s_.gpu && to == s_.gmem) return gpu_transfer_task(a, std::move(v));
+  // Disk -> RAM loads a block; ray queues live in host memory shared by every CPU device.
+  const auto it = s_.cell_of.find(a.block);
+  const bool load = it != s_.cell_of.end() && to == s_.ram;
+  const std::uint32_t cell = load ? it->second : 0;
+  return [this, load, cell, v = std::move(v)] {
+    evict(v);
+    if (load) s_.store.load(cell);
+  };
+}
+
+LocalExecutor::Task ActivityTasks::exec_task(const Activity& a, Victims v) {
+  RayJob* job = &s_.workload.job(a.job);
+  accel::Aggregate* aggregate = aggregates_.at(std::size_t(a.device)).get();
+  return [this, job, aggregate, v = std::move(v)] {
+    evict(v);
+    aggregate->intersect(s_.ts, accel::QueueJob{job->cell, job->kind, job->rays, job->parts}, job->out, job->counts);
+    std::vector<trace::RayRecord>().swap(job->rays);
+  };
+}
+
+LocalExecutor::Task ActivityTasks::gpu_transfer_task(const Activity& a, Victims v) {
+  GpuStore* gpu = s_.gpu;
+  if (const auto it = s_.cell_of.find(a.block); it != s_.cell_of.end())
+    return [this, gpu, cell = it->second, v = std::move(v)] {
+      evict(v);
+      gpu->load(cell);
+    };
+  // A ray queue RAM->GPU: the rays of that queue inside the job that consumes it.
+  std::span<const trace::RayRecord> rays;
+  if (const JobId j = s_.workload.consumer(a.block); j != kNone) {
+    RayJob& rj = s_.workload.job(j);
+    std::size_t off = 0;
+    for (const auto& [q, n] : rj.parts) {
+      if (q == a.block) rays = std::span<const trace::RayRecord>(rj.rays).subspan(off, n);
+      off += n;
+    }
+  }
+  return [this, gpu, q = a.block, rays, v = std::move(v)] {
+    evict(v);
+    if (!rays.empty()) gpu->load_rays(q, rays, s_.ts);
+  };
+}
+
+LocalExecutor::Task ActivityTasks::hint(ActivityId, const Activity& a) const {
+  if (a.kind != ActivityKind::Transfer || s_.g.channels[a.channel].to != s_.ram || !s_.read_ahead) return {};
+  const auto it = s_.cell_of.find(a.block);
+  if (it == s_.cell_of.end()) return {};
+  BlockStore* store = &s_.store;
+  return [store, cell = it->second] { store->read_ahead(cell); };
+}
+
+}  // namespace rayline::engine
