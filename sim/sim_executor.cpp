@@ -60,7 +60,6 @@ void SimExecutor::try_start(ActivityId id) {
       !resources_free(id, a))
     return;
   s.started = true;
-  ++started_count_;
   buffered_.push_back({ExecutorEvent::Type::Started, id, platform_.now()});
   if (a.cancelled) {  // withdrawn (Schedule::cancel): done the moment it may run, nothing moves
     on_done(id, platform_.now(), true);

@@ -43,7 +43,6 @@ class SimExecutor final : public Executor {
   // processing; batches at or past `until` are not delivered.
   void run(const Sink& sink, Time until) override;
 
-  std::size_t started() const { return started_count_; }
   // Wall seconds spent in our completion handling (runtime loop, scheduler, bookkeeping);
   // the rest of run() is SimGrid's own work (max-min solver, event queue).
   double callback_wall_seconds() const { return callback_wall_; }
@@ -74,7 +73,6 @@ class SimExecutor final : public Executor {
   std::vector<ActivityId> woken_;
   std::vector<ExecutorEvent> buffered_;  // Started events, delivered with the next batch
   const Sink* sink_ = nullptr;
-  std::size_t started_count_ = 0;
   double callback_wall_ = 0;
 };
 
