@@ -9,7 +9,6 @@
 #include "common/error.hpp"
 #include "common/output_folder.hpp"
 #include "common/unfinished_output.hpp"
-#include "common/units.hpp"
 
 namespace rayline::cli {
 
@@ -23,26 +22,6 @@ int guarded(const std::function<int()>& body) {
     std::cerr << "rayline: error: " << e.what() << "\n";
     return kExitFailure;
   }
-}
-
-AgingSetting parse_aging(const std::string& text, const std::string& flag) {
-  AgingSetting a;
-  if (text == "auto") return a;
-  if (text == "adaptive") {
-    a.adaptive = true;
-    return a;
-  }
-  if (text == "off") {
-    a.aging = kNever;
-    return a;
-  }
-  try {
-    a.aging = units::parse_duration(text);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(flag, "", std::string(e.what()) + " (or auto, adaptive, off)");
-  }
-  if (!(a.aging >= 0)) throw InputError(flag, "", "must be >= 0, auto, adaptive or off");
-  return a;
 }
 
 void ensure_parent_dir(const std::string& path, const std::string& flag) {

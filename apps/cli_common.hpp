@@ -22,15 +22,6 @@ void ensure_parent_dir(const std::string& path, const std::string& flag);
 // The same for a folder itself (results folders): InputError(dir, flag, ...) naming it.
 void ensure_dir(const std::string& dir, const std::string& flag);
 
-// --aging (GMB, Sec. 4.3): "auto" (GMB's default, 5k and at least 1 s), "adaptive" (auto,
-// and at least twice the queue's median wait), "off", or a duration >= 0. InputError naming
-// `flag` otherwise.
-struct AgingSetting {
-  Time aging = -1;  // GmbOptions::aging
-  bool adaptive = false;
-};
-AgingSetting parse_aging(const std::string& text, const std::string& flag);
-
 // Before the work that an output file records: InputError(path, flag, ...) when `path` is
 // empty, is a folder ("give a file name such as `example`"), or its folder cannot be created
 // or written.

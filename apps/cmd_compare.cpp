@@ -4,9 +4,6 @@
 // A run that fails or stalls stays in the table with its status (never dropped).
 #include "apps/cmd_compare.hpp"
 
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -15,7 +12,8 @@
 #include <vector>
 
 #include "apps/cli_common.hpp"
-#include "apps/interrupt.hpp"
+#include "apps/run/child_process.hpp"
+#include "apps/run/run_options.hpp"
 #include "common/error.hpp"
 
 namespace rayline::cli {
@@ -81,49 +79,21 @@ Row read_row(const std::string& sched, const std::string& dir, int rc) {
   return r;
 }
 
-}  // namespace
-
-int run_compare(const CompareOptions& opt) {
-  const std::vector<std::string> scheds = split_list(opt.schedulers);
+// The --schedulers list: names the factory knows, each once (each writes OUT/<name>: a
+// second run of one would overwrite the first).
+std::vector<std::string> scheduler_list(const std::string& text) {
+  const std::vector<std::string> scheds = split_list(text);
   if (scheds.empty()) throw InputError("--schedulers", "", "expected a list such as gmb,budge,loadanyonce");
   for (const std::string& s : scheds) {
-    if (s != "gmb" && s != "gmb-ca" && s != "budge" && s != "loadanyonce")
-      throw InputError("--schedulers", "", "unknown scheduler '" + s + "' (gmb, gmb-ca, budge, loadanyonce)");
-    // Each writes OUT/<name>: a second run of one would overwrite the first.
+    scheduler_flag("--schedulers", s, "");
     if (std::count(scheds.begin(), scheds.end(), s) > 1)
       throw InputError("--schedulers", "", "'" + s + "' is listed twice");
   }
-  if (opt.sim.clients.find(',') != std::string::npos)
-    throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
-  check_simulate_flags(opt.sim);
-  // Each run replaces OUT/<scheduler>: checked for the user's files before the first run.
-  for (const std::string& s : scheds) check_run_folder(opt.sim, opt.out + "/" + s);
-  ensure_dir(opt.out, "--out");
-  std::vector<Row> rows;
-  for (const auto& s : scheds) {
-    std::printf("== %s ==\n", s.c_str());
-    std::fflush(stdout);
-    SimulateOptions o = opt.sim;
-    o.scheduler = s;
-    o.out = opt.out + "/" + s;
-    o.no_progress = true;
-    const pid_t pid = ::fork();
-    if (pid < 0) throw std::runtime_error("fork failed");
-    if (pid == 0) {
-      interrupt_cleanup_after_fork();
-      const int rc = guarded([&] { return run_simulate(o); });
-      std::fflush(nullptr);
-      ::_exit(rc);
-    }
-    add_child(pid);  // an interrupt stops it, and it removes its unfinished outputs
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    remove_child(pid);
-    const int rc = WIFEXITED(status) ? WEXITSTATUS(status) : kExitFailure;
-    if (rc == kExitBadInput) return rc;  // the same input is bad for every scheduler
-    rows.push_back(read_row(s, o.out, rc));
-  }
-  // Table, CSV, JSON.
+  return scheds;
+}
+
+// The table on stdout, OUT/compare.csv and OUT/compare.json; rays/s relative to gmb's.
+void report(const std::vector<Row>& rows, const std::string& out) {
   const Row* ref = nullptr;
   for (const Row& r : rows)
     if (r.scheduler == "gmb") ref = &r;
@@ -153,12 +123,38 @@ int run_compare(const CompareOptions& opt) {
                   {"rays_per_second", r.rays}, {"steady_rays_per_second", r.steady}, {"lan_utilisation_mean", r.lan},
                   {"busy", r.busy}, {"fetching", r.fetching}, {"true_idle", r.idle}, {"scheduler_wall_s", r.sched_wall},
                   {"scheduler_share", r.sched_share}, {"sim_wall_s", r.wall}, {"scheduler_parameters", r.parameters},
-                  {"queue_wait_p50_s", r.wait_p50}, {"queue_wait_p95_s", r.wait_p95}, {"out", opt.out + "/" + r.scheduler}});
+                  {"queue_wait_p50_s", r.wait_p50}, {"queue_wait_p95_s", r.wait_p95}, {"out", out + "/" + r.scheduler}});
   }
   std::printf("rays/s: steady state (path tracing) or whole run; results in %s/<scheduler>/, %s/compare.csv, compare.json\n",
-              opt.out.c_str(), opt.out.c_str());
-  write_file_atomic(opt.out + "/compare.csv", csv.str());
-  write_file_atomic(opt.out + "/compare.json", js.dump(1) + "\n");
+              out.c_str(), out.c_str());
+  write_file_atomic(out + "/compare.csv", csv.str());
+  write_file_atomic(out + "/compare.json", js.dump(1) + "\n");
+}
+
+}  // namespace
+
+int run_compare(const CompareOptions& opt) {
+  const std::vector<std::string> scheds = scheduler_list(opt.schedulers);
+  if (opt.sim.clients.find(',') != std::string::npos)
+    throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
+  check_simulate_flags(opt.sim);
+  // Each run replaces OUT/<scheduler>: checked for the user's files before the first run.
+  for (const std::string& s : scheds) check_run_folder(opt.sim, opt.out + "/" + s);
+  ensure_dir(opt.out, "--out");
+  std::vector<Row> rows;
+  for (const auto& s : scheds) {
+    std::printf("== %s ==\n", s.c_str());
+    std::fflush(stdout);
+    SimulateOptions o = opt.sim;
+    o.scheduler = s;
+    o.out = opt.out + "/" + s;
+    o.no_progress = true;
+    std::string ignored;
+    const int rc = run_in_child([&](int) { return guarded([&] { return run_simulate(o); }); }, ignored);
+    if (rc == kExitBadInput) return rc;  // the same input is bad for every scheduler
+    rows.push_back(read_row(s, o.out, rc));
+  }
+  report(rows, opt.out);
   for (const Row& r : rows)
     if (r.status != "ok") return kExitFailure;
   return kExitOk;

@@ -13,6 +13,7 @@
 
 #include "apps/cli_common.hpp"
 #include "apps/cmd_partition.hpp"
+#include "apps/run/run_options.hpp"
 #include "render/engine/calibrate.hpp"
 #include "render/engine/profile_recorder.hpp"
 #include "render/engine/renderer.hpp"
@@ -88,13 +89,15 @@ std::function<void(double, double)> progress_bar(ProgressLine& line, const char*
 
 }  // namespace
 
-int run_render(const RenderCliOptions& opt) {
+namespace {
+
+// The flags as the renderer's options (engine::RenderOptions), parsed and checked.
+engine::RenderOptions render_options(const RenderCliOptions& opt) {
   engine::RenderOptions ro;
   ro.scene = opt.scene;
   ro.blocks_dir = opt.blocks_dir;
   ro.blocks = opt.blocks;
   ro.platform = opt.platform;
-  ro.scheduler = opt.scheduler;
   ro.spp = opt.spp;
   ro.max_depth = opt.max_depth;
   ro.threads = opt.threads;
@@ -102,10 +105,11 @@ int run_render(const RenderCliOptions& opt) {
   // (CLI11's PositiveNumber lets NaN through, and reports "inf" as a 300-digit number.)
   if (!(std::isfinite(opt.horizon) && opt.horizon > 0))
     throw InputError("--horizon", "", "must be a finite number of seconds > 0, e.g. 2 or 0.5");
-  ro.horizon = opt.horizon;
-  const AgingSetting aging = parse_aging(opt.aging, "--aging");
-  ro.aging = aging.aging;
-  ro.adaptive_aging = aging.adaptive;
+  const SchedulerChoice choice = scheduler_choice(opt.scheduler, opt.horizon, parse_aging(opt.aging, "--aging"));
+  ro.scheduler = std::string(scheduler_name(choice.kind));
+  ro.horizon = choice.horizon;
+  ro.aging = choice.aging;
+  ro.adaptive_aging = choice.adaptive_aging;
   if (opt.paths > 0 && opt.paths < 64) throw InputError("--paths", "", "must be 0 (auto) or at least 64");
   ro.batching.path_cap = opt.paths;
   ro.bvh_quality = opt.bvh_quality;
@@ -117,10 +121,14 @@ int run_render(const RenderCliOptions& opt) {
   ro.gpu = opt.gpu;
   if (!opt.gpu_memory_budget.empty())
     ro.gpu_memory_budget = parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget");
+  return ro;
+}
+
+// Before rendering (nothing rendered for nothing): the image and its companions are
+// written beside it (sibling names), and none of them, nor a recording, may be an input.
+void check_render_outputs(const RenderCliOptions& opt) {
   const std::string ext = fs::path(opt.out).extension().string();
   if (ext != ".exr") throw InputError(opt.out, "--out", "the image is written as OpenEXR: use a name ending in .exr");
-  // The image's companions are written beside it (sibling names): none may be an input or
-  // a recording.
   std::vector<NamedPath> inputs = scene_inputs(opt.scene);
   inputs.push_back({"--platform", opt.platform == "auto" ? std::string() : opt.platform});
   inputs.push_back(
@@ -133,61 +141,61 @@ int run_render(const RenderCliOptions& opt) {
                   {"--record-profile", opt.record_profile},
                   {"--record-replay", opt.record_replay}},
                  inputs);
-  check_output_file(opt.out, "--out", "out/render.exr");  // before rendering: nothing rendered for nothing
-  ProgressLine line(ProgressLine::for_stderr(opt.quiet));
-  if (line.mode() != ProgressLine::Mode::Off) {
-    ro.progress = progress_bar(line, "render");
-    ro.partition_progress = partition_progress(line);
-  }
-  std::unique_ptr<engine::ProfileRecorder> recorder;
-  if (!opt.record_profile.empty() || !opt.record_replay.empty()) {
-    engine::ProfileRecorderOptions po;
-    try {
-      parse_resolution(opt.record_tiles, po.tiles_x, po.tiles_y);
-    } catch (const InputError&) {
-      throw InputError("--record-tiles", "", "expected TXxTY, e.g. 8x8; got '" + opt.record_tiles + "'");
-    }
-    po.keyframe = opt.record_keyframe;
-    po.replay = !opt.record_replay.empty();
-    if (!opt.record_profile.empty()) check_output_file(opt.record_profile, "--record-profile", "out/room.profile.json");
-    if (!opt.record_replay.empty()) check_output_file(opt.record_replay, "--record-replay", "out/room.replay.log");
-    recorder = std::make_unique<engine::ProfileRecorder>(po);
-    ro.batching.recorder = recorder.get();
-  }
+  check_output_file(opt.out, "--out", "out/render.exr");
+}
 
-  const engine::RenderResult r = engine::render(ro);
-  line.done();
-  if (recorder) {
-    const std::string extra = "\"scene\": \"" + r.scene_name + "\", \"blocks\": " + std::to_string(r.blocks) +
-                              ", \"seed\": " + std::to_string(r.seed) + ", \"render_rays\": {\"traced\": " +
-                              std::to_string(r.counts.traced) + ", \"created\": " + std::to_string(r.counts.created) +
-                              ", \"escaped\": " + std::to_string(r.counts.escaped) + ", \"occluded\": " +
-                              std::to_string(r.counts.occluded) + ", \"unoccluded\": " +
-                              std::to_string(r.counts.unoccluded) + "}";
-    if (!opt.record_profile.empty()) write_file_atomic(opt.record_profile, recorder->statistics_json(extra));
-    if (!opt.record_replay.empty()) {
-      const std::string tmp = unfinished::fresh_temp_name(opt.record_replay, "partial");
-      const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
-      try {
-        recorder->replay().save(tmp, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +
-                                         "x" + std::to_string(r.height) + ", " + std::to_string(r.spp) + " spp, keyframe " +
-                                         std::to_string(opt.record_keyframe) + " (client 0, frame " +
-                                         std::to_string(opt.record_keyframe) + ")");
-      } catch (...) {
-        std::error_code ec;
-        fs::remove(tmp, ec);
-        throw;
-      }
-      std::error_code ec;
-      fs::rename(tmp, opt.record_replay, ec);
-      if (ec) {
-        const std::string why = ec.message();
-        fs::remove(tmp, ec);
-        throw InputError(opt.record_replay, "--record-replay", "cannot move the log into place: " + why);
-      }
-    }
+// --record-profile / --record-replay: the recorder the renderer's kernels report to.
+std::unique_ptr<engine::ProfileRecorder> make_recorder(const RenderCliOptions& opt) {
+  if (opt.record_profile.empty() && opt.record_replay.empty()) return nullptr;
+  engine::ProfileRecorderOptions po;
+  try {
+    parse_resolution(opt.record_tiles, po.tiles_x, po.tiles_y);
+  } catch (const InputError&) {
+    throw InputError("--record-tiles", "", "expected TXxTY, e.g. 8x8; got '" + opt.record_tiles + "'");
   }
+  po.keyframe = opt.record_keyframe;
+  po.replay = !opt.record_replay.empty();
+  if (!opt.record_profile.empty()) check_output_file(opt.record_profile, "--record-profile", "out/room.profile.json");
+  if (!opt.record_replay.empty()) check_output_file(opt.record_replay, "--record-replay", "out/room.replay.log");
+  return std::make_unique<engine::ProfileRecorder>(po);
+}
 
+// The replay log, written under a temporary name and moved into place once complete.
+void write_replay_log(const RenderCliOptions& opt, const engine::ProfileRecorder& recorder, const engine::RenderResult& r) {
+  const std::string tmp = unfinished::fresh_temp_name(opt.record_replay, "partial");
+  const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
+  try {
+    recorder.replay().save(tmp, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +
+                                    "x" + std::to_string(r.height) + ", " + std::to_string(r.spp) + " spp, keyframe " +
+                                    std::to_string(opt.record_keyframe) + " (client 0, frame " +
+                                    std::to_string(opt.record_keyframe) + ")");
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw;
+  }
+  std::error_code ec;
+  fs::rename(tmp, opt.record_replay, ec);
+  if (ec) {
+    const std::string why = ec.message();
+    fs::remove(tmp, ec);
+    throw InputError(opt.record_replay, "--record-replay", "cannot move the log into place: " + why);
+  }
+}
+
+void write_recordings(const RenderCliOptions& opt, const engine::ProfileRecorder& recorder, const engine::RenderResult& r) {
+  const std::string extra = "\"scene\": \"" + r.scene_name + "\", \"blocks\": " + std::to_string(r.blocks) +
+                            ", \"seed\": " + std::to_string(r.seed) + ", \"render_rays\": {\"traced\": " +
+                            std::to_string(r.counts.traced) + ", \"created\": " + std::to_string(r.counts.created) +
+                            ", \"escaped\": " + std::to_string(r.counts.escaped) + ", \"occluded\": " +
+                            std::to_string(r.counts.occluded) + ", \"unoccluded\": " +
+                            std::to_string(r.counts.unoccluded) + "}";
+  if (!opt.record_profile.empty()) write_file_atomic(opt.record_profile, recorder.statistics_json(extra));
+  if (!opt.record_replay.empty()) write_replay_log(opt, recorder, r);
+}
+
+// IMAGE.exr (with the run's metadata), IMAGE.png, IMAGE.metrics.json, .timeline.json, .jobs.csv.
+void write_image_and_companions(const std::string& out, const engine::RenderResult& r) {
   image::Metadata meta;
   meta.strings["rayline.scene"] = r.scene_name;
   meta.strings["rayline.scheduler"] = r.scheduler_parameters;
@@ -197,29 +205,49 @@ int run_render(const RenderCliOptions& opt) {
   meta.ints["rayline.max_depth"] = r.max_depth;
   meta.doubles["rayline.seconds"] = r.seconds;
   meta.doubles["rayline.memory_budget_bytes"] = static_cast<double>(r.memory_budget);
-  image::write_exr(opt.out, r.width, r.height, r.rgb.data(), meta);
-  image::write_png_preview(sibling(opt.out, ".png"), r.width, r.height, r.rgb.data(), 1.0f);
-  write_file_atomic(sibling(opt.out, ".metrics.json"), r.metrics_json);
-  write_file_atomic(sibling(opt.out, ".timeline.json"), r.timeline_json);
-  write_file_atomic(sibling(opt.out, ".jobs.csv"), r.jobs_csv);
-  if (!opt.quiet) {
-    std::printf("rendered %dx%d, %d spp, %u blocks, %s, budget %s: %.3f s, %.3f Mrays/s (%llu rays), %llu loads, "
-                "%.1f MB read (%s)\n",
-                r.width, r.height, r.spp, r.blocks, r.scheduler.c_str(),
-                r.memory_budget ? (std::to_string(r.memory_budget / (1 << 20)) + " MiB").c_str() : "in core", r.seconds,
-                double(r.counts.created) / r.seconds / 1e6, static_cast<unsigned long long>(r.counts.created),
-                static_cast<unsigned long long>(r.store.loads), double(r.store.bytes_read) / 1e6,
-                r.store.buffered_reads == 0 ? "O_DIRECT" : "buffered, pages dropped");
-    if (!r.gpu_device.empty())
-      std::printf("gpu '%s'%s: %llu jobs, %llu rays (%llu rays on the CPU path), %llu block uploads; %s\n",
-                  r.gpu_device.c_str(), r.gpu_cpu_backed ? " (CPU-backed)" : "",
-                  static_cast<unsigned long long>(r.gpu.gpu_jobs), static_cast<unsigned long long>(r.gpu.gpu_rays),
-                  static_cast<unsigned long long>(r.gpu.fallback_rays),
-                  static_cast<unsigned long long>(r.gpu.block_uploads), r.gpu_status.c_str());
-    std::printf("wrote %s, %s, %s, %s, %s\n", opt.out.c_str(), sibling(opt.out, ".png").c_str(),
-                sibling(opt.out, ".metrics.json").c_str(), sibling(opt.out, ".timeline.json").c_str(),
-                sibling(opt.out, ".jobs.csv").c_str());
+  image::write_exr(out, r.width, r.height, r.rgb.data(), meta);
+  image::write_png_preview(sibling(out, ".png"), r.width, r.height, r.rgb.data(), 1.0f);
+  write_file_atomic(sibling(out, ".metrics.json"), r.metrics_json);
+  write_file_atomic(sibling(out, ".timeline.json"), r.timeline_json);
+  write_file_atomic(sibling(out, ".jobs.csv"), r.jobs_csv);
+}
+
+void print_render_summary(const std::string& out, const engine::RenderResult& r) {
+  std::printf("rendered %dx%d, %d spp, %u blocks, %s, budget %s: %.3f s, %.3f Mrays/s (%llu rays), %llu loads, "
+              "%.1f MB read (%s)\n",
+              r.width, r.height, r.spp, r.blocks, r.scheduler.c_str(),
+              r.memory_budget ? (std::to_string(r.memory_budget / (1 << 20)) + " MiB").c_str() : "in core", r.seconds,
+              double(r.counts.created) / r.seconds / 1e6, static_cast<unsigned long long>(r.counts.created),
+              static_cast<unsigned long long>(r.store.loads), double(r.store.bytes_read) / 1e6,
+              r.store.buffered_reads == 0 ? "O_DIRECT" : "buffered, pages dropped");
+  if (!r.gpu_device.empty())
+    std::printf("gpu '%s'%s: %llu jobs, %llu rays (%llu rays on the CPU path), %llu block uploads; %s\n",
+                r.gpu_device.c_str(), r.gpu_cpu_backed ? " (CPU-backed)" : "",
+                static_cast<unsigned long long>(r.gpu.gpu_jobs), static_cast<unsigned long long>(r.gpu.gpu_rays),
+                static_cast<unsigned long long>(r.gpu.fallback_rays),
+                static_cast<unsigned long long>(r.gpu.block_uploads), r.gpu_status.c_str());
+  std::printf("wrote %s, %s, %s, %s, %s\n", out.c_str(), sibling(out, ".png").c_str(),
+              sibling(out, ".metrics.json").c_str(), sibling(out, ".timeline.json").c_str(),
+              sibling(out, ".jobs.csv").c_str());
+}
+
+}  // namespace
+
+int run_render(const RenderCliOptions& opt) {
+  engine::RenderOptions ro = render_options(opt);
+  check_render_outputs(opt);
+  ProgressLine line(ProgressLine::for_stderr(opt.quiet));
+  if (line.mode() != ProgressLine::Mode::Off) {
+    ro.progress = progress_bar(line, "render");
+    ro.partition_progress = partition_progress(line);
   }
+  const std::unique_ptr<engine::ProfileRecorder> recorder = make_recorder(opt);
+  ro.batching.recorder = recorder.get();
+  const engine::RenderResult r = engine::render(ro);
+  line.done();
+  if (recorder) write_recordings(opt, *recorder, r);
+  write_image_and_companions(opt.out, r);
+  if (!opt.quiet) print_render_summary(opt.out, r);
   return kExitOk;
 }
 

@@ -3,28 +3,19 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <sys/wait.h>
 #include <unistd.h>
 #include <vector>
 
 #include "apps/cli_common.hpp"
-#include "apps/interrupt.hpp"
 #include "apps/platform_path.hpp"
+#include "apps/run/child_process.hpp"
+#include "apps/run/run_options.hpp"
 #include "common/error.hpp"
-#include "common/units.hpp"
 #include "sim/simulation.hpp"
 
 namespace rayline::cli {
 
 namespace {
-double duration_flag(const std::string& flag, const std::string& text) {
-  try {
-    return units::parse_duration(text);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(flag, "", e.what());
-  }
-}
-
 // "boeing" / "museum": the scene profiles in scenes/ (RAYLINE_SCENES overrides the folder).
 std::string resolve_workload(const std::string& w) {
   namespace fs = std::filesystem;
@@ -32,6 +23,12 @@ std::string resolve_workload(const std::string& w) {
   const char* env = std::getenv("RAYLINE_SCENES");
   const fs::path dir = env ? fs::path(env) : fs::path(RAYLINE_PLATFORM_DIR) / ".." / "scenes";
   return (dir / (w + ".profile.json")).lexically_normal().string();
+}
+
+// A resolved --workload: a scene profile (path tracing), the ray stream, or a job-set file.
+sim::WorkloadKind workload_kind(const std::string& resolved) {
+  if (resolved.ends_with(".profile.json")) return sim::WorkloadKind::PathTrace;
+  return resolved == "ray-stream" ? sim::WorkloadKind::RayStream : sim::WorkloadKind::JobSet;
 }
 
 std::vector<int> client_counts(const std::string& text) {
@@ -69,60 +66,83 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
 }  // namespace
 
 namespace {
-// The flags as a SimulationConfig (clients left at 1): every text flag parsed, InputError
-// naming the flag otherwise.
+// The path-tracing flags (Sec. 5-6) mean nothing to a ray stream or a job set: a run that
+// silently ignored one would not be the run the user asked for.
+void check_no_path_trace_flags(const SimulateOptions& opt) {
+  const std::vector<int> counts = client_counts(opt.clients);
+  std::string given;
+  int n = 0;
+  const auto flag = [&given, &n](bool set, const char* name) {
+    if (set) given += (n++ ? ", " : "") + std::string(name);
+  };
+  flag(counts.size() > 1 || counts[0] != 1, "--clients");
+  flag(opt.prediction_depth != 0, "--prediction-depth");
+  flag(opt.fidelity != "markov", "--fidelity");
+  flag(!opt.replay.empty(), "--replay");
+  flag(opt.record_replay, "--record-replay");
+  flag(!opt.warmup.empty(), "--warmup");
+  flag(opt.merge_planned != "on", "--merge-planned");
+  flag(opt.retime_merged != "on", "--retime-merged");
+  flag(opt.cancel_failed != "on", "--cancel-failed");
+  if (!given.empty())
+    throw InputError("--workload", "", given + (n == 1 ? " applies" : " apply") + " only to path tracing (--workload boeing, museum or "
+                                       "FILE.profile.json), not to '" + opt.workload + "'");
+}
+
+// The path-tracing options, parsed and checked (a workload that is a scene profile).
+void path_trace_config(const SimulateOptions& opt, sim::SimulationConfig& cfg) {
+  cfg.prediction_depth = opt.prediction_depth;
+  cfg.merge_planned = opt.merge_planned == "on";
+  cfg.cancel_failed = opt.cancel_failed == "on";
+  cfg.retime_merged = opt.retime_merged == "on";
+  if (!parse_fidelity(opt.fidelity, cfg.fidelity))
+    throw InputError("--fidelity", "", "unknown fidelity '" + opt.fidelity + "' (known: analytic, markov, replay)");
+  cfg.replay_file = opt.replay;
+  if (cfg.fidelity == Fidelity::Replay && cfg.replay_file.empty())
+    throw InputError("--replay", "", "--fidelity replay needs --replay FILE (a replay log)");
+  cfg.record_replay = opt.record_replay;
+  if (cfg.warmup >= cfg.duration) throw InputError("--warmup", "", "must be shorter than --duration");
+}
+
+// The run's engine options, checked (the scheduler, the duration, the noise and the
+// runtime's order of T-jobs on shared media).
+void engine_config(const SimulateOptions& opt, Time horizon, const AgingSetting& aging, sim::SimulationConfig& cfg) {
+  cfg.scheduler = scheduler_choice(opt.scheduler, horizon, aging);
+  // Shorter than a microsecond nothing can happen (the shortest latency modelled is ~1 us),
+  // and per-second rates and shares of such a run run to hundreds of digits.
+  if (!(cfg.duration >= 1e-6)) throw InputError("--duration", "", "must be at least 1us");
+  if (!(opt.exec_noise >= 0 && opt.exec_noise < 1)) throw InputError("--exec-noise", "", "must be in [0, 1)");
+  cfg.exec_noise = opt.exec_noise;
+  const std::optional<sim::TransferOrder> order = sim::parse_transfer_order(opt.transfer_order);
+  if (!order)
+    throw InputError("--transfer-order", "", "unknown order '" + opt.transfer_order + "' (known: channel, resource, exclusive)");
+  cfg.transfer_order = *order;
+}
+
+// The flags as a SimulationConfig (clients left at 1): every text flag parsed and checked,
+// InputError naming the flag otherwise.
 sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   sim::SimulationConfig cfg;
   cfg.platform_file = resolve_platform(opt.platform);
   cfg.workload = resolve_workload(opt.workload);
-  cfg.scheduler = opt.scheduler;
-  cfg.horizon = duration_flag("--horizon", opt.horizon);
+  cfg.workload_kind = workload_kind(cfg.workload);
+  const Time horizon = seconds_flag("--horizon", opt.horizon);
   const AgingSetting aging = parse_aging(opt.aging, "--aging");
-  cfg.aging = aging.aging;
-  cfg.adaptive_aging = aging.adaptive;
-  cfg.duration = duration_flag("--duration", opt.duration);
+  cfg.duration = seconds_flag("--duration", opt.duration);
   cfg.seed = opt.seed;
-  cfg.exec_noise = opt.exec_noise;
-  cfg.transfer_order = opt.transfer_order;
   cfg.blocks = opt.blocks;
   cfg.out_dir = opt.out;
   cfg.paje = opt.paje;
   cfg.timeline = !opt.no_timeline;
   cfg.progress = ProgressLine::for_stderr(opt.no_progress);
-  cfg.prediction_depth = opt.prediction_depth;
-  cfg.merge_planned = opt.merge_planned == "on";
-  cfg.cancel_failed = opt.cancel_failed == "on";
-  cfg.retime_merged = opt.retime_merged == "on";
-  cfg.fidelity = opt.fidelity;
-  cfg.replay_file = opt.replay;
-  cfg.record_replay = opt.record_replay;
-  if (!opt.warmup.empty()) cfg.warmup = duration_flag("--warmup", opt.warmup);
-  // The path-tracing flags (Sec. 5-6) mean nothing to a ray stream or a job set: a run
-  // that silently ignored one would not be the run the user asked for.
-  if (!cfg.workload.ends_with(".profile.json")) {
-    const std::vector<int> counts = client_counts(opt.clients);
-    std::string given;
-    int n = 0;
-    const auto flag = [&given, &n](bool set, const char* name) {
-      if (set) given += (n++ ? ", " : "") + std::string(name);
-    };
-    flag(counts.size() > 1 || counts[0] != 1, "--clients");
-    flag(opt.prediction_depth != 0, "--prediction-depth");
-    flag(opt.fidelity != "markov", "--fidelity");
-    flag(!opt.replay.empty(), "--replay");
-    flag(opt.record_replay, "--record-replay");
-    flag(!opt.warmup.empty(), "--warmup");
-    flag(opt.merge_planned != "on", "--merge-planned");
-    flag(opt.retime_merged != "on", "--retime-merged");
-    flag(opt.cancel_failed != "on", "--cancel-failed");
-    if (!given.empty())
-      throw InputError("--workload", "", given + (n == 1 ? " applies" : " apply") + " only to path tracing (--workload boeing, museum or "
-                                         "FILE.profile.json), not to '" + opt.workload + "'");
-  }
+  if (!opt.warmup.empty()) cfg.warmup = seconds_flag("--warmup", opt.warmup);
+  if (cfg.workload_kind != sim::WorkloadKind::PathTrace) check_no_path_trace_flags(opt);
   // --blocks sizes the synthetic ray stream's scene; a job set and a scene profile bring their own.
-  if (cfg.workload != "ray-stream" && opt.blocks != SimulateOptions{}.blocks)
+  if (cfg.workload_kind != sim::WorkloadKind::RayStream && opt.blocks != SimulateOptions{}.blocks)
     throw InputError("--blocks", "", "applies only to the ray stream (--workload ray-stream): '" + opt.workload +
                                          "' brings its own blocks");
+  engine_config(opt, horizon, aging, cfg);
+  if (cfg.workload_kind == sim::WorkloadKind::PathTrace) path_trace_config(opt, cfg);
   return cfg;
 }
 }  // namespace
@@ -138,69 +158,41 @@ void check_run_folder(const SimulateOptions& opt, const std::string& dir) {
                     {"--replay", opt.replay}});
 }
 
-int run_simulate(const SimulateOptions& opt) {
-  sim::SimulationConfig cfg = simulate_config(opt);
-  const std::vector<int> counts = client_counts(opt.clients);
-  // Before any run: a folder holding the user's files is never replaced, nor one an input lies in.
-  for (int n : counts) check_run_folder(opt, counts.size() == 1 ? opt.out : opt.out + "/clients-" + std::to_string(n));
-  if (counts.size() == 1) {
-    cfg.clients = counts[0];
-    const sim::SimulationSummary s = sim::run_simulation(cfg);
-    print_summary(s, opt.out, cfg.timeline);
-    if (s.stalled) {
-      std::fprintf(stderr, "rayline: %s\n", s.stalled_reason.c_str());
-      return kExitFailure;
-    }
-    return kExitOk;
+namespace {
+// One point of a client sweep, in a child process: its CSV line into `fd`; the exit code.
+int sweep_point(const sim::SimulationConfig& cfg, int clients, const std::string& out, int fd) {
+  try {
+    sim::SimulationConfig c = cfg;
+    c.clients = clients;
+    c.out_dir = out + "/clients-" + std::to_string(clients);
+    c.progress = ProgressLine::Mode::Off;
+    const sim::SimulationSummary s = sim::run_simulation(c);
+    char line[512];
+    const int len = std::snprintf(line, sizeof line, "%d,%.6g,%.4f,%.4f,%.4f,%.4f,%.4f,%llu\n", clients,
+                                  s.steady_rays_per_second, s.prediction_accuracy, s.busy, s.setup, s.fetching, s.idle,
+                                  static_cast<unsigned long long>(s.frames_delivered));
+    if (::write(fd, line, static_cast<std::size_t>(len)) != len) return kExitFailure;
+    return s.stalled ? kExitFailure : kExitOk;
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "rayline: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rayline: %s\n", e.what());
+    return kExitFailure;
   }
-  // A sweep (Sec. 6: "we increase the number of clients until each method reaches its peak
-  // performance"): one process per point (SimGrid's engine is a process-wide singleton),
-  // results in OUT/clients-N/; the summary line of each and the peak.
+}
+
+// A sweep (Sec. 6: "we increase the number of clients until each method reaches its peak
+// performance"): one process per point, results in OUT/clients-N/; the summary line of
+// each and the peak.
+int run_sweep(const sim::SimulationConfig& cfg, const std::vector<int>& counts, const std::string& out) {
   double peak = 0;
   int peak_n = 0;
   std::printf("clients,steady_rays_per_second,prediction_accuracy,busy,setup,fetching,idle,frames\n");
   std::fflush(stdout);
   for (int n : counts) {
-    int fds[2];
-    if (::pipe(fds) != 0) throw std::runtime_error("pipe failed");
-    const pid_t pid = ::fork();
-    if (pid < 0) throw std::runtime_error("fork failed");
-    if (pid == 0) {
-      interrupt_cleanup_after_fork();
-      ::close(fds[0]);
-      int rc = kExitFailure;
-      try {
-        sim::SimulationConfig c = cfg;
-        c.clients = n;
-        c.out_dir = opt.out + "/clients-" + std::to_string(n);
-        c.progress = ProgressLine::Mode::Off;
-        const sim::SimulationSummary s = sim::run_simulation(c);
-        char line[512];
-        const int len = std::snprintf(line, sizeof line, "%d,%.6g,%.4f,%.4f,%.4f,%.4f,%.4f,%llu\n", n,
-                                      s.steady_rays_per_second, s.prediction_accuracy, s.busy, s.setup, s.fetching, s.idle,
-                                      static_cast<unsigned long long>(s.frames_delivered));
-        if (::write(fds[1], line, static_cast<std::size_t>(len)) != len) rc = kExitFailure;
-        else rc = s.stalled ? kExitFailure : kExitOk;
-      } catch (const InputError& e) {
-        std::fprintf(stderr, "rayline: %s\n", e.what());
-        rc = kExitBadInput;
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "rayline: %s\n", e.what());
-      }
-      ::close(fds[1]);
-      std::fflush(nullptr);
-      ::_exit(rc);
-    }
-    add_child(pid);  // an interrupt stops it, and it removes its unfinished outputs
-    ::close(fds[1]);
-    std::string line;
-    char buf[512];
-    for (ssize_t k; (k = ::read(fds[0], buf, sizeof buf)) > 0;) line.append(buf, static_cast<std::size_t>(k));
-    ::close(fds[0]);
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    remove_child(pid);
-    const int rc = WIFEXITED(status) ? WEXITSTATUS(status) : kExitFailure;
+    std::string line;  // one process per point
+    const int rc = run_in_child([&](int fd) { return sweep_point(cfg, n, out, fd); }, line);
     if (rc != kExitOk) return rc;
     std::printf("%s", line.c_str());
     std::fflush(stdout);
@@ -210,7 +202,24 @@ int run_simulate(const SimulateOptions& opt) {
       peak_n = n;
     }
   }
-  std::printf("peak: %.4g rays/s with %d client(s); results in %s/clients-N/\n", peak, peak_n, opt.out.c_str());
+  std::printf("peak: %.4g rays/s with %d client(s); results in %s/clients-N/\n", peak, peak_n, out.c_str());
+  return kExitOk;
+}
+}  // namespace
+
+int run_simulate(const SimulateOptions& opt) {
+  sim::SimulationConfig cfg = simulate_config(opt);
+  const std::vector<int> counts = client_counts(opt.clients);
+  // Before any run: a folder holding the user's files is never replaced, nor one an input lies in.
+  for (int n : counts) check_run_folder(opt, counts.size() == 1 ? opt.out : opt.out + "/clients-" + std::to_string(n));
+  if (counts.size() > 1) return run_sweep(cfg, counts, opt.out);
+  cfg.clients = counts[0];
+  const sim::SimulationSummary s = sim::run_simulation(cfg);
+  print_summary(s, opt.out, cfg.timeline);
+  if (s.stalled) {
+    std::fprintf(stderr, "rayline: %s\n", s.stalled_reason.c_str());
+    return kExitFailure;
+  }
   return kExitOk;
 }
 

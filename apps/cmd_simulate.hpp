@@ -32,9 +32,9 @@ struct SimulateOptions {
   std::string warmup;               // default: a third of --duration
 };
 int run_simulate(const SimulateOptions& opt);
-// Every flag run_simulate() parses (platform and workload names, --horizon, --duration,
-// --aging, --warmup): InputError naming the flag, before anything runs (compare checks once
-// for all its schedulers).
+// Every flag run_simulate() parses and checks (platform and workload names, the scheduler,
+// durations, the path-tracing options): InputError naming the flag, before anything runs
+// (compare checks once for all its schedulers).
 void check_simulate_flags(const SimulateOptions& opt);
 // Before a run into `dir` (OUT, OUT/clients-N, compare's OUT/<scheduler>): InputError unless
 // `dir` may be replaced and holds none of the run's input files.

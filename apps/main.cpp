@@ -17,6 +17,7 @@
 #include "apps/cmd_plan.hpp"
 #include "apps/cmd_platform.hpp"
 #include "apps/cmd_simulate.hpp"
+#include "sched/policy/scheduler_factory.hpp"
 
 namespace {
 
@@ -34,6 +35,11 @@ const CLI::Validator kSeed(
     },
     "", "SEED");
 
+// The factory's scheduler names (sched/policy/scheduler_factory.hpp), for CLI11's checks.
+std::vector<std::string> scheduler_name_list() {
+  return {std::begin(rayline::kSchedulerNames), std::end(rayline::kSchedulerNames)};
+}
+
 void add_platform(CLI::App& app, std::function<int()>& action) {
   auto* platform = app.add_subcommand("platform", "Inspect platform (device connectivity graph) files");
   platform->require_subcommand(1);
@@ -49,10 +55,12 @@ void add_platform(CLI::App& app, std::function<int()>& action) {
 
 void add_plan(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<PlanOptions>();
-  auto* plan = app.add_subcommand("plan", "Plan a static job set with GMB and report makespan and utilisation");
+  auto* plan = app.add_subcommand("plan", "Plan a static job set (GMB by default) and report makespan and utilisation");
   plan->add_option("--platform", opt->platform, "Platform JSON (default: platforms/paper-cluster.json)");
   plan->add_option("--jobs", opt->jobs, "Job-set JSON (default: a synthetic ray-batching job set)");
+  plan->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014) or budge (Budge 2009)")->default_val(opt->scheduler);
   plan->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
+  plan->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(opt->aging);
   plan->add_option("--trace", opt->trace, "Write timelines as Chrome trace JSON (open in Perfetto)");
   plan->add_option("--jobs-csv", opt->jobs_csv, "Write per-job CSV");
   plan->add_option("--synthetic-blocks", opt->synthetic_blocks, "Scene blocks of the synthetic job set")
@@ -177,7 +185,7 @@ void add_render(CLI::App& app, std::function<int()>& action) {
       ->default_val(opt->platform);
   r->add_option("--scheduler", opt->scheduler, "gmb | gmb-ca | budge | loadanyonce")
       ->default_val(opt->scheduler)
-      ->check(CLI::IsMember({"gmb", "gmb-ca", "budge", "loadanyonce"}));
+      ->check(CLI::IsMember(scheduler_name_list()));
   r->add_option("--spp", opt->spp, "Samples per pixel (default: the scene's)")->check(CLI::Range(1, 1 << 20));
   r->add_option("--max-depth", opt->max_depth, "Surface hits per path (default: the scene's)")->check(CLI::Range(1, 1000));
   r->add_option("--resolution", opt->resolution, "WIDTHxHEIGHT (default: the scene camera's)");

@@ -37,9 +37,10 @@ void plan_horizon(benchmark::State& state, const char* platform, int blocks, int
     state.PauseTiming();
     placements += st.execs + st.transfers;
     execs += st.execs;
-    searches += static_cast<double>(st.path_searches);
-    hits += static_cast<double>(st.path_cache_hits);
-    cut += static_cast<double>(st.path_cut_searches);
+    const GmbSearchStats& sdc = gmb.last_search_stats();
+    searches += static_cast<double>(sdc.path_searches);
+    hits += static_cast<double>(sdc.path_cache_hits);
+    cut += static_cast<double>(sdc.path_cut_searches);
     plan_seconds += st.wall_seconds;
     // Teardown untimed too (the timed region is plan() alone).
     s.reset();

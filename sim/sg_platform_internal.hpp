@@ -62,11 +62,6 @@ struct SgPlatform::Impl {
   void mark_active(std::int32_t link, int delta_count);
   void mark_device(DeviceId d, int delta_count);
 
-  simgrid::s4u::Host* memory_host(MemId m) const { return memory_hosts.at(m); }
-  simgrid::s4u::Host* compute_host(DeviceId d) const { return compute_hosts.at(d); }
-  simgrid::s4u::Link* resource_link(ResourceId r) const { return resource_links.at(r); }
-  simgrid::s4u::Link* channel_link(ChannelId c) const { return channel_links.at(c); }
-
   std::int32_t resource_link_index(ResourceId r) const { return r; }
   std::int32_t channel_link_index(ChannelId c) const {
     return static_cast<std::int32_t>(graph.resources.size()) + c;

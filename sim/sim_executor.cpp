@@ -2,9 +2,20 @@
 
 #include <algorithm>
 #include <chrono>
-#include <stdexcept>
 
 namespace rayline::sim {
+
+namespace {
+constexpr std::string_view kTransferOrderNames[] = {"channel", "resource", "exclusive"};
+}  // namespace
+
+std::string_view to_string(TransferOrder order) { return kTransferOrderNames[static_cast<std::size_t>(order)]; }
+
+std::optional<TransferOrder> parse_transfer_order(std::string_view name) {
+  for (std::size_t i = 0; i < std::size(kTransferOrderNames); ++i)
+    if (kTransferOrderNames[i] == name) return static_cast<TransferOrder>(i);
+  return std::nullopt;
+}
 
 SimExecutor::SimExecutor(SgPlatform& platform, const Schedule& schedule, SimExecutorOptions opt)
     : platform_(platform), schedule_(schedule), opt_(std::move(opt)),
@@ -49,7 +60,6 @@ void SimExecutor::try_start(ActivityId id) {
       !resources_free(id, a))
     return;
   s.started = true;
-  ++started_count_;
   buffered_.push_back({ExecutorEvent::Type::Started, id, platform_.now()});
   if (a.cancelled) {  // withdrawn (Schedule::cancel): done the moment it may run, nothing moves
     on_done(id, platform_.now(), true);
@@ -118,19 +128,18 @@ void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   callback_wall_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-bool SimExecutor::advance(std::vector<ExecutorEvent>&) {
-  throw std::logic_error("SimExecutor runs in push mode only (SimGrid 3.32 runs to completion)");
-}
-
-void SimExecutor::run_push(const Sink& sink, Time until) {
-  sink_ = &sink;
+void SimExecutor::run(const Sink& sink, Time until) {
+  const Sink before_until = [this, &sink, until](std::vector<ExecutorEvent>& events) {
+    if (now() < until) sink(events);
+  };
+  sink_ = &before_until;
   if (until == kNever) platform_.run();
   else platform_.run_until(until);
   sink_ = nullptr;
   if (!buffered_.empty()) {
     std::vector<ExecutorEvent> events;
     events.swap(buffered_);
-    sink(events);
+    before_until(events);
   }
 }
 

@@ -9,6 +9,8 @@
 // keeps one timeline per channel, Sec. 4.1, and says nothing of shared media).
 #pragma once
 #include <functional>
+#include <optional>
+#include <string_view>
 #include <vector>
 
 #include "sched/runtime/executor.hpp"
@@ -23,6 +25,9 @@ enum class TransferOrder {
               // data is not there yet (work-conserving; waiting T-jobs start in plan order)
 };
 
+std::string_view to_string(TransferOrder order);                     // channel | resource | exclusive
+std::optional<TransferOrder> parse_transfer_order(std::string_view name);  // nullopt: none of them
+
 struct SimExecutorOptions {
   TransferOrder transfer_order = TransferOrder::Channel;
   // Actual E-job duration = predicted x exec_factor(activity); default exact.
@@ -33,14 +38,13 @@ class SimExecutor final : public Executor {
  public:
   SimExecutor(SgPlatform& platform, const Schedule& schedule, SimExecutorOptions opt = {});
   void dispatch(ActivityId id, const Activity& a) override;
-  bool advance(std::vector<ExecutorEvent>& out) override;  // unsupported: push mode only
   Time now() const override { return platform_.now(); }
-  bool supports_push() const override { return true; }
-  void run_push(const Sink& sink, Time until) override;
+  // SimGrid runs to completion (or to `until`) and reports from inside its event
+  // processing; batches at or past `until` are not delivered.
+  void run(const Sink& sink, Time until) override;
 
-  std::size_t started() const { return started_count_; }
   // Wall seconds spent in our completion handling (runtime loop, scheduler, bookkeeping);
-  // the rest of run_push() is SimGrid's own work (max-min solver, event queue).
+  // the rest of run() is SimGrid's own work (max-min solver, event queue).
   double callback_wall_seconds() const { return callback_wall_; }
 
  private:
@@ -69,7 +73,6 @@ class SimExecutor final : public Executor {
   std::vector<ActivityId> woken_;
   std::vector<ExecutorEvent> buffered_;  // Started events, delivered with the next batch
   const Sink* sink_ = nullptr;
-  std::size_t started_count_ = 0;
   double callback_wall_ = 0;
 };
 

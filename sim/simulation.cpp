@@ -3,13 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <unistd.h>
 
 #include "common/error.hpp"
 #include "workload/job_set.hpp"
@@ -29,14 +27,10 @@ namespace rayline::sim {
 
 namespace {
 
+using nlohmann::json;
+
 // What a run writes into its folder (the only files replacing it may remove).
 const OwnFiles kRunFiles = {"metrics.json", "jobs.csv", "timeline.json", "simgrid.trace", "replay.log"};
-TransferOrder parse_transfer_order(const std::string& s) {
-  if (s == "channel") return TransferOrder::Channel;
-  if (s == "resource") return TransferOrder::Resource;
-  if (s == "exclusive") return TransferOrder::Exclusive;
-  throw InputError("--transfer-order", "", "unknown order '" + s + "' (known: channel, resource, exclusive)");
-}
 
 // (Into the run's partial folder, renamed only once every file is complete.)
 template <class Write>
@@ -129,96 +123,85 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   sum.frames_delivered = pt.frames().size();
 }
 
-}  // namespace
+// ---- setup ---------------------------------------------------------------------------
 
-void check_results_folder(const std::string& dir, const std::string& flag) { replaceable_folder(dir, flag, kRunFiles); }
+// What the run reads, loaded before any output: a bad file is reported with the folder
+// untouched.
+struct Inputs {
+  DeviceGraph graph;
+  std::unique_ptr<JobSet> set;            // WorkloadKind::JobSet
+  std::unique_ptr<SceneProfile> profile;  // WorkloadKind::PathTrace
+  PathTraceOptions path_trace;
+  ReplayLog recording;                    // record_replay: every split of this run
+};
 
-SimulationSummary run_simulation(const SimulationConfig& cfg) {
-  namespace fs = std::filesystem;
-  using nlohmann::json;
-  const auto wall0 = std::chrono::steady_clock::now();
-  if (cfg.scheduler != "gmb" && cfg.scheduler != "gmb-ca" && cfg.scheduler != "loadanyonce" && cfg.scheduler != "budge")
-    throw InputError("--scheduler", "", "unknown scheduler '" + cfg.scheduler + "' (known: gmb, gmb-ca, loadanyonce, budge)");
-  if (!(cfg.horizon > 0)) throw InputError("--horizon", "", "must be > 0");
-  if (std::isnan(cfg.aging)) throw InputError("--aging", "", "must be a duration, auto, adaptive or off");
-  // Shorter than a microsecond nothing can happen (the shortest latency modelled is ~1 us),
-  // and per-second rates and shares of such a run run to hundreds of digits.
-  if (!(cfg.duration >= 1e-6)) throw InputError("--duration", "", "must be at least 1us");
-  if (!(cfg.exec_noise >= 0 && cfg.exec_noise < 1)) throw InputError("--exec-noise", "", "must be in [0, 1)");
-  const TransferOrder transfer_order = parse_transfer_order(cfg.transfer_order);
-  const DeviceGraph g = load_platform(cfg.platform_file);
-  const bool path_trace = cfg.workload.ends_with(".profile.json");
-  const bool stream = cfg.workload == "ray-stream" || path_trace;  // runs for --duration
-  std::unique_ptr<JobSet> set;
-  if (!stream) set = std::make_unique<JobSet>(load_job_set(cfg.workload, g));  // validate before any output
-  // Path tracing: the scene profile, fidelity and replay log, all validated before any output.
-  std::unique_ptr<SceneProfile> profile;
-  PathTraceOptions pto;
-  if (path_trace) {
-    profile = std::make_unique<SceneProfile>(load_scene_profile(cfg.workload));
-    if (!parse_fidelity(cfg.fidelity, pto.fidelity))
-      throw InputError("--fidelity", "", "unknown fidelity '" + cfg.fidelity + "' (known: analytic, markov, replay)");
-    if (pto.fidelity == Fidelity::Replay) {
-      if (cfg.replay_file.empty()) throw InputError("--replay", "", "--fidelity replay needs --replay FILE (a replay log)");
-      pto.replay = std::make_shared<ReplayLog>(ReplayLog::load(cfg.replay_file, profile.get()));
-    }
-    if (cfg.warmup >= cfg.duration) throw InputError("--warmup", "", "must be shorter than --duration");
+std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
+  auto in = std::make_unique<Inputs>();  // (path_trace.record points into it)
+  in->graph = load_platform(cfg.platform_file);
+  if (cfg.workload_kind == WorkloadKind::JobSet) in->set = std::make_unique<JobSet>(load_job_set(cfg.workload, in->graph));
+  if (cfg.workload_kind == WorkloadKind::PathTrace) {
+    in->profile = std::make_unique<SceneProfile>(load_scene_profile(cfg.workload));
+    PathTraceOptions& pto = in->path_trace;
+    pto.fidelity = cfg.fidelity;
+    if (pto.fidelity == Fidelity::Replay)
+      pto.replay = std::make_shared<ReplayLog>(ReplayLog::load(cfg.replay_file, in->profile.get()));
     pto.clients = cfg.clients;
     pto.prediction_depth = cfg.prediction_depth;
     pto.merge_planned = cfg.merge_planned;
     pto.cancel_failed = cfg.cancel_failed;
     pto.retime_merged = cfg.retime_merged;
     pto.seed = cfg.seed;
+    if (cfg.record_replay) pto.record = &in->recording;
   }
-  ReplayLog recording;
-  if (cfg.record_replay && !path_trace) throw InputError("--record-replay", "", "only for a path-tracing workload");
-  if (cfg.record_replay) pto.record = &recording;
+  return in;
+}
 
-  const std::string out = replaceable_folder(cfg.out_dir, "", kRunFiles);
-  const fs::path partial = partial_folder(out);
-  const unfinished::Guard unfinished_guard(partial.string());  // removed if the run is interrupted
-  std::error_code ec;
-  fs::remove_all(partial, ec);
-  fs::create_directories(partial, ec);
-  if (ec) throw InputError(cfg.out_dir, "", "cannot create output directory: " + ec.message());
-  struct Cleanup {
-    fs::path p;
-    bool keep = false;
-    ~Cleanup() {
-      std::error_code e;
-      if (!keep) fs::remove_all(p, e);
-    }
-  } cleanup{partial};
+// The run's results are written into OUT.partial.<pid>@<host>/ and renamed to OUT only
+// once complete (common/output_folder.hpp); an unpublished partial folder is removed.
+class PartialFolder {
+ public:
+  explicit PartialFolder(const std::string& out_dir)
+      : out_dir_(out_dir), out_(replaceable_folder(out_dir, "", kRunFiles)), path_(partial_folder(out_)),
+        unfinished_guard_(path_.string()) {  // removed if the run is interrupted
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+    std::filesystem::create_directories(path_, ec);
+    if (ec) throw InputError(out_dir, "", "cannot create output directory: " + ec.message());
+  }
+  ~PartialFolder() {
+    std::error_code ec;
+    if (!published_) std::filesystem::remove_all(path_, ec);
+  }
+  PartialFolder(const PartialFolder&) = delete;
+  PartialFolder& operator=(const PartialFolder&) = delete;
+  std::filesystem::path operator/(const std::string& file) const { return path_ / file; }
+  void publish() {
+    replaceable_folder(out_dir_, "", kRunFiles);  // again: the user may have put a file there meanwhile
+    publish_folder(path_.string(), out_, "");
+    published_ = true;
+  }
 
+ private:
+  std::string out_dir_, out_;
+  std::filesystem::path path_;
+  unfinished::Guard unfinished_guard_;
+  bool published_ = false;
+};
+
+SgOptions sg_options(const SimulationConfig& cfg, const PartialFolder& folder) {
   SgOptions sgo;
   if (cfg.paje)
     sgo.config = {"tracing:yes", "tracing/uncategorized:yes", "tracing/precision:9",
-                  "tracing/filename:" + (partial / "simgrid.trace").string()};
-  SgPlatform platform(g, sgo);
-  JobPool pool_local;
-  JobPool& pool = set ? set->pool : pool_local;
-  Schedule s(g, pool);
-  std::unique_ptr<Workload> wl;
-  RayStreamWorkload* rs = nullptr;
-  PathTraceWorkload* pt = nullptr;
-  if (path_trace) {
-    auto w = std::make_unique<PathTraceWorkload>(g, *profile, pto);
-    pt = w.get();
-    wl = std::move(w);
-  } else if (stream) {
-    RayStreamOptions ro;
-    ro.blocks = cfg.blocks;
-    ro.seed = cfg.seed;
-    auto w = std::make_unique<RayStreamWorkload>(g, ro);
-    rs = w.get();
-    wl = std::move(w);
-  } else {
-    for (auto [b, m] : set->initial) s.put_initial(b, m);
-    wl = std::make_unique<StaticWorkload>();
-  }
-  std::unique_ptr<Scheduler> scheduler = make_scheduler(cfg.scheduler, cfg.horizon, cfg.aging, cfg.adaptive_aging);
+                  "tracing/filename:" + (folder / "simgrid.trace").string()};
+  return sgo;
+}
+
+// Actual E-job durations: predicted x U[1-n, 1+n] per activity (a hash of seed and id, so
+// a run is reproducible), and for path tracing the real size of jobs planned from
+// predictions before their rays were known.
+SimExecutorOptions executor_options(const SimulationConfig& cfg, const PathTraceWorkload* pt) {
   SimExecutorOptions xo;
-  xo.transfer_order = transfer_order;
+  xo.transfer_order = cfg.transfer_order;
   if (cfg.exec_noise > 0) {
     const double n = cfg.exec_noise;
     const std::uint64_t seed = cfg.seed;
@@ -229,51 +212,107 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
       return 1 - n + 2 * n * (static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0));
     };
   }
-  if (pt) {  // predicted jobs planned before their real rays were known run for their real size
+  if (pt) {
     auto noise = xo.exec_factor;
     xo.exec_factor = [pt, noise](ActivityId id, const Activity& a) {
       return pt->exec_scale(a.job, a.device, a) * (noise ? noise(id, a) : 1.0);
     };
   }
-  SimExecutor ex(platform, s, xo);
-  RuntimeLoop loop(*scheduler, ex, *wl, pool, s);
-  ProgressLine progress(cfg.progress);
-  if (progress.mode() != ProgressLine::Mode::Off) {
-    loop.on_progress = [&](Time now, const RunStats&) {
-      if (!progress.due()) return;
-      const double rays = rs ? static_cast<double>(rs->rays_traced()) : pt ? static_cast<double>(work_of(*pt)) : 0.0;
-      if (stream)
-        progress.print("simulate", "t=%7.2f / %.0f s  rays %.3g  activities %zu", now, cfg.duration, rays,
-                       s.activity_count());
-      else
-        progress.print("simulate", "t=%7.2f s  jobs left %zu  activities %zu", now, pool.queued_count(),
-                       s.activity_count());
-    };
+  return xo;
+}
+
+// The simulated system: SimGrid platform, schedule, workload, scheduler and SimExecutor
+// under the runtime loop (docs/architecture.md, control loop).
+struct Engine {
+  Engine(const SimulationConfig& cfg, Inputs& in, const PartialFolder& folder)
+      : platform(in.graph, sg_options(cfg, folder)),
+        pool(in.set ? in.set->pool : own_pool),
+        schedule(in.graph, pool),
+        workload(make_workload(cfg, in)),
+        scheduler(make_scheduler(cfg.scheduler)),
+        executor(platform, schedule, executor_options(cfg, path_trace)),
+        loop(*scheduler, executor, *workload, pool, schedule) {}
+
+  std::unique_ptr<Workload> make_workload(const SimulationConfig& cfg, Inputs& in) {
+    switch (cfg.workload_kind) {
+      case WorkloadKind::PathTrace: {
+        auto w = std::make_unique<PathTraceWorkload>(in.graph, *in.profile, in.path_trace);
+        path_trace = w.get();
+        return w;
+      }
+      case WorkloadKind::RayStream: {
+        RayStreamOptions ro;
+        ro.blocks = cfg.blocks;
+        ro.seed = cfg.seed;
+        auto w = std::make_unique<RayStreamWorkload>(in.graph, ro);
+        stream = w.get();
+        return w;
+      }
+      case WorkloadKind::JobSet: break;
+    }
+    for (auto [b, m] : in.set->initial) schedule.put_initial(b, m);
+    return std::make_unique<StaticWorkload>();
   }
+
+  SgPlatform platform;
+  JobPool own_pool;
+  JobPool& pool;
+  Schedule schedule;
+  RayStreamWorkload* stream = nullptr;
+  PathTraceWorkload* path_trace = nullptr;
+  std::unique_ptr<Workload> workload;
+  std::unique_ptr<Scheduler> scheduler;
+  SimExecutor executor;
+  RuntimeLoop loop;
+};
+
+void show_progress(const SimulationConfig& cfg, Engine& e, ProgressLine& progress) {
+  if (progress.mode() == ProgressLine::Mode::Off) return;
+  e.loop.on_progress = [&cfg, &e, &progress](Time now, const RunStats&) {
+    if (!progress.due()) return;
+    const double rays = e.stream       ? static_cast<double>(e.stream->rays_traced())
+                        : e.path_trace ? static_cast<double>(work_of(*e.path_trace))
+                                       : 0.0;
+    if (cfg.runs_for_duration())
+      progress.print("simulate", "t=%7.2f / %.0f s  rays %.3g  activities %zu", now, cfg.duration, rays,
+                     e.schedule.activity_count());
+    else
+      progress.print("simulate", "t=%7.2f s  jobs left %zu  activities %zu", now, e.pool.queued_count(),
+                     e.schedule.activity_count());
+  };
+}
+
+// ---- run -----------------------------------------------------------------------------
+
+struct Outcome {
+  RunStats stats;
+  bool stalled = false;
+  Time end = 0;          // the simulated span the metrics cover
+  double run_wall = 0;   // wall seconds in the runtime loop
+};
+
+Outcome run_engine(const SimulationConfig& cfg, Engine& e) {
+  ProgressLine progress(cfg.progress);
+  show_progress(cfg, e, progress);
   const auto run0 = std::chrono::steady_clock::now();
-  const RunStats st = loop.run(stream ? cfg.duration : kNever);
+  Outcome o;
+  o.stats = e.loop.run(cfg.runs_for_duration() ? cfg.duration : kNever);
   // A stream never drains, so the loop cannot see a stall; a queued job that no device can
   // ever run (too big for every memory device, no path) is one all the same: any queued
   // job, not only the oldest (the rays it holds are lost either way).
-  const bool stalled = st.stalled || first_unplaceable(pool, s) != kNone;
-  const double run_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - run0).count();
+  o.stalled = o.stats.stalled || first_unplaceable(e.pool, e.schedule) != kNone;
+  o.run_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - run0).count();
+  e.loop.on_progress = nullptr;
   progress.done();
-  const Time end = stream ? cfg.duration : st.makespan;
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  o.end = cfg.runs_for_duration() ? cfg.duration : o.stats.makespan;
+  return o;
+}
 
-  // ---- metrics ---------------------------------------------------------------------
-  json m;
-  m["platform"] = g.name;
-  m["platform_file"] = cfg.platform_file;
-  m["workload"] = cfg.workload;
-  m["scheduler"] = cfg.scheduler;
-  m["scheduler_parameters"] = scheduler->describe();
-  m["horizon_s"] = cfg.horizon;
-  m["transfer_order"] = cfg.transfer_order;
-  m["seed"] = cfg.seed;
-  m["simulated_s"] = end;
-  // Plan vs reality for the whole run: the latest planned end of what finished, and when
-  // it actually finished (static job sets: the predicted and the measured makespan).
+// ---- report --------------------------------------------------------------------------
+
+// Plan vs reality for the whole run: the latest planned end of what finished, and when it
+// actually finished (static job sets: the predicted and the measured makespan).
+json makespan_metrics(const Schedule& s) {
   Time planned_ms = 0, actual_ms = 0;
   for (std::size_t i = 0; i < s.activity_count(); ++i) {
     const Activity& a = s.activity(static_cast<ActivityId>(i));
@@ -281,35 +320,48 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     planned_ms = std::max(planned_ms, a.planned_end);
     actual_ms = std::max(actual_ms, a.end);
   }
-  m["makespan_s"] = {{"planned", planned_ms}, {"actual", actual_ms}, {"gap", actual_ms - planned_ms}};
-  m["stalled"] = stalled;
+  return {{"planned", planned_ms}, {"actual", actual_ms}, {"gap", actual_ms - planned_ms}};
+}
+
+// Finished and withdrawn activities, the work done (per simulated second too) and the
+// relative error of the predicted durations.
+struct ActivityTally {
   std::uint64_t done_exec = 0, done_transfer = 0, cancelled_exec = 0, cancelled_transfer = 0;
   std::vector<double> err_exec, err_transfer;
   double work_done = 0;
-  std::vector<double> per_second(static_cast<std::size_t>(std::ceil(std::max<Time>(end, 1e-9))), 0.0);
+  std::vector<double> per_second;
+};
+
+ActivityTally tally_activities(const Schedule& s, const JobPool& pool, Time end) {
+  ActivityTally n;
+  n.per_second.assign(static_cast<std::size_t>(std::ceil(std::max<Time>(end, 1e-9))), 0.0);
   for (std::size_t i = 0; i < s.activity_count(); ++i) {
     const Activity& a = s.activity(static_cast<ActivityId>(i));
     if (a.cancelled) {  // withdrawn predictions (Sec. 5.2): no work, no error sample
-      ++(a.kind == ActivityKind::Exec ? cancelled_exec : cancelled_transfer);
+      ++(a.kind == ActivityKind::Exec ? n.cancelled_exec : n.cancelled_transfer);
       continue;
     }
     if (a.state != ActivityState::Done) continue;
     const double actual = a.end - a.start;
     const double rel = a.duration > 0 ? std::abs(actual - a.duration) / a.duration : 0;
     if (a.kind == ActivityKind::Exec) {
-      ++done_exec;
-      err_exec.push_back(rel);
+      ++n.done_exec;
+      n.err_exec.push_back(rel);
       const double w = static_cast<double>(pool.job(a.job).work);
-      work_done += w;
-      const auto bin = std::min(per_second.size() - 1, static_cast<std::size_t>(std::max(0.0, a.end)));
-      per_second[bin] += w;
+      n.work_done += w;
+      const auto bin = std::min(n.per_second.size() - 1, static_cast<std::size_t>(std::max(0.0, a.end)));
+      n.per_second[bin] += w;
     } else {
-      ++done_transfer;
-      err_transfer.push_back(rel);
+      ++n.done_transfer;
+      n.err_transfer.push_back(rel);
     }
   }
-  // How long E-jobs waited in the global queue before they ran (start - created; Sec. 4.3's
-  // starvation shows as a long tail), and the longest wait of a job still queued at the end.
+  return n;
+}
+
+// How long E-jobs waited in the global queue before they ran (start - created; Sec. 4.3's
+// starvation shows as a long tail), and the longest wait of a job still queued at the end.
+json queue_wait_metrics(const Schedule& s, const JobPool& pool, Time end) {
   std::vector<double> waits;
   for (std::size_t i = 0; i < s.activity_count(); ++i) {
     const Activity& a = s.activity(static_cast<ActivityId>(i));
@@ -318,21 +370,15 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   }
   double oldest_queued = 0;
   for (JobId j : pool.queued()) oldest_queued = std::max(oldest_queued, end - pool.job(j).created);
-  m["queue_wait_s"] = {{"mean", mean_of(waits)}, {"p50", percentile(waits, 0.5)}, {"p95", percentile(waits, 0.95)},
-                       {"max", waits.empty() ? 0.0 : *std::max_element(waits.begin(), waits.end())},
-                       {"oldest_queued_at_end", oldest_queued}};
-  m["work_units_done"] = work_done;
-  m["rays_per_second"] = end > 0 ? work_done / end : 0;
-  m["rays_per_second_series"] = per_second;
-  m["activities"] = {{"e_jobs_done", done_exec}, {"t_jobs_done", done_transfer},
-                     {"committed", s.activity_count()}, {"evictions", s.evictions().size()},
-                     {"queued_at_end", pool.queued_count()}, {"e_jobs_cancelled", cancelled_exec},
-                     {"t_jobs_cancelled", cancelled_transfer}};
-  if (rs) m["activities"]["queue_merges"] = rs->merges();
-  SimulationSummary sum;
-  if (pt) path_trace_metrics(m, *pt, *profile, cfg, end, sum);
-  m["prediction_error"] = {{"exec_mean_rel", mean_of(err_exec)}, {"exec_p95_rel", percentile(err_exec, 0.95)},
-                           {"transfer_mean_rel", mean_of(err_transfer)}, {"transfer_p95_rel", percentile(err_transfer, 0.95)}};
+  return {{"mean", mean_of(waits)}, {"p50", percentile(waits, 0.5)}, {"p95", percentile(waits, 0.95)},
+          {"max", waits.empty() ? 0.0 : *std::max_element(waits.begin(), waits.end())},
+          {"oldest_queued_at_end", oldest_queued}};
+}
+
+// Per compute device and per kind of device: busy, setup, fetching and true idle time
+// (Sec. 4.2's split); returns the sums per kind.
+std::map<std::string, DeviceTime> device_metrics(json& m, const Schedule& s, Time end) {
+  const DeviceGraph& g = s.graph();
   const Utilisation u = compute_utilisation(s, 0, end);
   json devs = json::array();
   std::map<std::string, DeviceTime> by_kind;
@@ -353,7 +399,12 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     m["device_summary"][k] = {{"busy", t.busy / tot}, {"setup", t.setup / tot}, {"fetching", t.fetching / tot},
                               {"true_idle", t.idle / tot}};
   }
-  // Channel utilisation: bytes moved (exact SimGrid integral) / (bandwidth x time).
+  return by_kind;
+}
+
+// Channel utilisation: bytes moved (exact SimGrid integral) / (bandwidth x time).
+void resource_metrics(json& m, const SgPlatform& platform, Time end) {
+  const DeviceGraph& g = platform.graph();
   std::vector<char> is_lan(g.resources.size(), 0);
   for (const Channel& c : g.channels)
     if (c.kind == "lan")
@@ -373,39 +424,59 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
   }
   m["resources"] = res;
   m["lan_utilisation_mean"] = lan_n ? lan_sum / lan_n : 0.0;
-  m["scheduler_cost"] = {{"wall_s", st.scheduler_wall_seconds}, {"plan_calls", st.plan_calls},
-                         {"share_of_simulated_time", end > 0 ? st.scheduler_wall_seconds / end : 0}};
-  // Where the time goes: SimGrid (solver + event queue) = the run minus our callbacks;
-  // the scheduler (GMB plan calls); bookkeeping (runtime loop, executor, workload).
-  const double in_callbacks = ex.callback_wall_seconds();
-  m["simulator"] = {{"wall_s", wall},
-                    {"run_wall_s", run_wall},
-                    {"simgrid_s", std::max(0.0, run_wall - in_callbacks)},
-                    {"scheduler_s", st.scheduler_wall_seconds},
-                    {"bookkeeping_s", std::max(0.0, in_callbacks - st.scheduler_wall_seconds)},
-                    {"setup_and_metrics_s", std::max(0.0, wall - run_wall)},
-                    {"speedup_vs_simulated", wall > 0 ? end / wall : 0},
-                    {"activities_per_wall_s", wall > 0 ? static_cast<double>(done_exec + done_transfer) / wall : 0}};
+}
 
-  write_text(partial / "metrics.json", m.dump(2) + "\n");
-  write_file(partial / "jobs.csv", [&](std::ostream& out) { write_jobs_csv(s, out); });
-  if (cfg.timeline) write_file(partial / "timeline.json", [&](std::ostream& out) { write_chrome_trace(s, true, out); });
-  if (cfg.record_replay)
-    recording.save((partial / "replay.log").string(), "scene=" + profile->name + " fidelity=" + cfg.fidelity + " seed=" +
-                                                          std::to_string(cfg.seed) + " clients=" + std::to_string(cfg.clients));
-  // Checked again: the user may have put a file there while the run went on.
-  replaceable_folder(cfg.out_dir, "", kRunFiles);
-  publish_folder(partial.string(), out, "");
-  cleanup.keep = true;
+// Where the time goes: SimGrid (solver + event queue) = the run minus our callbacks; the
+// scheduler (plan calls); bookkeeping (runtime loop, executor, workload).
+json simulator_metrics(const Outcome& o, double in_callbacks, double wall, std::uint64_t activities) {
+  const double sched = o.stats.scheduler_wall_seconds;
+  return {{"wall_s", wall},
+          {"run_wall_s", o.run_wall},
+          {"simgrid_s", std::max(0.0, o.run_wall - in_callbacks)},
+          {"scheduler_s", sched},
+          {"bookkeeping_s", std::max(0.0, in_callbacks - sched)},
+          {"setup_and_metrics_s", std::max(0.0, wall - o.run_wall)},
+          {"speedup_vs_simulated", wall > 0 ? o.end / wall : 0},
+          {"activities_per_wall_s", wall > 0 ? static_cast<double>(activities) / wall : 0}};
+}
 
-  sum.simulated = end;
-  sum.wall_seconds = wall;
-  sum.scheduler_seconds = st.scheduler_wall_seconds;
-  sum.rays_per_second = end > 0 ? work_done / end : 0;
-  sum.activities = done_exec + done_transfer;
-  sum.stalled = stalled;
-  sum.queued_at_end = pool.queued_count();
-  if (stalled) sum.stalled_reason = unplaced_summary(pool, s);
+// metrics.json (its fields: docs/architecture.md); fills the summary's totals.
+json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e, const Outcome& o, double wall,
+                 SimulationSummary& sum) {
+  const Time end = o.end;
+  json m;
+  m["platform"] = in.graph.name;
+  m["platform_file"] = cfg.platform_file;
+  m["workload"] = cfg.workload;
+  m["scheduler"] = std::string(scheduler_name(cfg.scheduler.kind));
+  m["scheduler_parameters"] = e.scheduler->describe();
+  m["horizon_s"] = cfg.scheduler.horizon;
+  m["transfer_order"] = std::string(to_string(cfg.transfer_order));
+  m["seed"] = cfg.seed;
+  m["simulated_s"] = end;
+  m["makespan_s"] = makespan_metrics(e.schedule);
+  m["stalled"] = o.stalled;
+  const ActivityTally n = tally_activities(e.schedule, e.pool, end);
+  m["queue_wait_s"] = queue_wait_metrics(e.schedule, e.pool, end);
+  m["work_units_done"] = n.work_done;
+  m["rays_per_second"] = end > 0 ? n.work_done / end : 0;
+  m["rays_per_second_series"] = n.per_second;
+  m["activities"] = {{"e_jobs_done", n.done_exec}, {"t_jobs_done", n.done_transfer},
+                     {"committed", e.schedule.activity_count()}, {"evictions", e.schedule.evictions().size()},
+                     {"queued_at_end", e.pool.queued_count()}, {"e_jobs_cancelled", n.cancelled_exec},
+                     {"t_jobs_cancelled", n.cancelled_transfer}};
+  if (e.stream) m["activities"]["queue_merges"] = e.stream->merges();
+  if (e.path_trace) path_trace_metrics(m, *e.path_trace, *in.profile, cfg, end, sum);
+  m["prediction_error"] = {{"exec_mean_rel", mean_of(n.err_exec)}, {"exec_p95_rel", percentile(n.err_exec, 0.95)},
+                           {"transfer_mean_rel", mean_of(n.err_transfer)},
+                           {"transfer_p95_rel", percentile(n.err_transfer, 0.95)}};
+  const std::map<std::string, DeviceTime> by_kind = device_metrics(m, e.schedule, end);
+  resource_metrics(m, e.platform, end);
+  m["scheduler_cost"] = {{"wall_s", o.stats.scheduler_wall_seconds}, {"plan_calls", o.stats.plan_calls},
+                         {"share_of_simulated_time", end > 0 ? o.stats.scheduler_wall_seconds / end : 0}};
+  m["simulator"] = simulator_metrics(o, e.executor.callback_wall_seconds(), wall, n.done_exec + n.done_transfer);
+  sum.rays_per_second = end > 0 ? n.work_done / end : 0;
+  sum.activities = n.done_exec + n.done_transfer;
   double tot = 0;
   for (const auto& [k, t] : by_kind) tot += t.busy + t.setup + t.fetching + t.idle;
   for (const auto& [k, t] : by_kind) {
@@ -414,6 +485,42 @@ SimulationSummary run_simulation(const SimulationConfig& cfg) {
     sum.fetching += t.fetching / std::max(tot, 1e-300);
     sum.idle += t.idle / std::max(tot, 1e-300);
   }
+  return m;
+}
+
+void write_results(const SimulationConfig& cfg, const Inputs& in, const Engine& e, const json& m,
+                   const PartialFolder& folder) {
+  write_text(folder / "metrics.json", m.dump(2) + "\n");
+  write_file(folder / "jobs.csv", [&](std::ostream& out) { write_jobs_csv(e.schedule, out); });
+  if (cfg.timeline)
+    write_file(folder / "timeline.json", [&](std::ostream& out) { write_chrome_trace(e.schedule, true, out); });
+  if (cfg.record_replay)
+    in.recording.save((folder / "replay.log").string(),
+                      "scene=" + in.profile->name + " fidelity=" + to_string(cfg.fidelity) +
+                          " seed=" + std::to_string(cfg.seed) + " clients=" + std::to_string(cfg.clients));
+}
+
+}  // namespace
+
+void check_results_folder(const std::string& dir, const std::string& flag) { replaceable_folder(dir, flag, kRunFiles); }
+
+SimulationSummary run_simulation(const SimulationConfig& cfg) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  const std::unique_ptr<Inputs> in = load_inputs(cfg);
+  PartialFolder folder(cfg.out_dir);
+  Engine engine(cfg, *in, folder);
+  const Outcome o = run_engine(cfg, engine);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  SimulationSummary sum;
+  const json m = run_metrics(cfg, *in, engine, o, wall, sum);
+  write_results(cfg, *in, engine, m, folder);
+  folder.publish();
+  sum.simulated = o.end;
+  sum.wall_seconds = wall;
+  sum.scheduler_seconds = o.stats.scheduler_wall_seconds;
+  sum.stalled = o.stalled;
+  sum.queued_at_end = engine.pool.queued_count();
+  if (o.stalled) sum.stalled_reason = unplaced_summary(engine.pool, engine.schedule);
   return sum;
 }
 

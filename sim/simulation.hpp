@@ -1,5 +1,6 @@
-// One simulation run: platform -> SimGrid, workload -> JobPool, scheduler ->
-// Schedule, SimExecutor under the runtime loop; then metrics, jobs CSV and Chrome trace.
+// One simulation run, in three steps: setup (platform -> SimGrid, workload -> JobPool,
+// scheduler -> Schedule, SimExecutor under the runtime loop), run, and report (metrics,
+// jobs CSV and Chrome trace).
 // Outputs go to OUT.partial.<pid>@<host>/ and are renamed to OUT/ only when complete; an existing
 // OUT is replaced only when it holds nothing but a run's results (common/output_folder.hpp).
 #pragma once
@@ -8,24 +9,28 @@
 
 #include "common/progress_line.hpp"
 #include "sched/core/types.hpp"
+#include "sched/policy/scheduler_factory.hpp"
+#include "sim/sim_executor.hpp"
+#include "workload/path_trace_model.hpp"
 
 namespace rayline::sim {
 
+// Where a run's jobs come from (the Workload seam, docs/architecture.md): the synthetic
+// ray stream (runs for `duration`), a static job set (runs to its end), or path tracing
+// on a scene profile (Sec. 5-6, runs for `duration`).
+enum class WorkloadKind : std::uint8_t { RayStream, JobSet, PathTrace };
+
+// A run, every option parsed (the command line checks them, apps/run/).
 struct SimulationConfig {
   std::string platform_file;
-  std::string workload = "ray-stream";  // "ray-stream", a job-set JSON file, or a scene profile (*.profile.json)
-  std::string scheduler = "gmb";        // gmb | gmb-ca (completion-aware)
-  Time horizon = 2.0;
-  Time aging = -1;                      // GMB, Sec. 4.3: <0 its default (5k, at least 1 s); kNever: off
-  bool adaptive_aging = false;          // GMB: also at least twice the queue's median wait
-  Time duration = 60.0;                 // simulated seconds (ray-stream); static sets run to the end
+  WorkloadKind workload_kind = WorkloadKind::RayStream;
+  std::string workload = "ray-stream";  // as metrics.json names it: "ray-stream", or the file
+  SchedulerChoice scheduler;
+  Time duration = 60.0;                 // simulated seconds (ray stream, path tracing)
   std::uint64_t seed = 1;
-  double exec_noise = 0.0;              // actual E-job time = predicted x U[1-n, 1+n]
-  // How T-jobs on channels that share a medium run (sim_executor.hpp, TransferOrder):
-  // channel (at once, sharing it), resource (the plan's order on every resource) or
-  // exclusive (one at a time, ready ones first).
-  std::string transfer_order = "channel";
-  int blocks = 129;
+  double exec_noise = 0.0;              // actual E-job time = predicted x U[1-n, 1+n], n in [0, 1)
+  TransferOrder transfer_order = TransferOrder::Channel;  // T-jobs on channels that share a medium
+  int blocks = 129;                     // scene blocks of the ray stream
   std::string out_dir = "out/simulate";
   bool paje = false;                    // SimGrid's own trace as OUT/simgrid.trace
   bool timeline = true;                 // OUT/timeline.json (Chrome trace)
@@ -33,13 +38,15 @@ struct SimulationConfig {
   // Path-tracing workload (a scene profile; docs/scene-profiles.md).
   int clients = 1;
   int prediction_depth = 0;             // Sec. 5.2; 0: off
-  bool merge_planned = true;            // path tracing: queues may join planned jobs
-  bool retime_merged = true;            // path tracing: planned jobs that rays joined are re-timed
-  bool cancel_failed = true;            // path tracing: withdraw failed predictions with their T-jobs
-  std::string fidelity = "markov";      // analytic | markov | replay
-  std::string replay_file;              // replay fidelity: the log to replay
+  bool merge_planned = true;            // queues may join planned jobs
+  bool retime_merged = true;            // planned jobs that rays joined are re-timed
+  bool cancel_failed = true;            // withdraw failed predictions with their T-jobs
+  Fidelity fidelity = Fidelity::Markov;
+  std::string replay_file;              // Fidelity::Replay: the log to replay
   bool record_replay = false;           // write OUT/replay.log (every split of this run)
   Time warmup = -1;                     // steady state from here (<0: a third of the duration)
+
+  bool runs_for_duration() const { return workload_kind != WorkloadKind::JobSet; }
 };
 
 struct SimulationSummary {

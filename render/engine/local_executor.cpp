@@ -120,6 +120,10 @@ bool LocalExecutor::advance(std::vector<ExecutorEvent>& out) {
   return true;
 }
 
+void LocalExecutor::run(const Sink& sink, Time until) {
+  run_in_steps([this](std::vector<ExecutorEvent>& out) { return advance(out); }, sink, until);
+}
+
 std::exception_ptr LocalExecutor::failure() const {
   std::lock_guard lk(mu_);
   return failure_;

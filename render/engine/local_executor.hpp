@@ -37,8 +37,11 @@ class LocalExecutor final : public Executor {
   LocalExecutor& operator=(const LocalExecutor&) = delete;
 
   void dispatch(ActivityId id, const Activity& a) override;
-  bool advance(std::vector<ExecutorEvent>& out) override;
   Time now() const override;
+  void run(const Sink& sink, Time until) override;
+  // One step: waits for the next batch of events and appends it to `out`; false when
+  // nothing is in flight (tests step the executor by hand).
+  bool advance(std::vector<ExecutorEvent>& out);
 
   // The first exception a task threw (the run stops dispatching after it).
   std::exception_ptr failure() const;

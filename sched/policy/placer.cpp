@@ -68,7 +68,6 @@ bool Placer::place(JobId j, DeviceId d, Time ready, Time now, JobPool& pool, Sch
       if (adm.at == kNever) return false;
       s.commit_transfer(b, ch, j, now, adm);
       ++st.transfers;
-      for (ResourceId r : g.channels[ch].resources) finder_.resource_changed(r);
     }
   }
   Bytes out_bytes = 0;

@@ -1,5 +1,6 @@
-// The engine-agnostic Scheduler seam (docs/architecture.md, control loop): GMB today, the baselines
-// (Budge 2009, LoadAnyOnce) later, all driven by the same runtime loop and executors.
+// The engine-agnostic Scheduler seam (docs/architecture.md, control loop): GMB (Sec. 4.2-4.4)
+// and the baselines (Budge 2009, LoadAnyOnce), all driven by the same runtime loop and
+// executors (sched/policy/scheduler_factory.hpp makes them by name).
 #pragma once
 #include <string>
 
@@ -13,8 +14,6 @@ struct PlanStats {
   int transfers = 0;      // T-jobs placed
   int evictions = 0;
   double wall_seconds = 0;
-  std::uint64_t path_searches = 0, path_cache_hits = 0;
-  std::uint64_t path_cut_searches = 0;  // SDC searches stopped at the destination / losing labels (GMB)
 };
 
 class Scheduler {

@@ -1,19 +1,46 @@
 #include "sched/policy/scheduler_factory.hpp"
 
-#include "sched/policy/budge.hpp"
+#include <stdexcept>
+
 #include "common/error.hpp"
+#include "sched/policy/budge.hpp"
 #include "sched/policy/gmb/gmb_scheduler.hpp"
 #include "sched/policy/load_any_once.hpp"
 
 namespace rayline {
 
+std::string_view scheduler_name(SchedulerKind kind) { return kSchedulerNames[static_cast<std::size_t>(kind)]; }
+
+std::optional<SchedulerKind> scheduler_kind(std::string_view name) {
+  for (std::size_t i = 0; i < std::size(kSchedulerNames); ++i)
+    if (kSchedulerNames[i] == name) return static_cast<SchedulerKind>(i);
+  return std::nullopt;
+}
+
+std::string scheduler_names(std::string_view separator) {
+  std::string out;
+  for (std::string_view n : kSchedulerNames) (out.empty() ? out : out.append(separator)).append(n);
+  return out;
+}
+
+std::unique_ptr<Scheduler> make_scheduler(const SchedulerChoice& c) {
+  switch (c.kind) {
+    case SchedulerKind::Gmb:
+    case SchedulerKind::GmbCompletionAware:
+      return std::make_unique<GmbScheduler>(GmbOptions{.horizon = c.horizon,
+                                                       .aging = c.aging,
+                                                       .adaptive_aging = c.adaptive_aging,
+                                                       .completion_aware = c.kind == SchedulerKind::GmbCompletionAware});
+    case SchedulerKind::Budge: return std::make_unique<BudgeScheduler>();
+    case SchedulerKind::LoadAnyOnce: return std::make_unique<LoadAnyOnceScheduler>();
+  }
+  throw std::logic_error("make_scheduler: no such scheduler kind");
+}
+
 std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon, Time aging, bool adaptive_aging) {
-  if (name == "gmb" || name == "gmb-ca")
-    return std::make_unique<GmbScheduler>(
-        GmbOptions{.horizon = horizon, .aging = aging, .adaptive_aging = adaptive_aging, .completion_aware = name == "gmb-ca"});
-  if (name == "budge") return std::make_unique<BudgeScheduler>();
-  if (name == "loadanyonce") return std::make_unique<LoadAnyOnceScheduler>();
-  throw InputError("--scheduler", "", "unknown scheduler '" + name + "' (gmb, gmb-ca, budge, loadanyonce)");
+  const std::optional<SchedulerKind> kind = scheduler_kind(name);
+  if (!kind) throw InputError("scheduler", "", "unknown scheduler '" + name + "' (" + scheduler_names() + ")");
+  return make_scheduler(SchedulerChoice{*kind, horizon, aging, adaptive_aging});
 }
 
 }  // namespace rayline

@@ -88,4 +88,8 @@ bool ExactExecutor::advance(std::vector<ExecutorEvent>& out) {
   return true;
 }
 
+void ExactExecutor::run(const Sink& sink, Time until) {
+  run_in_steps([this](std::vector<ExecutorEvent>& out) { return advance(out); }, sink, until);
+}
+
 }  // namespace rayline

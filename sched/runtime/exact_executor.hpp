@@ -16,8 +16,11 @@ class ExactExecutor final : public Executor {
  public:
   explicit ExactExecutor(const Schedule& schedule) : schedule_(schedule) {}
   void dispatch(ActivityId id, const Activity& a) override;
-  bool advance(std::vector<ExecutorEvent>& out) override;
   Time now() const override { return now_; }
+  void run(const Sink& sink, Time until) override;
+  // One step: the next batch of events, appended to `out`; false when nothing is in
+  // flight and nothing can happen (tests step the executor by hand).
+  bool advance(std::vector<ExecutorEvent>& out);
   // Actual duration from the predicted one (default: identical).
   std::function<Time(ActivityId, const Activity&)> perturb;
 

@@ -23,18 +23,30 @@ class Executor {
   virtual ~Executor() = default;
   // Hand over a newly committed activity (called in commit order).
   virtual void dispatch(ActivityId id, const Activity& a) = 0;
-  // Advance until at least one event happened (appended to `out`); false when nothing is
-  // in flight and nothing can happen.
-  virtual bool advance(std::vector<ExecutorEvent>& out) = 0;
   virtual Time now() const = 0;
 
-  // Push mode, for engines that cannot hand control back at the next event (SimGrid 3.32
-  // runs to completion): the executor calls `sink` from inside its own event processing,
-  // at the simulated instant of the events, and the sink may dispatch new activities.
-  // run_push() returns when nothing is in flight any more, or at `until`.
+  // Runs what was dispatched, handing each batch of events to `sink` at the instant they
+  // happened; the sink may dispatch new activities (the loop re-plans there, Sec. 4.2).
+  // Returns when nothing is in flight any more, or once the clock reached `until`.
+  // Push is the general form: an engine that owns its event loop (SimGrid 3.32 runs to
+  // completion) cannot hand control back per event, while one that can stop after each
+  // batch runs as run_in_steps() below.
   using Sink = std::function<void(std::vector<ExecutorEvent>&)>;
-  virtual bool supports_push() const { return false; }
-  virtual void run_push(const Sink& /*sink*/, Time /*until*/) {}
+  virtual void run(const Sink& sink, Time until) = 0;
+
+ protected:
+  // run() for an engine that stops after each batch: `step` appends the next batch (false
+  // when nothing is in flight and nothing can happen). It steps while the clock is before
+  // `until`, so the batch that reaches past `until` is still delivered.
+  template <class Step>
+  void run_in_steps(Step&& step, const Sink& sink, Time until) {
+    std::vector<ExecutorEvent> events;
+    while (now() < until) {
+      events.clear();
+      if (!step(events)) return;
+      sink(events);
+    }
+  }
 };
 
 }  // namespace rayline

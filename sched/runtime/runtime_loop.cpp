@@ -59,26 +59,13 @@ RunStats RuntimeLoop::run(Time until) {
   RunStats st;
   workload_.start(executor_.now(), pool_, schedule_);
   if (pool_.queued_count() > 0) plan_and_dispatch(executor_.now(), st);
-  std::vector<ExecutorEvent> events;
-  if (executor_.supports_push()) {
-    for (;;) {
-      executor_.run_push([&](std::vector<ExecutorEvent>& ev) {
-        if (executor_.now() >= until) return;
-        if (handle(ev, st)) plan_and_dispatch(executor_.now(), st);
-      }, until);
-      if (executor_.now() >= until || drained(st)) break;
-    }
-  } else {
-    for (;;) {
-      if (executor_.now() >= until) break;
-      events.clear();
-      if (!executor_.advance(events)) {
-        if (drained(st)) break;
-        continue;
-      }
-      if (handle(events, st)) plan_and_dispatch(executor_.now(), st);
-    }
-  }
+  // The executor runs until nothing is in flight (then the workload may add more, or the
+  // run is over) or until `until`; every batch it reports may trigger a plan (Sec. 4.2).
+  const Executor::Sink sink = [&](std::vector<ExecutorEvent>& events) {
+    if (handle(events, st)) plan_and_dispatch(executor_.now(), st);
+  };
+  do executor_.run(sink, until);
+  while (executor_.now() < until && !drained(st));
   st.makespan = executor_.now();
   return st;
 }

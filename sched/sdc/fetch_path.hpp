@@ -85,9 +85,6 @@ class FetchPathFinder {
   // anywhere along it (then every search finds this path), else from the full tree.
   void set_bounds(const FetchBound* rest) { rest_ = rest; }
 
-  // After a T-job was appended on r. Kept for callers; validity is read from the
-  // Schedule's resource versions, so this has nothing left to do.
-  void resource_changed(ResourceId) {}
   void clear();                         // after reproject(): everything may have moved
   // Search another Schedule on the same platform (same memory devices and channels),
   // keeping the buffers; nothing cached survives.

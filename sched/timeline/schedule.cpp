@@ -18,7 +18,6 @@ Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
       resource_tl_(graph.resources.size()),
       channel_finish_(graph.channels.size(), 0.0),
       resource_version_(graph.resources.size(), 0),
-      memory_version_(graph.memories.size(), 0),
       used_(graph.memories.size(), 0),
       device_pending_(graph.computes.size(), 0) {
   resource_channels_first_.assign(graph.resources.size() + 1, 0);
@@ -64,7 +63,6 @@ void Schedule::add_copy(BlockId b, Copy c) {
   }
   if (copy_at(b, c.mem)) throw std::logic_error("block already on that memory device: " + pool_->block(b).name);
   used_[c.mem] += pool_->block(b).bytes;
-  ++memory_version_[c.mem];
   ++holders_version_[b];
   if (static_cast<std::uint32_t>(c.mem) < 64u) holder_mask_[static_cast<std::size_t>(b)] |= std::uint64_t{1} << c.mem;
   copies_[b].push_back(std::move(c));
@@ -192,7 +190,6 @@ void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const
   v.erase(it);
   ++holders_version_[b];
   forget_holder(b, m);
-  ++memory_version_[m];
   evictions_.push_back({b, m, at, for_activity, pool_->queued_demand(b), reason, std::move(after)});
 }
 
@@ -395,7 +392,6 @@ bool Schedule::withdraw_copy(BlockId b, MemId m, ActivityId producer) {
   v.erase(it);
   ++holders_version_[b];
   forget_holder(b, m);
-  ++memory_version_[m];
   leaving_.push_back({b, m, {}, pool_->block(b).bytes});
   leaving_.back().after.push_back(producer);
   return true;
@@ -466,16 +462,6 @@ Schedule::CancelCount Schedule::cancel_job(JobId j) {
   return n;
 }
 
-Time Schedule::inputs_ready_at(JobId j, MemId m) const {
-  Time t = 0;
-  for (BlockId b : pool_->job(j).inputs) {
-    const Copy* c = copy_at(b, m);
-    if (!c) return kNever;
-    t = std::max(t, copy_ready(*c));
-  }
-  return t;
-}
-
 void Schedule::on_started(ActivityId id, Time t) {
   Activity& a = acts_[id];
   a.state = ActivityState::Running;
@@ -498,7 +484,6 @@ void Schedule::on_finished(ActivityId id, Time t) {
       l.after.erase(id);
       if (l.after.empty()) {  // every activity it waited for has ended: the room is free
         used_[l.mem] -= l.bytes;
-        ++memory_version_[l.mem];
         continue;
       }
     }

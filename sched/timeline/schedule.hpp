@@ -99,7 +99,6 @@ class Schedule {
   std::uint64_t holders_version(BlockId b) const {
     return static_cast<std::size_t>(b) < holders_version_.size() ? holders_version_[b] : 0;
   }
-  std::uint64_t memory_version(MemId m) const { return memory_version_[m]; }
 
   // Timelines.
   const Timeline& device_timeline(DeviceId d) const { return device_tl_[d]; }
@@ -170,8 +169,6 @@ class Schedule {
   std::size_t unfinished_on_device(DeviceId d) const { return device_pending_[d]; }
   std::size_t unfinished() const { return unfinished_; }
 
-  // Input readiness of a job on memory m: max copy_ready over inputs, kNever if missing.
-  Time inputs_ready_at(JobId j, MemId m) const;
   // Ends of the activities of `after` jobs, kNever if one is not planned yet.
   Time after_deps_ready(JobId j) const {
     Time t = 0;
@@ -207,7 +204,7 @@ class Schedule {
   // The same after r's busy_until was raised to t (and no other resource changed): each
   // channel on r finishes at the larger of what it did and t.
   void resource_busy_raised(ResourceId r, Time t);
-  std::vector<std::uint64_t> resource_version_, memory_version_, holders_version_;
+  std::vector<std::uint64_t> resource_version_, holders_version_;
   std::vector<std::vector<Copy>> copies_;          // per block (grows with the pool)
   static inline const std::vector<Copy> no_copies_{};
   // Per block: bit m set iff a copy is on memory device m < 64 (copy_at's quick miss; a
@@ -234,7 +231,6 @@ class Schedule {
   std::size_t unfinished_ = 0;
   EvictionPolicy eviction_policy_ = EvictionPolicy::QueueAware;
   std::vector<ActivityId> pending_;  // activities not known to be done, in id order (reproject)
-  friend class ScheduleTestAccess;
 };
 
 }  // namespace rayline

@@ -719,9 +719,9 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       }
     }
   }
-  st.path_searches = placer_->finder().searches() - searches0;
-  st.path_cache_hits = placer_->finder().hits() - hits0;
-  st.path_cut_searches = placer_->finder().cut_searches() - cut0;
+  search_stats_.path_searches = placer_->finder().searches() - searches0;
+  search_stats_.path_cache_hits = placer_->finder().hits() - hits0;
+  search_stats_.path_cut_searches = placer_->finder().cut_searches() - cut0;
   st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }

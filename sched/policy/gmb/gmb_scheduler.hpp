@@ -41,6 +41,13 @@ struct GmbOptions {
   bool reference_selection = false;
 };
 
+// The SDC fetch-path searches (Eq. 3) of one plan() call: searches run, answers the
+// finder's cache gave without one, and searches stopped early (at the destination, or
+// once every label lost).
+struct GmbSearchStats {
+  std::uint64_t path_searches = 0, path_cache_hits = 0, path_cut_searches = 0;
+};
+
 class GmbScheduler final : public Scheduler {
  public:
   explicit GmbScheduler(GmbOptions opt = {}) : opt_(opt) {}
@@ -49,6 +56,7 @@ class GmbScheduler final : public Scheduler {
   PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
   const GmbOptions& options() const { return opt_; }
   Time aging_threshold() const;
+  const GmbSearchStats& last_search_stats() const { return search_stats_; }
 
  private:
   struct Choice {
@@ -74,6 +82,7 @@ class GmbScheduler final : public Scheduler {
   bool commit(const Choice& c, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s, PlanStats& st);
 
   GmbOptions opt_;
+  GmbSearchStats search_stats_;
   const Schedule* bound_ = nullptr;
   // The platform the graph-only parts (FetchBound's all-pairs minima, ArrivalBound's
   // bandwidths, the finder's buffers) were built for: kept while one GmbScheduler plans

@@ -1,0 +1,55 @@
+#include "apps/run/run_options.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "common/error.hpp"
+#include "common/units.hpp"
+
+namespace rayline::cli {
+
+Time seconds_flag(const std::string& flag, const std::string& text) {
+  try {
+    return units::parse_duration(text);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(flag, "", e.what());
+  }
+}
+
+SchedulerKind scheduler_flag(const std::string& flag, const std::string& name, const std::string& known) {
+  if (const std::optional<SchedulerKind> kind = scheduler_kind(name)) return *kind;
+  throw InputError(flag, "", "unknown scheduler '" + name + "' (" + known + scheduler_names() + ")");
+}
+
+AgingSetting parse_aging(const std::string& text, const std::string& flag) {
+  AgingSetting a;
+  if (text == "auto") return a;
+  if (text == "adaptive") {
+    a.adaptive = true;
+    return a;
+  }
+  if (text == "off") {
+    a.aging = kNever;
+    return a;
+  }
+  try {
+    a.aging = units::parse_duration(text);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(flag, "", std::string(e.what()) + " (or auto, adaptive, off)");
+  }
+  if (!(a.aging >= 0)) throw InputError(flag, "", "must be >= 0, auto, adaptive or off");
+  return a;
+}
+
+SchedulerChoice scheduler_choice(const std::string& name, Time horizon, const AgingSetting& aging) {
+  SchedulerChoice c;
+  c.kind = scheduler_flag("--scheduler", name);
+  if (!(horizon > 0)) throw InputError("--horizon", "", "must be > 0");
+  if (std::isnan(aging.aging)) throw InputError("--aging", "", "must be a duration, auto, adaptive or off");
+  c.horizon = horizon;
+  c.aging = aging.aging;
+  c.adaptive_aging = aging.adaptive;
+  return c;
+}
+
+}  // namespace rayline::cli
