@@ -127,7 +127,6 @@ void RayStreamWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
   const Job& job = pool.job(j);
   if (job.type != type_) return;
   rays_traced_ += job.work;
-  completions_.emplace_back(now, job.work);
   const Activity& a = s.activity(pool.activity(j));
   const MemId where = g_.computes[a.device].memory;
   const std::vector<BlockId> outs = job.outputs;

@@ -43,7 +43,6 @@ class RayStreamWorkload final : public Workload {
   std::uint64_t primary_rays() const { return primary_rays_; }  // rays of new batches
   std::uint64_t spawned_rays() const { return spawned_rays_; }  // rays in output queues
   // (time, rays) of every finished RayIntersect, for throughput over time.
-  const std::vector<std::pair<Time, std::uint64_t>>& completions() const { return completions_; }
 
  private:
   double uniform();
@@ -61,7 +60,6 @@ class RayStreamWorkload final : public Workload {
   std::vector<int> job_block_;
   std::vector<MemId> job_queue_mem_;
   std::uint64_t rays_traced_ = 0, merges_ = 0, primary_rays_ = 0, spawned_rays_ = 0;
-  std::vector<std::pair<Time, std::uint64_t>> completions_;
   bool stopped_ = false;
 };
 

@@ -33,7 +33,6 @@ class PlyWriter final : public MeshSink {
 
  private:
   std::string header(std::size_t pad) const;
-  void flush_buffers();
 
   std::string path_, tmp_, faces_tmp_;
   // Registered for the writer's lifetime: removed if the run is interrupted.

@@ -74,18 +74,11 @@ PlanStats LoadAnyOnceScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   for (std::size_t r = 0; r < map.size(); ++r) {
     if (map[r] == kNone) continue;
     const auto d = static_cast<DeviceId>(r);
-    const MemId m = g.computes[d].memory;
-    bool loaded = false;
     for (JobId j : jobs[static_cast<std::size_t>(map[r])]) {
       if (!g.timing.supports(d, pool.job(j).type)) continue;
-      const BlockId key = domain[static_cast<std::size_t>(map[r])];
-      const bool resident = key == kNone || s.copy_at(key, m) != nullptr;
       const Time ready = std::max(now, s.device_timeline(d).busy_until);
       if (placer_->earliest_start(j, d, ready, s) == kNever) continue;  // e.g. input unreachable
-      if (placer_->place(j, d, ready, now, pool, s, st) && !resident && !loaded) {
-        loaded = true;
-        ++domain_loads_;
-      }
+      placer_->place(j, d, ready, now, pool, s, st);
     }
   }
   st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

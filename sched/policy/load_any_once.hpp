@@ -36,12 +36,11 @@ class LoadAnyOnceScheduler final : public Scheduler {
   }
   PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
   std::uint64_t rounds() const { return rounds_; }
-  std::uint64_t domain_loads() const { return domain_loads_; }  // GraviT's domain_counter
 
  private:
   const Schedule* bound_ = nullptr;
   std::unique_ptr<Placer> placer_;
-  std::uint64_t rounds_ = 0, domain_loads_ = 0;
+  std::uint64_t rounds_ = 0;
 };
 
 }  // namespace rayline
