@@ -2,7 +2,7 @@
 // "Bad input": nothing lost). `simulate`, `compare` and `partition` write their results into
 // OUT.partial.<pid>@<host> and swap it in for OUT only once every file is complete. An existing OUT
 // is replaced only when it is empty or holds nothing but files the command itself writes:
-// `--out .` or `--out ~` used to delete the folder's contents.
+// so `--out .` or `--out ~` can never delete the folder's contents.
 #pragma once
 #include <string>
 #include <string_view>

@@ -75,7 +75,7 @@ TEST_F(OutputFolders, SimulateReplacesItsOwnEarlierResults) {
   const std::string out = path("run");
   ASSERT_EQ(rayline_cli(kSim + "--paje --out " + out).code, 0);
   ASSERT_TRUE(fs::exists(path("run/simgrid.trace")));
-  // A trailing '/' names the same folder (it used to put the partial folder inside it).
+  // A trailing '/' names the same folder (the partial folder goes beside it, not inside).
   const auto again = rayline_cli(kSim + "--out " + out + "/");
   ASSERT_EQ(again.code, 0) << again.all;
   EXPECT_TRUE(fs::exists(path("run/metrics.json")));
@@ -122,8 +122,8 @@ TEST_F(OutputFolders, PartitionReplacesOnlyAPartition) {
   ASSERT_EQ(rayline_cli("partition -q --blocks 4 --out " + path("p")).code, 0);
   ASSERT_EQ(rayline_cli("partition -q --blocks 2 --out " + path("p")).code, 0);
   EXPECT_FALSE(fs::exists(path("p/block_00003.rlb"))) << "the earlier partition is replaced";
-  // A partition folder with something of the user's in it is no longer replaced (it was,
-  // whenever it held a blocks.json).
+  // A partition folder with something of the user's in it is not replaced, even when it
+  // holds a blocks.json.
   write("p/readme.txt", "mine");
   auto r = rayline_cli("partition -q --blocks 4 --out " + path("p"));
   EXPECT_EQ(r.code, 2) << r.all;

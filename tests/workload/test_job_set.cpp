@@ -100,9 +100,9 @@ TEST(JobSet, BadInputNamesTheField) {
   EXPECT_NE(error_of(with("\"outputs\": [\"hits0\"], ", "")).find("neither placed"), std::string::npos);
   EXPECT_NE(error_of(with("\"name\": \"rays1\"", "\"name\": \"rays0\"")).find("duplicate block name"), std::string::npos);
   EXPECT_NE(error_of(with("\"created\": \"0s\"", "\"created\": \"-3s\"")).find("jobs[2].created"), std::string::npos);
-  // Found by mutation fuzzing of `rayline plan --jobs`: each of these used to reach the
-  // Schedule's own consistency checks (exit 1, no file or field) or plan a job that could
-  // never run.
+  // Found by mutation fuzzing of `rayline plan --jobs`: each of these must be refused
+  // here, naming file and field, not reach the Schedule's own consistency checks (exit 1,
+  // no file or field) or plan a job that could never run.
   EXPECT_NE(error_of(with("[\"n0.disk\"]", "[\"n0.disk\", \"n0.disk\"]")).find("blocks[0].at: memory device 'n0.disk' listed twice"),
             std::string::npos);
   EXPECT_NE(error_of(with("\"inputs\": [\"scene0\", \"rays1\"]", "\"inputs\": [\"scene0\", \"rays1\", \"rays1\"]"))
