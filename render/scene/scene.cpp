@@ -52,22 +52,29 @@ Camera CameraPath::at_frame(int frame) const {
   return c;
 }
 
-void validate(const Scene& s) {
+namespace {
+
+// Colour components finite and within [0, hi].
+void check_color(const std::string& f, const std::string& field, Float3 c, float hi) {
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(c[i]) || c[i] < 0 || c[i] > hi)
+      throw InputError(f, field, "component " + std::to_string(c[i]) + " out of range [0, " +
+                                     (std::isinf(hi) ? std::string("inf") : std::to_string(hi)) + "]");
+}
+
+void check_materials(const Scene& s) {
   const std::string& f = s.source;
-  auto check_color = [&](const std::string& field, Float3 c, float hi) {
-    for (int i = 0; i < 3; ++i)
-      if (!std::isfinite(c[i]) || c[i] < 0 || c[i] > hi)
-        throw InputError(f, field, "component " + std::to_string(c[i]) + " out of range [0, " +
-                                       (std::isinf(hi) ? std::string("inf") : std::to_string(hi)) + "]");
-  };
   std::set<std::string> names;
-  for (std::size_t i = 0; i < s.materials.size(); ++i) {
-    const auto& m = s.materials[i];
+  for (const auto& m : s.materials) {
     const std::string field = "materials." + m.name;
     if (!names.insert(m.name).second) throw InputError(f, field, "duplicate material name");
-    check_color(field + ".albedo", m.albedo, 1.0f);
-    check_color(field + ".emission", m.emission, INFINITY);
+    check_color(f, field + ".albedo", m.albedo, 1.0f);
+    check_color(f, field + ".emission", m.emission, INFINITY);
   }
+}
+
+void check_meshes(const Scene& s) {
+  const std::string& f = s.source;
   if (s.meshes.empty()) throw InputError(f, "meshes", "a scene needs at least one mesh");
   for (std::size_t i = 0; i < s.meshes.size(); ++i) {
     const auto& m = s.meshes[i];
@@ -81,30 +88,43 @@ void validate(const Scene& s) {
       for (int c = 0; c < 4; ++c)
         if (!std::isfinite(m.transform.m[r][c])) throw InputError(f, field + ".transform", "not finite");
   }
+}
+
+void check_lights(const Scene& s) {
+  const std::string& f = s.source;
   for (std::size_t i = 0; i < s.area_lights.size(); ++i) {
     const auto& l = s.area_lights[i];
     const std::string field = "lights[" + std::to_string(i) + "]";
-    check_color(field + ".emission", l.emission, INFINITY);
+    check_color(f, field + ".emission", l.emission, INFINITY);
     if (!finite(l.corner)) throw InputError(f, field + ".corner", "not finite");
     if (!(length(cross(l.edge_u, l.edge_v)) > 0)) throw InputError(f, field, "edges span no area");
   }
-  check_color("environment.radiance", s.environment.radiance, INFINITY);
+  check_color(f, "environment.radiance", s.environment.radiance, INFINITY);
+}
+
+void check_camera(const std::string& f, const std::string& field, const Camera& c) {
+  if (!finite(c.position) || !finite(c.look_at) || !finite(c.up)) throw InputError(f, field, "not finite");
+  if (!(length(c.look_at - c.position) > 0)) throw InputError(f, field + ".look_at", "equals position");
+  if (!(length(cross(normalize(c.look_at - c.position), normalize(c.up))) > 1e-6f))
+    throw InputError(f, field + ".up", "parallel to the viewing direction (or zero)");
+  if (!(c.fov_y_deg > 0 && c.fov_y_deg < 180)) throw InputError(f, field + ".fov_deg", "must be in (0, 180)");
+  if (c.width < 1 || c.height < 1 || c.width > 65536 || c.height > 65536)
+    throw InputError(f, field + ".resolution", "must be in [1, 65536]");
+}
+
+void check_cameras(const Scene& s) {
+  const std::string& f = s.source;
   if (s.cameras.empty()) throw InputError(f, "cameras", "a scene needs at least one camera");
-  names.clear();
-  auto check_camera = [&](const std::string& field, const Camera& c) {
-    if (!finite(c.position) || !finite(c.look_at) || !finite(c.up)) throw InputError(f, field, "not finite");
-    if (!(length(c.look_at - c.position) > 0)) throw InputError(f, field + ".look_at", "equals position");
-    if (!(length(cross(normalize(c.look_at - c.position), normalize(c.up))) > 1e-6f))
-      throw InputError(f, field + ".up", "parallel to the viewing direction (or zero)");
-    if (!(c.fov_y_deg > 0 && c.fov_y_deg < 180)) throw InputError(f, field + ".fov_deg", "must be in (0, 180)");
-    if (c.width < 1 || c.height < 1 || c.width > 65536 || c.height > 65536)
-      throw InputError(f, field + ".resolution", "must be in [1, 65536]");
-  };
+  std::set<std::string> names;
   for (const auto& c : s.cameras) {
     if (!names.insert(c.name).second) throw InputError(f, "cameras." + c.name, "duplicate camera name");
-    check_camera("cameras." + c.name, c);
+    check_camera(f, "cameras." + c.name, c);
   }
-  names.clear();
+}
+
+void check_camera_paths(const Scene& s) {
+  const std::string& f = s.source;
+  std::set<std::string> names;
   for (const auto& p : s.camera_paths) {
     const std::string field = "camera_paths." + p.name;
     if (!names.insert(p.name).second) throw InputError(f, field, "duplicate camera path name");
@@ -114,11 +134,21 @@ void validate(const Scene& s) {
       const std::string kf = field + ".keys[" + std::to_string(k) + "]";
       if (!std::isfinite(p.keys[k].time)) throw InputError(f, kf + ".t", "not finite");
       if (k > 0 && !(p.keys[k].time > p.keys[k - 1].time)) throw InputError(f, kf + ".t", "times must increase");
-      check_camera(kf, p.keys[k].camera);
+      check_camera(f, kf, p.keys[k].camera);
     }
   }
-  if (s.render.spp < 1) throw InputError(f, "render.spp", "must be >= 1");
-  if (s.render.max_depth < 1) throw InputError(f, "render.max_depth", "must be >= 1");
+}
+
+}  // namespace
+
+void validate(const Scene& s) {
+  check_materials(s);
+  check_meshes(s);
+  check_lights(s);
+  check_cameras(s);
+  check_camera_paths(s);
+  if (s.render.spp < 1) throw InputError(s.source, "render.spp", "must be >= 1");
+  if (s.render.max_depth < 1) throw InputError(s.source, "render.max_depth", "must be >= 1");
 }
 
 void frame_bounds(Scene& s, const Bounds& b) {
