@@ -4,7 +4,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "sched/core/data_block.hpp"
 #include "common/units.hpp"
 
 namespace {
@@ -94,20 +93,6 @@ TEST(Units, RejectsQuantitiesWhoseTimesWouldOverflow) {
 
 TEST(Units, RejectsMalformedRates) {
   for (const char* s : {"", "10M", "10Mx/s", "0/s", "-5/s", "10 M/s"}) expect_reject(parse_rate, s);
-}
-
-TEST(DataKind, ParsesEveryNameAndRejectsOthers) {
-  for (int i = 0; i < kDataKindCount; ++i) {
-    DataKind k = DataKind::Generic;
-    ASSERT_TRUE(parse_data_kind(kDataKindNames[static_cast<std::size_t>(i)], k));
-    EXPECT_EQ(static_cast<int>(k), i);
-    EXPECT_EQ(to_string(k), kDataKindNames[static_cast<std::size_t>(i)]);
-  }
-  DataKind k = DataKind::SceneData;
-  EXPECT_FALSE(parse_data_kind("rayqueue", k));
-  EXPECT_FALSE(parse_data_kind("", k));
-  EXPECT_FALSE(parse_data_kind("RayQueue ", k));
-  EXPECT_EQ(k, DataKind::SceneData);  // untouched on failure
 }
 
 }  // namespace
