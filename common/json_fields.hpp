@@ -97,7 +97,8 @@ class BasicJsonField {
   void only_keys(std::initializer_list<std::string_view> allowed) const;
   std::vector<Member> members() const;  // an object's members, in the document's order
 
-  // Elements of an array (the type checked: array()).
+  // Elements of an array (element() and elements() check the type: array()); an index
+  // past the end is "missing" at its path. size() counts an object's members too.
   std::size_t size() const;
   BasicJsonField element(std::size_t index) const;
   std::vector<BasicJsonField> elements() const;
