@@ -1,8 +1,10 @@
+// Job-set files (schema: docs/job-sets.md) -> JobPool and initial placement. Every
+// problem is an InputError(file, field, message) raised through common/json_fields.hpp;
+// one function per section of the format (blocks, jobs) and per cross-check.
 #include "workload/job_set.hpp"
 
 #include <algorithm>
 #include <fstream>
-#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -11,7 +13,7 @@
 
 #include "common/error.hpp"
 #include "common/input_file.hpp"
-#include "common/units.hpp"
+#include "common/json_fields.hpp"
 
 namespace rayline {
 
@@ -19,178 +21,192 @@ using nlohmann::json;
 
 namespace {
 
-void check_keys(const json& obj, const std::set<std::string>& allowed, const std::string& file, const std::string& field) {
-  if (!obj.is_object()) throw InputError(file, field, "expected an object");
-  for (auto it = obj.begin(); it != obj.end(); ++it)
-    if (!allowed.count(it.key())) throw InputError(file, field + "." + it.key(), "unknown key");
-}
-
-const json& need(const json& obj, const char* key, const std::string& file, const std::string& field) {
-  auto it = obj.find(key);
-  if (it == obj.end()) throw InputError(file, field + "." + key, "missing");
-  return *it;
-}
-
-std::string need_string(const json& obj, const char* key, const std::string& file, const std::string& field) {
-  const json& v = need(obj, key, file, field);
-  if (!v.is_string()) throw InputError(file, field + "." + key, "expected a string");
-  return v.get<std::string>();
-}
-
-std::vector<std::string> string_list(const json& obj, const char* key, const std::string& file, const std::string& field) {
+std::vector<std::string> string_list(const JsonField& object, const char* key) {
   std::vector<std::string> out;
-  auto it = obj.find(key);
-  if (it == obj.end()) return out;
-  if (!it->is_array()) throw InputError(file, field + "." + key, "expected an array of names");
-  for (std::size_t i = 0; i < it->size(); ++i) {
-    if (!(*it)[i].is_string()) throw InputError(file, field + "." + key + "[" + std::to_string(i) + "]", "expected a string");
-    out.push_back((*it)[i].get<std::string>());
-  }
+  const auto list = object.find(key);
+  if (!list) return out;
+  if (!list->json().is_array()) list->fail("expected an array of names");
+  for (const JsonField& name : list->elements()) out.push_back(name.string());
   return out;
 }
+
+// A list of the document's own ("blocks", "jobs"): missing is "$.blocks", as for any key of
+// the document ("$"), while the list itself and its entries are "blocks", "blocks[2]".
+JsonField top_list(const JsonInput& in, const JsonField& root, const char* key) {
+  const JsonField list = in.field(root.at(key).json(), key);
+  if (!list.json().is_array()) list.fail("expected an array");
+  return list;
+}
+
+std::string job_field(std::size_t i) { return field_index("jobs", i); }
+
+class JobSetReader {
+ public:
+  JobSetReader(const JsonInput& input, const DeviceGraph& g) : in_(input), g_(g) {}
+
+  JobSet read(const JsonField& root) {
+    root.only_keys({"name", "description", "blocks", "jobs"});
+    const std::vector<JsonField> blocks = top_list(in_, root, "blocks").elements();
+    for (const JsonField& b : blocks) block(b);
+    for (std::size_t i = 0; i < blocks.size(); ++i)
+      if (const auto sb = blocks[i].find("scene_block")) scene_block(*sb, static_cast<BlockId>(i));
+    const std::vector<JsonField> jobs = top_list(in_, root, "jobs").elements();
+    for (std::size_t i = 0; i < jobs.size(); ++i) job(jobs[i], i);
+    resolve_after();
+    check_inputs_exist();
+    check_acyclic();
+    for (Job& j : parsed_) set_.pool.add_job(std::move(j));
+    return std::move(set_);
+  }
+
+ private:
+  void block(const JsonField& f) {
+    f.only_keys({"name", "kind", "size", "at", "scene_block"});
+    DataBlock b;
+    b.name = f.at("name").string();
+    if (blocks_.count(b.name)) f.at("name").fail("duplicate block name '" + b.name + "'");
+    const std::string kind = f.at("kind").string();
+    if (!parse_data_kind(kind, b.kind)) f.at("kind").fail("unknown data kind '" + kind + "'");
+    const JsonField size = f.at("size");
+    b.bytes = static_cast<Bytes>(in_.quantity(size.string(), size.path(), JsonUnit::bytes));
+    b.consumed = is_consumed_by_use(b.kind);
+    const BlockId id = set_.pool.add_block(b);
+    blocks_[b.name] = id;
+    std::set<MemId> at;
+    for (const std::string& m : string_list(f, "at")) {
+      const MemId mem = g_.find_memory(m);
+      if (mem == kNone) f.fail_at("at", "unknown memory device '" + m + "' (not in " + g_.source_file + ")");
+      if (!at.insert(mem).second) f.fail_at("at", "memory device '" + m + "' listed twice");
+      if (g_.memories[mem].capacity < b.bytes) size.fail("larger than memory device '" + m + "'");
+      set_.initial.emplace_back(id, mem);
+    }
+  }
+
+  void scene_block(const JsonField& f, BlockId of) {
+    if (!f.json().is_string()) f.fail("expected a block name");
+    const auto it = blocks_.find(f.json().get<std::string>());
+    if (it == blocks_.end()) f.fail("unknown block");
+    set_.pool.block(of).scene_block = it->second;
+  }
+
+  void job(const JsonField& f, std::size_t i) {
+    f.only_keys({"name", "type", "inputs", "outputs", "after", "created", "work"});
+    Job j;
+    j.name = f.at("name").string();
+    if (jobs_.count(j.name)) f.at("name").fail("duplicate job name '" + j.name + "'");
+    job_type(f.at("type"), j);
+    for (const std::string& n : string_list(f, "inputs")) input(field_key(f.path(), "inputs"), n, i, j);
+    for (const std::string& n : string_list(f, "outputs")) output(field_key(f.path(), "outputs"), n, j);
+    if (const auto created = f.find("created")) {
+      if (!created->json().is_string()) created->fail("expected a duration such as \"0s\"");
+      j.created = in_.quantity(created->string(), created->path(), JsonUnit::duration);
+    }
+    if (const auto work = f.find("work")) j.work = work->unsigned_integer();
+    after_names_.push_back(string_list(f, "after"));
+    jobs_[j.name] = static_cast<JobId>(parsed_.size());
+    parsed_.push_back(std::move(j));
+  }
+
+  void job_type(const JsonField& f, Job& j) const {
+    const std::string type = f.string();
+    j.type = g_.job_type(type);
+    if (j.type == kNone) f.fail("unknown job type '" + type + "'");
+    bool runnable = false;
+    for (std::size_t d = 0; d < g_.computes.size(); ++d)
+      runnable = runnable || g_.timing.supports(static_cast<DeviceId>(d), j.type);
+    if (!runnable) f.fail("no compute device of the platform runs '" + type + "'");
+  }
+
+  // Entries of a job's "inputs" and "outputs" are reported at the list (`list`).
+  BlockId named_block(const std::string& list, const std::string& name, const std::vector<BlockId>& listed) const {
+    const auto it = blocks_.find(name);
+    if (it == blocks_.end()) in_.fail(list, "unknown block '" + name + "'");
+    if (std::find(listed.begin(), listed.end(), it->second) != listed.end())
+      in_.fail(list, "block '" + name + "' listed twice");
+    return it->second;
+  }
+
+  void input(const std::string& list, const std::string& name, std::size_t job, Job& j) {
+    const BlockId b = named_block(list, name, j.inputs);
+    // A ray queue is consumed by the job that reads it (Sec. 5.1): a second reader could
+    // never run.
+    if (set_.pool.block(b).consumed) {
+      const auto [reader, fresh] = consumer_.emplace(b, job);
+      if (!fresh)
+        in_.fail(list, "block '" + name + "' (" + std::string(to_string(set_.pool.block(b).kind)) +
+                           ") is consumed by use and already read by " + job_field(reader->second));
+    }
+    j.inputs.push_back(b);
+  }
+
+  void output(const std::string& list, const std::string& name, Job& j) {
+    const BlockId b = named_block(list, name, j.outputs);
+    for (auto [placed, m] : set_.initial)
+      if (placed == b) in_.fail(list, "block '" + name + "' is placed initially and produced by a job");
+    if (!produced_.insert(b).second) in_.fail(list, "block '" + name + "' is produced by two jobs");
+    j.outputs.push_back(b);
+  }
+
+  void resolve_after() {
+    for (std::size_t i = 0; i < parsed_.size(); ++i)
+      for (const std::string& n : after_names_[i]) {
+        const auto it = jobs_.find(n);
+        if (it == jobs_.end()) in_.fail(job_field(i) + ".after", "unknown job '" + n + "'");
+        parsed_[i].after.push_back(it->second);
+      }
+  }
+
+  // Every input must exist somewhere at some point.
+  void check_inputs_exist() {
+    std::set<BlockId> placed;
+    for (auto [b, m] : set_.initial) placed.insert(b);
+    std::map<BlockId, JobId> producer;
+    for (std::size_t i = 0; i < parsed_.size(); ++i)
+      for (BlockId o : parsed_[i].outputs) producer[o] = static_cast<JobId>(i);
+    deps_.assign(parsed_.size(), {});
+    for (std::size_t i = 0; i < parsed_.size(); ++i) {
+      for (BlockId b : parsed_[i].inputs) {
+        if (!placed.count(b) && !producer.count(b))
+          in_.fail(job_field(i) + ".inputs",
+                   "block '" + set_.pool.block(b).name + "' is neither placed ('at') nor produced by a job");
+        if (producer.count(b)) deps_[i].push_back(producer[b]);
+      }
+      deps_[i].insert(deps_[i].end(), parsed_[i].after.begin(), parsed_[i].after.end());
+    }
+  }
+
+  // Dependencies (producers and `after`) must be acyclic: depth-first, 1 = on the path.
+  void check_acyclic() {
+    mark_.assign(parsed_.size(), 0);
+    for (std::size_t i = 0; i < parsed_.size(); ++i) visit(i);
+  }
+  void visit(std::size_t i) {
+    if (mark_[i] == 2) return;
+    if (mark_[i] == 1) in_.fail(job_field(i), "dependency cycle through job '" + parsed_[i].name + "'");
+    mark_[i] = 1;
+    for (JobId d : deps_[i]) visit(static_cast<std::size_t>(d));
+    mark_[i] = 2;
+  }
+
+  const JsonInput& in_;
+  const DeviceGraph& g_;
+  JobSet set_;
+  std::map<std::string, BlockId> blocks_;
+  std::map<std::string, JobId> jobs_;
+  std::vector<Job> parsed_;
+  std::vector<std::vector<std::string>> after_names_;
+  std::set<BlockId> produced_;
+  std::map<BlockId, std::size_t> consumer_;  // consumed-by-use blocks: the job reading each
+  std::vector<std::vector<JobId>> deps_;
+  std::vector<int> mark_;
+};
 
 }  // namespace
 
 JobSet parse_job_set(const std::string& text, const std::string& file, const DeviceGraph& g) {
-  json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw InputError(file, "", std::string("invalid JSON: ") + e.what());
-  }
-  check_keys(root, {"name", "description", "blocks", "jobs"}, file, "$");
-  JobSet set;
-  std::map<std::string, BlockId> blocks;
-  const json& jb = need(root, "blocks", file, "$");
-  if (!jb.is_array()) throw InputError(file, "blocks", "expected an array");
-  for (std::size_t i = 0; i < jb.size(); ++i) {
-    const std::string f = "blocks[" + std::to_string(i) + "]";
-    check_keys(jb[i], {"name", "kind", "size", "at", "scene_block"}, file, f);
-    DataBlock b;
-    b.name = need_string(jb[i], "name", file, f);
-    if (blocks.count(b.name)) throw InputError(file, f + ".name", "duplicate block name '" + b.name + "'");
-    const std::string kind = need_string(jb[i], "kind", file, f);
-    if (!parse_data_kind(kind, b.kind)) throw InputError(file, f + ".kind", "unknown data kind '" + kind + "'");
-    try {
-      const double bytes = units::parse_bytes(need_string(jb[i], "size", file, f));
-      b.bytes = static_cast<Bytes>(bytes);
-    } catch (const std::invalid_argument& e) {
-      throw InputError(file, f + ".size", e.what());
-    }
-    b.consumed = is_consumed_by_use(b.kind);
-    const BlockId id = set.pool.add_block(b);
-    blocks[b.name] = id;
-    std::set<MemId> at;
-    for (const std::string& m : string_list(jb[i], "at", file, f)) {
-      const MemId mem = g.find_memory(m);
-      if (mem == kNone) throw InputError(file, f + ".at", "unknown memory device '" + m + "' (not in " + g.source_file + ")");
-      if (!at.insert(mem).second) throw InputError(file, f + ".at", "memory device '" + m + "' listed twice");
-      if (g.memories[mem].capacity < b.bytes) throw InputError(file, f + ".size", "larger than memory device '" + m + "'");
-      set.initial.emplace_back(id, mem);
-    }
-  }
-  for (std::size_t i = 0; i < jb.size(); ++i)
-    if (jb[i].contains("scene_block")) {
-      const std::string f = "blocks[" + std::to_string(i) + "].scene_block";
-      if (!jb[i]["scene_block"].is_string()) throw InputError(file, f, "expected a block name");
-      auto it = blocks.find(jb[i]["scene_block"].get<std::string>());
-      if (it == blocks.end()) throw InputError(file, f, "unknown block");
-      set.pool.block(static_cast<BlockId>(i)).scene_block = it->second;
-    }
-  const json& jj = need(root, "jobs", file, "$");
-  if (!jj.is_array()) throw InputError(file, "jobs", "expected an array");
-  std::map<std::string, JobId> jobs;
-  std::vector<std::vector<std::string>> after_names;
-  std::set<BlockId> produced;
-  std::map<BlockId, std::size_t> consumer;  // consumed-by-use blocks: the job reading each
-  std::vector<Job> parsed;
-  for (std::size_t i = 0; i < jj.size(); ++i) {
-    const std::string f = "jobs[" + std::to_string(i) + "]";
-    check_keys(jj[i], {"name", "type", "inputs", "outputs", "after", "created", "work"}, file, f);
-    Job j;
-    j.name = need_string(jj[i], "name", file, f);
-    if (jobs.count(j.name)) throw InputError(file, f + ".name", "duplicate job name '" + j.name + "'");
-    const std::string type = need_string(jj[i], "type", file, f);
-    j.type = g.job_type(type);
-    if (j.type == kNone) throw InputError(file, f + ".type", "unknown job type '" + type + "'");
-    bool runnable = false;
-    for (std::size_t d = 0; d < g.computes.size(); ++d) runnable = runnable || g.timing.supports(static_cast<DeviceId>(d), j.type);
-    if (!runnable) throw InputError(file, f + ".type", "no compute device of the platform runs '" + type + "'");
-    for (const std::string& n : string_list(jj[i], "inputs", file, f)) {
-      auto it = blocks.find(n);
-      if (it == blocks.end()) throw InputError(file, f + ".inputs", "unknown block '" + n + "'");
-      if (std::find(j.inputs.begin(), j.inputs.end(), it->second) != j.inputs.end())
-        throw InputError(file, f + ".inputs", "block '" + n + "' listed twice");
-      // A ray queue is consumed by the job that reads it (Sec. 5.1): a second reader could
-      // never run.
-      if (set.pool.block(it->second).consumed) {
-        auto [reader, fresh] = consumer.emplace(it->second, i);
-        if (!fresh)
-          throw InputError(file, f + ".inputs", "block '" + n + "' (" + std::string(to_string(set.pool.block(it->second).kind)) +
-                                                    ") is consumed by use and already read by jobs[" +
-                                                    std::to_string(reader->second) + "]");
-      }
-      j.inputs.push_back(it->second);
-    }
-    for (const std::string& n : string_list(jj[i], "outputs", file, f)) {
-      auto it = blocks.find(n);
-      if (it == blocks.end()) throw InputError(file, f + ".outputs", "unknown block '" + n + "'");
-      if (std::find(j.outputs.begin(), j.outputs.end(), it->second) != j.outputs.end())
-        throw InputError(file, f + ".outputs", "block '" + n + "' listed twice");
-      for (auto [b, m] : set.initial)
-        if (b == it->second) throw InputError(file, f + ".outputs", "block '" + n + "' is placed initially and produced by a job");
-      if (!produced.insert(it->second).second) throw InputError(file, f + ".outputs", "block '" + n + "' is produced by two jobs");
-      j.outputs.push_back(it->second);
-    }
-    if (jj[i].contains("created")) {
-      try {
-        if (!jj[i]["created"].is_string()) throw std::invalid_argument("expected a duration such as \"0s\"");
-        j.created = units::parse_duration(jj[i]["created"].get<std::string>());
-      } catch (const std::invalid_argument& e) {
-        throw InputError(file, f + ".created", e.what());
-      }
-    }
-    if (jj[i].contains("work")) {
-      if (!jj[i]["work"].is_number_unsigned()) throw InputError(file, f + ".work", "expected a non-negative integer");
-      j.work = jj[i]["work"].get<std::uint64_t>();
-    }
-    after_names.push_back(string_list(jj[i], "after", file, f));
-    jobs[j.name] = static_cast<JobId>(parsed.size());
-    parsed.push_back(std::move(j));
-  }
-  for (std::size_t i = 0; i < parsed.size(); ++i)
-    for (const std::string& n : after_names[i]) {
-      auto it = jobs.find(n);
-      if (it == jobs.end()) throw InputError(file, "jobs[" + std::to_string(i) + "].after", "unknown job '" + n + "'");
-      parsed[i].after.push_back(it->second);
-    }
-  // Every input must exist somewhere at some point; dependencies must be acyclic.
-  std::set<BlockId> placed;
-  for (auto [b, m] : set.initial) placed.insert(b);
-  std::vector<std::vector<JobId>> deps(parsed.size());
-  std::map<BlockId, JobId> producer;
-  for (std::size_t i = 0; i < parsed.size(); ++i)
-    for (BlockId o : parsed[i].outputs) producer[o] = static_cast<JobId>(i);
-  for (std::size_t i = 0; i < parsed.size(); ++i) {
-    for (BlockId b : parsed[i].inputs) {
-      if (!placed.count(b) && !producer.count(b))
-        throw InputError(file, "jobs[" + std::to_string(i) + "].inputs",
-                         "block '" + set.pool.block(b).name + "' is neither placed ('at') nor produced by a job");
-      if (producer.count(b)) deps[i].push_back(producer[b]);
-    }
-    deps[i].insert(deps[i].end(), parsed[i].after.begin(), parsed[i].after.end());
-  }
-  std::vector<int> mark(parsed.size(), 0);
-  std::function<void(std::size_t)> visit = [&](std::size_t i) {
-    if (mark[i] == 2) return;
-    if (mark[i] == 1) throw InputError(file, "jobs[" + std::to_string(i) + "]", "dependency cycle through job '" + parsed[i].name + "'");
-    mark[i] = 1;
-    for (JobId d : deps[i]) visit(static_cast<std::size_t>(d));
-    mark[i] = 2;
-  };
-  for (std::size_t i = 0; i < parsed.size(); ++i) visit(i);
-  for (Job& j : parsed) set.pool.add_job(std::move(j));
-  return set;
+  const JsonInput input(file);
+  const json doc = input.parse(text);
+  return JobSetReader(input, g).read(input.field(doc, "$"));
 }
 
 JobSet load_job_set(const std::string& path, const DeviceGraph& g) {

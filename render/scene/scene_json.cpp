@@ -1,4 +1,6 @@
-// Scene JSON reading and writing (the only place nlohmann_json touches scenes).
+// Scene JSON reading and writing (the only place nlohmann_json touches scenes). Reading
+// goes through common/json_fields.hpp, one function per section of the format.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -11,103 +13,286 @@
 #include "render/scene/mesh_import.hpp"
 #include "render/scene/scene.hpp"
 #include "common/error.hpp"
+#include "common/json_fields.hpp"
 
 namespace rayline::scene {
 namespace {
 
 using Json = nlohmann::ordered_json;
+using Field = OrderedJsonField;
 namespace fs = std::filesystem;
 
-struct Reader {
-  std::string file;
+// Scene files say what a field must be ("must be a number") and call keys fields.
+constexpr JsonWording kWording{.type_prefix = "must be ",
+                               .name_actual_type = false,
+                               .unknown_key = "unknown field",
+                               .list_allowed_keys = false,
+                               .top_level = ""};
 
-  [[noreturn]] void fail(const std::string& field, const std::string& msg) const { throw InputError(file, field, msg); }
+// An integer; a float with an integral value (1.0, 2e3) counts as one.
+std::int64_t integer(const Field& f) {
+  const Json& j = f.json();
+  if (j.is_number_integer()) return j.get<std::int64_t>();
+  if (j.is_number_float() && j.get<double>() == std::floor(j.get<double>()) && std::abs(j.get<double>()) < 9e15)
+    return static_cast<std::int64_t>(j.get<double>());
+  f.fail("must be an integer");
+}
 
-  void only_keys(const Json& j, const std::string& field, std::initializer_list<const char*> keys) const {
-    if (!j.is_object()) fail(field, "must be an object");
-    for (auto it = j.begin(); it != j.end(); ++it) {
-      bool ok = false;
-      for (const char* k : keys) ok = ok || it.key() == k;
-      if (!ok) fail(field.empty() ? it.key() : field + "." + it.key(), "unknown field");
-    }
-  }
-  double number(const Json& j, const std::string& field) const {
-    if (!j.is_number()) fail(field, "must be a number");
-    return j.get<double>();
-  }
-  std::int64_t integer(const Json& j, const std::string& field) const {
-    if (j.is_number_integer()) return j.get<std::int64_t>();
-    if (j.is_number_float() && j.get<double>() == std::floor(j.get<double>()) && std::abs(j.get<double>()) < 9e15)
-      return static_cast<std::int64_t>(j.get<double>());
-    fail(field, "must be an integer");
-  }
-  std::string string(const Json& j, const std::string& field) const {
-    if (!j.is_string()) fail(field, "must be a string");
-    return j.get<std::string>();
-  }
-  Float3 vec3(const Json& j, const std::string& field) const {
-    if (!j.is_array() || j.size() != 3) fail(field, "must be an array of 3 numbers");
-    return {float(number(j[0], field + "[0]")), float(number(j[1], field + "[1]")), float(number(j[2], field + "[2]"))};
-  }
-  // A colour: [r, g, b] or one number for grey.
-  Float3 color(const Json& j, const std::string& field) const {
-    if (j.is_number()) {
-      const float v = float(j.get<double>());
-      return {v, v, v};
-    }
-    return vec3(j, field);
-  }
+// `f` reported at `path` (a few messages name the enclosing field, not the element).
+Field renamed(const Field& f, const std::string& path) { return Field(f.input(), f.json(), path); }
 
-  Affine transform(const Json& j, const std::string& field) const {
-    only_keys(j, field, {"matrix", "scale", "rotate", "translate"});
-    Affine a;
-    if (j.contains("matrix")) {
-      const Json& m = j["matrix"];
-      if (!m.is_array() || (m.size() != 12 && m.size() != 16)) fail(field + ".matrix", "must hold 12 or 16 numbers (row-major)");
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c) a.m[r][c] = float(number(m[r * 4 + c], field + ".matrix"));
-      if (m.size() == 16 && (number(m[12], field) != 0 || number(m[13], field) != 0 || number(m[14], field) != 0 ||
-                             number(m[15], field) != 1))
-        fail(field + ".matrix", "last row must be 0 0 0 1 (affine)");
-    }
-    if (j.contains("scale")) {
-      const Json& s = j["scale"];
-      const Float3 v = s.is_number() ? Float3{float(s.get<double>()), float(s.get<double>()), float(s.get<double>())}
-                                     : vec3(s, field + ".scale");
-      if (v.x == 0 || v.y == 0 || v.z == 0) fail(field + ".scale", "must not be zero");
-      a = Affine::scale(v) * a;
-    }
-    if (j.contains("rotate")) {
-      const Json& r = j["rotate"];
-      const std::string rf = field + ".rotate";
-      only_keys(r, rf, {"axis", "deg"});
-      if (!r.contains("axis") || !r.contains("deg")) fail(rf, "needs \"axis\" and \"deg\"");
-      const Float3 axis = vec3(r["axis"], rf + ".axis");
-      if (!(length(axis) > 0)) fail(rf + ".axis", "must not be zero");
-      a = Affine::rotate(axis, float(number(r["deg"], rf + ".deg"))) * a;
-    }
-    if (j.contains("translate")) a = Affine::translate(vec3(j["translate"], field + ".translate")) * a;
-    return a;
-  }
+float number(const Field& f) { return float(f.number()); }
 
-  Camera camera(const Json& j, const std::string& field, const std::string& name, const Camera& base) const {
-    only_keys(j, field, {"position", "look_at", "up", "fov_deg", "resolution", "t", "camera"});
-    Camera c = base;
-    c.name = name;
-    if (j.contains("position")) c.position = vec3(j["position"], field + ".position");
-    if (j.contains("look_at")) c.look_at = vec3(j["look_at"], field + ".look_at");
-    if (j.contains("up")) c.up = vec3(j["up"], field + ".up");
-    if (j.contains("fov_deg")) c.fov_y_deg = float(number(j["fov_deg"], field + ".fov_deg"));
-    if (j.contains("resolution")) {
-      const Json& r = j["resolution"];
-      if (!r.is_array() || r.size() != 2) fail(field + ".resolution", "must be [width, height]");
-      const auto w = integer(r[0], field + ".resolution"), h = integer(r[1], field + ".resolution");
-      if (w < 1 || h < 1 || w > 65536 || h > 65536) fail(field + ".resolution", "must be in [1, 65536]");
-      c.width = int(w), c.height = int(h);
-    }
-    return c;
+Float3 vec3(const Field& f) {
+  if (!f.json().is_array() || f.size() != 3) f.fail("must be an array of 3 numbers");
+  return {number(f.element(0)), number(f.element(1)), number(f.element(2))};
+}
+
+// A colour: [r, g, b] or one number for grey.
+Float3 color(const Field& f) {
+  if (!f.json().is_number()) return vec3(f);
+  const float v = float(f.json().get<double>());
+  return {v, v, v};
+}
+
+// 12 or 16 numbers, row-major; the last row of 16 must be 0 0 0 1 (affine).
+Affine matrix(const Field& m, const std::string& transform) {
+  if (!m.json().is_array() || (m.size() != 12 && m.size() != 16)) m.fail("must hold 12 or 16 numbers (row-major)");
+  Affine a;
+  for (std::size_t r = 0; r < 3; ++r)
+    for (std::size_t c = 0; c < 4; ++c) a.m[r][c] = number(renamed(m.element(r * 4 + c), m.path()));
+  if (m.size() != 16) return a;
+  auto last = [&](std::size_t k) { return renamed(m.element(k), transform).number(); };
+  if (last(12) != 0 || last(13) != 0 || last(14) != 0 || last(15) != 1) m.fail("last row must be 0 0 0 1 (affine)");
+  return a;
+}
+
+Affine rotation(const Field& r) {
+  r.only_keys({"axis", "deg"});
+  if (!r.has("axis") || !r.has("deg")) r.fail("needs \"axis\" and \"deg\"");
+  const Float3 axis = vec3(r.at("axis"));
+  if (!(length(axis) > 0)) r.at("axis").fail("must not be zero");
+  return Affine::rotate(axis, number(r.at("deg")));
+}
+
+// Applied in the order matrix, scale, rotate, translate.
+Affine transform(const Field& f) {
+  f.only_keys({"matrix", "scale", "rotate", "translate"});
+  Affine a;
+  if (const auto m = f.find("matrix")) a = matrix(*m, f.path());
+  if (const auto s = f.find("scale")) {
+    const Float3 v = s->json().is_number() ? Float3{number(*s), number(*s), number(*s)} : vec3(*s);
+    if (v.x == 0 || v.y == 0 || v.z == 0) s->fail("must not be zero");
+    a = Affine::scale(v) * a;
   }
-};
+  if (const auto r = f.find("rotate")) a = rotation(*r) * a;
+  if (const auto t = f.find("translate")) a = Affine::translate(vec3(*t)) * a;
+  return a;
+}
+
+void resolution(const Field& r, Camera& c) {
+  if (!r.json().is_array() || r.size() != 2) r.fail("must be [width, height]");
+  const auto w = integer(renamed(r.element(0), r.path())), h = integer(renamed(r.element(1), r.path()));
+  if (w < 1 || h < 1 || w > 65536 || h > 65536) r.fail("must be in [1, 65536]");
+  c.width = int(w), c.height = int(h);
+}
+
+// A camera, or a camera path key (which may also name a "camera" and a time "t").
+Camera camera(const Field& f, const std::string& name, const Camera& base) {
+  f.only_keys({"position", "look_at", "up", "fov_deg", "resolution", "t", "camera"});
+  Camera c = base;
+  c.name = name;
+  if (const auto v = f.find("position")) c.position = vec3(*v);
+  if (const auto v = f.find("look_at")) c.look_at = vec3(*v);
+  if (const auto v = f.find("up")) c.up = vec3(*v);
+  if (const auto v = f.find("fov_deg")) c.fov_y_deg = number(*v);
+  if (const auto v = f.find("resolution")) resolution(*v, c);
+  return c;
+}
+
+// Materials, by name (file order kept).
+void materials(const Field& root, Scene& s) {
+  const auto ms = root.find("materials");
+  if (!ms) return;
+  if (!ms->json().is_object()) ms->fail("must be an object of name: {albedo, emission}");
+  for (const auto& [name, f] : ms->members()) {
+    f.only_keys({"albedo", "emission"});
+    Material m;
+    m.name = name;
+    if (const auto v = f.find("albedo")) m.albedo = color(*v);
+    if (const auto v = f.find("emission")) m.emission = color(*v);
+    s.materials.push_back(m);
+  }
+}
+
+std::uint32_t material_ref(const Field& f, const Scene& s) {
+  const std::string name = f.string();
+  if (auto i = s.find_material(name)) return *i;
+  f.fail("unknown material '" + name + "' (dangling reference)");
+}
+
+void mesh_file(const Field& f, const fs::path& dir, MeshInstance& m) {
+  fs::path p = f.at("file").string();
+  if (p.is_relative()) p = dir / p;
+  m.file = p.lexically_normal().string();
+  std::error_code ec;
+  if (!fs::is_regular_file(m.file, ec)) f.at("file").fail("mesh file not found: " + m.file);
+  if (f.has("triangles") || f.has("seed")) f.fail("\"triangles\"/\"seed\" only apply to generators");
+}
+
+void mesh_generator(const Field& f, MeshInstance& m) {
+  m.generator = f.at("generator").string();
+  const GeneratorInfo* g = find_generator(m.generator);
+  if (!g) f.at("generator").fail("unknown generator '" + m.generator + "' (known: " + generator_names() + ")");
+  m.triangles = g->default_triangles;
+  if (const auto t = f.find("triangles")) {
+    const auto n = integer(*t);
+    if (n < 1 || n > 4'000'000'000LL) t->fail("must be in [1, 4e9]");
+    m.triangles = std::uint64_t(n);
+  }
+  if (const auto sd = f.find("seed")) {
+    const auto n = integer(*sd);
+    if (n < 0) sd->fail("must be >= 0");
+    m.seed = std::uint64_t(n);
+  }
+}
+
+// A mesh without "material" gets UINT32_MAX here and the default material afterwards.
+MeshInstance mesh(const Field& f, std::size_t i, const fs::path& dir, const Scene& s) {
+  f.only_keys({"name", "file", "generator", "triangles", "seed", "transform", "material", "material_slots"});
+  MeshInstance m;
+  m.name = f.has("name") ? f.at("name").string() : "mesh" + std::to_string(i);
+  if (f.has("file") == f.has("generator")) f.fail("needs exactly one of \"file\" and \"generator\"");
+  if (f.has("file")) mesh_file(f, dir, m);
+  else mesh_generator(f, m);
+  if (const auto t = f.find("transform")) m.transform = transform(*t);
+  m.material = f.has("material") ? material_ref(f.at("material"), s) : UINT32_MAX;
+  if (const auto sl = f.find("material_slots")) {
+    if (!sl->json().is_array()) sl->fail("must be an array of material names");
+    for (const Field& slot : sl->elements()) m.material_slots.push_back(material_ref(slot, s));
+  }
+  return m;
+}
+
+void meshes(const Field& root, const fs::path& dir, Scene& s) {
+  if (!root.has("meshes")) root.fail_at("meshes", "missing (a scene needs at least one mesh)");
+  bool needs_default = false;
+  for (const Field& f : root.at("meshes").elements()) {
+    s.meshes.push_back(mesh(f, s.meshes.size(), dir, s));
+    needs_default = needs_default || s.meshes.back().material == UINT32_MAX;
+  }
+  if (!needs_default) return;
+  auto d = s.find_material("default");
+  if (!d) {
+    s.materials.push_back({"default", {0.7f, 0.7f, 0.7f}, {0, 0, 0}});
+    d = std::uint32_t(s.materials.size() - 1);
+  }
+  for (auto& m : s.meshes)
+    if (m.material == UINT32_MAX) m.material = *d;
+}
+
+AreaLight area_light(const Field& f, std::size_t i) {
+  f.only_keys({"type", "name", "corner", "edge_u", "edge_v", "emission"});
+  AreaLight l;
+  l.name = f.has("name") ? f.at("name").string() : "light" + std::to_string(i);
+  for (const char* k : {"corner", "edge_u", "edge_v", "emission"})
+    if (!f.has(k)) f.fail_at(k, "missing");
+  l.corner = vec3(f.at("corner"));
+  l.edge_u = vec3(f.at("edge_u"));
+  l.edge_v = vec3(f.at("edge_v"));
+  l.emission = color(f.at("emission"));
+  return l;
+}
+
+void lights(const Field& root, Scene& s) {
+  const auto ls = root.find("lights");
+  if (!ls) return;
+  bool env = false;
+  const std::vector<Field> list = ls->elements();
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const Field& f = list[i];
+    if (!f.has("type")) f.fail_at("type", "missing (\"area\" or \"environment\")");
+    const std::string type = f.at("type").string();
+    if (type == "area") {
+      s.area_lights.push_back(area_light(f, i));
+    } else if (type == "environment") {
+      f.only_keys({"type", "name", "radiance"});
+      if (env) f.fail("only one environment light is allowed");
+      env = true;
+      s.environment.radiance = color(f.at("radiance"));
+    } else {
+      f.at("type").fail("unknown light type '" + type + "' (\"area\" or \"environment\")");
+    }
+  }
+}
+
+// Cameras (the first is the default).
+void cameras(const Field& root, Scene& s) {
+  if (!root.has("cameras")) root.fail_at("cameras", "missing (a scene needs at least one camera)");
+  const Field cs = root.at("cameras");
+  if (!cs.json().is_object() || cs.json().empty()) cs.fail("must be a non-empty object of name: camera");
+  for (const auto& [name, f] : cs.members()) {
+    f.only_keys({"position", "look_at", "up", "fov_deg", "resolution"});
+    s.cameras.push_back(camera(f, name, Camera{}));
+  }
+}
+
+const Camera* find_camera(const Scene& s, const std::string& name) {
+  for (auto& c : s.cameras)
+    if (c.name == name) return &c;
+  return nullptr;
+}
+
+// A key starts from a named camera, or from the default one when it gives a position.
+CameraKey camera_key(const Field& f, const std::string& path_name, const Scene& s) {
+  if (!f.has("t")) f.fail_at("t", "missing");
+  CameraKey key;
+  key.time = f.at("t").number();
+  Camera base = s.cameras.front();
+  if (const auto cn = f.find("camera")) {
+    const Camera* c = find_camera(s, cn->string());
+    if (!c) cn->fail("unknown camera '" + cn->string() + "' (dangling reference)");
+    base = *c;
+  } else if (!f.has("position")) {
+    f.fail("needs \"camera\" or \"position\"");
+  }
+  key.camera = camera(f, path_name, base);
+  return key;
+}
+
+CameraPath camera_path(const Field& f, const std::string& name, const Scene& s) {
+  f.only_keys({"frames", "interpolation", "keys"});
+  CameraPath p;
+  p.name = name;
+  const auto frames = integer(f.at("frames"));
+  if (frames < 1 || frames > 10'000'000) f.at("frames").fail("must be in [1, 1e7]");
+  p.frames = int(frames);
+  if (const auto in = f.find("interpolation")) {
+    const std::string mode = in->string();
+    if (mode == "linear") p.interpolation = Interpolation::linear;
+    else if (mode == "catmull-rom") p.interpolation = Interpolation::catmull_rom;
+    else in->fail("unknown '" + mode + "' (\"linear\" or \"catmull-rom\")");
+  }
+  const auto keys = f.find("keys");
+  if (!keys || !keys->json().is_array() || keys->json().empty()) f.fail_at("keys", "must be a non-empty array");
+  for (const Field& k : keys->elements()) p.keys.push_back(camera_key(k, p.name, s));
+  return p;
+}
+
+void camera_paths(const Field& root, Scene& s) {
+  const auto ps = root.find("camera_paths");
+  if (!ps) return;
+  if (!ps->json().is_object()) ps->fail("must be an object of name: path");
+  for (const auto& [name, f] : ps->members()) s.camera_paths.push_back(camera_path(f, name, s));
+}
+
+void render_settings(const Field& root, Scene& s) {
+  const auto r = root.find("render");
+  if (!r) return;
+  r->only_keys({"spp", "max_depth"});
+  if (const auto v = r->find("spp")) s.render.spp = int(integer(*v));
+  if (const auto v = r->find("max_depth")) s.render.max_depth = int(integer(*v));
+}
 
 // A float as the shortest decimal that reads back to it (0.73f → 0.73, not 0.7300000190734863).
 double shortest(float f) {
@@ -150,189 +335,22 @@ std::string compact_number_arrays(const std::string& in) {
 }  // namespace
 
 Scene parse_scene(const std::string& text, const std::string& origin) {
-  const Reader rd{origin};
-  Json j;
-  try {
-    j = Json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(origin, "", std::string("invalid JSON: ") + e.what());
-  }
-  rd.only_keys(j, "", {"version", "description", "materials", "meshes", "lights", "cameras", "camera_paths", "render"});
-  if (j.contains("version") && rd.integer(j["version"], "version") != 1)
-    rd.fail("version", "unsupported scene version (this build reads version 1)");
+  const OrderedJsonInput input(origin, kWording);
+  const Json doc = input.parse(text);
+  const Field root = input.field(doc, "");
+  root.only_keys({"version", "description", "materials", "meshes", "lights", "cameras", "camera_paths", "render"});
+  if (const auto v = root.find("version"); v && integer(*v) != 1)
+    v->fail("unsupported scene version (this build reads version 1)");
   const fs::path dir = fs::absolute(fs::path(origin)).parent_path();
   Scene s;
   s.source = origin;
-  if (j.contains("description") && j["description"].is_string()) s.description = j["description"].get<std::string>();
-
-  // Materials, by name (file order kept).
-  if (j.contains("materials")) {
-    const Json& ms = j["materials"];
-    if (!ms.is_object()) rd.fail("materials", "must be an object of name: {albedo, emission}");
-    for (auto it = ms.begin(); it != ms.end(); ++it) {
-      const std::string f = "materials." + it.key();
-      rd.only_keys(it.value(), f, {"albedo", "emission"});
-      Material m;
-      m.name = it.key();
-      if (it.value().contains("albedo")) m.albedo = rd.color(it.value()["albedo"], f + ".albedo");
-      if (it.value().contains("emission")) m.emission = rd.color(it.value()["emission"], f + ".emission");
-      s.materials.push_back(m);
-    }
-  }
-  auto material_ref = [&](const Json& v, const std::string& f) -> std::uint32_t {
-    const std::string name = rd.string(v, f);
-    if (auto i = s.find_material(name)) return *i;
-    rd.fail(f, "unknown material '" + name + "' (dangling reference)");
-  };
-  bool needs_default = false;
-
-  // Meshes.
-  if (!j.contains("meshes")) rd.fail("meshes", "missing (a scene needs at least one mesh)");
-  if (!j["meshes"].is_array()) rd.fail("meshes", "must be an array");
-  for (std::size_t i = 0; i < j["meshes"].size(); ++i) {
-    const Json& mj = j["meshes"][i];
-    const std::string f = "meshes[" + std::to_string(i) + "]";
-    rd.only_keys(mj, f, {"name", "file", "generator", "triangles", "seed", "transform", "material", "material_slots"});
-    MeshInstance m;
-    m.name = mj.contains("name") ? rd.string(mj["name"], f + ".name") : "mesh" + std::to_string(i);
-    if (mj.contains("file") == mj.contains("generator")) rd.fail(f, "needs exactly one of \"file\" and \"generator\"");
-    if (mj.contains("file")) {
-      fs::path p = rd.string(mj["file"], f + ".file");
-      if (p.is_relative()) p = dir / p;
-      m.file = p.lexically_normal().string();
-      std::error_code ec;
-      if (!fs::is_regular_file(m.file, ec)) rd.fail(f + ".file", "mesh file not found: " + m.file);
-      if (mj.contains("triangles") || mj.contains("seed")) rd.fail(f, "\"triangles\"/\"seed\" only apply to generators");
-    } else {
-      m.generator = rd.string(mj["generator"], f + ".generator");
-      const GeneratorInfo* g = find_generator(m.generator);
-      if (!g) rd.fail(f + ".generator", "unknown generator '" + m.generator + "' (known: " + generator_names() + ")");
-      m.triangles = g->default_triangles;
-      if (mj.contains("triangles")) {
-        const auto t = rd.integer(mj["triangles"], f + ".triangles");
-        if (t < 1 || t > 4'000'000'000LL) rd.fail(f + ".triangles", "must be in [1, 4e9]");
-        m.triangles = std::uint64_t(t);
-      }
-      if (mj.contains("seed")) {
-        const auto sd = rd.integer(mj["seed"], f + ".seed");
-        if (sd < 0) rd.fail(f + ".seed", "must be >= 0");
-        m.seed = std::uint64_t(sd);
-      }
-    }
-    if (mj.contains("transform")) m.transform = rd.transform(mj["transform"], f + ".transform");
-    if (mj.contains("material")) m.material = material_ref(mj["material"], f + ".material");
-    else needs_default = true, m.material = UINT32_MAX;
-    if (mj.contains("material_slots")) {
-      const Json& sl = mj["material_slots"];
-      if (!sl.is_array()) rd.fail(f + ".material_slots", "must be an array of material names");
-      for (std::size_t k = 0; k < sl.size(); ++k)
-        m.material_slots.push_back(material_ref(sl[k], f + ".material_slots[" + std::to_string(k) + "]"));
-    }
-    s.meshes.push_back(m);
-  }
-  if (needs_default) {
-    auto d = s.find_material("default");
-    if (!d) {
-      s.materials.push_back({"default", {0.7f, 0.7f, 0.7f}, {0, 0, 0}});
-      d = std::uint32_t(s.materials.size() - 1);
-    }
-    for (auto& m : s.meshes)
-      if (m.material == UINT32_MAX) m.material = *d;
-  }
-
-  // Lights.
-  if (j.contains("lights")) {
-    if (!j["lights"].is_array()) rd.fail("lights", "must be an array");
-    bool env = false;
-    for (std::size_t i = 0; i < j["lights"].size(); ++i) {
-      const Json& lj = j["lights"][i];
-      const std::string f = "lights[" + std::to_string(i) + "]";
-      if (!lj.is_object() || !lj.contains("type")) rd.fail(f + ".type", "missing (\"area\" or \"environment\")");
-      const std::string type = rd.string(lj["type"], f + ".type");
-      if (type == "area") {
-        rd.only_keys(lj, f, {"type", "name", "corner", "edge_u", "edge_v", "emission"});
-        AreaLight l;
-        l.name = lj.contains("name") ? rd.string(lj["name"], f + ".name") : "light" + std::to_string(i);
-        for (const char* k : {"corner", "edge_u", "edge_v", "emission"})
-          if (!lj.contains(k)) rd.fail(f + "." + k, "missing");
-        l.corner = rd.vec3(lj["corner"], f + ".corner");
-        l.edge_u = rd.vec3(lj["edge_u"], f + ".edge_u");
-        l.edge_v = rd.vec3(lj["edge_v"], f + ".edge_v");
-        l.emission = rd.color(lj["emission"], f + ".emission");
-        s.area_lights.push_back(l);
-      } else if (type == "environment") {
-        rd.only_keys(lj, f, {"type", "name", "radiance"});
-        if (env) rd.fail(f, "only one environment light is allowed");
-        env = true;
-        if (!lj.contains("radiance")) rd.fail(f + ".radiance", "missing");
-        s.environment.radiance = rd.color(lj["radiance"], f + ".radiance");
-      } else {
-        rd.fail(f + ".type", "unknown light type '" + type + "' (\"area\" or \"environment\")");
-      }
-    }
-  }
-
-  // Cameras (the first is the default).
-  if (!j.contains("cameras")) rd.fail("cameras", "missing (a scene needs at least one camera)");
-  if (!j["cameras"].is_object() || j["cameras"].empty()) rd.fail("cameras", "must be a non-empty object of name: camera");
-  for (auto it = j["cameras"].begin(); it != j["cameras"].end(); ++it) {
-    rd.only_keys(it.value(), "cameras." + it.key(), {"position", "look_at", "up", "fov_deg", "resolution"});
-    s.cameras.push_back(rd.camera(it.value(), "cameras." + it.key(), it.key(), Camera{}));
-  }
-  auto find_camera = [&](const std::string& name) -> const Camera* {
-    for (auto& c : s.cameras)
-      if (c.name == name) return &c;
-    return nullptr;
-  };
-
-  // Camera paths.
-  if (j.contains("camera_paths")) {
-    if (!j["camera_paths"].is_object()) rd.fail("camera_paths", "must be an object of name: path");
-    for (auto it = j["camera_paths"].begin(); it != j["camera_paths"].end(); ++it) {
-      const std::string f = "camera_paths." + it.key();
-      const Json& pj = it.value();
-      rd.only_keys(pj, f, {"frames", "interpolation", "keys"});
-      CameraPath p;
-      p.name = it.key();
-      if (!pj.contains("frames")) rd.fail(f + ".frames", "missing");
-      const auto frames = rd.integer(pj["frames"], f + ".frames");
-      if (frames < 1 || frames > 10'000'000) rd.fail(f + ".frames", "must be in [1, 1e7]");
-      p.frames = int(frames);
-      if (pj.contains("interpolation")) {
-        const std::string in = rd.string(pj["interpolation"], f + ".interpolation");
-        if (in == "linear") p.interpolation = Interpolation::linear;
-        else if (in == "catmull-rom") p.interpolation = Interpolation::catmull_rom;
-        else rd.fail(f + ".interpolation", "unknown '" + in + "' (\"linear\" or \"catmull-rom\")");
-      }
-      if (!pj.contains("keys") || !pj["keys"].is_array() || pj["keys"].empty())
-        rd.fail(f + ".keys", "must be a non-empty array");
-      for (std::size_t k = 0; k < pj["keys"].size(); ++k) {
-        const Json& kj = pj["keys"][k];
-        const std::string kf = f + ".keys[" + std::to_string(k) + "]";
-        if (!kj.is_object() || !kj.contains("t")) rd.fail(kf + ".t", "missing");
-        CameraKey key;
-        key.time = rd.number(kj["t"], kf + ".t");
-        Camera base = s.cameras.front();
-        if (kj.contains("camera")) {
-          const std::string cn = rd.string(kj["camera"], kf + ".camera");
-          const Camera* c = find_camera(cn);
-          if (!c) rd.fail(kf + ".camera", "unknown camera '" + cn + "' (dangling reference)");
-          base = *c;
-        } else if (!kj.contains("position")) {
-          rd.fail(kf, "needs \"camera\" or \"position\"");
-        }
-        key.camera = rd.camera(kj, kf, p.name, base);
-        p.keys.push_back(key);
-      }
-      s.camera_paths.push_back(p);
-    }
-  }
-
-  if (j.contains("render")) {
-    rd.only_keys(j["render"], "render", {"spp", "max_depth"});
-    if (j["render"].contains("spp")) s.render.spp = int(rd.integer(j["render"]["spp"], "render.spp"));
-    if (j["render"].contains("max_depth")) s.render.max_depth = int(rd.integer(j["render"]["max_depth"], "render.max_depth"));
-  }
+  if (const auto d = root.find("description"); d && d->json().is_string()) s.description = d->string();
+  materials(root, s);
+  meshes(root, dir, s);
+  lights(root, s);
+  cameras(root, s);
+  camera_paths(root, s);
+  render_settings(root, s);
   validate(s);
   return s;
 }

@@ -5,13 +5,15 @@
 //     channels lists with the name of a template entry is merged into it (RFC 7396 merge
 //     patch, null deletes a key), an entry with a new name is added;
 //   * networks join one memory device per member node through per-node NIC resources.
-// Every problem is an InputError(file, JSON path of the field, message). nlohmann_json
-// stays inside this file (the header does not include it).
+// Every problem is an InputError(file, JSON path of the field, message) raised through
+// common/json_fields.hpp; one function per section of the format.
 #include "sched/io/platform_loader.hpp"
 
+#include <array>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <queue>
 #include <set>
 #include <sstream>
@@ -19,7 +21,7 @@
 
 #include "common/error.hpp"
 #include "common/input_file.hpp"
-#include "common/units.hpp"
+#include "common/json_fields.hpp"
 
 namespace rayline {
 
@@ -30,110 +32,57 @@ namespace {
 const std::vector<std::string> kDefaultJobTypes = {"RayIntersect", "ShadowIntersect", "GenerateRays", "Shade",
                                                    "Accumulate", "AdditiveCompose", "Compute"};
 
-std::string join(const std::string& field, const std::string& key) { return field.empty() ? key : field + "." + key; }
-std::string at(const std::string& field, std::size_t i) { return field + "[" + std::to_string(i) + "]"; }
+// Platform files say what a field should hold and what it holds ("expected an object, got
+// array"), and list the keys an object allows: a typo ("bandwith") must not silently fall
+// back to a default.
+constexpr JsonWording kWording{.type_prefix = "expected ",
+                               .name_actual_type = true,
+                               .unknown_key = "unknown key",
+                               .list_allowed_keys = true,
+                               .top_level = "(top level)"};
 
-std::string type_name(const json& v) { return v.type_name(); }
+std::string optional_name(const JsonField& object, std::string_view key, const std::string& fallback) {
+  const auto v = object.find(key);
+  return v ? v->non_empty_string() : fallback;
+}
 
-struct Ctx {
-  std::string file;
+Duplex duplex(const JsonField& object) {
+  const std::string d = optional_name(object, "duplex", "full");
+  if (d == "half") return Duplex::Half;
+  if (d == "full") return Duplex::Full;
+  object.at("duplex").fail("expected \"half\" (one medium shared by both directions) or \"full\", got \"" + d + "\"");
+}
 
-  [[noreturn]] void fail(const std::string& field, const std::string& msg) const { throw InputError(file, field, msg); }
-
-  // Unknown keys are errors: a typo ("bandwith") must not silently fall back to a default.
-  void keys(const json& o, const std::set<std::string>& allowed, const std::string& field) const {
-    if (!o.is_object()) fail(field.empty() ? "(top level)" : field, "expected an object, got " + type_name(o));
-    for (auto it = o.begin(); it != o.end(); ++it)
-      if (!allowed.count(it.key())) {
-        std::string list;
-        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        fail(join(field, it.key()), "unknown key (allowed: " + list + ")");
-      }
-  }
-  const json& need(const json& o, const char* k, const std::string& field) const {
-    auto it = o.find(k);
-    if (it == o.end()) fail(join(field, k), "missing");
-    return *it;
-  }
-  std::string str(const json& o, const char* k, const std::string& field) const {
-    const json& v = need(o, k, field);
-    if (!v.is_string() || v.get<std::string>().empty())
-      fail(join(field, k), "expected a non-empty string, got " + type_name(v));
-    return v.get<std::string>();
-  }
-  std::string opt_str(const json& o, const char* k, const std::string& field, const std::string& def) const {
-    return o.contains(k) ? str(o, k, field) : def;
-  }
-  const json& arr(const json& o, const char* k, const std::string& field, bool required = true) const {
-    static const json empty = json::array();
-    auto it = o.find(k);
-    if (it == o.end()) {
-      if (required) fail(join(field, k), "missing");
-      return empty;
-    }
-    if (!it->is_array()) fail(join(field, k), "expected an array, got " + type_name(*it));
-    return *it;
-  }
-  template <class F>
-  double quantity(const json& o, const char* k, const std::string& field, F parse) const {
-    const std::string s = str(o, k, field);
-    try {
-      return parse(s);
-    } catch (const std::invalid_argument& e) {
-      fail(join(field, k), e.what());
-    }
-  }
-  double bytes(const json& o, const char* k, const std::string& f) const { return quantity(o, k, f, units::parse_bytes); }
-  double bandwidth(const json& o, const char* k, const std::string& f) const {
-    return quantity(o, k, f, units::parse_bandwidth);
-  }
-  double duration(const json& o, const char* k, const std::string& f) const {
-    return quantity(o, k, f, units::parse_duration);
-  }
-  Duplex duplex(const json& o, const std::string& f) const {
-    const std::string d = opt_str(o, "duplex", f, "full");
-    if (d == "half") return Duplex::Half;
-    if (d == "full") return Duplex::Full;
-    fail(join(f, "duplex"), "expected \"half\" (one medium shared by both directions) or \"full\", got \"" + d + "\"");
-  }
-};
-
-// One entry of a node's memory/compute/channels list after applying the node's patches,
-// with the JSON path to report its errors at (the node's own entry when it touched it).
+// One entry of a node's memory/compute/channels/media list after applying the node's
+// patches, with the JSON path to report its errors at (the node's own entry when it
+// touched it).
 struct Entry {
   json value;
   std::string field;
 };
 
-std::vector<Entry> merged_list(const Ctx& cx, const json* type, const std::string& tf, const json& node,
-                               const std::string& nf, const char* key) {
-  std::vector<Entry> out;
-  auto name_of = [&](const json& e, const std::string& f) {
-    if (!e.is_object()) cx.fail(f, "expected an object, got " + type_name(e));
-    return cx.str(e, "name", f);
-  };
-  if (type) {
-    const json& list = cx.arr(*type, key, tf, false);
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      const std::string f = at(join(tf, key), i);
-      name_of(list[i], f);
-      out.push_back({list[i], f});
+std::string entry_name(const JsonField& entry) { return entry.object().at("name").non_empty_string(); }
+
+void merge_or_add(std::vector<Entry>& entries, const JsonField& patch) {
+  const std::string name = entry_name(patch);
+  for (Entry& e : entries)
+    if (e.value.is_object() && e.value.value("name", std::string()) == name) {
+      e.value.merge_patch(patch.json());
+      e.field = patch.path();
+      return;
     }
-  }
-  const json& patches = cx.arr(node, key, nf, false);
-  for (std::size_t i = 0; i < patches.size(); ++i) {
-    const std::string f = at(join(nf, key), i);
-    const std::string n = name_of(patches[i], f);
-    bool merged = false;
-    for (Entry& e : out)
-      if (e.value.is_object() && e.value.value("name", std::string()) == n) {
-        e.value.merge_patch(patches[i]);
-        e.field = f;
-        merged = true;
-        break;
-      }
-    if (!merged) out.push_back({patches[i], f});
-  }
+  entries.push_back({patch.json(), patch.path()});
+}
+
+std::vector<Entry> merged_list(const std::optional<JsonField>& type, const JsonField& node, const char* key) {
+  std::vector<Entry> out;
+  if (const auto list = type ? type->find(key) : std::nullopt)
+    for (const JsonField& e : list->elements()) {
+      entry_name(e);
+      out.push_back({e.json(), e.path()});
+    }
+  if (const auto patches = node.find(key))
+    for (const JsonField& p : patches->elements()) merge_or_add(out, p);
   return out;
 }
 
@@ -143,294 +92,286 @@ struct PendingTiming {
   std::string field;
 };
 
-}  // namespace
+// A node while its lists are read: its name, template and the names of its devices.
+struct NodeScope {
+  JsonField field;
+  std::string name;
+  NodeId id = kNone;
+  std::optional<JsonField> type;  // node_types.<type>, when the node names one
+  std::string model_prefix;       // compute models are "<type>.<entry>" ("<node>.<entry>" untyped)
+  std::map<std::string, ResourceId> media;
+};
 
-DeviceGraph parse_platform(std::string_view text, const std::string& file) {
-  Ctx cx{file};
-  json root;
-  // JSON itself lets a key repeat (the last one wins); in a platform file that is almost
-  // always a copy-paste slip ("A" defined twice), so reject it with its path.
-  struct Frame {
-    bool object;
-    std::string name, key;
-    std::set<std::string> keys;
-  };
-  std::vector<Frame> stack;
-  auto path = [&] {
-    std::string p;
-    for (std::size_t i = 1; i < stack.size(); ++i)
-      p += stack[i].name == "[]" ? "[]" : (p.empty() ? "" : ".") + stack[i].name;
-    return p;
-  };
-  const json::parser_callback_t no_duplicate_keys = [&](int, json::parse_event_t ev, json& v) {
-    using E = json::parse_event_t;
-    if (ev == E::object_start || ev == E::array_start) {
-      std::string name;
-      if (!stack.empty()) name = stack.back().object ? stack.back().key : "[]";
-      stack.push_back({ev == E::object_start, name, "", {}});
-    } else if (ev == E::object_end || ev == E::array_end) {
-      if (!stack.empty()) stack.pop_back();
-    } else if (ev == E::key && !stack.empty()) {
-      const std::string k = v.is_string() ? v.get<std::string>() : std::string();
-      if (!stack.back().keys.insert(k).second) cx.fail(join(path(), k), "duplicate key");
-      stack.back().key = k;
-    }
-    return true;
-  };
-  try {
-    root = json::parse(text, no_duplicate_keys);
-  } catch (const json::parse_error& e) {
-    // e.what() is "[json.exception.parse_error.101] parse error at line L, column C: ...".
-    std::string msg = e.what();
-    if (const auto p = msg.find("] "); msg.starts_with("[json.exception") && p != std::string::npos) msg.erase(0, p + 2);
-    cx.fail("", "invalid JSON: " + msg);
+std::string list_of(const json& object) {
+  std::string list;
+  for (auto it = object.begin(); it != object.end(); ++it) list += (list.empty() ? "" : ", ") + it.key();
+  return list.empty() ? "none" : list;
+}
+
+class PlatformReader {
+ public:
+  explicit PlatformReader(const JsonInput& input) : in_(input) {}
+
+  DeviceGraph read(const JsonField& root) {
+    root.only_keys({"name", "description", "job_types", "node_types", "nodes", "networks"});
+    g_.source_file = in_.file();
+    g_.name = root.at("name").non_empty_string();
+    if (const auto d = root.find("description"); d && !d->json().is_string()) d->fail("expected a string");
+    job_types(root);
+    const JsonField types = node_types(root);
+    const JsonField nodes = root.at("nodes").array();
+    if (nodes.size() == 0) nodes.fail("a platform needs at least one node");
+    for (const JsonField& node : nodes.elements()) read_node(node, types);
+    if (const auto nets = root.find("networks"))
+      for (const JsonField& net : nets->elements()) network(net);
+    g_.finalize();
+    for (const PendingTiming& pt : timings_) timing(pt);
+    check_reachable();
+    return std::move(g_);
   }
-  cx.keys(root, {"name", "description", "job_types", "node_types", "nodes", "networks"}, "");
-  DeviceGraph g;
-  g.source_file = file;
-  g.name = cx.str(root, "name", "");
-  if (root.contains("description") && !root["description"].is_string()) cx.fail("description", "expected a string");
 
+ private:
   // Job types (JobTypeId order). Default: the path-tracing job graph of Fig. 3 + Compute.
-  if (root.contains("job_types")) {
-    const json& jt = cx.arr(root, "job_types", "");
-    if (jt.empty()) cx.fail("job_types", "expected at least one job type");
-    for (std::size_t i = 0; i < jt.size(); ++i) {
-      if (!jt[i].is_string() || jt[i].get<std::string>().empty()) cx.fail(at("job_types", i), "expected a non-empty string");
-      if (g.job_type(jt[i].get<std::string>()) != kNone)
-        cx.fail(at("job_types", i), "duplicate job type '" + jt[i].get<std::string>() + "'");
-      g.job_types.push_back(jt[i].get<std::string>());
+  void job_types(const JsonField& root) {
+    const auto jt = root.find("job_types");
+    if (!jt) {
+      g_.job_types = kDefaultJobTypes;
+      return;
     }
-  } else {
-    g.job_types = kDefaultJobTypes;
+    if (jt->array().size() == 0) jt->fail("expected at least one job type");
+    for (const JsonField& t : jt->elements()) {
+      if (!t.json().is_string() || t.json().get_ref<const std::string&>().empty())
+        t.fail("expected a non-empty string");
+      const std::string name = t.json().get<std::string>();
+      if (g_.job_type(name) != kNone) t.fail("duplicate job type '" + name + "'");
+      g_.job_types.push_back(name);
+    }
   }
 
-  static const json no_types = json::object();
-  const json& types = root.contains("node_types") ? root["node_types"] : no_types;
-  if (!types.is_object()) cx.fail("node_types", "expected an object: type name -> node template");
-  for (auto it = types.begin(); it != types.end(); ++it)
-    cx.keys(it.value(), {"description", "memory", "compute", "channels", "media"}, "node_types." + it.key());
+  JsonField node_types(const JsonField& root) {
+    static const json none = json::object();
+    const JsonField types = root.has("node_types") ? root.at("node_types") : in_.field(none, "node_types");
+    if (!types.json().is_object()) types.fail("expected an object: type name -> node template");
+    for (const auto& t : types.members()) t.field.only_keys({"description", "memory", "compute", "channels", "media"});
+    return types;
+  }
 
-  std::vector<PendingTiming> timings;
-  std::map<std::string, std::map<std::string, MemId>> node_mem;  // node -> local memory name -> id
-  std::vector<std::string> mem_field;                            // MemId -> JSON path (for errors)
-
-  const json& nodes = cx.arr(root, "nodes", "");
-  if (nodes.empty()) cx.fail("nodes", "a platform needs at least one node");
-  for (std::size_t ni = 0; ni < nodes.size(); ++ni) {
-    const std::string nf = at("nodes", ni);
-    const json& node = nodes[ni];
-    cx.keys(node, {"name", "type", "description", "memory", "compute", "channels", "media"}, nf);
-    const std::string nname = cx.str(node, "name", nf);
-    if (nname.find('.') != std::string::npos) cx.fail(join(nf, "name"), "node names may not contain '.'");
-    if (g.find_node(nname) != kNone) cx.fail(join(nf, "name"), "duplicate node name '" + nname + "'");
-    const json* type = nullptr;
-    std::string tf;  // JSON path of the template ("node_types.A")
-    std::string model_prefix = nname;
-    if (node.contains("type")) {
-      const std::string tname = cx.str(node, "type", nf);
-      if (!types.contains(tname)) {
-        std::string list;
-        for (auto it = types.begin(); it != types.end(); ++it) list += (list.empty() ? "" : ", ") + it.key();
-        cx.fail(join(nf, "type"), "unknown node type '" + tname + "' (node_types: " + (list.empty() ? "none" : list) + ")");
-      }
-      type = &types[tname];
-      tf = "node_types." + tname;
-      model_prefix = tname;
+  void read_node(const JsonField& node, const JsonField& types) {
+    node.only_keys({"name", "type", "description", "memory", "compute", "channels", "media"});
+    NodeScope n{node, node.at("name").non_empty_string(), static_cast<NodeId>(g_.nodes.size()), std::nullopt, "", {}};
+    if (n.name.find('.') != std::string::npos) node.at("name").fail("node names may not contain '.'");
+    if (g_.find_node(n.name) != kNone) node.at("name").fail("duplicate node name '" + n.name + "'");
+    n.model_prefix = n.name;
+    if (node.has("type")) {
+      const JsonField type = node.at("type");
+      const std::string tname = type.non_empty_string();
+      if (!types.has(tname)) type.fail("unknown node type '" + tname + "' (node_types: " + list_of(types.json()) + ")");
+      n.type = types.at(tname);
+      n.model_prefix = tname;
     }
-    const auto node_id = static_cast<NodeId>(g.nodes.size());
-    g.nodes.push_back({nname, {}, {}});
-    auto& local = node_mem[nname];
+    g_.nodes.push_back({n.name, {}, {}});
+    memories(n);
+    for (const Entry& e : merged_list(n.type, node, "compute")) compute(n, in_.field(e.value, e.field));
+    for (const Entry& e : merged_list(n.type, node, "media")) medium(n, in_.field(e.value, e.field));
+    std::set<std::string> channel_names;
+    for (const Entry& e : merged_list(n.type, node, "channels"))
+      channel(n, in_.field(e.value, e.field), channel_names);
+  }
 
-    // Memory devices: vertices of the DCG.
-    const auto mems = merged_list(cx, type, tf, node, nf, "memory");
-    if (mems.empty()) cx.fail(join(type ? tf : nf, "memory"), "a node needs at least one memory device");
+  // Memory devices: vertices of the DCG.
+  void memories(const NodeScope& n) {
+    const auto mems = merged_list(n.type, n.field, "memory");
+    if (mems.empty()) (n.type ? *n.type : n.field).fail_at("memory", "a node needs at least one memory device");
+    auto& local = node_mem_[n.name];
     for (const Entry& e : mems) {
-      const std::string& f = e.field;
-      cx.keys(e.value, {"name", "kind", "capacity", "description"}, f);
+      const JsonField f = in_.field(e.value, e.field);
+      f.only_keys({"name", "kind", "capacity", "description"});
+      const std::string local_name = f.at("name").non_empty_string();
+      if (local.count(local_name)) f.at("name").fail("duplicate memory device name '" + local_name + "'");
       MemoryDevice m;
-      const std::string local_name = cx.str(e.value, "name", f);
-      if (local.count(local_name)) cx.fail(join(f, "name"), "duplicate memory device name '" + local_name + "'");
-      m.name = nname + "." + local_name;
-      const std::string kind = cx.str(e.value, "kind", f);
-      if (kind == "disk") m.kind = MemoryKind::Disk;
-      else if (kind == "host") m.kind = MemoryKind::Host;
-      else if (kind == "gpu") m.kind = MemoryKind::Gpu;
-      else cx.fail(join(f, "kind"), "unknown memory kind '" + kind + "' (expected disk, host or gpu)");
-      const double cap = cx.bytes(e.value, "capacity", f);
-      if (!(cap > 0)) cx.fail(join(f, "capacity"), "must be > 0");
-      if (cap > 9.2e18) cx.fail(join(f, "capacity"), "too large");
+      m.name = n.name + "." + local_name;
+      m.kind = memory_kind(f.at("kind"));
+      const double cap = f.at("capacity").quantity(JsonUnit::bytes);
+      if (!(cap > 0)) f.at("capacity").fail("must be > 0");
+      if (cap > 9.2e18) f.at("capacity").fail("too large");
       m.capacity = static_cast<Bytes>(cap);
-      m.node = node_id;
-      local[local_name] = static_cast<MemId>(g.memories.size());
-      g.nodes.back().memories.push_back(static_cast<MemId>(g.memories.size()));
-      g.memories.push_back(std::move(m));
-      mem_field.push_back(f);
+      m.node = n.id;
+      local[local_name] = static_cast<MemId>(g_.memories.size());
+      g_.nodes.back().memories.push_back(static_cast<MemId>(g_.memories.size()));
+      g_.memories.push_back(std::move(m));
+      mem_field_.push_back(e.field);
     }
+  }
 
-    // Compute devices: each attached to exactly one memory device (Sec. 3.2).
-    for (const Entry& e : merged_list(cx, type, tf, node, nf, "compute")) {
-      const std::string& f = e.field;
-      cx.keys(e.value, {"name", "kind", "count", "memory", "timing", "description"}, f);
-      const std::string cname = cx.str(e.value, "name", f);
-      const std::string kind = cx.str(e.value, "kind", f);
-      ComputeKind ck = ComputeKind::Cpu;
-      if (kind == "cpu") ck = ComputeKind::Cpu;
-      else if (kind == "gpu") ck = ComputeKind::Gpu;
-      else cx.fail(join(f, "kind"), "unknown compute kind '" + kind + "' (expected cpu or gpu)");
-      int count = 1;
-      if (e.value.contains("count")) {
-        const json& c = e.value["count"];
-        if (!c.is_number_integer() || c.get<long long>() < 1 || c.get<long long>() > 65536)
-          cx.fail(join(f, "count"), "expected an integer from 1 to 65536");
-        count = c.get<int>();
-      }
-      if (!e.value.contains("memory"))
-        cx.fail(join(f, "memory"), "missing: every compute device is attached to a memory device");
-      const std::string mem = cx.str(e.value, "memory", f);
-      if (!local.count(mem)) cx.fail(join(f, "memory"), "unknown memory device '" + mem + "' on node '" + nname + "'");
-      const bool has_timing = e.value.contains("timing");
-      if (has_timing && !e.value["timing"].is_object())
-        cx.fail(join(f, "timing"), "expected an object: job type -> {setup, rate}");
-      for (int k = 0; k < count; ++k) {
-        ComputeDevice d;
-        d.name = nname + "." + (count > 1 ? cname + std::to_string(k) : cname);  // "A0.cpu3"
-        if (g.find_compute(d.name) != kNone) cx.fail(join(f, "name"), "duplicate compute device name '" + d.name + "'");
-        d.model = model_prefix + "." + cname;
-        d.kind = ck;
-        d.memory = local[mem];
-        d.node = node_id;
-        const auto id = static_cast<DeviceId>(g.computes.size());
-        g.nodes.back().computes.push_back(id);
-        g.computes.push_back(std::move(d));
-        if (has_timing) timings.push_back({id, e.value["timing"], join(f, "timing")});
-      }
-    }
+  static MemoryKind memory_kind(const JsonField& f) {
+    const std::string kind = f.non_empty_string();
+    if (kind == "disk") return MemoryKind::Disk;
+    if (kind == "host") return MemoryKind::Host;
+    if (kind == "gpu") return MemoryKind::Gpu;
+    f.fail("unknown memory kind '" + kind + "' (expected disk, host or gpu)");
+  }
 
-    // Shared media inside a node (e.g. one PCIe root complex behind several GPUs): one
-    // resource each; every channel that names it in "media" also occupies it, in both
-    // directions, so those channels contend (DCG contention, device_graph.hpp).
-    std::map<std::string, ResourceId> media;
-    for (const Entry& e : merged_list(cx, type, tf, node, nf, "media")) {
-      cx.keys(e.value, {"name", "bandwidth", "description"}, e.field);
-      const std::string mname = cx.str(e.value, "name", e.field);
-      if (media.count(mname)) cx.fail(join(e.field, "name"), "duplicate medium '" + mname + "'");
-      g.resources.push_back({nname + "." + mname, cx.bandwidth(e.value, "bandwidth", e.field)});
-      media[mname] = static_cast<ResourceId>(g.resources.size() - 1);
-    }
+  static ComputeKind compute_kind(const JsonField& f) {
+    const std::string kind = f.non_empty_string();
+    if (kind == "cpu") return ComputeKind::Cpu;
+    if (kind == "gpu") return ComputeKind::Gpu;
+    f.fail("unknown compute kind '" + kind + "' (expected cpu or gpu)");
+  }
 
-    // Intra-node channels: a half-duplex medium (SATA) is one resource for both
-    // directions; a full-duplex one (PCIe) one resource per direction.
-    std::set<std::string> chan_names;
-    for (const Entry& e : merged_list(cx, type, tf, node, nf, "channels")) {
-      const std::string& f = e.field;
-      cx.keys(e.value, {"name", "kind", "between", "duplex", "latency", "bandwidth", "media", "description"}, f);
-      const std::string cname = cx.str(e.value, "name", f);
-      std::vector<ResourceId> shared;
-      if (e.value.contains("media")) {
-        const json& ms = cx.arr(e.value, "media", f);
-        for (std::size_t k = 0; k < ms.size(); ++k) {
-          const std::string mf = at(join(f, "media"), k);
-          if (!ms[k].is_string()) cx.fail(mf, "expected the name of a medium");
-          auto it = media.find(ms[k].get<std::string>());
-          if (it == media.end()) cx.fail(mf, "unknown medium '" + ms[k].get<std::string>() + "' on node '" + nname + "'");
-          shared.push_back(it->second);
-        }
-      }
-      if (!chan_names.insert(cname).second) cx.fail(join(f, "name"), "duplicate channel name '" + cname + "'");
-      const json& between = cx.arr(e.value, "between", f);
-      if (between.size() != 2) cx.fail(join(f, "between"), "expected two memory device names, e.g. [\"disk\", \"ram\"]");
-      MemId ends[2];
-      for (std::size_t k = 0; k < 2; ++k) {
-        const std::string ef = at(join(f, "between"), k);
-        if (!between[k].is_string()) cx.fail(ef, "expected a memory device name");
-        const std::string mname = between[k].get<std::string>();
-        if (!local.count(mname)) cx.fail(ef, "unknown memory device '" + mname + "' on node '" + nname + "'");
-        ends[k] = local[mname];
-      }
-      if (ends[0] == ends[1]) cx.fail(join(f, "between"), "a channel joins two different memory devices");
-      const Duplex dup = cx.duplex(e.value, f);
-      const double lat = cx.duration(e.value, "latency", f);
-      const double bw = cx.bandwidth(e.value, "bandwidth", f);
-      const std::string kind = cx.opt_str(e.value, "kind", f, cname);
-      const std::string base = nname + "." + cname;
-      ResourceId res[2];
-      if (dup == Duplex::Half) {
-        g.resources.push_back({base, bw});
-        res[0] = res[1] = static_cast<ResourceId>(g.resources.size() - 1);
-      } else {
-        g.resources.push_back({base + ".fwd", bw});
-        g.resources.push_back({base + ".rev", bw});
-        res[0] = static_cast<ResourceId>(g.resources.size() - 2);
-        res[1] = static_cast<ResourceId>(g.resources.size() - 1);
-      }
-      for (int dir = 0; dir < 2; ++dir) {
-        Channel c;
-        const MemId a = ends[dir], b = ends[1 - dir];
-        c.name = base + ":" + g.memories[a].name.substr(nname.size() + 1) + "->" +
-                 g.memories[b].name.substr(nname.size() + 1);  // "A0.sata:disk->ram"
-        c.kind = kind;
-        c.from = a;
-        c.to = b;
-        c.latency = lat;
-        c.bandwidth = bw;
-        c.resources = {res[dir]};
-        c.resources.insert(c.resources.end(), shared.begin(), shared.end());
-        g.channels.push_back(std::move(c));
-      }
+  // A memory device of the node, by its local name ("ram").
+  MemId local_memory(const NodeScope& n, const JsonField& f, const std::string& name) {
+    const auto& local = node_mem_[n.name];
+    const auto it = local.find(name);
+    if (it == local.end()) f.fail("unknown memory device '" + name + "' on node '" + n.name + "'");
+    return it->second;
+  }
+
+  // Compute devices: each attached to exactly one memory device (Sec. 3.2).
+  void compute(const NodeScope& n, const JsonField& f) {
+    f.only_keys({"name", "kind", "count", "memory", "timing", "description"});
+    const std::string cname = f.at("name").non_empty_string();
+    const ComputeKind kind = compute_kind(f.at("kind"));
+    const int count = f.has("count") ? static_cast<int>(f.at("count").integer(1, 65536)) : 1;
+    if (!f.has("memory"))
+      f.fail_at("memory", "missing: every compute device is attached to a memory device");
+    const MemId mem = local_memory(n, f.at("memory"), f.at("memory").non_empty_string());
+    const auto timing = f.find("timing");
+    if (timing && !timing->json().is_object()) timing->fail("expected an object: job type -> {setup, rate}");
+    for (int k = 0; k < count; ++k) {
+      ComputeDevice d;
+      d.name = n.name + "." + (count > 1 ? cname + std::to_string(k) : cname);  // "A0.cpu3"
+      if (g_.find_compute(d.name) != kNone) f.at("name").fail("duplicate compute device name '" + d.name + "'");
+      d.model = n.model_prefix + "." + cname;
+      d.kind = kind;
+      d.memory = mem;
+      d.node = n.id;
+      const auto id = static_cast<DeviceId>(g_.computes.size());
+      g_.nodes.back().computes.push_back(id);
+      g_.computes.push_back(std::move(d));
+      if (timing) timings_.push_back({id, timing->json(), timing->path()});
     }
+  }
+
+  // Shared media inside a node (e.g. one PCIe root complex behind several GPUs): one
+  // resource each; every channel that names it in "media" also occupies it, in both
+  // directions, so those channels contend (DCG contention, device_graph.hpp).
+  void medium(NodeScope& n, const JsonField& f) {
+    f.only_keys({"name", "bandwidth", "description"});
+    const std::string mname = f.at("name").non_empty_string();
+    if (n.media.count(mname)) f.at("name").fail("duplicate medium '" + mname + "'");
+    g_.resources.push_back({n.name + "." + mname, f.at("bandwidth").quantity(JsonUnit::bandwidth)});
+    n.media[mname] = static_cast<ResourceId>(g_.resources.size() - 1);
+  }
+
+  std::vector<ResourceId> channel_media(const NodeScope& n, const JsonField& f) {
+    std::vector<ResourceId> shared;
+    if (!f.has("media")) return shared;
+    for (const JsonField& m : f.at("media").array().elements()) {
+      if (!m.json().is_string()) m.fail("expected the name of a medium");
+      const auto it = n.media.find(m.json().get<std::string>());
+      if (it == n.media.end()) m.fail("unknown medium '" + m.json().get<std::string>() + "' on node '" + n.name + "'");
+      shared.push_back(it->second);
+    }
+    return shared;
+  }
+
+  std::array<MemId, 2> channel_ends(const NodeScope& n, const JsonField& f) {
+    const JsonField between = f.at("between").array();
+    if (between.size() != 2) between.fail("expected two memory device names, e.g. [\"disk\", \"ram\"]");
+    std::array<MemId, 2> ends{};
+    for (std::size_t k = 0; k < 2; ++k) {
+      const JsonField end = between.element(k);
+      if (!end.json().is_string()) end.fail("expected a memory device name");
+      ends[k] = local_memory(n, end, end.json().get<std::string>());
+    }
+    if (ends[0] == ends[1]) between.fail("a channel joins two different memory devices");
+    return ends;
+  }
+
+  // Intra-node channels: a half-duplex medium (SATA) is one resource for both
+  // directions; a full-duplex one (PCIe) one resource per direction.
+  void channel(const NodeScope& n, const JsonField& f, std::set<std::string>& names) {
+    f.only_keys({"name", "kind", "between", "duplex", "latency", "bandwidth", "media", "description"});
+    const std::string cname = f.at("name").non_empty_string();
+    const std::vector<ResourceId> shared = channel_media(n, f);
+    if (!names.insert(cname).second) f.at("name").fail("duplicate channel name '" + cname + "'");
+    const std::array<MemId, 2> ends = channel_ends(n, f);
+    const Duplex dup = duplex(f);
+    Channel c;
+    c.latency = f.at("latency").quantity(JsonUnit::duration);
+    c.bandwidth = f.at("bandwidth").quantity(JsonUnit::bandwidth);
+    c.kind = optional_name(f, "kind", cname);
+    const std::string base = n.name + "." + cname;
+    std::array<ResourceId, 2> res{};
+    if (dup == Duplex::Half) {
+      res[0] = res[1] = add_resource(base, c.bandwidth);
+    } else {
+      res[0] = add_resource(base + ".fwd", c.bandwidth);
+      res[1] = add_resource(base + ".rev", c.bandwidth);
+    }
+    for (int dir = 0; dir < 2; ++dir) {
+      const MemId a = ends[dir], b = ends[1 - dir];
+      c.name = base + ":" + g_.memories[a].name.substr(n.name.size() + 1) + "->" +
+               g_.memories[b].name.substr(n.name.size() + 1);  // "A0.sata:disk->ram"
+      c.from = a;
+      c.to = b;
+      c.resources = {res[dir]};
+      c.resources.insert(c.resources.end(), shared.begin(), shared.end());
+      g_.channels.push_back(c);
+    }
+  }
+
+  ResourceId add_resource(std::string name, double bandwidth) {
+    g_.resources.push_back({std::move(name), bandwidth});
+    return static_cast<ResourceId>(g_.resources.size() - 1);
+  }
+
+  // A network member: the node's memory device on the network and its NIC resources.
+  struct Member {
+    std::string node;
+    MemId mem;
+    double bw;
+    ResourceId out, in;
+  };
+
+  Member member(const JsonField& f, const std::string& network, Duplex dup, std::optional<double> default_bw,
+                std::set<std::string>& seen) {
+    f.only_keys({"node", "memory", "bandwidth"});
+    const std::string node = f.at("node").non_empty_string();
+    if (!node_mem_.count(node)) f.at("node").fail("unknown node '" + node + "'");
+    if (!seen.insert(node).second) f.at("node").fail("node '" + node + "' is listed twice");
+    const std::string mem = optional_name(f, "memory", "ram");
+    if (!node_mem_[node].count(mem))
+      f.fail_at("memory", "unknown memory device '" + mem + "' on node '" + node + "'");
+    if (!f.has("bandwidth") && !default_bw)
+      f.fail_at("bandwidth", "missing (NIC speed; or give the network a bandwidth)");
+    const double bw = f.has("bandwidth") ? f.at("bandwidth").quantity(JsonUnit::bandwidth) : *default_bw;
+    const std::string base = node + "." + network;
+    if (dup == Duplex::Full) {
+      const ResourceId out = add_resource(base + ".out", bw);
+      return {node, node_mem_[node][mem], bw, out, add_resource(base + ".in", bw)};
+    }
+    const ResourceId nic = add_resource(base + ".nic", bw);
+    return {node, node_mem_[node][mem], bw, nic, nic};
   }
 
   // Networks: a switched LAN; every member contributes one memory device and its NIC.
   // A channel joins every ordered pair of members at min(NIC_src, NIC_dst) and occupies
   // the sender's outgoing and the receiver's incoming NIC (one shared NIC if half duplex).
-  const json& nets = cx.arr(root, "networks", "", false);
-  std::set<std::string> net_names;
-  for (std::size_t ni = 0; ni < nets.size(); ++ni) {
-    const std::string f = at("networks", ni);
-    cx.keys(nets[ni], {"name", "kind", "latency", "duplex", "bandwidth", "members", "description"}, f);
-    const std::string name = cx.str(nets[ni], "name", f);
-    if (!net_names.insert(name).second) cx.fail(join(f, "name"), "duplicate network name '" + name + "'");
-    const std::string kind = cx.opt_str(nets[ni], "kind", f, "lan");
-    const double lat = cx.duration(nets[ni], "latency", f);
-    const Duplex dup = cx.duplex(nets[ni], f);
-    const bool has_default_bw = nets[ni].contains("bandwidth");
-    const double default_bw = has_default_bw ? cx.bandwidth(nets[ni], "bandwidth", f) : 0;
-    const json& members = cx.arr(nets[ni], "members", f);
-    if (members.size() < 2) cx.fail(join(f, "members"), "a network joins at least two nodes");
-    struct Member {
-      std::string node;
-      MemId mem;
-      double bw;
-      ResourceId out, in;
-    };
+  void network(const JsonField& f) {
+    f.only_keys({"name", "kind", "latency", "duplex", "bandwidth", "members", "description"});
+    const std::string name = f.at("name").non_empty_string();
+    if (!net_names_.insert(name).second) f.at("name").fail("duplicate network name '" + name + "'");
+    const std::string kind = optional_name(f, "kind", "lan");
+    const double lat = f.at("latency").quantity(JsonUnit::duration);
+    const Duplex dup = duplex(f);
+    std::optional<double> default_bw;
+    if (f.has("bandwidth")) default_bw = f.at("bandwidth").quantity(JsonUnit::bandwidth);
+    const JsonField members = f.at("members").array();
+    if (members.size() < 2) members.fail("a network joins at least two nodes");
     std::vector<Member> ms;
     std::set<std::string> seen;
-    for (std::size_t i = 0; i < members.size(); ++i) {
-      const std::string mf = at(join(f, "members"), i);
-      cx.keys(members[i], {"node", "memory", "bandwidth"}, mf);
-      const std::string node = cx.str(members[i], "node", mf);
-      if (!node_mem.count(node)) cx.fail(join(mf, "node"), "unknown node '" + node + "'");
-      if (!seen.insert(node).second) cx.fail(join(mf, "node"), "node '" + node + "' is listed twice");
-      const std::string mem = cx.opt_str(members[i], "memory", mf, "ram");
-      if (!node_mem[node].count(mem))
-        cx.fail(join(mf, "memory"), "unknown memory device '" + mem + "' on node '" + node + "'");
-      double bw = default_bw;
-      if (members[i].contains("bandwidth")) bw = cx.bandwidth(members[i], "bandwidth", mf);
-      else if (!has_default_bw) cx.fail(join(mf, "bandwidth"), "missing (NIC speed; or give the network a bandwidth)");
-      Member m{node, node_mem[node][mem], bw, kNone, kNone};
-      const std::string base = node + "." + name;
-      if (dup == Duplex::Full) {
-        g.resources.push_back({base + ".out", bw});
-        m.out = static_cast<ResourceId>(g.resources.size() - 1);
-        g.resources.push_back({base + ".in", bw});
-        m.in = static_cast<ResourceId>(g.resources.size() - 1);
-      } else {
-        g.resources.push_back({base + ".nic", bw});
-        m.out = m.in = static_cast<ResourceId>(g.resources.size() - 1);
-      }
-      ms.push_back(m);
-    }
+    for (const JsonField& m : members.elements()) ms.push_back(member(m, name, dup, default_bw, seen));
     for (const Member& a : ms)
       for (const Member& b : ms) {
         if (a.node == b.node) continue;
@@ -442,68 +383,78 @@ DeviceGraph parse_platform(std::string_view text, const std::string& file) {
         c.latency = lat;
         c.bandwidth = std::min(a.bw, b.bw);  // the slower NIC limits the pair
         c.resources = {a.out, b.in};
-        g.channels.push_back(std::move(c));
+        g_.channels.push_back(std::move(c));
       }
   }
 
-  g.finalize();
-
   // Eq. 2 coefficients. A throughput X B/s of an input kind becomes rate = 1/X s per byte;
   // a job type a device does not list is unsupported there.
-  for (const PendingTiming& pt : timings) {
-    const json& t = pt.timing;
-    for (auto it = t.begin(); it != t.end(); ++it) {
-      const std::string f = join(pt.field, it.key());
-      const JobTypeId j = g.job_type(it.key());
-      if (j == kNone) cx.fail(f, "unknown job type '" + it.key() + "' (not in job_types)");
-      cx.keys(it.value(), {"setup", "rate"}, f);
-      if (it.value().empty()) cx.fail(f, "expected \"setup\" and/or \"rate\"");
-      ExecCoefficients& c = g.timing.at(pt.device, j);
+  void timing(const PendingTiming& pt) {
+    for (const auto& [job_type, f] : in_.field(pt.timing, pt.field).members()) {
+      const JobTypeId j = g_.job_type(job_type);
+      if (j == kNone) f.fail("unknown job type '" + job_type + "' (not in job_types)");
+      f.only_keys({"setup", "rate"});
+      if (f.json().empty()) f.fail("expected \"setup\" and/or \"rate\"");
+      ExecCoefficients& c = g_.timing.at(pt.device, j);
       c = ExecCoefficients{};
       c.supported = true;
-      c.setup = it.value().contains("setup") ? cx.duration(it.value(), "setup", f) : 0;
-      if (it.value().contains("rate")) {
-        const json& rate = it.value()["rate"];
-        if (!rate.is_object())
-          cx.fail(join(f, "rate"), "expected an object: data kind -> throughput, e.g. {\"RayQueue\": \"640MB/s\"}");
-        for (auto r = rate.begin(); r != rate.end(); ++r) {
-          DataKind k;
-          if (!parse_data_kind(r.key(), k)) {
-            std::string list;
-            for (auto n : kDataKindNames) list += (list.empty() ? "" : ", ") + std::string(n);
-            cx.fail(join(join(f, "rate"), r.key()), "unknown data kind (expected one of " + list + ")");
-          }
-          c.rate[static_cast<int>(k)] = 1.0 / cx.bandwidth(rate, r.key().c_str(), join(f, "rate"));
-        }
+      c.setup = f.has("setup") ? f.at("setup").quantity(JsonUnit::duration) : 0;
+      if (f.has("rate")) rates(f.at("rate"), c);
+    }
+  }
+
+  static void rates(const JsonField& rate, ExecCoefficients& c) {
+    if (!rate.json().is_object())
+      rate.fail("expected an object: data kind -> throughput, e.g. {\"RayQueue\": \"640MB/s\"}");
+    for (const auto& [name, r] : rate.members()) {
+      DataKind k;
+      if (!parse_data_kind(name, k)) {
+        std::string list;
+        for (auto kind : kDataKindNames) list += (list.empty() ? "" : ", ") + std::string(kind);
+        r.fail("unknown data kind (expected one of " + list + ")");
       }
+      c.rate[static_cast<int>(k)] = 1.0 / r.quantity(JsonUnit::bandwidth);
     }
   }
 
   // Every memory device a compute device works from must be reachable from a disk (a data
   // holder, where scene blocks live), or nothing could ever run there.
-  std::vector<char> reach(g.memories.size(), 0);
-  std::queue<MemId> q;
-  for (std::size_t m = 0; m < g.memories.size(); ++m)
-    if (g.memories[m].kind == MemoryKind::Disk) {
-      reach[m] = 1;
-      q.push(static_cast<MemId>(m));
-    }
-  if (q.empty()) cx.fail("nodes", "no memory device of kind \"disk\": nothing can hold the scene");
-  while (!q.empty()) {
-    const MemId m = q.front();
-    q.pop();
-    for (ChannelId c : g.out_channels(m))
-      if (!reach[g.channels[c].to]) {
-        reach[g.channels[c].to] = 1;
-        q.push(g.channels[c].to);
+  void check_reachable() const {
+    std::vector<char> reach(g_.memories.size(), 0);
+    std::queue<MemId> q;
+    for (std::size_t m = 0; m < g_.memories.size(); ++m)
+      if (g_.memories[m].kind == MemoryKind::Disk) {
+        reach[m] = 1;
+        q.push(static_cast<MemId>(m));
       }
+    if (q.empty()) in_.fail("nodes", "no memory device of kind \"disk\": nothing can hold the scene");
+    for (; !q.empty(); q.pop())
+      for (ChannelId c : g_.out_channels(q.front()))
+        if (!reach[g_.channels[c].to]) {
+          reach[g_.channels[c].to] = 1;
+          q.push(g_.channels[c].to);
+        }
+    for (const ComputeDevice& d : g_.computes)
+      if (!reach[d.memory])
+        in_.fail(mem_field_[d.memory], "memory device '" + g_.memories[d.memory].name +
+                                           "' is unreachable from every disk (add a channel or network), so compute "
+                                           "device '" + d.name + "' could never get data");
   }
-  for (const ComputeDevice& d : g.computes)
-    if (!reach[d.memory])
-      cx.fail(mem_field[d.memory], "memory device '" + g.memories[d.memory].name +
-                                       "' is unreachable from every disk (add a channel or network), so compute device '" +
-                                       d.name + "' could never get data");
-  return g;
+
+  const JsonInput& in_;
+  DeviceGraph g_;
+  std::vector<PendingTiming> timings_;
+  std::map<std::string, std::map<std::string, MemId>> node_mem_;  // node -> local memory name -> id
+  std::vector<std::string> mem_field_;                            // MemId -> JSON path (for errors)
+  std::set<std::string> net_names_;
+};
+
+}  // namespace
+
+DeviceGraph parse_platform(std::string_view text, const std::string& file) {
+  const JsonInput input(file, kWording);
+  const json doc = input.parse(text, {.reject_duplicate_keys = true, .drop_exception_tag = true});
+  return PlatformReader(input).read(input.field(doc, ""));
 }
 
 DeviceGraph load_platform(const std::string& path) {
