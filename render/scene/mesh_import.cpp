@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "render/scene/assimp_walk.hpp"
+#include "render/scene/file_type.hpp"
 #include "render/scene/gltf_reader.hpp"
 #include "render/scene/obj_reader.hpp"
 #include "render/scene/off_reader.hpp"
@@ -27,8 +28,9 @@ std::string lower_ext(const std::string& path) {
 void check_readable(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError(path, "", "mesh file does not exist");
-  if (fs::is_directory(path, ec)) throw InputError(path, "", "is a directory, not a mesh file");
+  // The type first: a FIFO would block the open below.
+  if (const std::string problem = not_a_regular_file(path, "mesh file"); !problem.empty())
+    throw InputError(path, "", problem);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open mesh file (permissions?)");
   if (fs::file_size(path, ec) == 0) throw InputError(path, "", "mesh file is empty");
