@@ -5,6 +5,8 @@
 #include <limits>
 #include <utility>
 
+#include "render/partition/occupancy_axis.hpp"
+
 namespace rayline::trace {
 
 bool enter_cell(const partition::BlockIndex& index, scene::Float3 o, scene::Float3 d, float tmin, float tmax,
@@ -12,6 +14,7 @@ bool enter_cell(const partition::BlockIndex& index, scene::Float3 o, scene::Floa
   if (index.nodes.empty()) return false;
   // Clip to the root cell (slab test, same arithmetic on every call).
   float lo = tmin, hi = tmax;
+  bool thin = false;  // the ray crosses some slab in no time: a flat scene, or one thinner than an ulp of t
   for (int a = 0; a < 3; ++a) {
     if (d[a] == 0) {
       if (o[a] < index.bounds.lo[a] || o[a] > index.bounds.hi[a]) return false;
@@ -19,9 +22,12 @@ bool enter_cell(const partition::BlockIndex& index, scene::Float3 o, scene::Floa
     }
     float t0 = (index.bounds.lo[a] - o[a]) / d[a], t1 = (index.bounds.hi[a] - o[a]) / d[a];
     if (t0 > t1) std::swap(t0, t1);
+    thin = thin || t0 == t1;
     lo = std::max(lo, t0), hi = std::min(hi, t1);
   }
-  if (!(lo < hi)) return false;
+  // Through a thin root the interval is the single point lo == hi: the ray meets the
+  // scene there, in one cell, whose span below then reaches to tmin and tmax.
+  if (!(lo < hi || (thin && lo == hi))) return false;
   const float root_lo = lo, root_hi = hi;
   std::uint32_t n = 0;
   while (!index.nodes[n].leaf()) {
@@ -61,7 +67,7 @@ bool segment_may_hit(const partition::BlockInfo& block, scene::Float3 o, scene::
   float lo = t0, hi = t1;
   for (int a = 0; a < 3; ++a) {
     const float ext = c.hi[a] - c.lo[a];
-    if (!(ext > 0)) return true;
+    if (!partition::occupancy_axis_resolved(ext, R)) return true;  // one column along a: every voxel set
     vs[a] = ext / float(R);
     const float glo = c.lo[a] - vs[a], ghi = c.hi[a] + vs[a];  // the cell grown by a voxel
     if (d[a] == 0) {
@@ -78,7 +84,7 @@ bool segment_may_hit(const partition::BlockInfo& block, scene::Float3 o, scene::
   float next[3];
   for (int a = 0; a < 3; ++a) {
     const float p = o[a] + d[a] * lo;
-    i[a] = int(std::clamp(std::floor((p - c.lo[a]) / vs[a]), 0.0f, float(R - 1)));
+    i[a] = partition::occupancy_voxel(std::floor((p - c.lo[a]) / vs[a]), R, 0);
     step[a] = d[a] > 0 ? 1 : (d[a] < 0 ? -1 : 0);
     next[a] = step[a] == 0 ? kInf : (c.lo[a] + float(i[a] + (step[a] > 0 ? 1 : 0)) * vs[a] - o[a]) / d[a];
   }

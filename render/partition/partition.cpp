@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "render/partition/occupancy_axis.hpp"
 #include "render/scene/scene_stream.hpp"
 #include "common/error.hpp"
 #include "common/output_folder.hpp"
@@ -27,14 +28,14 @@ void mark_occupancy(const Bounds& cell, const Bounds& tb, BlockInfo::Occupancy& 
   int lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     const float ext = cell.hi[a] - cell.lo[a];
-    if (!(ext > 0)) {  // a flat cell: the whole axis
+    if (!occupancy_axis_resolved(ext, R)) {  // flat, too thin or too wide: the whole axis
       lo[a] = 0, hi[a] = R - 1;
       continue;
     }
     const float inv = float(R) / ext;
     const float f0 = std::floor((tb.lo[a] - cell.lo[a]) * inv), f1 = std::floor((tb.hi[a] - cell.lo[a]) * inv);
-    lo[a] = int(std::clamp(f0 - 1.0f, 0.0f, float(R - 1)));
-    hi[a] = int(std::clamp(f1 + 1.0f, 0.0f, float(R - 1)));
+    lo[a] = occupancy_voxel(f0 - 1.0f, R, 0);
+    hi[a] = occupancy_voxel(f1 + 1.0f, R, R - 1);
   }
   for (int z = lo[2]; z <= hi[2]; ++z)
     for (int y = lo[1]; y <= hi[1]; ++y)
@@ -506,6 +507,11 @@ PartitionResult partition_triangles(const TriangleSource& source, const std::str
     if (opt.progress) opt.progress(prog);
   });
   if (seen == 0) throw InputError(name, "meshes", "the scene has no triangles");
+  // Cell extents, split planes and occupancy scales are differences of coordinates: they
+  // must be finite floats (finite vertices up to ±3.4e38 can still span more).
+  if (const Float3 e = bounds.extent(); !std::isfinite(e.x) || !std::isfinite(e.y) || !std::isfinite(e.z))
+    throw InputError(name, "triangles", "the scene bounds span more than the float range along an axis "
+                                        "(coordinates near ±3.4e38): scale the scene down");
   idx.scene_triangles = seen;
   idx.bounds = bounds;
   res.sample_size = sample.size();

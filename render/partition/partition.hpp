@@ -121,8 +121,8 @@ struct PartitionResult {
 using TriangleSource = std::function<scene::ImportStats(const scene::TriangleBatchFn&)>;
 
 // Partitions `source` into `out_dir`. `name` goes into blocks.json and error messages.
-// Throws InputError on bad options, an empty scene or non-finite vertices, or an
-// unusable output folder.
+// Throws InputError on bad options, an empty scene, non-finite vertices or bounds whose
+// extent overflows the float range, or an unusable output folder.
 PartitionResult partition_triangles(const TriangleSource& source, const std::string& name,
                                     const std::string& out_dir, const PartitionOptions& opt);
 PartitionResult partition_scene(const scene::Scene& scene, const std::string& out_dir, const PartitionOptions& opt);

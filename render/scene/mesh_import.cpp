@@ -6,8 +6,9 @@
 #include <assimp/scene.h>
 #include <filesystem>
 #include <fstream>
-#include <vector>
 
+#include "render/scene/assimp_walk.hpp"
+#include "render/scene/file_type.hpp"
 #include "render/scene/gltf_reader.hpp"
 #include "render/scene/obj_reader.hpp"
 #include "render/scene/off_reader.hpp"
@@ -24,69 +25,32 @@ std::string lower_ext(const std::string& path) {
   return e;
 }
 
-Affine to_affine(const aiMatrix4x4& m) {
-  Affine a;
-  const float* r[3] = {m[0], m[1], m[2]};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 4; ++j) a.m[i][j] = r[i][j];
-  return a;
-}
-
 void check_readable(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError(path, "", "mesh file does not exist");
-  if (fs::is_directory(path, ec)) throw InputError(path, "", "is a directory, not a mesh file");
+  // The type first: a FIFO would block the open below.
+  if (const std::string problem = not_a_regular_file(path, "mesh file"); !problem.empty())
+    throw InputError(path, "", problem);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open mesh file (permissions?)");
   if (fs::file_size(path, ec) == 0) throw InputError(path, "", "mesh file is empty");
 }
 
-// The in-memory fallback (see mesh_import.hpp for when it is used).
+// The in-memory fallback (see mesh_import.hpp for when it is used). Assimp's
+// post-processing trusts the importer's output (Triangulate dereferences every face index
+// and asserts on faces without one), so it runs only on a scene that passed assimp's
+// aiProcess_ValidateDataStructure and check_ai_meshes; ReadFile with all three flags runs
+// the same steps in the same order (validation, preprocessing, post-processing).
 ImportStats stream_assimp(const std::string& path, const Affine& xf, const TriangleBatchFn& fn) {
   Assimp::Importer importer;
-  // Keep points and lines (so they can be counted); triangulate polygons.
-  const aiScene* sc = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_SortByPType);
+  const aiScene* sc = importer.ReadFile(path, aiProcess_ValidateDataStructure);
   if (!sc || !sc->mRootNode || (sc->mFlags & AI_SCENE_FLAGS_INCOMPLETE))
     throw InputError(path, "", std::string("cannot import mesh: ") + importer.GetErrorString());
-  ImportStats st;
-  std::vector<Triangle> buf;
-  constexpr std::size_t kBatch = 1 << 16;
-  buf.reserve(kBatch);
-  struct Item {
-    const aiNode* node;
-    Affine world;
-  };
-  std::vector<Item> stack{{sc->mRootNode, xf * to_affine(sc->mRootNode->mTransformation)}};
-  while (!stack.empty()) {
-    const Item it = stack.back();
-    stack.pop_back();
-    for (unsigned k = 0; k < it.node->mNumMeshes; ++k) {
-      const aiMesh* m = sc->mMeshes[it.node->mMeshes[k]];
-      for (unsigned f = 0; f < m->mNumFaces; ++f) {
-        const aiFace& face = m->mFaces[f];
-        if (face.mNumIndices != 3) {
-          ++st.skipped_primitives;
-          continue;
-        }
-        Float3 v[3];
-        for (int c = 0; c < 3; ++c) {
-          const aiVector3D& p = m->mVertices[face.mIndices[c]];
-          v[c] = it.world.point({p.x, p.y, p.z});
-          st.bounds.extend(v[c]);
-        }
-        buf.push_back({v[0], v[1], v[2], m->mMaterialIndex});
-        ++st.triangles;
-        if (buf.size() == kBatch) fn(std::span<const Triangle>(buf)), buf.clear();
-      }
-    }
-    for (unsigned c = it.node->mNumChildren; c-- > 0;) {
-      const aiNode* ch = it.node->mChildren[c];
-      stack.push_back({ch, it.world * to_affine(ch->mTransformation)});
-    }
-  }
-  if (!buf.empty()) fn(std::span<const Triangle>(buf));
-  return st;
+  check_ai_meshes(*sc, path);
+  // Keep points and lines (so they can be counted); triangulate polygons.
+  sc = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_SortByPType);
+  if (!sc) throw InputError(path, "", std::string("cannot import mesh: ") + importer.GetErrorString());
+  return stream_ai_scene(*sc, path, xf, fn);
 }
 
 }  // namespace
@@ -105,10 +69,12 @@ ImportStats stream_mesh_file(const std::string& path, const Affine& xf, const Tr
   check_readable(path);
   ImportStats st;
   const std::string e = lower_ext(path);
+  // A PLY header is judged natively whichever path reads the file (ply_reader.hpp).
+  const bool native_ply = e == ".ply" && read_ply_header(path).streamable;
   if (route == ImportPath::assimp) {
     st = stream_assimp(path, xf, fn);
   } else if (e == ".ply") {
-    st = read_ply_header(path).streamable ? stream_ply(path, xf, fn) : stream_assimp(path, xf, fn);
+    st = native_ply ? stream_ply(path, xf, fn) : stream_assimp(path, xf, fn);
   } else if (e == ".stl") {
     st = is_binary_stl(path) ? stream_stl(path, xf, fn) : stream_ascii_stl(path, xf, fn);
   } else if (e == ".obj") {

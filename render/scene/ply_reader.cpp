@@ -78,6 +78,23 @@ struct Element {
   }
 };
 
+// What no PLY reader can read, judged here rather than handed to assimp (whose PLY
+// loader and post-processing crash on it): a list whose length is not an integer type,
+// a vertex index list whose items are not, and a property name an element repeats.
+void check_property(const std::string& path, const Element& e, const Property& p, const std::string& line) {
+  if (p.list && !is_integer(p.count_type))
+    throw InputError(path, "header.property", "list length type must be an integer type in '" + line + "'");
+  if (p.is_index_list() && !is_integer(p.type))
+    throw InputError(path, "header.property", "vertex index type must be an integer type in '" + line + "'");
+  for (const Property& q : e.props) {
+    if (q.name == p.name)
+      throw InputError(path, "header.property", "element '" + e.name + "' declares property '" + p.name + "' twice");
+    if (q.is_index_list() && p.is_index_list())
+      throw InputError(path, "header.property", "element '" + e.name + "' has two vertex index lists ('" + q.name +
+                                                    "' and '" + p.name + "')");
+  }
+}
+
 struct Header {
   PlyHeaderInfo info;
   std::vector<Element> elements;
@@ -114,6 +131,8 @@ Header parse_header(const std::string& path) {
       Element e;
       ls >> e.name >> e.count;
       if (!ls) throw InputError(path, "header.element", "malformed element line '" + line + "'");
+      for (const Element& other : h.elements)
+        if (other.name == e.name) throw InputError(path, "header.element", "element '" + e.name + "' declared twice");
       h.elements.push_back(e);
     } else if (kw == "property") {
       if (h.elements.empty()) throw InputError(path, "header.property", "property before any element");
@@ -130,6 +149,7 @@ Header parse_header(const std::string& path) {
       }
       if (!ls || p.type == Type::invalid || (p.list && p.count_type == Type::invalid))
         throw InputError(path, "header.property", "malformed property line '" + line + "'");
+      check_property(path, h.elements.back(), p, line);
       h.elements.back().props.push_back(p);
     } else if (kw == "end_header") {
       ended = true;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <set>
 
@@ -17,6 +18,12 @@ Float3 catmull_rom(Float3 p0, Float3 p1, Float3 p2, Float3 p3, float t) {
 }
 
 bool finite(Float3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+std::string bounds_text(const Bounds& b) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "[%g %g %g] .. [%g %g %g]", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
+  return buf;
+}
 
 }  // namespace
 
@@ -201,6 +208,14 @@ Scene frame_mesh(const std::string& mesh_path, const Bounds& bounds) {
   s.meshes = {m};
   if (bounds.empty()) throw InputError(mesh_path, "", "mesh has no triangles");
   frame_bounds(s, bounds);
+  // Float arithmetic can fail to place a camera: an extent that overflows (coordinates
+  // near ±3.4e38), or a mesh so small against its distance from the origin that the
+  // camera rounds onto the point it looks at.
+  const Camera& cam = s.cameras.front();
+  if (!finite(cam.position) || !(length(cam.look_at - cam.position) > 0) || !finite(s.area_lights.front().corner))
+    throw InputError(mesh_path, "", "cannot frame a camera on the mesh bounds " + bounds_text(bounds) +
+                                        " in single precision (too large, or too small for its distance from "
+                                        "the origin): scale or move the mesh");
   return s;
 }
 

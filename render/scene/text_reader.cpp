@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "common/error.hpp"
@@ -15,8 +16,13 @@ constexpr std::size_t kMaxLine = std::size_t(64) << 20;
 
 LineReader::LineReader(const std::string& path, std::uint64_t offset, std::uint64_t first_line)
     : path_(path), line_(first_line - 1) {
-  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);  // a FIFO must not block
   if (fd_ < 0) throw InputError(path, "", std::string("cannot open mesh file: ") + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd_);
+    throw InputError(path, "", "not a regular file");
+  }
   ::posix_fadvise(fd_, 0, 0, POSIX_FADV_SEQUENTIAL);
   if (offset > 0 && ::lseek(fd_, off_t(offset), SEEK_SET) < 0) {
     ::close(fd_);
