@@ -103,6 +103,61 @@ struct Header {
   int vertex = -1, face = -1;  // element indices
 };
 
+void read_format_line(const std::string& path, std::istringstream& ls, Header& h) {
+  std::string f;
+  ls >> f;
+  h.info.binary = f != "ascii";
+  h.info.big_endian = f == "binary_big_endian";
+  if (f != "ascii" && f != "binary_little_endian" && f != "binary_big_endian")
+    throw InputError(path, "header.format", "unknown PLY format '" + f + "'");
+}
+
+void read_element_line(const std::string& path, std::istringstream& ls, const std::string& line, Header& h) {
+  Element e;
+  ls >> e.name >> e.count;
+  if (!ls) throw InputError(path, "header.element", "malformed element line '" + line + "'");
+  for (const Element& other : h.elements)
+    if (other.name == e.name) throw InputError(path, "header.element", "element '" + e.name + "' declared twice");
+  h.elements.push_back(e);
+}
+
+void read_property_line(const std::string& path, std::istringstream& ls, const std::string& line, Header& h) {
+  if (h.elements.empty()) throw InputError(path, "header.property", "property before any element");
+  Property p;
+  std::string t;
+  ls >> t;
+  if (t == "list") {
+    std::string ct, it;
+    ls >> ct >> it >> p.name;
+    p.list = true, p.count_type = parse_type(ct), p.type = parse_type(it);
+  } else {
+    p.type = parse_type(t);
+    ls >> p.name;
+  }
+  if (!ls || p.type == Type::invalid || (p.list && p.count_type == Type::invalid))
+    throw InputError(path, "header.property", "malformed property line '" + line + "'");
+  check_property(path, h.elements.back(), p, line);
+  h.elements.back().props.push_back(p);
+}
+
+// Native streaming needs: vertex with scalar x, y, z (binary: and no lists); face with
+// exactly one integer vertex index list; every list length an integer.
+bool natively_streamable(const Header& h) {
+  if (h.vertex < 0 || h.face < 0) return false;
+  const Element& v = h.elements[std::size_t(h.vertex)];
+  int xyz[3] = {0, 0, 0};
+  for (auto& p : v.props)
+    if (p.axis() >= 0) ++xyz[p.axis()];
+  bool ok = xyz[0] == 1 && xyz[1] == 1 && xyz[2] == 1 && (!h.info.binary || v.fixed());
+  int lists = 0;
+  for (auto& p : h.elements[std::size_t(h.face)].props)
+    if (p.is_index_list()) ++lists, ok = ok && is_integer(p.type);
+  ok = ok && lists == 1;
+  for (auto& e : h.elements)  // list lengths must be integers to be walked
+    for (auto& p : e.props) ok = ok && (!p.list || is_integer(p.count_type));
+  return ok;
+}
+
 Header parse_header(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open mesh file");
@@ -112,49 +167,17 @@ Header parse_header(const std::string& path) {
   bool ended = false, format = false;
   std::size_t bytes = line.size() + 1;
   std::uint64_t lines = 1;
-  while (std::getline(in, line)) {
+  while (!ended && std::getline(in, line)) {
     bytes += line.size() + 1;
     ++lines;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream ls(line);
     std::string kw;
     ls >> kw;
-    if (kw == "format") {
-      std::string f;
-      ls >> f;
-      h.info.binary = f != "ascii";
-      h.info.big_endian = f == "binary_big_endian";
-      if (f != "ascii" && f != "binary_little_endian" && f != "binary_big_endian")
-        throw InputError(path, "header.format", "unknown PLY format '" + f + "'");
-      format = true;
-    } else if (kw == "element") {
-      Element e;
-      ls >> e.name >> e.count;
-      if (!ls) throw InputError(path, "header.element", "malformed element line '" + line + "'");
-      for (const Element& other : h.elements)
-        if (other.name == e.name) throw InputError(path, "header.element", "element '" + e.name + "' declared twice");
-      h.elements.push_back(e);
-    } else if (kw == "property") {
-      if (h.elements.empty()) throw InputError(path, "header.property", "property before any element");
-      Property p;
-      std::string t;
-      ls >> t;
-      if (t == "list") {
-        std::string ct, it;
-        ls >> ct >> it >> p.name;
-        p.list = true, p.count_type = parse_type(ct), p.type = parse_type(it);
-      } else {
-        p.type = parse_type(t);
-        ls >> p.name;
-      }
-      if (!ls || p.type == Type::invalid || (p.list && p.count_type == Type::invalid))
-        throw InputError(path, "header.property", "malformed property line '" + line + "'");
-      check_property(path, h.elements.back(), p, line);
-      h.elements.back().props.push_back(p);
-    } else if (kw == "end_header") {
-      ended = true;
-      break;
-    }
+    if (kw == "format") read_format_line(path, ls, h), format = true;
+    else if (kw == "element") read_element_line(path, ls, line, h);
+    else if (kw == "property") read_property_line(path, ls, line, h);
+    else if (kw == "end_header") ended = true;
   }
   if (!ended) throw InputError(path, "header", "no end_header (truncated or not a PLY file)");
   if (!format) throw InputError(path, "header.format", "no format line");
@@ -165,23 +188,7 @@ Header parse_header(const std::string& path) {
     if (e.name == "vertex" && h.vertex < 0) h.vertex = int(k), h.info.vertices = e.count;
     if (e.name == "face" && h.face < 0) h.face = int(k), h.info.faces = e.count;
   }
-  // Native: vertex has scalar x, y, z (binary: and no lists); face has exactly one
-  // integer vertex index list.
-  bool ok = h.vertex >= 0 && h.face >= 0;
-  if (ok) {
-    const Element& v = h.elements[std::size_t(h.vertex)];
-    int xyz[3] = {0, 0, 0};
-    for (auto& p : v.props)
-      if (p.axis() >= 0) ++xyz[p.axis()];
-    ok = xyz[0] == 1 && xyz[1] == 1 && xyz[2] == 1 && (!h.info.binary || v.fixed());
-    int lists = 0;
-    for (auto& p : h.elements[std::size_t(h.face)].props)
-      if (p.is_index_list()) ++lists, ok = ok && is_integer(p.type);
-    ok = ok && lists == 1;
-    for (auto& e : h.elements)  // list lengths must be integers to be walked
-      for (auto& p : e.props) ok = ok && (!p.list || is_integer(p.count_type));
-  }
-  h.info.streamable = ok;
+  h.info.streamable = natively_streamable(h);
   return h;
 }
 
@@ -344,69 +351,103 @@ ImportStats stream_binary(const std::string& path, const Header& h, const Affine
 // ---------------------------------------------------------------------------------------
 // ASCII
 
-ImportStats stream_ascii(const std::string& path, const Header& h, const Affine& xf, const TriangleBatchFn& fn,
-                         std::size_t batch) {
-  const Element& vertex = h.elements[std::size_t(h.vertex)];
-  const Element& face = h.elements[std::size_t(h.face)];
-  const std::uint64_t nv = vertex.count;
-  SpillArray<Float3> verts;
-  ImportStats st;
-  TriangleEmitter out(xf, fn, st, batch);
-  std::vector<std::uint64_t> idx;
+// A count no file of this size could hold is an error before any spill space is reserved
+// for it ("0 0 0\n": each value takes at least two bytes).
+void check_counts_fit(const std::string& path, const Header& h) {
+  std::error_code ec;
+  const std::uint64_t size = std::filesystem::file_size(path, ec);
+  std::uint64_t least = 0;
+  for (auto& e : h.elements) {
+    const std::uint64_t per = 2 * std::max<std::uint64_t>(e.props.size(), 1);
+    if (e.count > (size + 1) / per) least = std::uint64_t(-1);
+    else least += e.count * per;
+    if (!ec && least > size + 1)
+      throw InputError(path, "header.element", "'" + e.name + "' count " + std::to_string(e.count) +
+                                                   " is more than a file of " + std::to_string(size) +
+                                                   " bytes can hold (bad count or truncated)");
+  }
+}
 
-  std::vector<Role> vroles, froles;
-  for (auto& prop : vertex.props) vroles.push_back(role(prop));
-  for (auto& prop : face.props) froles.push_back(role(prop));
-  auto bad = [&](LineReader& r, std::string_view line, const char* what, std::uint64_t i, const Property& prop) {
-    return InputError(path, r.where(), std::string(what) + " " + std::to_string(i) + ": bad or missing value for property '" +
-                                           prop.name + "' in " + quote_token(line));
-  };
-  auto skip_list = [](Tokens& t) {
-    std::int64_t n = 0;
-    bool ok = t.integer(n) && n >= 0;
-    for (std::int64_t k = 0; ok && k < n; ++k) ok = !t.word().empty();
-    return ok;
-  };
+// Steps over a list property: its length, then that many words.
+bool skip_list(Tokens& t) {
+  std::int64_t n = 0;
+  bool ok = t.integer(n) && n >= 0;
+  for (std::int64_t k = 0; ok && k < n; ++k) ok = !t.word().empty();
+  return ok;
+}
 
-  auto read_vertex = [&](LineReader& r, std::string_view line, std::uint64_t i) {
+// An ASCII PLY body: vertex lines, then face lines (each polygon emitted as a fan), in the
+// order the header declares the elements.
+class AsciiPly {
+ public:
+  AsciiPly(const std::string& path, const Header& h, const Affine& xf, const TriangleBatchFn& fn, std::size_t batch)
+      : path_(path), h_(h), vertex_(h.elements[std::size_t(h.vertex)]), face_(h.elements[std::size_t(h.face)]),
+        out_(xf, fn, st_, batch) {
+    for (auto& prop : vertex_.props) vroles_.push_back(role(prop));
+    for (auto& prop : face_.props) froles_.push_back(role(prop));
+  }
+
+  ImportStats run() {
+    check_counts_fit(path_, h_);
+    verts_.reserve(std::size_t(vertex_.count));
+    if (h_.vertex < h_.face) {
+      pass(true, true);
+    } else {
+      pass(true, false);
+      pass(false, true);
+    }
+    out_.flush();
+    return st_;
+  }
+
+ private:
+  InputError bad(const LineReader& r, std::string_view line, const char* what, std::uint64_t i, const Property& prop) const {
+    return InputError(path_, r.where(), std::string(what) + " " + std::to_string(i) + ": bad or missing value for property '" +
+                                            prop.name + "' in " + quote_token(line));
+  }
+
+  void read_vertex(const LineReader& r, std::string_view line, std::uint64_t i) {
     Tokens t(line);
     Float3 v;
-    for (std::size_t k = 0; k < vroles.size(); ++k) {
+    for (std::size_t k = 0; k < vroles_.size(); ++k) {
       bool ok;
-      switch (vroles[k]) {
+      switch (vroles_[k]) {
         case Role::x: ok = t.number(v.x); break;
         case Role::y: ok = t.number(v.y); break;
         case Role::z: ok = t.number(v.z); break;
         case Role::skip_list: ok = skip_list(t); break;
         default: ok = !t.word().empty(); break;
       }
-      if (!ok) throw bad(r, line, "vertex", i, vertex.props[k]);
+      if (!ok) throw bad(r, line, "vertex", i, vertex_.props[k]);
     }
     if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-      throw InputError(path, r.where(), "vertex " + std::to_string(i) + ": non-finite coordinate");
-    verts.push_back(v);
-  };
+      throw InputError(path_, r.where(), "vertex " + std::to_string(i) + ": non-finite coordinate");
+    verts_.push_back(v);
+  }
 
-  auto read_face = [&](LineReader& r, std::string_view line, std::uint64_t f) {
+  // The vertex index list of face f, each index checked against the vertex count.
+  bool read_indices(const LineReader& r, Tokens& t, std::uint64_t f) {
+    std::int64_t n = 0;
+    bool ok = t.integer(n) && n >= 0;
+    for (std::int64_t j = 0; ok && j < n; ++j) {
+      std::int64_t i;
+      ok = t.integer(i);
+      if (ok && (i < 0 || std::uint64_t(i) >= vertex_.count))
+        throw InputError(path_, r.where(), "face " + std::to_string(f) + ": vertex index " + std::to_string(i) +
+                                               " out of range (" + std::to_string(vertex_.count) + " vertices)");
+      if (ok) idx_.push_back(std::uint64_t(i));
+    }
+    return ok;
+  }
+
+  void read_face(const LineReader& r, std::string_view line, std::uint64_t f) {
     Tokens t(line);
     std::uint32_t material = 0;
-    idx.clear();
-    for (std::size_t k = 0; k < froles.size(); ++k) {
+    idx_.clear();
+    for (std::size_t k = 0; k < froles_.size(); ++k) {
       bool ok = true;
-      switch (froles[k]) {
-        case Role::indices: {
-          std::int64_t n = 0;
-          ok = t.integer(n) && n >= 0;
-          for (std::int64_t j = 0; ok && j < n; ++j) {
-            std::int64_t i;
-            ok = t.integer(i);
-            if (ok && (i < 0 || std::uint64_t(i) >= nv))
-              throw InputError(path, r.where(), "face " + std::to_string(f) + ": vertex index " + std::to_string(i) +
-                                                    " out of range (" + std::to_string(nv) + " vertices)");
-            if (ok) idx.push_back(std::uint64_t(i));
-          }
-          break;
-        }
+      switch (froles_[k]) {
+        case Role::indices: ok = read_indices(r, t, f); break;
         case Role::material: {
           float m = 0;
           ok = t.number(m) && m >= 0;
@@ -416,69 +457,59 @@ ImportStats stream_ascii(const std::string& path, const Header& h, const Affine&
         case Role::skip_list: ok = skip_list(t); break;
         default: ok = !t.word().empty(); break;
       }
-      if (!ok) throw bad(r, line, "face", f, face.props[k]);
+      if (!ok) throw bad(r, line, "face", f, face_.props[k]);
     }
-    if (idx.size() < 3) {
-      out.skip();
+    if (idx_.size() < 3) {
+      out_.skip();
       return;
     }
-    const Float3 a = verts[idx[0]];
-    Float3 b = verts[idx[1]];
-    for (std::size_t k = 2; k < idx.size(); ++k) {
-      const Float3 c = verts[idx[k]];
-      out.emit(a, b, c, material);
+    const Float3 a = verts_[idx_[0]];
+    Float3 b = verts_[idx_[1]];
+    for (std::size_t k = 2; k < idx_.size(); ++k) {
+      const Float3 c = verts_[idx_[k]];
+      out_.emit(a, b, c, material);
       b = c;
     }
-  };
+  }
 
   // One pass reads the elements in file order up to `last`, parsing vertices and/or
   // faces and stepping over every other line.
-  auto pass = [&](bool vertices, bool faces) {
-    LineReader r(path, h.bytes, h.lines + 1);
-    const int last = vertices && faces ? std::max(h.vertex, h.face) : vertices ? h.vertex : h.face;
+  void pass(bool vertices, bool faces) {
+    LineReader r(path_, h_.bytes, h_.lines + 1);
+    const int last = vertices && faces ? std::max(h_.vertex, h_.face) : vertices ? h_.vertex : h_.face;
     std::string_view line;
     std::uint64_t bytes = 0;
     for (int k = 0; k <= last; ++k) {
-      const Element& e = h.elements[std::size_t(k)];
-      const bool v = vertices && k == h.vertex, fc = faces && k == h.face;
+      const Element& e = h_.elements[std::size_t(k)];
+      const bool v = vertices && k == h_.vertex, fc = faces && k == h_.face;
       for (std::uint64_t i = 0; i < e.count; ++i) {
         if (!r.next(line))
-          throw InputError(path, e.name, "the header says " + std::to_string(e.count) + " " + e.name +
-                                             " elements but the file ends after " + std::to_string(i) + " (truncated)");
+          throw InputError(path_, e.name, "the header says " + std::to_string(e.count) + " " + e.name +
+                                              " elements but the file ends after " + std::to_string(i) + " (truncated)");
         if (v) read_vertex(r, line, i);
         if (fc) {
           read_face(r, line, i);
           bytes += line.size() + 1;
-          if (bytes > kDropEvery) verts.drop_resident(), bytes = 0;
+          if (bytes > kDropEvery) verts_.drop_resident(), bytes = 0;
         }
       }
     }
-  };
-  // A count no file of this size could hold is an error now, before any spill space is
-  // reserved for it ("0 0 0\n": each value takes at least two bytes).
-  {
-    std::error_code ec;
-    const std::uint64_t size = std::filesystem::file_size(path, ec);
-    std::uint64_t least = 0;
-    for (auto& e : h.elements) {
-      const std::uint64_t per = 2 * std::max<std::uint64_t>(e.props.size(), 1);
-      if (e.count > (size + 1) / per) least = std::uint64_t(-1);
-      else least += e.count * per;
-      if (!ec && least > size + 1)
-        throw InputError(path, "header.element", "'" + e.name + "' count " + std::to_string(e.count) +
-                                                     " is more than a file of " + std::to_string(size) +
-                                                     " bytes can hold (bad count or truncated)");
-    }
   }
-  verts.reserve(std::size_t(nv));
-  if (h.vertex < h.face) {
-    pass(true, true);
-  } else {
-    pass(true, false);
-    pass(false, true);
-  }
-  out.flush();
-  return st;
+
+  const std::string& path_;
+  const Header& h_;
+  const Element& vertex_;
+  const Element& face_;
+  SpillArray<Float3> verts_;
+  ImportStats st_;
+  TriangleEmitter out_;
+  std::vector<std::uint64_t> idx_;
+  std::vector<Role> vroles_, froles_;
+};
+
+ImportStats stream_ascii(const std::string& path, const Header& h, const Affine& xf, const TriangleBatchFn& fn,
+                         std::size_t batch) {
+  return AsciiPly(path, h, xf, fn, batch).run();
 }
 
 }  // namespace
