@@ -2,6 +2,7 @@
 // throughput (triangles per second) and the files written.
 #include "apps/cmd_generate.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cctype>
 #include <cmath>
@@ -12,6 +13,7 @@
 #include "render/scene/assets.hpp"
 #include "render/scene/generators.hpp"
 #include "common/error.hpp"
+#include "common/progress_line.hpp"
 
 namespace rayline::cli {
 
@@ -70,7 +72,18 @@ int run_generate(const GenerateOptions& opt) {
   std::error_code ec;
 
   const auto t0 = std::chrono::steady_clock::now();
-  const GenerateResult r = generate_to_file(opt.name, n, opt.seed, opt.out, opt.scene_out);
+  // Large counts run for minutes (about 4 M triangles/s and 20-50 bytes each): a progress
+  // line on stderr, as `partition` has.
+  ProgressLine line(ProgressLine::for_stderr(opt.quiet));
+  GenerateProgress progress;
+  if (line.mode() != ProgressLine::Mode::Off)
+    progress = [&line](std::uint64_t done, std::uint64_t total) {
+      if (line.due())
+        line.print("generate", "%5.1f %% of %.1f M triangles", 100.0 * double(done) / double(std::max<std::uint64_t>(total, 1)),
+                   double(total) / 1e6);
+    };
+  const GenerateResult r = generate_to_file(opt.name, n, opt.seed, opt.out, opt.scene_out, progress);
+  line.done();
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto bytes = std::filesystem::file_size(opt.out, ec);
   if (!opt.quiet) {

@@ -151,7 +151,10 @@ void add_generate(CLI::App& app, std::function<int()>& action) {
   auto* gen = app.add_subcommand(
       "generate", "Write a procedural scene (binary PLY + companion scene JSON), deterministic per seed");
   gen->add_option("name", opt->name, "Generator: museum-like, boeing-like, cornell, furnace, block-crossing");
-  gen->add_option("--triangles,-n", opt->triangles, "Triangle count, K/M/G suffixes allowed (default: per generator)");
+  gen->add_option("--triangles,-n", opt->triangles,
+                  "Triangle count, K/M/G suffixes allowed, at most 4G (default: per generator). About 4M triangles/s: "
+                  "large counts run for minutes, with a progress line on stderr (none with -q). The PLY holds at "
+                  "most 2^31 vertices (block-crossing: 3 per triangle)");
   gen->add_option("--out,-o", opt->out, "Mesh output path (.ply)");
   gen->add_option("--seed", opt->seed, "Random seed")->default_val(opt->seed)->check(kSeed);
   gen->add_option("--scene-out", opt->scene_out, "Companion scene JSON (default: OUT with .json; '-': none)");

@@ -182,8 +182,30 @@ Scene generator_scene(const std::string& name, MeshInstance mesh, const Bounds& 
   return s;
 }
 
+namespace {
+
+// Passes pieces on to `out` and reports the running triangle count.
+class ProgressSink final : public MeshSink {
+ public:
+  ProgressSink(MeshSink& out, std::uint64_t total, const GenerateProgress& progress)
+      : out_(out), total_(total), progress_(progress) {}
+  void add(const MeshPiece& p) override {
+    out_.add(p);
+    done_ += p.triangles.size();
+    progress_(done_, total_);
+  }
+
+ private:
+  MeshSink& out_;
+  std::uint64_t total_, done_ = 0;
+  const GenerateProgress& progress_;
+};
+
+}  // namespace
+
 GenerateResult generate_to_file(const std::string& name, std::uint64_t triangles, std::uint64_t seed,
-                                const std::string& out, const std::string& scene_out) {
+                                const std::string& out, const std::string& scene_out,
+                                const GenerateProgress& progress) {
   if (!find_generator(name))
     throw InputError("generator", "name", "unknown generator '" + name + "' (known: " + generator_names() + ")");
   namespace fs = std::filesystem;
@@ -191,7 +213,12 @@ GenerateResult generate_to_file(const std::string& name, std::uint64_t triangles
   r.mesh_path = out;
   {
     PlyWriter w(out, {"generator " + name, "triangles " + std::to_string(triangles), "seed " + std::to_string(seed)});
-    run_generator(name, triangles, seed, w);
+    if (progress) {
+      ProgressSink counted(w, triangles, progress);
+      run_generator(name, triangles, seed, counted);
+    } else {
+      run_generator(name, triangles, seed, w);
+    }
     w.finish();
     r.triangles = w.triangle_count(), r.vertices = w.vertex_count(), r.bounds = w.bounds();
   }

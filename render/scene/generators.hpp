@@ -3,6 +3,7 @@
 // F (binary PLY, ply_writer.hpp) and a companion scene JSON next to it.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -40,10 +41,15 @@ struct GenerateResult {
   Bounds bounds;
 };
 
+// Called as the mesh is written: triangles written so far, of `total`.
+using GenerateProgress = std::function<void(std::uint64_t done, std::uint64_t total)>;
+
 // Writes the mesh to `out` (binary little-endian PLY, via PATH.tmp.<pid>@<host> and rename) and
 // the companion scene to `scene_out` (empty: `out` with extension .json; "-": none).
+// `progress`, when set, is called after every piece the generator emits.
 GenerateResult generate_to_file(const std::string& name, std::uint64_t triangles, std::uint64_t seed,
-                                const std::string& out, const std::string& scene_out = "");
+                                const std::string& out, const std::string& scene_out = "",
+                                const GenerateProgress& progress = {});
 
 // Generator bodies (one file each), used by the registry.
 void emit_museum(std::uint64_t triangles, std::uint64_t seed, MeshSink& sink);

@@ -62,6 +62,15 @@ TEST(CliGenerate, BadInputExitsTwo) {
   EXPECT_EQ(rayline_cli("generate --help").code, 0);
 }
 
+// Large counts run for minutes: --help says so, names the limits, and promises progress.
+TEST(CliGenerate, HelpStatesTheCountLimitsAndProgress) {
+  const auto r = rayline_cli("generate --help");
+  ASSERT_EQ(r.code, 0) << r.all;
+  for (const char* says : {"at most 4G", "progress line on stderr", "2^31 vertices"})
+    EXPECT_NE(r.out.find(says), std::string::npos) << says << "\n" << r.out;
+  EXPECT_EQ(rayline_cli("generate cornell --triangles 5G --out /tmp/rayline-too-many.ply").code, 2);
+}
+
 // The mesh is binary PLY whatever its name, and meshes are read back by their extension:
 // `--out x.obj` wrote PLY bytes that no reader would take as OBJ. Nor may an output
 // replace its companion scene or an asset file the generators read (`--out

@@ -337,5 +337,58 @@ TEST_F(Gltf, Errors) {
   expect_error([&] { stats(p); }, p, "asset.version", "unsupported glTF version '3.0'");
 }
 
+// Indices into the document's arrays and byte counts are attacker-chosen: every one out
+// of range, or large enough to overflow 64-bit offset arithmetic, is an InputError naming
+// the field (native reader), or at worst assimp's refusal (sparse accessors), never a crash.
+constexpr std::uint64_t kMax = ~std::uint64_t(0);
+
+TEST_F(Gltf, IndicesAndCountsOutOfRange) {
+  const Builder good = hierarchy();
+  const auto gtf = [&](const std::string& name, Builder b) { return write(name, b.gltf("")); };
+  const struct {
+    const char* name;
+    void (*edit)(json&);
+    const char* field;
+  } cases[] = {
+      {"view_index.gltf", [](json& d) { d["accessors"][0]["bufferView"] = 99; }, "accessors[0].bufferView"},
+      {"buffer_index.gltf", [](json& d) { d["bufferViews"][0]["buffer"] = 7; }, "buffers[7]"},
+      {"accessor_index.gltf", [](json& d) { d["meshes"][0]["primitives"][0]["indices"] = 42; }, "accessors[42]"},
+      {"position_index.gltf", [](json& d) { d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = kMax; },
+       "accessors[18446744073709551615]"},
+      {"count.gltf", [](json& d) { d["accessors"][0]["count"] = kMax; }, "accessors[0]"},
+      {"offset.gltf", [](json& d) { d["accessors"][0]["byteOffset"] = kMax; }, "accessors[0]"},
+      {"view_offset.gltf", [](json& d) { d["bufferViews"][0]["byteOffset"] = kMax; }, "bufferViews[0]"},
+      {"view_length.gltf", [](json& d) { d["bufferViews"][0]["byteLength"] = kMax; }, "bufferViews[0]"},
+      {"stride.gltf", [](json& d) { d["bufferViews"][0]["byteStride"] = kMax; }, "accessors[0]"},
+      {"scene_index.gltf", [](json& d) { d["scene"] = 5; }, "scene"},
+      {"node_index.gltf", [](json& d) { d["nodes"][0]["children"] = {kMax}; }, "nodes[0].children"},
+  };
+  for (const auto& c : cases) {
+    Builder b = good;
+    c.edit(b.doc);
+    const std::string p = gtf(c.name, b);
+    try {
+      stats(p);
+      ADD_FAILURE() << c.name << ": no InputError";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), p) << e.what();
+      EXPECT_EQ(e.field(), c.field) << e.what();
+    }
+  }
+  // A sparse accessor (assimp's path) whose indices point past the vertices.
+  Builder b = good;
+  b.doc["accessors"][0]["sparse"] = {{"count", 1},
+                                     {"indices", {{"bufferView", 1}, {"componentType", 5123}, {"byteOffset", 0}}},
+                                     {"values", {{"bufferView", 0}}}};
+  b.doc["accessors"][1]["count"] = 6;
+  b.bin[48 + 4] = 200;
+  const std::string p = gtf("sparse_bad.gltf", b);
+  try {
+    stats(p);
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), p);
+  }
+}
+
 }  // namespace
 }  // namespace rayline::scene
