@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "render/scene/file_type.hpp"
 #include "render/scene/generators.hpp"
 #include "render/scene/mesh_import.hpp"
 #include "render/scene/scene.hpp"
@@ -136,7 +137,11 @@ void mesh_file(const Field& f, const fs::path& dir, MeshInstance& m) {
   if (p.is_relative()) p = dir / p;
   m.file = p.lexically_normal().string();
   std::error_code ec;
-  if (!fs::is_regular_file(m.file, ec)) f.at("file").fail("mesh file not found: " + m.file);
+  if (!fs::is_regular_file(m.file, ec)) {
+    // A missing file keeps its short message; a folder, FIFO, device or link loop says what it is.
+    const std::string why = fs::exists(fs::symlink_status(m.file, ec)) ? not_a_regular_file(m.file, "mesh file") : "";
+    f.at("file").fail(why.empty() ? "mesh file not found: " + m.file : m.file + " " + why);
+  }
   if (f.has("triangles") || f.has("seed")) f.fail("\"triangles\"/\"seed\" only apply to generators");
 }
 
@@ -357,8 +362,9 @@ Scene parse_scene(const std::string& text, const std::string& origin) {
 
 Scene load_scene(const std::string& path) {
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError(path, "", "scene file does not exist");
   if (fs::is_directory(path, ec)) throw InputError(path, "", "is a folder, not a scene file (give the file's path)");
+  // Missing, a FIFO (opening it would block), a device, a symbolic link loop: said as such.
+  if (const std::string why = not_a_regular_file(path, "scene file"); !why.empty()) throw InputError(path, "", why);
   std::string ext = fs::path(path).extension().string();
   for (auto& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
   if (ext != ".json") {

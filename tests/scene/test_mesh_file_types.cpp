@@ -10,6 +10,7 @@
 #include "common/error.hpp"
 #include "render/scene/file_type.hpp"
 #include "render/scene/mesh_import.hpp"
+#include "render/scene/scene.hpp"
 #include "scene_fixture.hpp"
 
 namespace rayline::scene {
@@ -54,6 +55,33 @@ TEST_F(MeshFileTypes, EachKindIsNamed) {
   EXPECT_EQ(import_error(path("link.obj")), "");  // a link to a regular file is one
   EXPECT_EQ(not_a_regular_file(good, "mesh file"), "");
   EXPECT_EQ(not_a_regular_file(path("folder.obj"), "scene file"), "is a folder, not a scene file (give the file's path)");
+}
+
+// The same for a scene file given as --scene, and for a mesh a scene JSON names: a FIFO
+// must not block load_scene, a link loop is named as one.
+TEST_F(MeshFileTypes, SceneFilesAndTheMeshesTheyNameAreNamedToo) {
+  namespace fs = std::filesystem;
+  fs::create_symlink("loop_b.json", path("loop_a.json"));
+  fs::create_symlink("loop_a.json", path("loop_b.json"));
+  ASSERT_EQ(::mkfifo(path("pipe.json").c_str(), 0600), 0);
+  ASSERT_EQ(::mkfifo(path("pipe.obj").c_str(), 0600), 0);
+  const std::string scene = write("scene.json", R"({"meshes": [{"file": "pipe.obj"}]})");
+  auto load_error = [](const std::string& file) {
+    try {
+      load_scene(file);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  ::alarm(20);
+  EXPECT_NE(load_error(path("loop_a.json")).find("symbolic link loop"), std::string::npos);
+  EXPECT_NE(load_error(path("pipe.json")).find("is a FIFO"), std::string::npos);
+  const std::string msg = load_error(scene);
+  ::alarm(0);
+  EXPECT_NE(msg.find("meshes[0].file"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("is a FIFO"), std::string::npos) << msg;
+  EXPECT_NE(load_error(path("absent.json")).find("scene file does not exist"), std::string::npos);
 }
 
 }  // namespace
