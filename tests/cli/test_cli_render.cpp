@@ -272,6 +272,21 @@ TEST_F(CliRender, AFullDiskPublishesNoOutputAndKeepsTheEarlierOnes) {
     EXPECT_FALSE(e.path().filename().string().starts_with("new.")) << "left behind: " << e.path();
 }
 
+// More worker threads than the address space allows (-j 1000 under ulimit -v): the threads
+// already started were destroyed joinable, and std::terminate ended the run (SIGABRT).
+TEST_F(CliRender, ThreadsTheSystemCannotStartAreAFailedRunNotACrash) {
+  blocks(2);
+  const auto r = rayline_limited(RLIMIT_AS, rlim_t(2) << 30,
+                                 {"render", "-q", "--resolution", "16x16", "--spp", "1", "-j", "1000", "--blocks-dir",
+                                  path("blocks"), "--out", path("img.exr")});
+  if (r.err.find("Sanitizer") != std::string::npos) GTEST_SKIP() << "a sanitizer's shadow memory needs more address space";
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("rayline: error: cannot start 1001 worker threads"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("terminate"), std::string::npos) << r.err;
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_FALSE(e.path().filename().string().starts_with("img.")) << "left behind: " << e.path();
+}
+
 TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
   auto r = rayline_cli("calibrate -q --resolution 48x48 --spp 2 --blocks 8 --out " + path("me.json"));
   ASSERT_EQ(r.code, 0) << r.all;
