@@ -1,11 +1,16 @@
 #include "apps/cli_common.hpp"
 
+#include <fcntl.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <unistd.h>
 
+#include "apps/run/output_set.hpp"
 #include "common/error.hpp"
 #include "common/output_folder.hpp"
 #include "common/unfinished_output.hpp"
@@ -95,23 +100,26 @@ void write_file_atomic(const std::string& path, const std::string& content) {
   const fs::path target(path);
   const fs::path tmp = unfinished::fresh_temp_name(target.string(), "tmp");
   const unfinished::Guard unfinished_guard(tmp.string());  // removed if the run is interrupted
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(path, "", "cannot open for writing");
-    out << content;
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw InputError(path, "", "write failed");
+  const auto fail = [&](const std::string& why) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw OutputWriteError(path, why);
+  };
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) fail(std::strerror(errno));
+  for (std::size_t done = 0; done < content.size();) {
+    const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : EIO;
+      ::close(fd);
+      fail(std::strerror(err));
     }
+    done += static_cast<std::size_t>(n);
   }
+  if (::close(fd) != 0) fail(std::strerror(errno));
   fs::rename(tmp, target, ec);
-  if (ec) {
-    const std::string why = ec.message();
-    fs::remove(tmp, ec);
-    throw InputError(path, "", "cannot rename temporary file into place: " + why);
-  }
+  if (ec) fail("cannot move it into place: " + ec.message());
 }
 
 }  // namespace rayline::cli

@@ -43,6 +43,8 @@ void check_distinct(const std::vector<NamedPath>& outputs, const std::vector<Nam
 void check_not_inside(const std::string& folder, const std::string& folder_flag, const std::vector<NamedPath>& inputs);
 
 // Write `content` to `path` atomically (temporary name in the same folder, then rename).
+// InputError when `path` is a folder; OutputWriteError (apps/run/output_set.hpp: a failed
+// run, exit 1) when the file cannot be written, e.g. on a full disk.
 void write_file_atomic(const std::string& path, const std::string& content);
 
 }  // namespace rayline::cli

@@ -1,7 +1,9 @@
 // `rayline compare`: one `rayline simulate` run per scheduler on the same platform, workload,
 // seed and duration, each in its own process (SimGrid's engine is a process-wide
 // singleton), results in OUT/<scheduler>/; then a table and OUT/compare.csv, compare.json.
-// A run that fails or stalls stays in the table with its status (never dropped).
+// A run that fails or stalls stays in the table with its status (never dropped). The runs
+// write into a staging folder that replaces OUT only once every run completed (finished,
+// or stalled with its results saying so; apps/run/staged_folder.hpp).
 #include "apps/cmd_compare.hpp"
 
 #include <algorithm>
@@ -14,7 +16,9 @@
 #include "apps/cli_common.hpp"
 #include "apps/run/child_process.hpp"
 #include "apps/run/run_options.hpp"
+#include "apps/run/staged_folder.hpp"
 #include "common/error.hpp"
+#include "sched/policy/scheduler_factory.hpp"
 
 namespace rayline::cli {
 
@@ -92,8 +96,9 @@ std::vector<std::string> scheduler_list(const std::string& text) {
   return scheds;
 }
 
-// The table on stdout, OUT/compare.csv and OUT/compare.json; rays/s relative to gmb's.
-void report(const std::vector<Row>& rows, const std::string& out) {
+// The table on stdout, compare.csv and compare.json into `dir`; rays/s relative to gmb's.
+// `out` is the folder as the user named it (OUT), which the table and the JSON show.
+void report(const std::vector<Row>& rows, const std::string& out, const std::string& dir) {
   const Row* ref = nullptr;
   for (const Row& r : rows)
     if (r.scheduler == "gmb") ref = &r;
@@ -127,8 +132,8 @@ void report(const std::vector<Row>& rows, const std::string& out) {
   }
   std::printf("rays/s: steady state (path tracing) or whole run; results in %s/<scheduler>/, %s/compare.csv, compare.json\n",
               out.c_str(), out.c_str());
-  write_file_atomic(out + "/compare.csv", csv.str());
-  write_file_atomic(out + "/compare.json", js.dump(1) + "\n");
+  write_file_atomic(dir + "/compare.csv", csv.str());
+  write_file_atomic(dir + "/compare.json", js.dump(1) + "\n");
 }
 
 }  // namespace
@@ -138,9 +143,13 @@ int run_compare(const CompareOptions& opt) {
   if (opt.sim.clients.find(',') != std::string::npos)
     throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
   check_simulate_flags(opt.sim);
-  // Each run replaces OUT/<scheduler>: checked for the user's files before the first run.
+  // Each run replaces OUT/<scheduler>, and the results replace OUT: checked for the user's
+  // files before the first run.
   for (const std::string& s : scheds) check_run_folder(opt.sim, opt.out + "/" + s);
-  ensure_dir(opt.out, "--out");
+  std::vector<std::string> folders;
+  for (const std::string_view name : kSchedulerNames) folders.emplace_back(name);
+  const auto check = [&] { return check_results_set(opt.sim, opt.out, {"compare.csv", "compare.json"}, folders); };
+  StagedFolder stage(check(), opt.out, "--out", check);
   std::vector<Row> rows;
   for (const auto& s : scheds) {
     std::printf("== %s ==\n", s.c_str());
@@ -149,12 +158,20 @@ int run_compare(const CompareOptions& opt) {
     o.scheduler = s;
     o.out = opt.out + "/" + s;
     o.no_progress = true;
+    const std::string dir = stage.path() + "/" + s;
     std::string ignored;
-    const int rc = run_in_child([&](int) { return guarded([&] { return run_simulate(o); }); }, ignored);
+    const int rc = run_in_child([&](int) { return guarded([&] { return run_simulate_into(o, dir); }); }, ignored);
     if (rc == kExitBadInput) return rc;  // the same input is bad for every scheduler
-    rows.push_back(read_row(s, o.out, rc));
+    rows.push_back(read_row(s, dir, rc));
   }
-  report(rows, opt.out);
+  report(rows, opt.out, stage.path());
+  for (const Row& r : rows)
+    if (!run_completed(stage.path() + "/" + r.scheduler)) {
+      std::fprintf(stderr, "rayline: the %s run failed (exit %d); nothing is published under %s\n", r.scheduler.c_str(),
+                   r.exit_code, opt.out.c_str());
+      return kExitFailure;
+    }
+  stage.publish();
   for (const Row& r : rows)
     if (r.status != "ok") return kExitFailure;
   return kExitOk;

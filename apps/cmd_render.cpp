@@ -1,6 +1,7 @@
 // `rayline render` / `rayline calibrate`: options → engine::render / engine::calibrate,
-// outputs written atomically next to the image: IMAGE.exr, IMAGE.png (preview),
-// IMAGE.metrics.json, IMAGE.timeline.json (Chrome trace), IMAGE.jobs.csv.
+// outputs next to the image: IMAGE.exr, IMAGE.png (preview), IMAGE.metrics.json,
+// IMAGE.timeline.json (Chrome trace), IMAGE.jobs.csv, and the recordings asked for, all
+// published together once every one is written (apps/run/output_set.hpp).
 #include "apps/cmd_render.hpp"
 
 
@@ -13,6 +14,7 @@
 
 #include "apps/cli_common.hpp"
 #include "apps/cmd_partition.hpp"
+#include "apps/run/output_set.hpp"
 #include "apps/run/run_options.hpp"
 #include "render/engine/calibrate.hpp"
 #include "render/engine/profile_recorder.hpp"
@@ -22,7 +24,6 @@
 #include "render/scene/scene.hpp"
 #include "common/error.hpp"
 #include "common/progress_line.hpp"
-#include "common/unfinished_output.hpp"
 
 namespace rayline::cli {
 
@@ -160,42 +161,26 @@ std::unique_ptr<engine::ProfileRecorder> make_recorder(const RenderCliOptions& o
   return std::make_unique<engine::ProfileRecorder>(po);
 }
 
-// The replay log, written under a temporary name and moved into place once complete.
-void write_replay_log(const RenderCliOptions& opt, const engine::ProfileRecorder& recorder, const engine::RenderResult& r) {
-  const std::string tmp = unfinished::fresh_temp_name(opt.record_replay, "partial");
-  const unfinished::Guard unfinished_guard(tmp);  // removed if the run is interrupted
-  try {
-    recorder.replay().save(tmp, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +
-                                    "x" + std::to_string(r.height) + ", " + std::to_string(r.spp) + " spp, keyframe " +
-                                    std::to_string(opt.record_keyframe) + " (client 0, frame " +
-                                    std::to_string(opt.record_keyframe) + ")");
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw;
-  }
-  std::error_code ec;
-  fs::rename(tmp, opt.record_replay, ec);
-  if (ec) {
-    const std::string why = ec.message();
-    fs::remove(tmp, ec);
-    throw InputError(opt.record_replay, "--record-replay", "cannot move the log into place: " + why);
-  }
-}
-
-void write_recordings(const RenderCliOptions& opt, const engine::ProfileRecorder& recorder, const engine::RenderResult& r) {
+void write_recordings(const RenderCliOptions& opt, const engine::ProfileRecorder& recorder, const engine::RenderResult& r,
+                      OutputSet& outputs) {
   const std::string extra = "\"scene\": \"" + r.scene_name + "\", \"blocks\": " + std::to_string(r.blocks) +
                             ", \"seed\": " + std::to_string(r.seed) + ", \"render_rays\": {\"traced\": " +
                             std::to_string(r.counts.traced) + ", \"created\": " + std::to_string(r.counts.created) +
                             ", \"escaped\": " + std::to_string(r.counts.escaped) + ", \"occluded\": " +
                             std::to_string(r.counts.occluded) + ", \"unoccluded\": " +
                             std::to_string(r.counts.unoccluded) + "}";
-  if (!opt.record_profile.empty()) write_file_atomic(opt.record_profile, recorder.statistics_json(extra));
-  if (!opt.record_replay.empty()) write_replay_log(opt, recorder, r);
+  if (!opt.record_profile.empty()) outputs.write_text(opt.record_profile, recorder.statistics_json(extra));
+  if (!opt.record_replay.empty())
+    outputs.write(opt.record_replay, [&](const std::string& staged) {
+      recorder.replay().save(staged, "recorded by rayline render from " + r.scene_name + ", " + std::to_string(r.width) +
+                                         "x" + std::to_string(r.height) + ", " + std::to_string(r.spp) +
+                                         " spp, keyframe " + std::to_string(opt.record_keyframe) + " (client 0, frame " +
+                                         std::to_string(opt.record_keyframe) + ")");
+    });
 }
 
 // IMAGE.exr (with the run's metadata), IMAGE.png, IMAGE.metrics.json, .timeline.json, .jobs.csv.
-void write_image_and_companions(const std::string& out, const engine::RenderResult& r) {
+void write_image_and_companions(const std::string& out, const engine::RenderResult& r, OutputSet& outputs) {
   image::Metadata meta;
   meta.strings["rayline.scene"] = r.scene_name;
   meta.strings["rayline.scheduler"] = r.scheduler_parameters;
@@ -205,11 +190,13 @@ void write_image_and_companions(const std::string& out, const engine::RenderResu
   meta.ints["rayline.max_depth"] = r.max_depth;
   meta.doubles["rayline.seconds"] = r.seconds;
   meta.doubles["rayline.memory_budget_bytes"] = static_cast<double>(r.memory_budget);
-  image::write_exr(out, r.width, r.height, r.rgb.data(), meta);
-  image::write_png_preview(sibling(out, ".png"), r.width, r.height, r.rgb.data(), 1.0f);
-  write_file_atomic(sibling(out, ".metrics.json"), r.metrics_json);
-  write_file_atomic(sibling(out, ".timeline.json"), r.timeline_json);
-  write_file_atomic(sibling(out, ".jobs.csv"), r.jobs_csv);
+  outputs.write(out, [&](const std::string& staged) { image::write_exr(staged, r.width, r.height, r.rgb.data(), meta); });
+  outputs.write(sibling(out, ".png"), [&](const std::string& staged) {
+    image::write_png_preview(staged, r.width, r.height, r.rgb.data(), 1.0f);
+  });
+  outputs.write_text(sibling(out, ".metrics.json"), r.metrics_json);
+  outputs.write_text(sibling(out, ".timeline.json"), r.timeline_json);
+  outputs.write_text(sibling(out, ".jobs.csv"), r.jobs_csv);
 }
 
 void print_render_summary(const std::string& out, const engine::RenderResult& r) {
@@ -245,8 +232,10 @@ int run_render(const RenderCliOptions& opt) {
   ro.batching.recorder = recorder.get();
   const engine::RenderResult r = engine::render(ro);
   line.done();
-  if (recorder) write_recordings(opt, *recorder, r);
-  write_image_and_companions(opt.out, r);
+  OutputSet outputs;
+  if (recorder) write_recordings(opt, *recorder, r, outputs);
+  write_image_and_companions(opt.out, r, outputs);
+  outputs.publish();
   if (!opt.quiet) print_render_summary(opt.out, r);
   return kExitOk;
 }

@@ -10,7 +10,9 @@
 #include "apps/platform_path.hpp"
 #include "apps/run/child_process.hpp"
 #include "apps/run/run_options.hpp"
+#include "apps/run/staged_folder.hpp"
 #include "common/error.hpp"
+#include "common/output_folder.hpp"
 #include "sim/simulation.hpp"
 
 namespace rayline::cli {
@@ -149,13 +151,32 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
 
 void check_simulate_flags(const SimulateOptions& opt) { simulate_config(opt); }
 
+namespace {
+std::vector<NamedPath> run_inputs(const SimulateOptions& opt) {
+  const std::string workload = resolve_workload(opt.workload);
+  return {{"--platform", resolve_platform(opt.platform)},
+          {"--workload", workload == "ray-stream" ? "" : workload},
+          {"--replay", opt.replay}};
+}
+}  // namespace
+
 void check_run_folder(const SimulateOptions& opt, const std::string& dir) {
   sim::check_results_folder(dir, "--out");
-  const std::string workload = resolve_workload(opt.workload);
-  check_not_inside(dir, "--out",
-                   {{"--platform", resolve_platform(opt.platform)},
-                    {"--workload", workload == "ray-stream" ? "" : workload},
-                    {"--replay", opt.replay}});
+  check_not_inside(dir, "--out", run_inputs(opt));
+}
+
+std::string check_results_set(const SimulateOptions& opt, const std::string& dir, const std::vector<std::string>& own,
+                              const std::vector<std::string>& own_folders) {
+  const OwnFiles files(own.begin(), own.end()), folders(own_folders.begin(), own_folders.end());
+  const std::string target = replaceable_folder(dir, "--out", files, folders,
+                                                [](const std::string& sub) { sim::check_results_folder(sub, "--out"); });
+  check_not_inside(dir, "--out", run_inputs(opt));
+  return target;
+}
+
+bool run_completed(const std::string& dir) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(std::filesystem::path(dir) / "metrics.json", ec);
 }
 
 namespace {
@@ -172,6 +193,7 @@ int sweep_point(const sim::SimulationConfig& cfg, int clients, const std::string
                                   s.steady_rays_per_second, s.prediction_accuracy, s.busy, s.setup, s.fetching, s.idle,
                                   static_cast<unsigned long long>(s.frames_delivered));
     if (::write(fd, line, static_cast<std::size_t>(len)) != len) return kExitFailure;
+    if (s.stalled) std::fprintf(stderr, "rayline: %d client(s): %s\n", clients, s.stalled_reason.c_str());
     return s.stalled ? kExitFailure : kExitOk;
   } catch (const InputError& e) {
     std::fprintf(stderr, "rayline: %s\n", e.what());
@@ -184,16 +206,26 @@ int sweep_point(const sim::SimulationConfig& cfg, int clients, const std::string
 
 // A sweep (Sec. 6: "we increase the number of clients until each method reaches its peak
 // performance"): one process per point, results in OUT/clients-N/; the summary line of
-// each and the peak.
-int run_sweep(const sim::SimulationConfig& cfg, const std::vector<int>& counts, const std::string& out) {
+// each and the peak. The points write into a staging folder, published as OUT once every
+// point completed (a stalled point completes: its results say so, and the sweep exits 1).
+int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, const std::vector<int>& counts) {
+  const auto check = [&] { return check_results_set(opt, opt.out, {}, {"clients-*"}); };
+  StagedFolder stage(check(), opt.out, "--out", check);
   double peak = 0;
   int peak_n = 0;
+  bool stalled = false;
   std::printf("clients,steady_rays_per_second,prediction_accuracy,busy,setup,fetching,idle,frames\n");
   std::fflush(stdout);
   for (int n : counts) {
     std::string line;  // one process per point
-    const int rc = run_in_child([&](int fd) { return sweep_point(cfg, n, out, fd); }, line);
-    if (rc != kExitOk) return rc;
+    const int rc = run_in_child([&](int fd) { return sweep_point(cfg, n, stage.path(), fd); }, line);
+    if (rc != kExitOk && (rc != kExitFailure || !run_completed(stage.path() + "/clients-" + std::to_string(n)))) {
+      if (rc != kExitBadInput)
+        std::fprintf(stderr, "rayline: the run with %d client(s) failed; nothing is published under %s\n", n,
+                     opt.out.c_str());
+      return rc;
+    }
+    stalled = stalled || rc != kExitOk;
     std::printf("%s", line.c_str());
     std::fflush(stdout);
     const double r = std::strtod(line.c_str() + line.find(',') + 1, nullptr);
@@ -202,7 +234,22 @@ int run_sweep(const sim::SimulationConfig& cfg, const std::vector<int>& counts, 
       peak_n = n;
     }
   }
-  std::printf("peak: %.4g rays/s with %d client(s); results in %s/clients-N/\n", peak, peak_n, out.c_str());
+  stage.publish();
+  std::printf("peak: %.4g rays/s with %d client(s); results in %s/clients-N/\n", peak, peak_n, opt.out.c_str());
+  return stalled ? kExitFailure : kExitOk;
+}
+
+// One run with opt.clients clients, its results folder written at `dir`; prints the
+// summary naming opt.out, and the reason of a stall.
+int run_one(const SimulateOptions& opt, sim::SimulationConfig cfg, const std::string& dir) {
+  cfg.clients = client_counts(opt.clients)[0];
+  cfg.out_dir = dir;
+  const sim::SimulationSummary s = sim::run_simulation(cfg);
+  print_summary(s, opt.out, cfg.timeline);
+  if (s.stalled) {
+    std::fprintf(stderr, "rayline: %s\n", s.stalled_reason.c_str());
+    return kExitFailure;
+  }
   return kExitOk;
 }
 }  // namespace
@@ -212,15 +259,10 @@ int run_simulate(const SimulateOptions& opt) {
   const std::vector<int> counts = client_counts(opt.clients);
   // Before any run: a folder holding the user's files is never replaced, nor one an input lies in.
   for (int n : counts) check_run_folder(opt, counts.size() == 1 ? opt.out : opt.out + "/clients-" + std::to_string(n));
-  if (counts.size() > 1) return run_sweep(cfg, counts, opt.out);
-  cfg.clients = counts[0];
-  const sim::SimulationSummary s = sim::run_simulation(cfg);
-  print_summary(s, opt.out, cfg.timeline);
-  if (s.stalled) {
-    std::fprintf(stderr, "rayline: %s\n", s.stalled_reason.c_str());
-    return kExitFailure;
-  }
-  return kExitOk;
+  if (counts.size() > 1) return run_sweep(opt, cfg, counts);
+  return run_one(opt, cfg, opt.out);
 }
+
+int run_simulate_into(const SimulateOptions& opt, const std::string& dir) { return run_one(opt, simulate_config(opt), dir); }
 
 }  // namespace rayline::cli

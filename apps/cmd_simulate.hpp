@@ -2,6 +2,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace rayline::cli {
 
@@ -32,6 +33,9 @@ struct SimulateOptions {
   std::string warmup;               // default: a third of --duration
 };
 int run_simulate(const SimulateOptions& opt);
+// One run, as run_simulate does it, writing its results folder at `dir` (inside compare's
+// staging folder) while naming opt.out in what it prints. opt.clients is one count.
+int run_simulate_into(const SimulateOptions& opt, const std::string& dir);
 // Every flag run_simulate() parses and checks (platform and workload names, the scheduler,
 // durations, the path-tracing options): InputError naming the flag, before anything runs
 // (compare checks once for all its schedulers).
@@ -39,5 +43,14 @@ void check_simulate_flags(const SimulateOptions& opt);
 // Before a run into `dir` (OUT, OUT/clients-N, compare's OUT/<scheduler>): InputError unless
 // `dir` may be replaced and holds none of the run's input files.
 void check_run_folder(const SimulateOptions& opt, const std::string& dir);
+// Before runs that fill the folder of results folders `dir` (compare's OUT, a sweep's OUT),
+// replaced as a whole: InputError unless it holds nothing but files matching `own` and
+// folders matching `own_folders` that check_run_folder accepts, and none of the run's
+// inputs. Returns the folder as replaceable_folder gives it.
+std::string check_results_set(const SimulateOptions& opt, const std::string& dir, const std::vector<std::string>& own,
+                              const std::vector<std::string>& own_folders);
+// True when the run into `dir` completed: its results were published there (finished or
+// stalled; a run that failed otherwise publishes nothing).
+bool run_completed(const std::string& dir);
 
 }  // namespace rayline::cli

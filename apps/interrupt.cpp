@@ -169,6 +169,9 @@ void start_waiting() {
 
 void install_interrupt_cleanup() {
   choose_signals();
+  // A file size limit (ulimit -f) then fails the write with EFBIG, which the run reports and
+  // cleans up after as any failed write, instead of SIGXFSZ ending the process mid-write.
+  ::signal(SIGXFSZ, SIG_IGN);
   struct sigaction fz {};
   fz.sa_handler = freeze_handler;
   sigemptyset(&fz.sa_mask);

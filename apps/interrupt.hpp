@@ -8,7 +8,8 @@ namespace rayline::cli {
 
 // Call first in main(), before any thread exists: blocks the three signals in every thread
 // and waits for them on one thread of its own (sigwait), which removes the registered
-// outputs, stops the registered child processes and ends the process.
+// outputs, stops the registered child processes and ends the process. SIGXFSZ is ignored,
+// so that a write past a file size limit fails (EFBIG) as a write to a full disk does.
 void install_interrupt_cleanup();
 
 // In a child of fork() that runs a command (compare, client sweeps): forget the parent's

@@ -43,6 +43,11 @@ bool folder_holds(const std::string& folder, const std::string& path) {
 }
 
 std::string replaceable_folder(const std::string& path, const std::string& flag, const OwnFiles& own) {
+  return replaceable_folder(path, flag, own, {}, {});
+}
+
+std::string replaceable_folder(const std::string& path, const std::string& flag, const OwnFiles& own,
+                               const OwnFiles& own_folders, const std::function<void(const std::string&)>& check_folder) {
   if (path.empty()) throw InputError(path, flag, "missing output folder");
   std::error_code ec;
   const fs::path target = normal_path(path);
@@ -53,16 +58,22 @@ std::string replaceable_folder(const std::string& path, const std::string& flag,
   const fs::file_status st = fs::status(target, ec);
   if (!fs::exists(st)) return target.string();
   if (!fs::is_directory(st)) throw InputError(path, flag, "exists and is not a folder; not replacing it");
+  const auto any_match = [](const std::string& name, const OwnFiles& patterns) {
+    for (std::string_view p : patterns)
+      if (matches(name, p)) return true;
+    return false;
+  };
   for (fs::directory_iterator it(target, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
-    bool ok = it->is_regular_file(ec) && !it->is_symlink(ec);
-    if (ok) {
-      ok = false;
-      for (std::string_view p : own) ok = ok || matches(name, p);
+    std::error_code e;
+    const bool link = it->is_symlink(e);
+    if (!link && it->is_regular_file(e) && any_match(name, own)) continue;
+    if (!link && check_folder && it->is_directory(e) && any_match(name, own_folders)) {
+      check_folder(it->path().string());
+      continue;
     }
-    if (!ok)
-      throw InputError(path, flag, "folder holds '" + name + "', which this command does not write; not replacing it "
-                                   "(give a new folder, or remove it yourself)");
+    throw InputError(path, flag, "folder holds '" + name + "', which this command does not write; not replacing it "
+                                 "(give a new folder, or remove it yourself)");
   }
   if (ec) throw InputError(path, flag, "cannot list the folder: " + ec.message());
   return target.string();

@@ -4,6 +4,7 @@
 // is replaced only when it is empty or holds nothing but files the command itself writes:
 // so `--out .` or `--out ~` can never delete the folder's contents.
 #pragma once
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -19,6 +20,13 @@ using OwnFiles = std::vector<std::string_view>;
 // path is empty, is a file, is the current folder or holds it, or holds anything else (the
 // first such entry is named).
 std::string replaceable_folder(const std::string& path, const std::string& flag, const OwnFiles& own);
+
+// The same for a folder of result folders (`compare`'s OUT/<scheduler>/, a client sweep's
+// OUT/clients-N/): besides files matching `own`, entries that are folders (not links) matching
+// `own_folders` are accepted once `check_folder(that folder's path)` returns; it throws
+// InputError naming what the folder holds that the command does not write.
+std::string replaceable_folder(const std::string& path, const std::string& flag, const OwnFiles& own,
+                               const OwnFiles& own_folders, const std::function<void(const std::string&)>& check_folder);
 
 // `path` made absolute, with links resolved as far as it exists, `.` and `..` folded and
 // no trailing '/': how every check here compares paths.

@@ -1,5 +1,7 @@
 #include "apps/run/child_process.hpp"
 
+#include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -14,9 +16,13 @@ namespace rayline::cli {
 int run_in_child(const std::function<int(int fd)>& body, std::string& output) {
   int fds[2];
   if (::pipe(fds) != 0) throw std::runtime_error("pipe failed");
+  const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) throw std::runtime_error("fork failed");
   if (pid == 0) {
+    // Dies with the parent. Had the parent already ended before the request took effect,
+    // this process is someone else's child now: end at once.
+    if (::prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || ::getppid() != parent) ::_exit(kExitFailure);
     interrupt_cleanup_after_fork();
     ::close(fds[0]);
     const int rc = body(fds[1]);

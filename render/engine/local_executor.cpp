@@ -3,22 +3,38 @@
 #include <xmmintrin.h>
 #include <pmmintrin.h>
 
+#include <stdexcept>
+#include <string>
+#include <system_error>
+
 namespace rayline::engine {
 
 LocalExecutor::LocalExecutor(const DeviceGraph& g, TaskFactory factory, TaskFactory hint_factory)
     : g_(g), factory_(std::move(factory)), hint_factory_(std::move(hint_factory)), t0_(std::chrono::steady_clock::now()),
       lanes_(g.computes.size() + g.resources.size()), busy_(lanes_.size(), 0.0), running_(lanes_.size(), 0) {
-  for (std::size_t i = 0; i < lanes_.size(); ++i) threads_.emplace_back([this, i] { worker(i); });
+  try {
+    for (std::size_t i = 0; i < lanes_.size(); ++i) threads_.emplace_back([this, i] { worker(i); });
+  } catch (const std::system_error& e) {
+    // Out of threads (an address-space or process limit): the ones started stop and are
+    // joined, so the failure reaches the caller instead of std::terminate (a joinable
+    // std::thread destroyed).
+    stop_threads();
+    throw std::runtime_error("cannot start " + std::to_string(lanes_.size()) +
+                             " worker threads (one per compute device and channel): " + e.code().message());
+  }
 }
 
-LocalExecutor::~LocalExecutor() {
+void LocalExecutor::stop_threads() {
   {
     std::lock_guard lk(mu_);
     stop_ = true;
   }
   cv_.notify_all();
   for (auto& t : threads_) t.join();
+  threads_.clear();
 }
+
+LocalExecutor::~LocalExecutor() { stop_threads(); }
 
 Time LocalExecutor::now() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();

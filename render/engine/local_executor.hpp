@@ -31,6 +31,8 @@ class LocalExecutor final : public Executor {
   // capture what it needs; it runs on the timeline's thread).
   using TaskFactory = std::function<Task(ActivityId, const Activity&)>;
 
+  // Starts the threads; std::runtime_error "cannot start N worker threads ...: reason" when
+  // the system refuses one (none is left running then).
   LocalExecutor(const DeviceGraph& g, TaskFactory factory, TaskFactory hint_factory = {});
   ~LocalExecutor() override;
   LocalExecutor(const LocalExecutor&) = delete;
@@ -56,6 +58,7 @@ class LocalExecutor final : public Executor {
     Task hint;  // run once when the item is next in its lane (read-ahead), then cleared
   };
   void worker(std::size_t lane);
+  void stop_threads();  // tells the threads to stop and joins them
   bool ready(const Item& it) const;
   void fire_hint(std::size_t lane, std::unique_lock<std::mutex>& lk);
 

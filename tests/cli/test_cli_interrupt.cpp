@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -116,10 +118,18 @@ TEST_F(Interrupt, SimulateRemovesItsPartialFolderAndKeepsTheEarlierResults) {
 
 TEST_F(Interrupt, CompareStopsItsRunAndBothRemoveTheirOutputs) {
   start({"compare", "--duration", "1000000s", "--schedulers", "gmb,budge", "--out", path("cmp")});
-  ASSERT_TRUE(wait_until([&] { return any_starting(dir_ / "cmp", "gmb.partial."); })) << err();
+  // The runs write into compare's staging folder, cmp.partial.<pid>@<host>/<scheduler>.
+  const auto running = [&] {
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir_, ec))
+      if (e.path().filename().string().starts_with("cmp.partial.") && any_starting(e.path(), "gmb.partial.")) return true;
+    return false;
+  };
+  ASSERT_TRUE(wait_until(running)) << err();
   EXPECT_EQ(stop(SIGINT), 128 + SIGINT) << err();
-  // The parent waited for its child, which removed its partial folder before ending.
-  EXPECT_FALSE(any_starting(dir_ / "cmp", "gmb")) << err();
+  // The parent waited for its child, which removed its partial folder before ending, and
+  // then removed its own.
+  EXPECT_FALSE(any_starting(dir_, "cmp")) << err();
 }
 
 TEST_F(Interrupt, RenderRemovesItsTemporaryPartition) {
@@ -162,4 +172,115 @@ TEST_F(Interrupt, AKilledRunsHalfWrittenMeshIsRemovedByTheNextRun) {
   ASSERT_EQ(finish(), 0) << err();
   EXPECT_FALSE(any_starting(dir_, "big.ply.")) << err();
   EXPECT_TRUE(fs::exists(path("big.ply")));
+}
+
+// The processes of a `compare` or a client sweep never outlive it, and their results appear
+// all together or not at all: a survivor of a killed `compare` went on for a minute and
+// then published its results under --out (apps/run/child_process.hpp,
+// apps/run/staged_folder.hpp). The test is a subreaper, so the runs of a killed rayline
+// become its children: it can see whether they are still alive and reap them.
+namespace {
+class ResultSets : public Interrupt {
+ protected:
+  void SetUp() override {
+    Interrupt::SetUp();
+    ASSERT_EQ(::prctl(PR_SET_CHILD_SUBREAPER, 1), 0);
+  }
+  void TearDown() override {
+    for (pid_t c : runs_) {
+      ::kill(c, SIGKILL);
+      ::waitpid(c, nullptr, 0);
+    }
+    Interrupt::TearDown();
+  }
+  // The processes whose parent is `parent` (from /proc/<pid>/stat: "pid (comm) state ppid").
+  static std::vector<pid_t> children_of(pid_t parent) {
+    std::vector<pid_t> out;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator("/proc", ec)) {
+      const std::string name = e.path().filename().string();
+      if (name.empty() || name.find_first_not_of("0123456789") != std::string::npos) continue;
+      std::ifstream in(e.path() / "stat");
+      std::string stat;
+      std::getline(in, stat);
+      const std::size_t close = stat.rfind(')');
+      if (close == std::string::npos) continue;
+      std::istringstream rest(stat.substr(close + 1));
+      char state = 0;
+      long ppid = 0;
+      if (rest >> state >> ppid && ppid == parent) out.push_back(static_cast<pid_t>(std::stol(name)));
+    }
+    return out;
+  }
+  // Starts `args`, waits until it runs a child process, and remembers the children.
+  void start_runs(const std::vector<std::string>& args) {
+    start(args);
+    const pid_t parent = pid_;
+    ASSERT_TRUE(wait_until([&] { return !children_of(parent).empty(); })) << err();
+    runs_ = children_of(parent);
+  }
+  // True once every remembered run has ended (reaped here, as their subreaper).
+  bool runs_ended(std::chrono::milliseconds within) {
+    const auto until = std::chrono::steady_clock::now() + within;
+    for (;;) {
+      std::vector<pid_t> alive;
+      for (pid_t c : runs_) {
+        const pid_t w = ::waitpid(c, nullptr, WNOHANG);
+        if (w == 0 || (w < 0 && errno != ECHILD)) alive.push_back(c);
+      }
+      runs_ = alive;
+      if (runs_.empty()) return true;
+      if (std::chrono::steady_clock::now() > until) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  std::vector<pid_t> runs_;
+};
+
+// A run that takes about 2 s here: a survivor would publish well within the test.
+const std::vector<std::string> kCompare = {"compare", "--duration", "2000s", "--schedulers", "gmb,budge"};
+const std::vector<std::string> kSweep = {"simulate", "--workload", "museum", "--platform", "paper-A", "--duration",
+                                         "800s",     "--clients",  "1,2",    "--no-progress", "--no-timeline"};
+std::vector<std::string> with_out(std::vector<std::string> args, const std::string& out) {
+  args.push_back("--out");
+  args.push_back(out);
+  return args;
+}
+}  // namespace
+
+TEST_F(ResultSets, AKilledCompareTakesItsRunsWithItAndPublishesNothing) {
+  start_runs(with_out(kCompare, path("cmp")));
+  EXPECT_EQ(stop(SIGKILL), -1);
+  EXPECT_TRUE(runs_ended(std::chrono::seconds(3))) << runs_.size() << " run(s) of the killed compare still alive";
+  std::this_thread::sleep_for(std::chrono::seconds(6));
+  EXPECT_FALSE(fs::exists(path("cmp"))) << "results published after the compare was killed";
+  // What the killed compare staged is removed by the next run into the same place.
+  start({"compare", "--platform", "paper-A", "--duration", "1s", "--schedulers", "gmb", "--out", path("cmp")});
+  ASSERT_EQ(finish(), 0) << err();
+  EXPECT_TRUE(fs::exists(path("cmp/gmb/metrics.json")));
+  EXPECT_FALSE(any_starting(dir_, "cmp.")) << err();
+}
+
+TEST_F(ResultSets, AStoppedCompareStopsItsRunsAndLeavesNothing) {
+  start_runs(with_out(kCompare, path("cmp")));
+  EXPECT_EQ(stop(SIGTERM), 128 + SIGTERM) << err();
+  EXPECT_TRUE(runs_ended(std::chrono::seconds(3))) << runs_.size() << " run(s) of the stopped compare still alive";
+  std::this_thread::sleep_for(std::chrono::seconds(4));
+  EXPECT_FALSE(any_starting(dir_, "cmp")) << "results or a staging folder left after the compare was stopped";
+}
+
+TEST_F(ResultSets, AKilledSweepTakesItsRunsWithItAndPublishesNothing) {
+  start_runs(with_out(kSweep, path("sweep")));
+  EXPECT_EQ(stop(SIGKILL), -1);
+  EXPECT_TRUE(runs_ended(std::chrono::seconds(3))) << runs_.size() << " point(s) of the killed sweep still alive";
+  std::this_thread::sleep_for(std::chrono::seconds(6));
+  EXPECT_FALSE(fs::exists(path("sweep"))) << "results published after the sweep was killed";
+}
+
+TEST_F(ResultSets, AStoppedSweepStopsItsRunsAndLeavesNothing) {
+  start_runs(with_out(kSweep, path("sweep")));
+  EXPECT_EQ(stop(SIGTERM), 128 + SIGTERM) << err();
+  EXPECT_TRUE(runs_ended(std::chrono::seconds(3))) << runs_.size() << " point(s) of the stopped sweep still alive";
+  std::this_thread::sleep_for(std::chrono::seconds(4));
+  EXPECT_FALSE(any_starting(dir_, "sweep")) << "results or a staging folder left after the sweep was stopped";
 }

@@ -9,11 +9,14 @@
 #include <unistd.h>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "cli/cli_run.hpp"
 #include "cli/scratch_test.hpp"
 
 namespace fs = std::filesystem;
 using rayline::testing::rayline_cli;
+using rayline::testing::rayline_limited;
 
 namespace {
 class OutputFolders : public rayline::testing::ScratchTest {
@@ -102,11 +105,12 @@ TEST_F(OutputFolders, CompareAndSweepsCheckEveryRunsFolderBeforeTheFirstRun) {
   EXPECT_NE(r.err.find("budge: --out: folder holds 'mine.txt'"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(path("cmp/gmb"))) << "refused before GMB ran";
   EXPECT_EQ(read("cmp/budge/mine.txt"), "mine");
-  // compare's own folder keeps the user's files beside its results.
+  // compare's results replace its whole folder, which therefore may hold nothing else.
   write("mine/thesis.tex", "precious");
   r = rayline_cli("compare --platform paper-A --duration 1s --schedulers gmb --out " + path("mine"));
-  EXPECT_EQ(r.code, 0) << r.all;
-  EXPECT_TRUE(fs::exists(path("mine/compare.csv")));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("mine: --out: folder holds 'thesis.tex'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("mine/compare.csv")));
   EXPECT_EQ(read("mine/thesis.tex"), "precious");
   // A client sweep writes OUT/clients-N: each is checked before the first point runs.
   write("sweep/clients-2/mine.txt", "mine");
@@ -116,6 +120,47 @@ TEST_F(OutputFolders, CompareAndSweepsCheckEveryRunsFolderBeforeTheFirstRun) {
   EXPECT_NE(r.err.find("clients-2: --out: folder holds 'mine.txt'"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(path("sweep/clients-1")));
   expect_only({"cmp", "mine", "sweep"});
+}
+
+// `compare --out .` wrote compare.csv and compare.json over the user's own files, and a
+// scheduler's folder over theirs: compare's OUT is replaced as a whole, like simulate's, so
+// it may hold only what compare writes (its tables, and scheduler folders of run files).
+TEST_F(OutputFolders, CompareNeverOverwritesTheUsersFiles) {
+  const std::string cmp = "compare --platform paper-A --duration 1s --schedulers gmb --out ";
+  write("a/compare.csv", "my table");
+  write("a/notes.txt", "mine");
+  const fs::path before = fs::current_path();
+  fs::current_path(path("a"));
+  auto r = rayline_cli(cmp + ".");
+  fs::current_path(before);
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find(".: --out: is the current folder or holds it"), std::string::npos) << r.err;
+  r = rayline_cli(cmp + path("a"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--out: folder holds 'notes.txt'"), std::string::npos) << r.err;
+  EXPECT_EQ(read("a/compare.csv"), "my table");
+  EXPECT_FALSE(fs::exists(path("a/gmb")));
+  // A folder of the user's that happens to bear a scheduler's name is theirs too.
+  write("b/budge/photo.jpg", "mine");
+  r = rayline_cli(cmp + path("b"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("budge: --out: folder holds 'photo.jpg'"), std::string::npos) << r.err;
+  EXPECT_EQ(read("b/budge/photo.jpg"), "mine");
+  // compare's own earlier results are replaced whole: a scheduler not run again goes.
+  ASSERT_EQ(rayline_cli("compare --platform paper-A --duration 1s --schedulers gmb,budge --out " + path("c")).code, 0);
+  r = rayline_cli(cmp + path("c"));
+  EXPECT_EQ(r.code, 0) << r.all;
+  EXPECT_TRUE(fs::exists(path("c/gmb/metrics.json")));
+  EXPECT_TRUE(fs::exists(path("c/compare.json")));
+  EXPECT_FALSE(fs::exists(path("c/budge"))) << "the earlier results are replaced, not merged";
+  // The same for a client sweep's folder.
+  write("s/notes.txt", "mine");
+  r = rayline_cli("simulate --workload museum --platform paper-A --duration 1s --no-progress --clients 1,2 --out " +
+                  path("s"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--out: folder holds 'notes.txt'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("s/clients-1")));
+  expect_only({"a", "b", "c", "s"});
 }
 
 TEST_F(OutputFolders, PartitionReplacesOnlyAPartition) {
@@ -257,4 +302,41 @@ TEST_F(OutputFolders, AnInputInsideTheFolderARunReplacesIsRefused) {
   EXPECT_EQ(read("cmp/gmb/replay.log"), log);
   // Elsewhere, the same log replays.
   EXPECT_EQ(rayline_cli(run + "--fidelity replay --replay " + path("cmp/gmb/replay.log") + " --out " + path("rec")).code, 0);
+}
+
+// A compare's results appear whole or not at all. A stalled run completes (exit 1, its
+// results say "stalled": true) and the set is published; a run that fails otherwise, here
+// on a full disk (a file size limit), leaves the set incomplete and nothing is published.
+// The children used to publish each run's folder on their own, and compare went on to write
+// its tables beside whatever had been published.
+TEST_F(OutputFolders, ACompareIsPublishedOnlyWhenEveryRunCompleted) {
+  // 100 MB of RAM on the one node: nothing can run (tests/cli/test_cli_plan_simulate.cpp).
+  auto p = nlohmann::json::parse(std::ifstream(std::string(RAYLINE_PLATFORMS) + "/paper-A.json"));
+  p["node_types"]["A"]["memory"][1]["capacity"] = "100MB";
+  write("small-ram.json", p.dump());
+  auto r = rayline_cli("compare --platform " + path("small-ram.json") + " --duration 2s --schedulers gmb,budge --out " +
+                       path("stalled"));
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("no chain of channels"), std::string::npos) << "the stall is explained: " << r.err;
+  for (const char* s : {"gmb", "budge"}) {
+    const auto m = nlohmann::json::parse(std::ifstream(path(std::string("stalled/") + s + "/metrics.json")));
+    EXPECT_TRUE(m.at("stalled").get<bool>()) << s;
+  }
+  EXPECT_TRUE(fs::exists(path("stalled/compare.csv")));
+
+  // On the paper cluster the runs' metrics and timelines exceed a 16 KiB file size limit.
+  r = rayline_limited(RLIMIT_FSIZE, 16 << 10,
+                      {"compare", "--duration", "10s", "--schedulers", "gmb,budge", "--out", path("full")});
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("cannot write"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("nothing is published under " + path("full")), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("full")));
+  // The same for a client sweep.
+  r = rayline_limited(RLIMIT_FSIZE, 16 << 10,
+                      {"simulate", "--workload", "museum", "--duration", "10s", "--no-progress", "--clients", "1,2",
+                       "--out", path("sweep")});
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("nothing is published under " + path("sweep")), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("sweep")));
+  expect_only({"small-ram.json", "stalled"});
 }

@@ -3,8 +3,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "cli/cli_run.hpp"
@@ -12,6 +15,7 @@
 
 namespace fs = std::filesystem;
 using rayline::testing::rayline_cli;
+using rayline::testing::rayline_limited;
 
 namespace {
 class CliRender : public rayline::testing::ScratchTest {
@@ -225,6 +229,63 @@ TEST_F(CliRender, BadInputsExitTwoAndKeepTheGoodImage) {
   EXPECT_EQ(slurp(path("good.exr")), good) << "a failed run must leave the good image in place";
   for (const auto& e : fs::directory_iterator(dir_))
     EXPECT_EQ(e.path().string().find(".partial"), std::string::npos) << e.path();
+}
+
+// A disk that fills up while the outputs are written (here a file size limit, which fails
+// the write with EFBIG as a full disk fails it with ENOSPC): the EXR was already in place
+// when a later file failed, the rest never came, and the run exited 2 as for bad input.
+// Now every output is written first and all are renamed together, or none: exit 1 naming
+// the file, the earlier run's outputs untouched, no temporary left.
+TEST_F(CliRender, AFullDiskPublishesNoOutputAndKeepsTheEarlierOnes) {
+  blocks(2);
+  const std::vector<std::string> names = {"img.exr", "img.png", "img.metrics.json", "img.timeline.json", "img.jobs.csv"};
+  const std::string args = "-q --resolution 16x16 --spp 16 --blocks-dir " + path("blocks") + " --out " + path("img.exr");
+  auto r = rayline_cli("render " + args);
+  ASSERT_EQ(r.code, 0) << r.all;
+  std::vector<std::string> before;
+  for (const std::string& n : names) before.push_back(slurp(path(n)));
+  // A limit that lets the image through and stops the first later, larger file (in the
+  // order written: image, preview, metrics, timeline, jobs CSV).
+  std::size_t largest = before[0].size(), failing = 0;
+  for (std::size_t i = 1; i < names.size() && !failing; ++i) {
+    if (before[i].size() > largest + largest / 20) failing = i;
+    else largest = std::max(largest, before[i].size());
+  }
+  ASSERT_GT(failing, 0u) << "no output after the image is larger than it";
+  const rlim_t limit = (largest + before[failing].size()) / 2;
+  std::vector<std::string> argv = {"render", "-q", "--resolution", "16x16", "--spp", "16", "--seed", "7",
+                                   "--blocks-dir", path("blocks"), "--out", path("img.exr")};
+  r = rayline_limited(RLIMIT_FSIZE, limit, argv);
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("cannot write " + path(names[failing]) + ": File too large"), std::string::npos) << r.err;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    EXPECT_TRUE(slurp(path(names[i])) == before[i]) << names[i] << " was replaced by the failed run";
+  for (const auto& e : fs::directory_iterator(dir_)) {
+    const std::string n = e.path().filename().string();
+    EXPECT_TRUE(n == "blocks" || std::find(names.begin(), names.end(), n) != names.end()) << "left behind: " << n;
+  }
+  // Into a fresh name nothing appears at all.
+  argv.back() = path("new.exr");
+  r = rayline_limited(RLIMIT_FSIZE, limit, argv);
+  EXPECT_EQ(r.code, 1) << r.all;
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_FALSE(e.path().filename().string().starts_with("new.")) << "left behind: " << e.path();
+}
+
+// More worker threads than the address space allows (-j 1000 under ulimit -v): the threads
+// already started were destroyed joinable, and std::terminate ended the run (SIGABRT).
+TEST_F(CliRender, ThreadsTheSystemCannotStartAreAFailedRunNotACrash) {
+  blocks(2);
+  // 1000 compute devices and the disk channel: 1001 threads of 8 MiB stacks in 2 GiB.
+  const auto r = rayline_limited(RLIMIT_AS, rlim_t(2) << 30,
+                                 {"render", "-q", "--gpu", "none", "--resolution", "16x16", "--spp", "1", "-j", "1000",
+                                  "--blocks-dir", path("blocks"), "--out", path("img.exr")});
+  if (r.err.find("Sanitizer") != std::string::npos) GTEST_SKIP() << "a sanitizer's shadow memory needs more address space";
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("rayline: error: cannot start 1001 worker threads"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("terminate"), std::string::npos) << r.err;
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_FALSE(e.path().filename().string().starts_with("img.")) << "left behind: " << e.path();
 }
 
 TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
