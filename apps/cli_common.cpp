@@ -105,19 +105,11 @@ void write_file_atomic(const std::string& path, const std::string& content) {
     fs::remove(tmp, ignored);
     throw OutputWriteError(path, why);
   };
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (fd < 0) fail(std::strerror(errno));
-  for (std::size_t done = 0; done < content.size();) {
-    const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int err = n < 0 ? errno : EIO;
-      ::close(fd);
-      fail(std::strerror(err));
-    }
-    done += static_cast<std::size_t>(n);
+  try {
+    write_whole_file(tmp.string(), content);
+  } catch (const std::runtime_error& e) {
+    fail(e.what());
   }
-  if (::close(fd) != 0) fail(std::strerror(errno));
   fs::rename(tmp, target, ec);
   if (ec) fail("cannot move it into place: " + ec.message());
 }

@@ -65,25 +65,25 @@ void OutputSet::write(const std::string& target, const std::function<void(const 
   files_.emplace_back(staged, target);
 }
 
-void OutputSet::write_text(const std::string& target, const std::string& content) {
-  write(target, [&](const std::string& staged) {
-    const int fd = ::open(staged.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-    if (fd < 0) throw std::runtime_error(std::strerror(errno));
-    for (std::size_t done = 0; done < content.size();) {
-      const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) {
-        const int err = n < 0 ? errno : EIO;
-        ::close(fd);
-        throw std::runtime_error(std::strerror(err));
-      }
-      done += static_cast<std::size_t>(n);
+void write_whole_file(const std::string& path, const std::string& content) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) throw std::runtime_error(std::strerror(errno));
+  for (std::size_t done = 0; done < content.size();) {
+    const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : EIO;
+      ::close(fd);
+      throw std::runtime_error(std::strerror(err));
     }
-    // Flushed before it may replace an earlier file: a crash after the rename cannot leave
-    // an empty file where a good one was, and a delayed write error shows here.
-    const int err = ::fsync(fd) != 0 ? errno : 0;
-    if (::close(fd) != 0 || err != 0) throw std::runtime_error(std::strerror(err ? err : errno));
-  });
+    done += static_cast<std::size_t>(n);
+  }
+  const int err = ::fsync(fd) != 0 ? errno : 0;
+  if (::close(fd) != 0 || err != 0) throw std::runtime_error(std::strerror(err ? err : errno));
+}
+
+void OutputSet::write_text(const std::string& target, const std::string& content) {
+  write(target, [&](const std::string& staged) { write_whole_file(staged, content); });
 }
 
 void OutputSet::publish() {

@@ -24,6 +24,12 @@ class OutputWriteError : public std::runtime_error {
       : std::runtime_error("cannot write " + file + ": " + reason) {}
 };
 
+// Writes `content` to a new file at `path` (created or truncated) and flushes it to the
+// disk before returning, so a later rename cannot put an empty file where a good one was
+// and a delayed write error (a full disk) shows here. Throws std::runtime_error with the
+// system's reason.
+void write_whole_file(const std::string& path, const std::string& content);
+
 class OutputSet {
  public:
   OutputSet();
