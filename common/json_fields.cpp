@@ -25,6 +25,18 @@ std::string field_index(std::string_view path, std::size_t index) {
 
 namespace {
 
+// Objects and arrays nested deeper than this are refused while parsing: no format Rayline
+// reads nests more than a few levels, and code that walks a document recursively (a merge,
+// a dump in a message) would overflow the stack on a file nested 100 000 levels deep.
+constexpr int kMaxJsonDepth = 256;
+
+template <class Json>
+void check_depth(const BasicJsonInput<Json>& input, int depth, typename Json::parse_event_t event) {
+  using E = typename Json::parse_event_t;
+  if ((event == E::object_start || event == E::array_start) && depth >= kMaxJsonDepth)
+    input.fail("", "invalid JSON: objects and arrays nested more than " + std::to_string(kMaxJsonDepth) + " levels deep");
+}
+
 // Parser callback that rejects a key repeated inside one object. Its path names array
 // elements "[]": the parser does not count them.
 template <class Json>
@@ -32,8 +44,9 @@ class DuplicateKeys {
  public:
   explicit DuplicateKeys(const BasicJsonInput<Json>& input) : input_(input) {}
 
-  bool operator()(int /*depth*/, typename Json::parse_event_t event, Json& value) {
+  bool operator()(int depth, typename Json::parse_event_t event, Json& value) {
     using E = typename Json::parse_event_t;
+    check_depth(input_, depth, event);
     if (event == E::object_start || event == E::array_start) {
       open(event == E::object_start);
     } else if (event == E::object_end || event == E::array_end) {
@@ -94,10 +107,15 @@ BasicJsonInput<Json>::BasicJsonInput(std::string file, JsonWording wording)
 template <class Json>
 Json BasicJsonInput<Json>::parse(std::string_view text, JsonParseOptions options) const {
   try {
-    if (!options.reject_duplicate_keys) return Json::parse(text);
+    if (!options.reject_duplicate_keys)
+      return Json::parse(text, [this](int depth, typename Json::parse_event_t event, Json&) {
+        check_depth(*this, depth, event);
+        return true;
+      });
     DuplicateKeys<Json> duplicates(*this);
     return Json::parse(text, std::ref(duplicates));
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
+    // parse_error, and out_of_range for a number no double holds ("1e400").
     fail("", "invalid JSON: " + (options.drop_exception_tag ? without_exception_tag(e.what()) : std::string(e.what())));
   }
 }

@@ -217,8 +217,14 @@ class Gltf {
       }
     }
     try {
-      doc_ = json::parse(json_begin, json_begin + json_size);
-    } catch (const json::parse_error& e) {
+      // Depth limited while parsing (as common/json_fields.cpp does): a document nested
+      // 100 000 levels deep must not reach code that walks it recursively.
+      doc_ = json::parse(json_begin, json_begin + json_size, [this](int depth, json::parse_event_t event, json&) {
+        if ((event == json::parse_event_t::object_start || event == json::parse_event_t::array_start) && depth >= 256)
+          fail("json", "objects and arrays nested more than 256 levels deep");
+        return true;
+      });
+    } catch (const json::exception& e) {  // parse_error, and out_of_range for "1e400"
       fail("json", e.what());
     }
     if (!doc_.is_object()) fail("json", "top level is not an object");

@@ -154,4 +154,29 @@ TEST(JsonFields, ParseOptions) {
   EXPECT_TRUE(what.starts_with("in.json: invalid JSON: parse error at line 1, column 4")) << what;
 }
 
+// Hostile documents end in an InputError naming the file, with or without the duplicate-key
+// check: nesting 100 000 levels deep (code that walks a document recursively would
+// overflow the stack) and a number no double holds (nlohmann throws out_of_range, not
+// parse_error).
+TEST(JsonFields, DeepNestingAndNumberOverflowAreInputErrors) {
+  const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+  const std::string deep_objects = [] {
+    std::string t;
+    for (int i = 0; i < 100000; ++i) t += "{\"a\":";
+    return t + "1" + std::string(100000, '}');
+  }();
+  for (const JsonParseOptions options : {JsonParseOptions{}, JsonParseOptions{.reject_duplicate_keys = true}}) {
+    for (const std::string* text : {&deep, &deep_objects}) {
+      const InputError e = error_of([&] { kInput.parse(*text, options); });
+      EXPECT_EQ(e.file(), "in.json");
+      EXPECT_NE(std::string(e.what()).find("nested more than 256 levels"), std::string::npos) << e.what();
+    }
+    const InputError e = error_of([&] { kInput.parse(R"({"capacity": 1e400})", options); });
+    EXPECT_EQ(e.file(), "in.json");
+    EXPECT_NE(std::string(e.what()).find("invalid JSON"), std::string::npos) << e.what();
+  }
+  // Nesting a real file could have still parses.
+  EXPECT_NO_THROW(kInput.parse(std::string(200, '[') + std::string(200, ']')));
+}
+
 }  // namespace
