@@ -98,6 +98,8 @@ void ReplayLog::save(const std::string& path, const std::string& header) const {
       for (const auto& [c, k] : p.out) out << ' ' << c << ':' << k;
       out << '\n';
     }
+  // The last buffered bytes reach the file only on close: a full disk shows there.
+  out.close();
   if (!out) throw std::runtime_error("cannot write " + path);
 }
 
