@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -32,13 +34,20 @@ using nlohmann::json;
 // What a run writes into its folder (the only files replacing it may remove).
 const OwnFiles kRunFiles = {"metrics.json", "jobs.csv", "timeline.json", "simgrid.trace", "replay.log"};
 
-// (Into the run's partial folder, renamed only once every file is complete.)
+// (Into the run's partial folder, renamed only once every file is complete.) A failure
+// names the file as the user will look for it, in the final folder, and says why.
 template <class Write>
 void write_file(const std::filesystem::path& p, const Write& write) {
   std::ofstream out(p, std::ios::binary | std::ios::trunc);
   write(out);
-  out.flush();
-  if (!out) throw std::runtime_error("cannot write " + p.string());
+  out.close();  // the last buffered bytes reach the file here: a full disk shows now
+  if (!out) {
+    const int err = errno;
+    std::string folder = p.parent_path().string();
+    if (const auto k = folder.rfind(".partial."); k != std::string::npos) folder.erase(k);
+    throw std::runtime_error("cannot write " + (std::filesystem::path(folder) / p.filename()).string() +
+                             (err != 0 ? std::string(": ") + std::strerror(err) : std::string()));
+  }
 }
 
 void write_text(const std::filesystem::path& p, const std::string& text) {

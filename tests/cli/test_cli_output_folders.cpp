@@ -338,5 +338,12 @@ TEST_F(OutputFolders, ACompareIsPublishedOnlyWhenEveryRunCompleted) {
   EXPECT_EQ(r.code, 1) << r.all;
   EXPECT_NE(r.err.find("nothing is published under " + path("sweep")), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(path("sweep")));
+  // One simulation: the message names the file under its final name, and why.
+  r = rayline_limited(RLIMIT_FSIZE, 16 << 10, {"simulate", "--duration", "10s", "--no-progress", "--out", path("single")});
+  EXPECT_EQ(r.code, 1) << r.all;
+  EXPECT_NE(r.err.find("cannot write " + path("single") + "/"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("File too large"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(".partial."), std::string::npos) << "names the temporary folder: " << r.err;
+  EXPECT_FALSE(fs::exists(path("single")));
   expect_only({"small-ram.json", "stalled"});
 }
