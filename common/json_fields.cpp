@@ -25,11 +25,6 @@ std::string field_index(std::string_view path, std::size_t index) {
 
 namespace {
 
-// Objects and arrays nested deeper than this are refused while parsing: no format Rayline
-// reads nests more than a few levels, and code that walks a document recursively (a merge,
-// a dump in a message) would overflow the stack on a file nested 100 000 levels deep.
-constexpr int kMaxJsonDepth = 256;
-
 template <class Json>
 void check_depth(const BasicJsonInput<Json>& input, int depth, typename Json::parse_event_t event) {
   using E = typename Json::parse_event_t;

@@ -21,6 +21,12 @@
 
 namespace rayline {
 
+// Objects and arrays nested deeper than this are refused while parsing (here and by the
+// glTF reader): no format Rayline reads nests more than a few levels, and code that walks
+// a document recursively (a merge, a dump in a message) would overflow the stack on a
+// file nested 100 000 levels deep.
+inline constexpr int kMaxJsonDepth = 256;
+
 // Field paths in messages: a key below a path ("nodes[2]" + "name" = "nodes[2].name"; at
 // the top level just "name") and an element of an array ("nodes" + 2 = "nodes[2]").
 std::string field_key(std::string_view path, std::string_view key);

@@ -34,26 +34,6 @@ using nlohmann::json;
 // What a run writes into its folder (the only files replacing it may remove).
 const OwnFiles kRunFiles = {"metrics.json", "jobs.csv", "timeline.json", "simgrid.trace", "replay.log"};
 
-// (Into the run's partial folder, renamed only once every file is complete.) A failure
-// names the file as the user will look for it, in the final folder, and says why.
-template <class Write>
-void write_file(const std::filesystem::path& p, const Write& write) {
-  std::ofstream out(p, std::ios::binary | std::ios::trunc);
-  write(out);
-  out.close();  // the last buffered bytes reach the file here: a full disk shows now
-  if (!out) {
-    const int err = errno;
-    std::string folder = p.parent_path().string();
-    if (const auto k = folder.rfind(".partial."); k != std::string::npos) folder.erase(k);
-    throw std::runtime_error("cannot write " + (std::filesystem::path(folder) / p.filename()).string() +
-                             (err != 0 ? std::string(": ") + std::strerror(err) : std::string()));
-  }
-}
-
-void write_text(const std::filesystem::path& p, const std::string& text) {
-  write_file(p, [&](std::ostream& out) { out << text; });
-}
-
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -184,6 +164,20 @@ class PartialFolder {
   PartialFolder(const PartialFolder&) = delete;
   PartialFolder& operator=(const PartialFolder&) = delete;
   std::filesystem::path operator/(const std::string& file) const { return path_ / file; }
+  // Writes `file` into the partial folder. A failure names the file as the user will look
+  // for it, under OUT, and says why; the stream is closed before the check, since the
+  // last buffered bytes reach the disk (and a full disk shows) only then.
+  template <class Write>
+  void write(const std::string& file, const Write& write) const {
+    std::ofstream out(path_ / file, std::ios::binary | std::ios::trunc);
+    write(out);
+    out.close();
+    if (!out) {
+      const int err = errno;
+      throw std::runtime_error("cannot write " + (std::filesystem::path(out_) / file).string() +
+                               (err != 0 ? std::string(": ") + std::strerror(err) : std::string()));
+    }
+  }
   void publish() {
     replaceable_folder(out_dir_, "", kRunFiles);  // again: the user may have put a file there meanwhile
     publish_folder(path_.string(), out_, "");
@@ -499,10 +493,10 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
 
 void write_results(const SimulationConfig& cfg, const Inputs& in, const Engine& e, const json& m,
                    const PartialFolder& folder) {
-  write_text(folder / "metrics.json", m.dump(2) + "\n");
-  write_file(folder / "jobs.csv", [&](std::ostream& out) { write_jobs_csv(e.schedule, out); });
+  folder.write("metrics.json", [&](std::ostream& out) { out << m.dump(2) << "\n"; });
+  folder.write("jobs.csv", [&](std::ostream& out) { write_jobs_csv(e.schedule, out); });
   if (cfg.timeline)
-    write_file(folder / "timeline.json", [&](std::ostream& out) { write_chrome_trace(e.schedule, true, out); });
+    folder.write("timeline.json", [&](std::ostream& out) { write_chrome_trace(e.schedule, true, out); });
   if (cfg.record_replay)
     in.recording.save((folder / "replay.log").string(),
                       "scene=" + in.profile->name + " fidelity=" + to_string(cfg.fidelity) +

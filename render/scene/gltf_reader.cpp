@@ -16,6 +16,7 @@
 #include "render/scene/mapped_file.hpp"
 #include "render/scene/triangle_emitter.hpp"
 #include "common/error.hpp"
+#include "common/json_fields.hpp"
 
 namespace rayline::scene {
 namespace {
@@ -217,11 +218,11 @@ class Gltf {
       }
     }
     try {
-      // Depth limited while parsing (as common/json_fields.cpp does): a document nested
-      // 100 000 levels deep must not reach code that walks it recursively.
+      // Depth limited while parsing (kMaxJsonDepth, common/json_fields.hpp).
       doc_ = json::parse(json_begin, json_begin + json_size, [this](int depth, json::parse_event_t event, json&) {
-        if ((event == json::parse_event_t::object_start || event == json::parse_event_t::array_start) && depth >= 256)
-          fail("json", "objects and arrays nested more than 256 levels deep");
+        if ((event == json::parse_event_t::object_start || event == json::parse_event_t::array_start) &&
+            depth >= kMaxJsonDepth)
+          fail("json", "objects and arrays nested more than " + std::to_string(kMaxJsonDepth) + " levels deep");
         return true;
       });
     } catch (const json::exception& e) {  // parse_error, and out_of_range for "1e400"
