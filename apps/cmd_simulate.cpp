@@ -63,6 +63,9 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
       std::printf("prediction accuracy %.1f%% (jobs), %.1f%% (rays)\n", 100 * s.prediction_accuracy,
                   100 * s.prediction_ray_accuracy);
   }
+  if (s.faults_applied > 0)
+    std::printf("faults: %d applied (metrics.json \"faults\": throughput before and after each); rays lost %llu, frames asked for again %llu\n",
+                s.faults_applied, static_cast<unsigned long long>(s.rays_lost), static_cast<unsigned long long>(s.frames_abandoned));
   std::printf("results: %s/metrics.json, jobs.csv%s\n", out.c_str(), timeline ? ", timeline.json" : "");
 }
 }  // namespace
@@ -138,6 +141,7 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.timeline = !opt.no_timeline;
   cfg.progress = ProgressLine::for_stderr(opt.no_progress);
   if (!opt.warmup.empty()) cfg.warmup = seconds_flag("--warmup", opt.warmup);
+  cfg.faults = opt.fail;  // (checked against the platform when it is loaded)
   if (cfg.workload_kind != sim::WorkloadKind::PathTrace) check_no_path_trace_flags(opt);
   // --blocks sizes the synthetic ray stream's scene; a job set and a scene profile bring their own.
   if (cfg.workload_kind != sim::WorkloadKind::RayStream && opt.blocks != SimulateOptions{}.blocks)

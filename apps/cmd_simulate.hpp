@@ -31,6 +31,7 @@ struct SimulateOptions {
   std::string replay;
   bool record_replay = false;
   std::string warmup;               // default: a third of --duration
+  std::vector<std::string> fail;    // --fail DEVICE@TIME, repeatable (docs/faults.md)
 };
 int run_simulate(const SimulateOptions& opt);
 // One run, as run_simulate does it, writing its results folder at `dir` (inside compare's

@@ -118,6 +118,9 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--replay", opt->replay, "Path tracing: replay log for --fidelity replay");
   sim->add_flag("--record-replay", opt->record_replay, "Path tracing: also write OUT/replay.log (this run's ray outcomes)");
   sim->add_option("--warmup", opt->warmup, "Path tracing: steady state starts here (default: a third of --duration)");
+  sim->add_option("--fail", opt->fail,
+                  "DEVICE@TIME: a node, memory or compute device fails at TIME (e.g. B3@10s); its work is re-planned "
+                  "on the devices left, lost data made again where the workload can (repeatable; docs/faults.md)");
   sim->callback([opt, &action] { action = [opt] { return run_simulate(*opt); }; });
 }
 

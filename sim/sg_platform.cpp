@@ -269,7 +269,7 @@ void SgPlatform::Impl::set_timer(SgActivityId id, Time date, bool launch, Bytes 
   Impl* self = this;
   timers[id] = simgrid::kernel::timer::Timer::set(date, [self, id, launch, bytes] {
     self->timers.erase(id);
-    if (self->stopped) return;
+    if (self->stopped || !self->pending.count(id)) return;  // (cancelled: nothing to do)
     if (launch)
       self->launch_comm(id, bytes);
     else
@@ -352,6 +352,32 @@ SgActivityId SgPlatform::start_exec(DeviceId d, Time seconds, SgCallback done) {
   m.mark_device(d, +1);
   exec->start();
   return id;
+}
+
+SgActivityId SgPlatform::start_timer(Time delay, SgCallback done) {
+  Impl& m = *impl_;
+  if (!(delay >= 0) || !std::isfinite(delay)) throw std::invalid_argument("SgPlatform::start_timer: delay must be finite and >= 0");
+  const Time now_s = now();
+  Impl::Pending& p = register_pending(m, now_s, std::move(done), "start_timer");
+  const SgActivityId id = p.id;
+  m.set_timer(id, now_s + delay, false, 0);
+  return id;
+}
+
+void SgPlatform::cancel(SgActivityId id) {
+  Impl& m = *impl_;
+  auto it = m.pending.find(id);
+  if (it == m.pending.end()) return;
+  Impl::Pending p = std::move(it->second);
+  m.pending.erase(it);  // complete() ignores it from now on; a latency timer finds nothing to do
+  if (!p.activity) return;
+  if (p.channel != kNone) m.use_channel_links(p.channel, -1);
+  if (p.device != kNone) m.mark_device(p.device, -1);
+  sg4::ActivityPtr a = p.activity;
+  m.graveyard.push_back(a);
+  simgrid::kernel::timer::Timer::set(now(), [a] {
+    if (a->get_state() == sg4::Activity::State::STARTED) a->cancel();
+  });
 }
 
 void SgPlatform::run() {

@@ -72,6 +72,15 @@ class SgPlatform {
   // any other exec running on d). 0 seconds completes at now.
   SgActivityId start_exec(DeviceId d, Time seconds, SgCallback done);
 
+  // `done` fires at now + delay (a wake-up; nothing is used).
+  SgActivityId start_timer(Time delay, SgCallback done);
+  // Stops a pending activity now, as a device turned off would (SimGrid's Host::turn_off
+  // fails an Exec the same way): its callback never fires, and what it used is freed now.
+  // The SimGrid activity is cancelled from a timer at this instant, outside any signal
+  // (SimGrid 3.32 crashes when an activity is cancelled from inside a completion signal
+  // while others end at the same instant). Unknown or finished ids are ignored.
+  void cancel(SgActivityId id);
+
   // Callbacks fire from inside run()/run_until(), never from start_*; they may start new
   // activities. If a callback throws, every pending activity is cancelled (no further
   // callbacks), run()/run_until() rethrow the exception, and start_* refuse afterwards.

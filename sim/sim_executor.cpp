@@ -48,12 +48,18 @@ void SimExecutor::try_start(ActivityId id) {
   State& s = st_[id];
   if (!s.dispatched || s.started) return;
   const Activity& a = schedule_.activity(id);
-  for (ActivityId p : a.deps)
-    if (!ready(p, id)) return;
+  if (!s.placeholder)
+    for (ActivityId p : a.deps)
+      if (!ready(p, id)) return;
   if (a.kind == ActivityKind::Exec || opt_.transfer_order == TransferOrder::Resource) {
     for (ActivityId p : a.timeline_prev)
       if (!ready(p, id)) return;
   } else if (s.channel_prev != kNone && !ready(s.channel_prev, id)) {
+    return;
+  }
+  if (s.placeholder) {  // Schedule::fail aborted it: it moves nothing and reports nothing
+    s.started = s.done = true;
+    wake_waiters(id);
     return;
   }
   if (a.kind == ActivityKind::Transfer && !a.cancelled && opt_.transfer_order == TransferOrder::Exclusive &&
@@ -67,10 +73,10 @@ void SimExecutor::try_start(ActivityId id) {
   }
   auto cb = [this, id](const SgCompletion& c) { on_done(id, c.finish_s, c.ok); };
   if (a.kind == ActivityKind::Transfer) {
-    platform_.start_transfer(a.channel, a.bytes, cb);
+    s.sg = platform_.start_transfer(a.channel, a.bytes, cb);
   } else {
     const double f = opt_.exec_factor ? opt_.exec_factor(id, a) : 1.0;
-    platform_.start_exec(a.device, a.duration * f, cb);
+    s.sg = platform_.start_exec(a.device, a.duration * f, cb);
   }
 }
 
@@ -126,6 +132,69 @@ void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   }
   for (ActivityId x : w) try_start(x);  // (one that finds a resource busy again waits on it)
   callback_wall_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void SimExecutor::wake_at(Time t) {
+  platform_.start_timer(std::max(0.0, t - platform_.now()), [this](const SgCompletion&) {
+    std::vector<ExecutorEvent> events;
+    events.swap(buffered_);
+    if (sink_) (*sink_)(events);
+  });
+}
+
+void SimExecutor::halt(const std::vector<DeviceId>& computes, const std::vector<ChannelId>& channels,
+                       std::vector<ExecutorEvent>& events) {
+  events.insert(events.end(), buffered_.begin(), buffered_.end());  // starts not reported yet
+  buffered_.clear();
+  for (std::size_t id = 0; id < st_.size(); ++id) {
+    State& s = st_[id];
+    if (!s.started || s.done) continue;
+    const Activity& a = schedule_.activity(static_cast<ActivityId>(id));
+    const bool lost = a.kind == ActivityKind::Exec
+                          ? std::find(computes.begin(), computes.end(), a.device) != computes.end()
+                          : std::find(channels.begin(), channels.end(), a.channel) != channels.end();
+    if (!lost) continue;
+    if (s.sg != 0) platform_.cancel(s.sg);
+    s.done = true;
+    if (s.holds_resources) {
+      s.holds_resources = false;
+      release_resources(a);
+      halted_.insert(halted_.end(), woken_.begin(), woken_.end());
+    }
+    events.push_back({ExecutorEvent::Type::Failed, static_cast<ActivityId>(id), platform_.now()});
+    halted_.push_back(static_cast<ActivityId>(id));
+  }
+}
+
+void SimExecutor::wake_waiters(ActivityId id) {
+  if (static_cast<std::size_t>(id) >= waiters_.size()) return;
+  std::vector<ActivityId> w;
+  w.swap(waiters_[id]);
+  for (ActivityId x : w) try_start(x);
+}
+
+void SimExecutor::abort(const std::vector<ActivityId>& ids) {
+  for (ActivityId id : ids) {
+    if (static_cast<std::size_t>(id) >= st_.size()) continue;
+    State& s = st_[id];
+    if (s.done) continue;
+    if (s.started) {  // (running ones on lost devices were halted already)
+      if (s.sg != 0) platform_.cancel(s.sg);
+      s.done = true;
+    } else {
+      s.placeholder = true;
+    }
+  }
+  // Only now, with everything aborted marked done, may what waited for them start (a
+  // halted T-job's resources may also have freed waiting ones, listed with them).
+  std::vector<ActivityId> wake;
+  wake.swap(halted_);
+  wake.insert(wake.end(), ids.begin(), ids.end());
+  for (ActivityId id : wake) {
+    if (static_cast<std::size_t>(id) >= st_.size()) continue;
+    if (st_[id].done) wake_waiters(id);
+    else try_start(id);  // a placeholder, or a T-job that waited for a resource the halt freed
+  }
 }
 
 void SimExecutor::run(const Sink& sink, Time until) {

@@ -42,6 +42,11 @@ class SimExecutor final : public Executor {
   // SimGrid runs to completion (or to `until`) and reports from inside its event
   // processing; batches at or past `until` are not delivered.
   void run(const Sink& sink, Time until) override;
+  void wake_at(Time t) override;
+  // Activities running on lost devices stop now and are reported Failed (a host turned off).
+  void halt(const std::vector<DeviceId>& computes, const std::vector<ChannelId>& channels,
+            std::vector<ExecutorEvent>& events) override;
+  void abort(const std::vector<ActivityId>& ids) override;
 
   // Wall seconds spent in our completion handling (runtime loop, scheduler, bookkeeping);
   // the rest of run() is SimGrid's own work (max-min solver, event queue).
@@ -62,7 +67,11 @@ class SimExecutor final : public Executor {
     bool dispatched = false, started = false, done = false;
     bool holds_resources = false;  // TransferOrder::Exclusive: running on its channel's resources
     ActivityId channel_prev = kNone;
+    SgActivityId sg = 0;  // the SimGrid activity while started (0: none, or a 0 s withdrawn one)
+    bool placeholder = false;  // aborted before it started: ends at once after its timeline predecessors
   };
+  void wake_waiters(ActivityId id);
+  std::vector<ActivityId> halted_;  // stopped by halt(), their waiters woken by abort()
   std::vector<State> st_;
   std::vector<std::vector<ActivityId>> waiters_;
   std::vector<ActivityId> last_on_channel_;

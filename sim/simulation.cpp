@@ -19,6 +19,7 @@
 #include "sched/io/platform_loader.hpp"
 #include "workload/ray_stream.hpp"
 #include "sched/runtime/runtime_loop.hpp"
+#include "sched/runtime/fault.hpp"
 #include "sched/policy/scheduler_factory.hpp"
 #include "sched/io/trace_output.hpp"
 #include "sched/policy/unplaced.hpp"
@@ -84,7 +85,7 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   j["steady_rays_ended_per_second"] = ended / span;
   j["rays"] = {{"primary", r.primary}, {"secondary", r.secondary}, {"shadow", r.shadow}, {"created", r.created()},
                {"hit", r.hit}, {"escaped", r.escaped}, {"occluded", r.occluded}, {"lit", r.lit}, {"ended", r.ended()},
-               {"alive_at_end", pt.rays_alive()}};
+               {"lost", r.lost}, {"alive_at_end", pt.rays_alive()}};
   j["frames"] = {{"delivered", pt.frames().size()}, {"exact", exact},
                  {"mean_latency_s", pt.frames().empty() ? 0.0 : latency / static_cast<double>(pt.frames().size())}};
   nlohmann::json jobs;
@@ -122,11 +123,14 @@ struct Inputs {
   std::unique_ptr<SceneProfile> profile;  // WorkloadKind::PathTrace
   PathTraceOptions path_trace;
   ReplayLog recording;                    // record_replay: every split of this run
+  std::vector<Fault> faults;              // --fail, checked against the platform
 };
 
 std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
   auto in = std::make_unique<Inputs>();  // (path_trace.record points into it)
   in->graph = load_platform(cfg.platform_file);
+  for (const std::string& f : cfg.faults) in->faults.push_back(parse_fault(f, in->graph));
+  std::stable_sort(in->faults.begin(), in->faults.end(), [](const Fault& a, const Fault& b) { return a.at < b.at; });
   if (cfg.workload_kind == WorkloadKind::JobSet) in->set = std::make_unique<JobSet>(load_job_set(cfg.workload, in->graph));
   if (cfg.workload_kind == WorkloadKind::PathTrace) {
     in->profile = std::make_unique<SceneProfile>(load_scene_profile(cfg.workload));
@@ -234,7 +238,10 @@ struct Engine {
         workload(make_workload(cfg, in)),
         scheduler(make_scheduler(cfg.scheduler)),
         executor(platform, schedule, executor_options(cfg, path_trace)),
-        loop(*scheduler, executor, *workload, pool, schedule) {}
+        loop(*scheduler, executor, *workload, pool, schedule) {
+    for (const Fault& f : in.faults) loop.add_fault(f);
+    loop.on_fault = [this](const Fault& f, const RunStats& st) { faults.push_back({f, st, executor.now()}); };
+  }
 
   std::unique_ptr<Workload> make_workload(const SimulationConfig& cfg, Inputs& in) {
     switch (cfg.workload_kind) {
@@ -267,6 +274,12 @@ struct Engine {
   std::unique_ptr<Scheduler> scheduler;
   SimExecutor executor;
   RuntimeLoop loop;
+  struct Applied {
+    Fault fault;
+    RunStats after;  // the loop's counters right after it
+    Time at;
+  };
+  std::vector<Applied> faults;
 };
 
 void show_progress(const SimulationConfig& cfg, Engine& e, ProgressLine& progress) {
@@ -443,6 +456,56 @@ json simulator_metrics(const Outcome& o, double in_callbacks, double wall, std::
           {"activities_per_wall_s", wall > 0 ? static_cast<double>(activities) / wall : 0}};
 }
 
+// The faults of --fail (docs/faults.md): what each took, and the throughput before and
+// after it (rays intersected per simulated second for path tracing, work units otherwise).
+json fault_metrics(const Engine& e, const Inputs& in, const Outcome& o, Time end, SimulationSummary& sum) {
+  const DeviceGraph& g = e.schedule.graph();
+  json list = json::array();
+  std::uint64_t aborted = 0, requeued = 0, lost = 0;
+  for (const Engine::Applied& a : e.faults) {
+    json devices = json::array();
+    for (DeviceId d : a.fault.computes) devices.push_back(g.computes[static_cast<std::size_t>(d)].name);
+    for (MemId m : a.fault.memories) devices.push_back(g.memories[static_cast<std::size_t>(m)].name);
+    // Work finished in [from, to) per second: from the activities that finished then.
+    auto rate = [&](Time from, Time to) {
+      double w = 0;
+      if (e.path_trace) {
+        for (const auto& [t, n] : e.path_trace->traced())
+          if (t >= from && t < to) w += static_cast<double>(n);
+      } else {
+        for (std::size_t i = 0; i < e.schedule.activity_count(); ++i) {
+          const Activity& x = e.schedule.activity(static_cast<ActivityId>(i));
+          if (x.kind == ActivityKind::Exec && x.state == ActivityState::Done && x.end >= from && x.end < to)
+            w += static_cast<double>(e.pool.job(x.job).work);
+        }
+      }
+      return to > from ? w / (to - from) : 0.0;
+    };
+    list.push_back({{"fail", a.fault.what}, {"at_s", a.at}, {"lost", devices},
+                    {"activities_aborted", a.after.aborted - aborted}, {"jobs_queued_again", a.after.requeued - requeued},
+                    {"jobs_lost", a.after.lost_jobs - lost},
+                    {"rays_per_second_before", rate(0, a.at)}, {"rays_per_second_after", rate(a.at, end)}});
+    aborted = a.after.aborted;
+    requeued = a.after.requeued;
+    lost = a.after.lost_jobs;
+  }
+  json j;
+  j["applied"] = list;
+  // Faults whose time the run never reached (it ended first): listed, not silently dropped.
+  json later = json::array();
+  for (std::size_t i = e.faults.size(); i < in.faults.size(); ++i) later.push_back(in.faults[i].what);
+  j["not_reached"] = later;
+  j["failed_activities_retried"] = o.stats.retried;
+  sum.faults_applied = static_cast<int>(e.faults.size());
+  if (e.path_trace) {
+    j["rays_lost"] = e.path_trace->tally().lost;
+    j["frames_abandoned"] = e.path_trace->abandoned_frames().size();
+    sum.rays_lost = e.path_trace->tally().lost;
+    sum.frames_abandoned = e.path_trace->abandoned_frames().size();
+  }
+  return j;
+}
+
 // metrics.json (its fields: docs/architecture.md); fills the summary's totals.
 json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e, const Outcome& o, double wall,
                  SimulationSummary& sum) {
@@ -478,6 +541,7 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
   m["scheduler_cost"] = {{"wall_s", o.stats.scheduler_wall_seconds}, {"plan_calls", o.stats.plan_calls},
                          {"share_of_simulated_time", end > 0 ? o.stats.scheduler_wall_seconds / end : 0}};
   m["simulator"] = simulator_metrics(o, e.executor.callback_wall_seconds(), wall, n.done_exec + n.done_transfer);
+  if (!in.faults.empty()) m["faults"] = fault_metrics(e, in, o, end, sum);
   sum.rays_per_second = end > 0 ? n.work_done / end : 0;
   sum.activities = n.done_exec + n.done_transfer;
   double tot = 0;

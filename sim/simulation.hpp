@@ -6,6 +6,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "common/progress_line.hpp"
 #include "sched/core/types.hpp"
@@ -45,6 +46,8 @@ struct SimulationConfig {
   std::string replay_file;              // Fidelity::Replay: the log to replay
   bool record_replay = false;           // write OUT/replay.log (every split of this run)
   Time warmup = -1;                     // steady state from here (<0: a third of the duration)
+  // Faults to inject (docs/faults.md): "DEVICE@TIME" each, as --fail takes them.
+  std::vector<std::string> faults;
 
   bool runs_for_duration() const { return workload_kind != WorkloadKind::JobSet; }
 };
@@ -63,6 +66,8 @@ struct SimulationSummary {
   double steady_rays_per_second = 0;    // rays intersected per second after the warm-up
   double prediction_accuracy = -1, prediction_ray_accuracy = -1;  // <0: prediction off
   std::uint64_t frames_delivered = 0;
+  int faults_applied = 0;                 // --fail: faults that happened before the run ended
+  std::uint64_t rays_lost = 0, frames_abandoned = 0;
   double busy = 0, setup = 0, fetching = 0, idle = 0;  // shares of compute-device time
 };
 

@@ -44,6 +44,7 @@ struct FrameState {
   std::uint64_t records_pending = 0; // sample records not yet accumulated
   std::map<MemId, std::vector<std::uint64_t>> partial;  // per memory: samples per tile accumulated there
   bool composing = false, delivered = false;
+  bool abandoned = false;            // work lost with a failed device: asked for again
   Time requested = 0, delivered_at = 0;
   std::vector<std::uint64_t> delivered_samples;  // per tile, summed over the partial framebuffers
 };

@@ -502,6 +502,81 @@ void PathTraceWorkload::on_idle(Time now, JobPool& pool, Schedule& s) {
                                " rays alive but no job left to trace them");
 }
 
+void PathTraceWorkload::on_requeued(Time, const std::vector<JobId>& jobs, JobPool&, Schedule&) {
+  // No longer planned: rays arriving later must not count on merging into them there.
+  std::erase_if(planned_at_, [&](const auto& e) { return std::find(jobs.begin(), jobs.end(), e.second) != jobs.end(); });
+}
+
+void PathTraceWorkload::on_lost(Time now, const std::vector<JobId>& jobs, const std::vector<BlockId>& blocks,
+                                JobPool& pool, Schedule& s) {
+  for (const ClientState& cl : clients_)
+    if (!s.memory_alive(cl.memory))
+      throw std::runtime_error("the client's memory device " + g_.memories[static_cast<std::size_t>(cl.memory)].name +
+                               " was lost (its framebuffer with it): the run cannot go on");
+  std::vector<std::uint32_t> hit_frames;
+  auto frame_hit = [&](std::uint32_t f) {
+    if (std::find(hit_frames.begin(), hit_frames.end(), f) == hit_frames.end()) hit_frames.push_back(f);
+  };
+  for (JobId j : jobs) {
+    if (j < 0 || static_cast<std::size_t>(j) >= info_.size()) continue;
+    JobInfo& I = info_[static_cast<std::size_t>(j)];
+    std::erase_if(open_, [j](const auto& e) { return e.second == j; });
+    std::erase_if(planned_at_, [j](const auto& e) { return e.second == j; });
+    switch (I.kind) {
+      case PtJob::Generate: {  // the wave's primary rays are never made: they were counted alive
+        FrameState& f = frames_[I.frame];
+        const std::uint64_t n = total(I.rays);
+        f.alive -= std::min(f.alive, n);
+        --f.generate_pending;
+        frame_hit(I.frame);
+        break;
+      }
+      case PtJob::Intersect:
+      case PtJob::Shade:  // (hit records: their rays ended already, as hits)
+      case PtJob::Shadow:
+        for (const auto& [key, n] : I.rays) {
+          FrameState& f = frames_[key_frame(key)];
+          f.alive -= std::min(f.alive, n);
+          if (I.kind != PtJob::Shade) tally_.lost += n;
+          frame_hit(key_frame(key));
+        }
+        break;
+      case PtJob::Accumulate:
+        for (const auto& [key, n] : I.records) {
+          FrameState& f = frames_[key_frame(key)];
+          f.records_pending -= std::min(f.records_pending, n);
+          frame_hit(key_frame(key));
+        }
+        break;
+      case PtJob::Compose: frame_hit(I.frame); break;
+    }
+    I.rays.clear();
+    I.records.clear();
+    I.finished = true;
+  }
+  (void)blocks;  // (the jobs say what was lost)
+  for (std::uint32_t uid : hit_frames) {
+    FrameState& f = frames_[uid];
+    if (f.abandoned || f.delivered) continue;
+    f.abandoned = true;
+    f.next_unit = f.units_total;  // no more waves: what is alive drains, nothing is composed
+    ClientState& cl = clients_[static_cast<std::size_t>(f.client)];
+    FrameReport r;
+    r.client = f.client;
+    r.index = f.index;
+    r.requested = f.requested;
+    r.delivered = now;
+    r.abandoned = true;
+    abandoned_.push_back(r);
+    if (cl.frame == static_cast<std::int64_t>(uid)) {
+      cl.frame = -1;
+      request_frame(f.client, now);  // the same frame again (frames_done is unchanged)
+    }
+  }
+  check_frames(now, pool, s);
+  top_up(now, pool, s);
+}
+
 bool PathTraceWorkload::finished() const {
   for (const ClientState& cl : clients_) {
     if (cl.frame >= 0) return false;

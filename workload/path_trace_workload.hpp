@@ -47,6 +47,9 @@ struct PathTraceOptions {
 struct RayTally {
   std::uint64_t primary = 0, secondary = 0, shadow = 0;         // created
   std::uint64_t hit = 0, escaped = 0, occluded = 0, lit = 0;    // ended
+  // Lost with a failed memory device (docs/faults.md): rays and hit records in lost queues,
+  // and the primary rays of lost GenerateRays waves. created() == ended() + lost + alive.
+  std::uint64_t lost = 0;
   std::uint64_t created() const { return primary + secondary + shadow; }
   std::uint64_t ended() const { return hit + escaped + occluded + lit; }
 };
@@ -55,6 +58,9 @@ struct FrameReport {
   int client = 0, index = 0;
   Time requested = 0, delivered = 0;
   bool exact = false;  // every tile got exactly spp x its pixels samples
+  // Abandoned: part of its work was lost with a failed device (docs/faults.md); the
+  // client asked for the frame again at `delivered` (nothing was delivered).
+  bool abandoned = false;
 };
 
 class PathTraceWorkload final : public Workload {
@@ -64,6 +70,11 @@ class PathTraceWorkload final : public Workload {
   void on_job_finished(JobId job, Time now, JobPool& pool, Schedule& schedule) override;
   void on_idle(Time now, JobPool& pool, Schedule& schedule) override;
   bool finished() const override;
+  void on_requeued(Time now, const std::vector<JobId>& jobs, JobPool& pool, Schedule& schedule) override;
+  // Frame-level recovery: each frame with work in a lost job is abandoned (its remaining
+  // rays drain, its samples are never composed) and its client asks for it again.
+  void on_lost(Time now, const std::vector<JobId>& jobs, const std::vector<BlockId>& blocks, JobPool& pool,
+               Schedule& schedule) override;
 
   // Actual / planned E-job duration (SimExecutor::exec_factor): a job's queue may have grown
   // by merges after it was planned, and a predicted job runs for its real rays (0: none).
@@ -72,7 +83,9 @@ class PathTraceWorkload final : public Workload {
 
   const RayTally& tally() const { return tally_; }
   std::uint64_t rays_alive() const;
-  const std::vector<FrameReport>& frames() const { return reports_; }
+  const std::vector<FrameReport>& frames() const { return reports_; }  // delivered
+  // Frames abandoned after a fault (on_lost), each asked for again.
+  const std::vector<FrameReport>& abandoned_frames() const { return abandoned_; }
   const PredictionStats* prediction() const { return predictor_ ? &predictor_->stats() : nullptr; }
   const RayFlowModel& model() const { return model_; }
   std::uint64_t merges() const { return merges_; }
@@ -140,7 +153,7 @@ class PathTraceWorkload final : public Workload {
   std::uint64_t merges_planned_ = 0;
   Schedule::CancelCount withdrawn_;
   RayTally tally_;
-  std::vector<FrameReport> reports_;
+  std::vector<FrameReport> reports_, abandoned_;
   std::vector<std::pair<Time, std::uint64_t>> traced_, ended_;
   std::array<std::uint64_t, kPtJobCount> jobs_by_kind_{};
   std::uint64_t merges_ = 0;

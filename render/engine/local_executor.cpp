@@ -3,6 +3,7 @@
 #include <xmmintrin.h>
 #include <pmmintrin.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -11,7 +12,8 @@ namespace rayline::engine {
 
 LocalExecutor::LocalExecutor(const DeviceGraph& g, TaskFactory factory, TaskFactory hint_factory)
     : g_(g), factory_(std::move(factory)), hint_factory_(std::move(hint_factory)), t0_(std::chrono::steady_clock::now()),
-      lanes_(g.computes.size() + g.resources.size()), busy_(lanes_.size(), 0.0), running_(lanes_.size(), 0) {
+      lanes_(g.computes.size() + g.resources.size()), busy_(lanes_.size(), 0.0), running_(lanes_.size(), 0),
+      lost_(lanes_.size(), 0) {
   try {
     for (std::size_t i = 0; i < lanes_.size(); ++i) threads_.emplace_back([this, i] { worker(i); });
   } catch (const std::system_error& e) {
@@ -41,7 +43,8 @@ Time LocalExecutor::now() const {
 }
 
 void LocalExecutor::dispatch(ActivityId id, const Activity& a) {
-  Item it{id, {a.deps.begin(), a.deps.end()}, factory_(id, a), hint_factory_ ? hint_factory_(id, a) : Task{}};
+  Item it{id, {a.deps.begin(), a.deps.end()}, factory_(id, a), hint_factory_ ? hint_factory_(id, a) : Task{},
+          {a.timeline_prev.begin(), a.timeline_prev.end()}};
   it.wait.insert(it.wait.end(), a.timeline_prev.begin(), a.timeline_prev.end());
   const std::size_t lane = a.kind == ActivityKind::Exec
                                ? static_cast<std::size_t>(a.device)
@@ -50,6 +53,8 @@ void LocalExecutor::dispatch(ActivityId id, const Activity& a) {
   {
     std::lock_guard lk(mu_);
     if (static_cast<std::size_t>(id) >= done_.size()) done_.resize(static_cast<std::size_t>(id) + 1, 0);
+    if (static_cast<std::size_t>(id) >= lane_of_.size()) lane_of_.resize(static_cast<std::size_t>(id) + 1, -1);
+    lane_of_[static_cast<std::size_t>(id)] = static_cast<std::int32_t>(lane);
     lanes_[lane].push_back(std::move(it));
     ++in_flight_;
     // Next behind a running task: its lane's thread is busy, so the hint runs here.
@@ -91,7 +96,9 @@ void LocalExecutor::worker(std::size_t lane) {
   std::unique_lock lk(mu_);
   for (;;) {
     // The next item's hint runs as soon as it is next, before it may start.
-    cv_.wait(lk, [&] { return stop_ || (!lanes_[lane].empty() && (lanes_[lane].front().hint || ready(lanes_[lane].front()))); });
+    cv_.wait(lk, [&] {
+      return stop_ || (!lost_[lane] && !lanes_[lane].empty() && (lanes_[lane].front().hint || ready(lanes_[lane].front())));
+    });
     if (stop_) return;
     if (lanes_[lane].front().hint) {
       fire_hint(lane, lk);
@@ -99,6 +106,12 @@ void LocalExecutor::worker(std::size_t lane) {
     }
     Item it = std::move(lanes_[lane].front());
     lanes_[lane].pop_front();
+    if (it.placeholder) {
+      done_[static_cast<std::size_t>(it.id)] = 1;
+      --in_flight_;
+      cv_.notify_all();
+      continue;
+    }
     const bool skip = failure_ != nullptr;  // after a failure: finish quickly, run nothing
     const Time t_start = now();
     events_.push_back({ExecutorEvent::Type::Started, it.id, t_start});
@@ -107,9 +120,13 @@ void LocalExecutor::worker(std::size_t lane) {
     lk.unlock();
     cv_.notify_all();
     std::exception_ptr err;
+    std::string recoverable;  // an ActivityError: reported Failed, the run re-plans it
     if (!skip && it.task) {
       try {
         it.task();
+      } catch (const ActivityError& e) {
+        recoverable = e.what();
+        if (recoverable.empty()) recoverable = "failed";
       } catch (...) {
         err = std::current_exception();
       }
@@ -120,16 +137,32 @@ void LocalExecutor::worker(std::size_t lane) {
     busy_[lane] += t_end - t_start;
     running_[lane] = 0;
     if (err && !failure_) failure_ = err;
-    done_[static_cast<std::size_t>(it.id)] = 1;
+    // A recoverable failure is not done: what waits for it waits for the loop's abort().
+    const bool failed = err || skip || !recoverable.empty();
+    if (recoverable.empty()) done_[static_cast<std::size_t>(it.id)] = 1;
+    else why_.emplace_back(it.id, std::move(recoverable));
     --in_flight_;
-    events_.push_back({err || skip ? ExecutorEvent::Type::Failed : ExecutorEvent::Type::Finished, it.id, t_end});
+    events_.push_back({failed ? ExecutorEvent::Type::Failed : ExecutorEvent::Type::Finished, it.id, t_end});
     cv_.notify_all();
   }
 }
 
 bool LocalExecutor::advance(std::vector<ExecutorEvent>& out) {
   std::unique_lock lk(mu_);
-  cv_.wait(lk, [&] { return !events_.empty() || in_flight_ == 0; });
+  for (;;) {
+    auto woke = [&] { return !events_.empty() || in_flight_ == 0; };
+    if (wakes_.empty()) {
+      cv_.wait(lk, woke);
+      break;
+    }
+    const auto deadline = t0_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                    std::chrono::duration<double>(wakes_.front()));
+    if (cv_.wait_until(lk, deadline, woke)) break;
+    // The wake's time came with nothing to report: an empty batch then.
+    std::pop_heap(wakes_.begin(), wakes_.end(), std::greater<>{});
+    wakes_.pop_back();
+    return true;
+  }
   if (events_.empty()) return false;
   out.insert(out.end(), events_.begin(), events_.end());
   events_.clear();
@@ -138,6 +171,60 @@ bool LocalExecutor::advance(std::vector<ExecutorEvent>& out) {
 
 void LocalExecutor::run(const Sink& sink, Time until) {
   run_in_steps([this](std::vector<ExecutorEvent>& out) { return advance(out); }, sink, until);
+}
+
+void LocalExecutor::wake_at(Time t) {
+  std::lock_guard lk(mu_);
+  wakes_.push_back(t);
+  std::push_heap(wakes_.begin(), wakes_.end(), std::greater<>{});
+}
+
+void LocalExecutor::halt(const std::vector<DeviceId>& computes, const std::vector<ChannelId>&,
+                         std::vector<ExecutorEvent>& events) {
+  // Lost channels need nothing here: their T-jobs are all aborted (Schedule::fail) before
+  // they could start, and a resource's thread serves the channels still alive.
+  std::unique_lock lk(mu_);
+  for (DeviceId d : computes) lost_[static_cast<std::size_t>(d)] = 1;
+  cv_.wait(lk, [&] {
+    for (DeviceId d : computes)
+      if (running_[static_cast<std::size_t>(d)]) return false;
+    return true;
+  });
+  events.insert(events.end(), events_.begin(), events_.end());
+  events_.clear();
+}
+
+void LocalExecutor::abort(const std::vector<ActivityId>& ids) {
+  {
+    std::lock_guard lk(mu_);
+    for (ActivityId id : ids) {
+      const auto i = static_cast<std::size_t>(id);
+      if (i >= done_.size() || done_[i]) continue;
+      const auto l = static_cast<std::size_t>(lane_of_[i]);
+      auto& lane = lanes_[l];
+      const auto it = std::find_if(lane.begin(), lane.end(), [id](const Item& x) { return x.id == id; });
+      if (it == lane.end()) {  // one that failed by itself has left its lane already
+        done_[i] = 1;
+      } else if (lost_[l]) {  // nothing runs on a lost lane any more
+        done_[i] = 1;
+        lane.erase(it);
+        --in_flight_;
+      } else {  // it keeps its place: done once its predecessors are
+        it->placeholder = true;
+        it->task = nullptr;
+        it->hint = nullptr;
+        it->wait = it->prev;
+      }
+    }
+  }
+  cv_.notify_all();
+}
+
+std::string LocalExecutor::why_failed(ActivityId id) const {
+  std::lock_guard lk(mu_);
+  for (auto it = why_.rbegin(); it != why_.rend(); ++it)
+    if (it->first == id) return it->second;
+  return {};
 }
 
 std::exception_ptr LocalExecutor::failure() const {

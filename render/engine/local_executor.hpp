@@ -17,6 +17,7 @@
 #include <exception>
 #include <functional>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -41,6 +42,14 @@ class LocalExecutor final : public Executor {
   void dispatch(ActivityId id, const Activity& a) override;
   Time now() const override;
   void run(const Sink& sink, Time until) override;
+  void wake_at(Time t) override;
+  // A lost compute device's thread finishes the task it is running (a thread is not
+  // stopped part-way: its partial results would be lost) and starts nothing more.
+  void halt(const std::vector<DeviceId>& computes, const std::vector<ChannelId>& channels,
+            std::vector<ExecutorEvent>& events) override;
+  void abort(const std::vector<ActivityId>& ids) override;
+  std::string why_failed(ActivityId id) const override;
+  bool gave_up() const override { return failure() != nullptr; }
   // One step: waits for the next batch of events and appends it to `out`; false when
   // nothing is in flight (tests step the executor by hand).
   bool advance(std::vector<ExecutorEvent>& out);
@@ -56,6 +65,10 @@ class LocalExecutor final : public Executor {
     std::vector<ActivityId> wait;  // deps + timeline predecessors
     Task task;
     Task hint;  // run once when the item is next in its lane (read-ahead), then cleared
+    std::vector<ActivityId> prev;  // its timeline predecessors
+    // Aborted before it started (Schedule::fail): it ends, silently and at once, when its
+    // timeline predecessors have (it keeps the lane's order).
+    bool placeholder = false;
   };
   void worker(std::size_t lane);
   void stop_threads();  // tells the threads to stop and joins them
@@ -72,6 +85,10 @@ class LocalExecutor final : public Executor {
   std::vector<ExecutorEvent> events_;
   std::vector<double> busy_;
   std::vector<char> running_;  // per lane: a task is running
+  std::vector<char> lost_;     // per lane: its device was lost (halt)
+  std::vector<std::int32_t> lane_of_;  // per activity: its lane
+  std::vector<Time> wakes_;            // a min-heap (wake_at)
+  std::vector<std::pair<ActivityId, std::string>> why_;  // ActivityError messages
   std::size_t in_flight_ = 0;
   bool stop_ = false;
   std::exception_ptr failure_;

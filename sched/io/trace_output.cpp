@@ -205,7 +205,7 @@ void write_jobs_csv(const Schedule& s, std::ostream& out) {
     } else {
       out << ",,";
     }
-    out << (a.cancelled ? "cancelled" : done ? "done" : "planned") << '\n';
+    out << (a.state == ActivityState::Failed ? "aborted" : a.cancelled ? "cancelled" : done ? "done" : "planned") << '\n';
   }
 }
 

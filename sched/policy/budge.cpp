@@ -96,7 +96,8 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   std::vector<DeviceId> idle;
   if (pool.queued_count() > 0)
     for (std::size_t d = 0; d < g.computes.size(); ++d)
-      if (s.unfinished_on_device(static_cast<DeviceId>(d)) == 0) idle.push_back(static_cast<DeviceId>(d));
+      if (s.unfinished_on_device(static_cast<DeviceId>(d)) == 0 && s.compute_alive(static_cast<DeviceId>(d)))
+        idle.push_back(static_cast<DeviceId>(d));
   if (idle.empty()) {
     st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return st;
@@ -118,10 +119,17 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   // A job's home node never changes once known (its rays never leave their node), so it is
   // remembered across calls; "any node" (kNone) is recomputed.
   if (homes_.size() < pool.job_count()) homes_.resize(pool.job_count(), kNone);
+  // A node whose compute devices are all lost (Schedule::fail) is home to nothing: its
+  // jobs belong to any node.
+  auto node_alive = [&](NodeId n) {
+    for (DeviceId d : g.nodes[static_cast<std::size_t>(n)].computes)
+      if (s.compute_alive(d)) return true;
+    return false;
+  };
   auto home_of = [&](JobId j) {
     NodeId& h = homes_[static_cast<std::size_t>(j)];
     if (h == kNone) h = home_node(j, pool.job(j), pool, s, opt_.split_by_throughput);
-    return h;
+    return h != kNone && s.any_lost() && !node_alive(h) ? kNone : h;
   };
   // Queued jobs bucketed by home node (the last bucket: any node), in queue order, so each
   // device scans only its own node's part of the image.
@@ -149,7 +157,7 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     MemId idle_gpu_mem = kNone;
     if (opt_.gpu_preferred && g.computes[d].kind == ComputeKind::Cpu)
       for (DeviceId o : g.nodes[static_cast<std::size_t>(node)].computes)
-        if (g.computes[o].kind == ComputeKind::Gpu && s.unfinished_on_device(o) == 0) idle_gpu_mem = g.computes[o].memory;
+        if (g.computes[o].kind == ComputeKind::Gpu && s.unfinished_on_device(o) == 0 && s.compute_alive(o)) idle_gpu_mem = g.computes[o].memory;
     // Candidates of this device with their keys; feasibility (a fetch-path search) is
     // checked only in priority order, so the first feasible one is the same pick as the
     // best feasible one: resident first, then the largest queue, then queue order.

@@ -70,10 +70,14 @@ PlanStats LoadAnyOnceScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     jobs[static_cast<std::size_t>(it->second)].push_back(j);
   }
   const DeviceGraph& g = s.graph();
-  const auto map = load_any_once_assign(demand, static_cast<int>(g.computes.size()));
+  // Over the devices still alive (Schedule::fail): a lost one is given no domain.
+  std::vector<DeviceId> live;
+  for (std::size_t d = 0; d < g.computes.size(); ++d)
+    if (s.compute_alive(static_cast<DeviceId>(d))) live.push_back(static_cast<DeviceId>(d));
+  const auto map = load_any_once_assign(demand, static_cast<int>(live.size()));
   for (std::size_t r = 0; r < map.size(); ++r) {
     if (map[r] == kNone) continue;
-    const auto d = static_cast<DeviceId>(r);
+    const DeviceId d = live[r];
     for (JobId j : jobs[static_cast<std::size_t>(map[r])]) {
       if (!g.timing.supports(d, pool.job(j).type)) continue;
       const Time ready = std::max(now, s.device_timeline(d).busy_until);

@@ -33,9 +33,10 @@ std::vector<bool> reachable(BlockId b, const Schedule& s) {
   while (!todo.empty()) {
     const MemId u = todo.back();
     todo.pop_back();
-    for (const Channel& c : g.channels) {
+    for (std::size_t ci = 0; ci < g.channels.size(); ++ci) {
+      const Channel& c = g.channels[ci];
       const auto v = static_cast<std::size_t>(c.to);
-      if (c.from != u || seen[v] || static_cast<double>(g.memories[v].capacity) < bytes) continue;
+      if (c.from != u || !s.channel_alive(static_cast<ChannelId>(ci)) || seen[v] || static_cast<double>(g.memories[v].capacity) < bytes) continue;
       seen[v] = true;
       todo.push_back(c.to);
     }
@@ -64,7 +65,7 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
   double largest = -1;
   bool any_device = false;
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
-    if (!g.timing.supports(static_cast<DeviceId>(d), job.type)) continue;
+    if (!g.timing.supports(static_cast<DeviceId>(d), job.type) || !s.compute_alive(static_cast<DeviceId>(d))) continue;
     any_device = true;
     const MemId m = g.computes[d].memory;
     const MemoryDevice& mem = g.memories[static_cast<std::size_t>(m)];
@@ -94,7 +95,9 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
     if (reason.empty()) return "";  // d could take it: the obstacle is what else is planned
     if (blocked.empty()) blocked = "on " + g.computes[d].name + ": " + reason;
   }
-  if (!any_device) return "no compute device of the platform runs job type " + type;
+  if (!any_device)
+    return std::string(s.any_lost() ? "no compute device left (the others were lost)" : "no compute device of the platform") +
+           " runs job type " + type;
   return blocked.empty() ? too_small : blocked;
 }
 

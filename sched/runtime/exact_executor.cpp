@@ -29,11 +29,17 @@ void ExactExecutor::try_start(ActivityId id) {
     waiters_[p].push_back(id);
     return false;
   };
-  for (ActivityId p : a.deps)
-    if (!ready(p)) return;
+  if (!s.placeholder)
+    for (ActivityId p : a.deps)
+      if (!ready(p)) return;
   for (ActivityId p : a.timeline_prev)
     if (!ready(p)) return;
   s.started = true;
+  if (s.placeholder) {
+    s.end = s.start = start;
+    finish(id);
+    return;
+  }
   s.start = start;
   const Time dur = a.cancelled ? 0 : perturb ? perturb(id, a) : a.duration;  // withdrawn: 0 s
   s.end = start + dur;
@@ -61,9 +67,16 @@ bool ExactExecutor::advance(std::vector<ExecutorEvent>& out) {
   }
   while (!running_.empty() && (st_[running_.top().second].done || st_[running_.top().second].end != running_.top().first))
     running_.pop();  // superseded entries of withdrawn activities
+  if (!wakes_.empty() && !running_.empty() && wakes_.top() < running_.top().first) {
+    now_ = std::max(now_, wakes_.top());  // a wake before the next end: an empty batch
+    wakes_.pop();
+    hand_out();
+    return true;
+  }
   if (running_.empty()) return false;
   const Time t = running_.top().first;
   now_ = std::max(now_, t);
+  while (!wakes_.empty() && wakes_.top() <= t) wakes_.pop();  // delivered with this batch
   while (!running_.empty() && running_.top().first == t) {
     const ActivityId id = running_.top().second;
     running_.pop();
@@ -78,14 +91,65 @@ bool ExactExecutor::advance(std::vector<ExecutorEvent>& out) {
       pending_starts_.erase(it);
     }
     out.push_back({ExecutorEvent::Type::Finished, id, t});
-    if (static_cast<std::size_t>(id) < waiters_.size()) {
-      std::vector<ActivityId> w;
-      w.swap(waiters_[id]);
-      for (ActivityId x : w) try_start(x);
-    }
+    finish(id);
   }
   hand_out();
   return true;
+}
+
+void ExactExecutor::finish(ActivityId id) {
+  st_[id].done = true;
+  if (static_cast<std::size_t>(id) < waiters_.size()) {
+    std::vector<ActivityId> w;
+    w.swap(waiters_[id]);
+    for (ActivityId x : w) try_start(x);
+  }
+}
+
+void ExactExecutor::halt(const std::vector<DeviceId>& computes, const std::vector<ChannelId>& channels,
+                         std::vector<ExecutorEvent>& events) {
+  // The starts not handed out yet go first, so every Failed follows its Started.
+  for (const ExecutorEvent& e : pending_starts_) reported_starts_.push_back(e.activity);
+  events.insert(events.end(), pending_starts_.begin(), pending_starts_.end());
+  pending_starts_.clear();
+  std::vector<ActivityId> stopped;
+  for (std::size_t id = 0; id < st_.size(); ++id) {
+    const State& s = st_[id];
+    if (!s.started || s.done) continue;
+    const Activity& a = schedule_.activity(static_cast<ActivityId>(id));
+    const bool lost = a.kind == ActivityKind::Exec
+                          ? std::find(computes.begin(), computes.end(), a.device) != computes.end()
+                          : std::find(channels.begin(), channels.end(), a.channel) != channels.end();
+    if (lost) stopped.push_back(static_cast<ActivityId>(id));
+  }
+  for (ActivityId id : stopped) {
+    st_[id].end = now_;
+    st_[id].done = true;  // (its heap entry is skipped)
+    events.push_back({ExecutorEvent::Type::Failed, id, now_});
+  }
+  halted_.insert(halted_.end(), stopped.begin(), stopped.end());  // woken by abort()
+}
+
+void ExactExecutor::abort(const std::vector<ActivityId>& ids) {
+  for (ActivityId id : ids) {
+    if (static_cast<std::size_t>(id) >= st_.size()) continue;
+    State& s = st_[id];
+    if (s.done) continue;
+    if (s.started) {  // (running ones on lost devices were halted already)
+      s.end = now_;
+      s.done = true;
+    } else {
+      s.placeholder = true;
+    }
+  }
+  // Only now, with everything aborted marked, may what waited for them go on.
+  for (ActivityId id : halted_) finish(id);
+  halted_.clear();
+  for (ActivityId id : ids) {
+    if (static_cast<std::size_t>(id) >= st_.size()) continue;
+    if (st_[id].done) finish(id);
+    else if (st_[id].dispatched) try_start(id);
+  }
 }
 
 void ExactExecutor::run(const Sink& sink, Time until) {

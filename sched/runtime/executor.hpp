@@ -5,6 +5,8 @@
 // project's tests with ExactExecutor (plans run exactly as predicted, or perturbed).
 #pragma once
 #include <functional>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "sched/timeline/schedule.hpp"
@@ -16,6 +18,14 @@ struct ExecutorEvent {
   Type type;
   ActivityId activity;
   Time time;
+};
+
+// Thrown by an engine's work for a failure the run recovers from by re-planning (an I/O
+// error or a checksum mismatch reading a block): the activity is reported Failed and the
+// engine goes on. Any other exception ends the run.
+class ActivityError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 class Executor {
@@ -33,6 +43,26 @@ class Executor {
   // batch runs as run_in_steps() below.
   using Sink = std::function<void(std::vector<ExecutorEvent>&)>;
   virtual void run(const Sink& sink, Time until) = 0;
+
+  // ---- faults (docs/faults.md) -------------------------------------------------------
+  // Deliver a batch (possibly empty) at time t: the loop takes control then, to apply a
+  // fault at its time. A wake alone does not keep a run going (with nothing in flight
+  // there is nothing a fault could take); an engine may still deliver it then.
+  virtual void wake_at(Time t) = 0;
+  // The compute devices and channels given are lost from now on: nothing more starts on
+  // them. What runs there now either stops now, reported as Failed in `events` (simulated
+  // engines: a host turned off), or, where work cannot be stopped part-way (a renderer
+  // thread), ends as it would; `events` also receives whatever else ended meanwhile.
+  virtual void halt(const std::vector<DeviceId>& computes, const std::vector<ChannelId>& channels,
+                    std::vector<ExecutorEvent>& events) = 0;
+  // Withdraws activities that have not started (Schedule::fail aborted them): they never
+  // run and report nothing, and count as ended for their timeline successors.
+  virtual void abort(const std::vector<ActivityId>& ids) = 0;
+  // Why an activity was reported Failed (an I/O error reading a block), if the engine knows.
+  virtual std::string why_failed(ActivityId) const { return {}; }
+  // The engine gave up after an error that is not an ActivityError: what it reports
+  // Failed from then on is not recovered, the run just drains.
+  virtual bool gave_up() const { return false; }
 
  protected:
   // run() for an engine that stops after each batch: `step` appends the next batch (false

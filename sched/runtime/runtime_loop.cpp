@@ -1,5 +1,9 @@
 #include "sched/runtime/runtime_loop.hpp"
 
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
 namespace rayline {
 
 void RuntimeLoop::plan_and_dispatch(Time now, RunStats& st) {
@@ -13,12 +17,14 @@ void RuntimeLoop::plan_and_dispatch(Time now, RunStats& st) {
     executor_.dispatch(static_cast<ActivityId>(dispatched_), schedule_.activity(static_cast<ActivityId>(dispatched_)));
 }
 
-bool RuntimeLoop::handle(std::vector<ExecutorEvent>& events, RunStats& st) {
+bool RuntimeLoop::absorb(const std::vector<ExecutorEvent>& events, std::vector<ActivityId>& failed) {
   bool new_jobs = false;
   for (const ExecutorEvent& e : events) {
     switch (e.type) {
       case ExecutorEvent::Type::Started: schedule_.on_started(e.activity, e.time); break;
       case ExecutorEvent::Type::Finished: {
+        if (schedule_.activity(e.activity).state == ActivityState::Failed) break;  // aborted meanwhile
+        last_end_ = std::max(last_end_, e.time);
         schedule_.on_finished(e.activity, e.time);
         const Activity& a = schedule_.activity(e.activity);
         if (a.kind == ActivityKind::Exec) {
@@ -29,17 +35,139 @@ bool RuntimeLoop::handle(std::vector<ExecutorEvent>& events, RunStats& st) {
         }
         break;
       }
-      case ExecutorEvent::Type::Failed: schedule_.on_finished(e.activity, e.time); break;
+      case ExecutorEvent::Type::Failed:
+        if (executor_.gave_up()) schedule_.on_finished(e.activity, e.time);  // drains, not recovered
+        else if (schedule_.activity(e.activity).state != ActivityState::Failed) failed.push_back(e.activity);
+        break;
     }
+  }
+  return new_jobs;
+}
+
+bool RuntimeLoop::handle(std::vector<ExecutorEvent>& events, RunStats& st) {
+  std::vector<ActivityId> failed;
+  bool new_jobs = absorb(events, failed);
+  bool recovered = false;
+  if (!failed.empty()) {
+    // Activities that failed on their own: retried (re-planned) a few times each.
+    for (ActivityId id : failed) {
+      const Activity& a = schedule_.activity(id);
+      const std::int64_t key = a.kind == ActivityKind::Transfer ? a.block : ~static_cast<std::int64_t>(a.job);
+      auto it = std::find_if(retries_.begin(), retries_.end(), [key](const auto& r) { return r.first == key; });
+      if (it == retries_.end()) it = retries_.insert(retries_.end(), {key, 0});
+      if (++it->second > max_retries) {
+        const std::string why = executor_.why_failed(id);
+        throw std::runtime_error(
+            (a.kind == ActivityKind::Transfer ? "moving " + pool_.block(a.block).name + " over " +
+                                                    schedule_.graph().channels[a.channel].name
+                                              : "running " + pool_.job(a.job).name + " on " +
+                                                    schedule_.graph().computes[a.device].name) +
+            " failed " + std::to_string(it->second) + " times" + (why.empty() ? std::string() : ": " + why));
+      }
+    }
+    st.retried += failed.size();
+    recover(failed, {}, {}, st);
+    recovered = true;
+  }
+  while (next_fault_ < faults_.size() && executor_.now() >= faults_[next_fault_].at) {
+    apply_fault(faults_[next_fault_++], st);
+    recovered = true;
   }
   st.makespan = executor_.now();
   if (on_progress) on_progress(executor_.now(), st);
   // Sec. 4.2: re-plan when a device's timeline ran dry, or new work arrived while idle.
   if (pool_.queued_count() == 0) return false;
+  if (recovered) return true;
   const auto& g = schedule_.graph();
   for (std::size_t d = 0; d < g.computes.size(); ++d)
-    if (schedule_.unfinished_on_device(static_cast<DeviceId>(d)) == 0) return true;
+    if (schedule_.unfinished_on_device(static_cast<DeviceId>(d)) == 0 && schedule_.compute_alive(static_cast<DeviceId>(d)))
+      return true;
   return new_jobs && schedule_.unfinished() == 0;
+}
+
+void RuntimeLoop::add_fault(Fault f) {
+  const auto at = std::upper_bound(faults_.begin(), faults_.end(), f.at, [](Time t, const Fault& x) { return t < x.at; });
+  faults_.insert(at, std::move(f));
+}
+
+void RuntimeLoop::apply_fault(const Fault& f, RunStats& st) {
+  const DeviceGraph& g = schedule_.graph();
+  std::vector<DeviceId> computes = f.computes;
+  for (MemId m : f.memories)
+    for (DeviceId d : g.computes_on(m))
+      if (std::find(computes.begin(), computes.end(), d) == computes.end()) computes.push_back(d);
+  std::vector<ChannelId> channels;
+  for (std::size_t c = 0; c < g.channels.size(); ++c)
+    for (MemId m : f.memories)
+      if (g.channels[c].from == m || g.channels[c].to == m) {
+        channels.push_back(static_cast<ChannelId>(c));
+        break;
+      }
+  // The engine stops the lost devices; what ended meanwhile is taken in first, and what
+  // was stopped there is aborted with everything planned on them or waiting for it.
+  std::vector<ExecutorEvent> events;
+  executor_.halt(computes, channels, events);
+  std::vector<ActivityId> stopped;
+  absorb(events, stopped);
+  recover(stopped, computes, f.memories, st);
+  ++st.faults;
+  if (on_fault) on_fault(f, st);
+}
+
+void RuntimeLoop::recover(const std::vector<ActivityId>& seeds, const std::vector<DeviceId>& computes,
+                          const std::vector<MemId>& memories, RunStats& st) {
+  const Time now = executor_.now();
+  const Schedule::Failure fr = schedule_.fail(now, seeds, computes, memories);
+  executor_.abort(fr.aborted);
+  st.aborted += fr.aborted.size();
+  std::vector<JobId> requeued;
+  for (JobId j : fr.jobs)
+    if (pool_.state(j) == JobState::Planned) {
+      pool_.requeue(j);
+      requeued.push_back(j);
+    }
+  st.requeued += requeued.size();
+  if (!requeued.empty()) workload_.on_requeued(now, requeued, pool_, schedule_);
+  if (fr.lost.empty()) return;
+  // Lost work: queued jobs reading a lost block, and, transitively, jobs reading what
+  // those would have produced.
+  std::vector<BlockId> lost_blocks = fr.lost;
+  std::vector<char> lost_block(pool_.block_count(), 0);
+  for (BlockId b : lost_blocks) lost_block[static_cast<std::size_t>(b)] = 1;
+  std::vector<JobId> lost;
+  for (bool grew = true; grew;) {
+    grew = false;
+    std::vector<JobId> now_lost;
+    for (JobId j : pool_.queued())
+      for (BlockId b : pool_.job(j).inputs)
+        if (lost_block[static_cast<std::size_t>(b)]) {
+          now_lost.push_back(j);
+          break;
+        }
+    for (JobId j : now_lost) {
+      pool_.mark_discarded(j);
+      lost.push_back(j);
+      for (BlockId o : pool_.job(j).outputs)
+        if (!lost_block[static_cast<std::size_t>(o)]) {
+          lost_block[static_cast<std::size_t>(o)] = 1;
+          lost_blocks.push_back(o);
+          grew = true;
+        }
+    }
+  }
+  st.lost_jobs += lost.size();
+  workload_.on_lost(now, lost, lost_blocks, pool_, schedule_);
+}
+
+void Workload::on_lost(Time, const std::vector<JobId>& jobs, const std::vector<BlockId>& blocks, JobPool& pool,
+                       Schedule&) {
+  if (jobs.empty() && blocks.empty()) return;
+  std::string what = blocks.empty() ? std::string() : pool.block(blocks.front()).name;
+  if (blocks.size() > 1) what += " and " + std::to_string(blocks.size() - 1) + " more block(s)";
+  throw std::runtime_error("lost " + what + " with the failed device" +
+                           (jobs.empty() ? std::string() : " (needed by " + pool.job(jobs.front()).name +
+                                                               (jobs.size() > 1 ? " and " + std::to_string(jobs.size() - 1) + " more job(s)" : "") + ")") +
+                           ": no other copy to recover it from");
 }
 
 bool RuntimeLoop::drained(RunStats& st) {
@@ -64,9 +192,12 @@ RunStats RuntimeLoop::run(Time until) {
   const Executor::Sink sink = [&](std::vector<ExecutorEvent>& events) {
     if (handle(events, st)) plan_and_dispatch(executor_.now(), st);
   };
+  for (const Fault& f : faults_) executor_.wake_at(f.at);
   do executor_.run(sink, until);
   while (executor_.now() < until && !drained(st));
   st.makespan = executor_.now();
+  // A wake for a fault keeps the clock going past the last activity; the run ended then.
+  if (!faults_.empty() && st.makespan < until) st.makespan = last_end_;
   return st;
 }
 

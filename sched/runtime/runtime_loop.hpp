@@ -7,6 +7,7 @@
 #include <functional>
 
 #include "sched/runtime/executor.hpp"
+#include "sched/runtime/fault.hpp"
 #include "sched/policy/scheduler.hpp"
 #include "sched/runtime/workload.hpp"
 
@@ -18,6 +19,10 @@ struct RunStats {
   double scheduler_wall_seconds = 0;
   std::uint64_t execs = 0, transfers = 0, evictions = 0;
   bool stalled = false;  // queued jobs left that no device could ever run
+  // Faults (docs/faults.md): applied, activities aborted, jobs queued again, jobs lost,
+  // activities that failed on their own (a read error) and were retried.
+  int faults = 0;
+  std::uint64_t aborted = 0, requeued = 0, lost_jobs = 0, retried = 0;
 };
 
 class RuntimeLoop {
@@ -29,6 +34,13 @@ class RuntimeLoop {
   RunStats run(Time until = kNever);
   // Called after every batch of events (progress reporting, metrics sampling).
   std::function<void(Time now, const RunStats&)> on_progress;
+  // Faults to inject (docs/faults.md), each at its time; call before run().
+  void add_fault(Fault f);
+  // Called once each fault was applied and the run re-planned.
+  std::function<void(const Fault&, const RunStats&)> on_fault;
+  // An activity that fails on its own (an I/O error reading a block) is retried this many
+  // times, then the run ends with a std::runtime_error naming it.
+  int max_retries = 3;
 
  private:
   void plan_and_dispatch(Time now, RunStats& st);
@@ -41,6 +53,17 @@ class RuntimeLoop {
   JobPool& pool_;
   Schedule& schedule_;
   std::size_t dispatched_ = 0;
+  // Faults.
+  void apply_fault(const Fault& f, RunStats& st);
+  void recover(const std::vector<ActivityId>& seeds, const std::vector<DeviceId>& computes,
+               const std::vector<MemId>& memories, RunStats& st);
+  // The batch's events into the schedule, pool and workload; Failed ones (not already
+  // aborted) are appended to `failed`. True when new jobs arrived.
+  bool absorb(const std::vector<ExecutorEvent>& events, std::vector<ActivityId>& failed);
+  std::vector<Fault> faults_;
+  std::size_t next_fault_ = 0;
+  std::vector<std::pair<std::int64_t, int>> retries_;  // (block or ~job, failures), small
+  Time last_end_ = 0;  // the latest Finished event
 };
 
 }  // namespace rayline

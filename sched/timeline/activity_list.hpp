@@ -69,6 +69,11 @@ class ActivityList {
 
   // Removes every occurrence of id, keeping the order of the rest (std::erase).
   void erase(ActivityId id) { size_ = static_cast<std::uint32_t>(std::remove(begin(), end(), id) - begin()); }
+  // Removes every id for which pred holds, keeping the order of the rest (std::erase_if).
+  template <class Pred>
+  void erase_if(Pred pred) {
+    size_ = static_cast<std::uint32_t>(std::remove_if(begin(), end(), pred) - begin());
+  }
 
   friend bool operator==(const ActivityList& a, const ActivityList& b) {
     return std::equal(a.begin(), a.end(), b.begin(), b.end());

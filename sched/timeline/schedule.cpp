@@ -221,7 +221,7 @@ void Schedule::apply_evictions(const Admission& adm, MemId m, ActivityId for_act
     const Eviction& e = evictions_.back();
     Leaving l{e.block, e.mem, {}, adm.victim_surplus};
     for (ActivityId a : e.after)
-      if (acts_[a].state != ActivityState::Done) l.after.push_back(a);
+      if (acts_[a].state != ActivityState::Done && acts_[a].state != ActivityState::Failed) l.after.push_back(a);
     if (!l.after.empty()) {
       used_[e.mem] += l.bytes;
       leaving_.push_back(std::move(l));
@@ -239,10 +239,12 @@ void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
   auto& v = copies_[b];
   auto it = std::find_if(v.begin(), v.end(), [m](const Copy& c) { return c.mem == m; });
   if (it == v.end()) throw std::logic_error("dropping a copy that is not there");
+  const ActivityId producer = it->producer;
+  const Time ready = it->initial_ready;
   v.erase(it);
   ++holders_version_[b];
   forget_holder(b, m);
-  leaving_.push_back({b, m, {}, pool_->block(b).bytes});
+  leaving_.push_back({b, m, {}, pool_->block(b).bytes, leaving_with, producer, ready});
   leaving_.back().after.push_back(leaving_with);
 }
 
@@ -464,6 +466,7 @@ Schedule::CancelCount Schedule::cancel_job(JobId j) {
 
 void Schedule::on_started(ActivityId id, Time t) {
   Activity& a = acts_[id];
+  if (a.state == ActivityState::Failed) return;  // aborted by fail() before it was reported
   a.state = ActivityState::Running;
   a.start = t;
   a.end = std::max(a.end, t);
@@ -471,7 +474,7 @@ void Schedule::on_started(ActivityId id, Time t) {
 
 void Schedule::on_finished(ActivityId id, Time t) {
   Activity& a = acts_[id];
-  if (a.state == ActivityState::Done) return;
+  if (a.state == ActivityState::Done || a.state == ActivityState::Failed) return;
   if (a.state == ActivityState::Planned) a.start = t;
   a.state = ActivityState::Done;
   a.end = t;
@@ -502,7 +505,23 @@ void Schedule::reproject(Time now) {
   for (std::size_t r = 0; r < pending_.size(); ++r) {
     const ActivityId id = pending_[r];
     Activity& a = acts_[id];
-    if (a.state == ActivityState::Done) continue;
+    if (a.state == ActivityState::Done || (a.state == ActivityState::Failed && !a.placeholder)) continue;
+    if (a.placeholder) {  // aborted before it started (fail()): ends when its predecessors do
+      Time s = now;
+      bool settled = true;
+      for (ActivityId p : a.timeline_prev) {
+        s = std::max(s, acts_[p].end);
+        settled = settled && (acts_[p].state == ActivityState::Done ||
+                              (acts_[p].state == ActivityState::Failed && !acts_[p].placeholder));
+      }
+      a.start = a.end = s;
+      if (settled) {
+        a.placeholder = false;
+        continue;
+      }
+      pending_[w++] = id;
+      continue;
+    }
     pending_[w++] = id;
     if (a.state == ActivityState::Running) {
       a.end = std::max(now, a.start + a.duration);

@@ -35,6 +35,9 @@ struct Activity {
   Time start = 0, end = 0;     // projected; the measured values once known
   Time data_ready = 0;         // Exec: when every input was resident (fetching idle, Sec. 4.2)
   bool cancelled = false;      // withdrawn by Schedule::cancel: runs for 0 s, moves nothing
+  // Aborted by Schedule::fail before it started: it keeps its place on its timelines and
+  // ends (0 s, silently) once its timeline predecessors have; its dependencies are dropped.
+  bool placeholder = false;
   ActivityList deps;           // data / eviction / job-job dependencies
   ActivityList timeline_prev;  // predecessor on each of its timelines
 };
@@ -105,7 +108,11 @@ class Schedule {
   const Timeline& resource_timeline(ResourceId r) const { return resource_tl_[r]; }
   // FinishTime(c) of Eq. 3: the latest busy-until of c's resources (kept per channel, updated
   // when a resource's timeline changes).
-  Time channel_finish(ChannelId c) const { return channel_finish_[static_cast<std::size_t>(c)]; }
+  // A lost channel (fail()) is busy for ever: no Eq. 3 label crosses it.
+  Time channel_finish(ChannelId c) const {
+    return dead_channel_.empty() || !dead_channel_[static_cast<std::size_t>(c)] ? channel_finish_[static_cast<std::size_t>(c)]
+                                                                                 : kNever;
+  }
   std::uint64_t resource_version(ResourceId r) const { return resource_version_[r]; }
 
   // Activities.
@@ -169,6 +176,27 @@ class Schedule {
   std::size_t unfinished_on_device(DeviceId d) const { return device_pending_[d]; }
   std::size_t unfinished() const { return unfinished_; }
 
+  // ---- faults (docs/faults.md) ------------------------------------------------------
+  // Devices lost at `now` (for good): compute devices, and memory devices with the data on
+  // them (a lost memory takes the compute devices attached to it, and every channel to or
+  // from it). `seeds` are activities that failed on their own (a block read returning an
+  // I/O error). Every unfinished activity on a lost device or channel, every seed, and
+  // every activity that waits for one of them (its deps, transitively) is aborted: it
+  // moves nothing and produces nothing, and a copy it was to consume or move away is
+  // still where it was (unless that memory is lost). The plan stays append-only: aborted
+  // activities keep their ids and places, marked Failed and withdrawn (they end at now).
+  struct Failure {
+    std::vector<ActivityId> aborted;  // in id order
+    std::vector<JobId> jobs;          // jobs whose E-job was aborted: to be queued again
+    std::vector<BlockId> lost;        // blocks whose last copy was on a lost memory
+  };
+  Failure fail(Time now, const std::vector<ActivityId>& seeds, const std::vector<DeviceId>& computes,
+               const std::vector<MemId>& memories);
+  bool compute_alive(DeviceId d) const { return dead_compute_.empty() || !dead_compute_[static_cast<std::size_t>(d)]; }
+  bool memory_alive(MemId m) const { return dead_memory_.empty() || !dead_memory_[static_cast<std::size_t>(m)]; }
+  bool channel_alive(ChannelId c) const { return dead_channel_.empty() || !dead_channel_[static_cast<std::size_t>(c)]; }
+  bool any_lost() const { return !dead_compute_.empty(); }
+
   // Ends of the activities of `after` jobs, kNever if one is not planned yet.
   Time after_deps_ready(JobId j) const {
     Time t = 0;
@@ -217,7 +245,18 @@ class Schedule {
   // Copies leaving (consumed or moved away) at the end of an activity, or the unneeded
   // part of an evicted copy: their bytes stay reserved until every activity of `after`
   // has ended; admission may count on them from then on, and whoever does waits for them.
-  struct Leaving { BlockId block; MemId mem; ActivityList after; Bytes bytes; };
+  // `dropped_by`: the consumer or move that takes the copy away (kNone: an eviction's or a
+  // withdrawal's reserve); `producer`: the copy's producer then, to put it back when that
+  // activity is aborted (fail()).
+  struct Leaving {
+    BlockId block;
+    MemId mem;
+    ActivityList after;
+    Bytes bytes;
+    ActivityId dropped_by = kNone;
+    ActivityId producer = kNone;
+    Time ready = 0;  // the copy's ready time (producer kNone)
+  };
   Time leaving_at(const Leaving& l) const;
   std::vector<Leaving> leaving_;
   std::vector<Eviction> evictions_;
@@ -231,6 +270,7 @@ class Schedule {
   std::size_t unfinished_ = 0;
   EvictionPolicy eviction_policy_ = EvictionPolicy::QueueAware;
   std::vector<ActivityId> pending_;  // activities not known to be done, in id order (reproject)
+  std::vector<char> dead_compute_, dead_memory_, dead_channel_;  // empty until the first fault
 };
 
 }  // namespace rayline

@@ -185,7 +185,9 @@ inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
     const Activity& a = s.activity(id);
     if (a.cancelled) {
-      if (a.end - a.start > eps) out.fail("withdrawn activity " + std::to_string(id) + " took time");
+      // (An activity a fault stopped while it ran, Schedule::fail, did take time.)
+      if (a.state != ActivityState::Failed && a.end - a.start > eps)
+        out.fail("withdrawn activity " + std::to_string(id) + " took time");
       continue;
     }
     // What it reads: (block, memory) pairs; a dependency that delivers one of them is where
@@ -212,10 +214,10 @@ inline PlanCheck check_schedule(const Schedule& s, const JobPool& pool) {
         out.fail("activity " + std::to_string(id) + " reads " + pool.block(b).name + " from a withdrawn activity");
     }
   }
-  // 4. Every non-discarded job has exactly one E-job.
+  // 4. Every non-discarded job has exactly one E-job (not counting those a fault aborted).
   std::vector<int> count(pool.job_count(), 0);
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id)
-    if (s.activity(id).kind == ActivityKind::Exec) ++count[s.activity(id).job];
+    if (s.activity(id).kind == ActivityKind::Exec && s.activity(id).state != ActivityState::Failed) ++count[s.activity(id).job];
   for (std::size_t j = 0; j < pool.job_count(); ++j)
     if (pool.state(static_cast<JobId>(j)) != JobState::Discarded && count[j] != 1)
       out.fail("job " + pool.job(static_cast<JobId>(j)).name + " has " + std::to_string(count[j]) + " E-jobs");

@@ -16,6 +16,7 @@
 #include "workload/path_trace_workload.hpp"
 #include "sched/io/platform_loader.hpp"
 #include "sched/runtime/runtime_loop.hpp"
+#include "sched/runtime/fault.hpp"
 #include "workload/scene_profile.hpp"
 
 using namespace rayline;
@@ -294,4 +295,45 @@ TEST(PathTraceDeterminism, SameSeedSameRun) {
   const Outcome a = run(Fidelity::Markov, 2), b = run(Fidelity::Markov, 2);
   EXPECT_EQ(a.job_rays, b.job_rays);
   EXPECT_EQ(a.tally.created(), b.tally.created());
+}
+
+// Faults (docs/faults.md): a whole node lost mid-frame. Its queues go with it; the
+// workload abandons each frame that had work there and its client asks for the frame
+// again. The run completes with every client's frames delivered exactly (spp samples per
+// pixel), and the rays are accounted for exactly: created = ended + lost.
+TEST(PathTraceFaults, NodeLostMidFrameFramesRenderedAgainConservationExact) {
+  const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
+  const SceneProfile prof = load_scene_profile(kProfile);
+  int hit = 0;
+  for (const Time at : {0.05, 0.2, 0.5, 1.0}) {
+    PathTraceOptions o;
+    o.clients = 2;
+    o.frames_per_client = 2;
+    o.seed = 7;
+    JobPool pool;
+    Schedule s(g, pool);
+    PathTraceWorkload wl(g, prof, o);
+    GmbScheduler gmb;
+    ExactExecutor ex(s);
+    RuntimeLoop loop(gmb, ex, wl, pool, s);
+    // The node that does not hold the clients (their framebuffers are on the first host memory).
+    loop.add_fault(parse_fault(g.nodes.back().name + "@" + std::to_string(at) + "s", g));
+    const RunStats st = loop.run();
+    EXPECT_FALSE(st.stalled) << "at " << at;
+    EXPECT_EQ(st.faults, 1) << "at " << at;
+    EXPECT_EQ(wl.tally().created(), wl.tally().ended() + wl.tally().lost) << "at " << at;
+    EXPECT_EQ(wl.rays_alive(), 0u) << "at " << at;
+    ASSERT_EQ(wl.frames().size(), 4u) << "at " << at;
+    for (const FrameReport& f : wl.frames()) EXPECT_TRUE(f.exact) << "at " << at << " client " << f.client;
+    // Nothing ran on the lost node after the fault.
+    for (std::size_t i = 0; i < s.activity_count(); ++i) {
+      const Activity& a = s.activity(static_cast<ActivityId>(i));
+      if (a.state != ActivityState::Done) continue;
+      const bool lost = a.kind == ActivityKind::Exec ? !s.compute_alive(a.device) : !s.channel_alive(a.channel);
+      if (lost) EXPECT_LE(a.end, at + 1e-9) << "activity " << i;
+    }
+    hit += wl.abandoned_frames().empty() ? 0 : 1;
+    if (HasFailure()) return;
+  }
+  EXPECT_GT(hit, 0) << "some fault must have taken work that a frame needed";
 }

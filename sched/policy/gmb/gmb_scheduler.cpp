@@ -613,7 +613,7 @@ bool GmbScheduler::better_elsewhere(const Choice& c, DeviceId d, const JobPool& 
   const Job& job = pool.job(c.job);
   for (std::size_t o = 0; o < g.computes.size(); ++o) {
     const auto od = static_cast<DeviceId>(o);
-    if (od == d || !g.timing.supports(od, job.type)) continue;
+    if (od == d || !g.timing.supports(od, job.type) || !s.compute_alive(od)) continue;
     const Time ready_o = std::max(now_, s.device_timeline(od).busy_until);
     const Time exec_o = exec_estimate(c.job, od, pool, s);
     if (ready_o + exec_o >= finish_here) continue;  // cheap prunes first,
@@ -689,6 +689,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   auto& devices = device_queue_;
   devices.clear();
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    if (!s.compute_alive(static_cast<DeviceId>(d))) continue;  // lost (Schedule::fail)
     devices.emplace_back(std::max(now, s.device_timeline(static_cast<DeviceId>(d)).busy_until), static_cast<DeviceId>(d));
     std::push_heap(devices.begin(), devices.end(), std::greater<>{});
   }
