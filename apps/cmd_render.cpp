@@ -111,6 +111,8 @@ engine::RenderOptions render_options(const RenderCliOptions& opt) {
   ro.horizon = choice.horizon;
   ro.aging = choice.aging;
   ro.adaptive_aging = choice.adaptive_aging;
+  ro.faults = opt.fail;
+  ro.fail_read = opt.fail_read;
   if (opt.paths > 0 && opt.paths < 64) throw InputError("--paths", "", "must be 0 (auto) or at least 64");
   ro.batching.path_cap = opt.paths;
   ro.bvh_quality = opt.bvh_quality;

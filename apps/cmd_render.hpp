@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace rayline::cli {
 
@@ -17,6 +18,8 @@ struct RenderCliOptions {
   std::string memory_budget;         // "512MiB"; empty: unlimited (in core)
   std::uint64_t seed = 1;
   double horizon = 2.0;
+  std::vector<std::string> fail;  // --fail DEVICE@TIME (docs/faults.md)
+  std::uint64_t fail_read = 0;    // --fail-read N
   std::string aging = "auto";        // --aging auto|adaptive|off|DURATION (GMB, Sec. 4.3)
   std::uint32_t paths = 0;           // paths in flight at most; 0 = auto
   std::string bvh_quality = "auto";

@@ -64,8 +64,9 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
                   100 * s.prediction_ray_accuracy);
   }
   if (s.faults_applied > 0)
-    std::printf("faults: %d applied (metrics.json \"faults\": throughput before and after each); rays lost %llu, frames asked for again %llu\n",
-                s.faults_applied, static_cast<unsigned long long>(s.rays_lost), static_cast<unsigned long long>(s.frames_abandoned));
+    std::printf("faults: %d applied (metrics.json \"faults\": throughput before and after each); rays lost %llu%s\n",
+                s.faults_applied, static_cast<unsigned long long>(s.rays_lost),
+                s.path_trace ? (", frames asked for again " + std::to_string(s.frames_abandoned)).c_str() : "");
   std::printf("results: %s/metrics.json, jobs.csv%s\n", out.c_str(), timeline ? ", timeline.json" : "");
 }
 }  // namespace

@@ -200,6 +200,12 @@ void add_render(CLI::App& app, std::function<int()>& action) {
       ->check(CLI::Range(1, 4096));
   r->add_option("--seed", opt->seed, "Random seed (same seed: same image, bit for bit)")->default_val(opt->seed)->check(kSeed);
   r->add_option("--horizon", opt->horizon, "GMB horizon k in seconds (Sec. 4.2), > 0")->default_val(opt->horizon);
+  r->add_option("--fail", opt->fail,
+                "DEVICE@TIME: a compute device (e.g. W.cpu1@0.5s) is lost at TIME: its thread finishes its job, "
+                "the work planned there is re-planned on the others (repeatable; docs/faults.md)");
+  r->add_option("--fail-read", opt->fail_read,
+                "N: the N-th block read fails once, as an I/O error would; the load is planned again (docs/faults.md)")
+      ->default_val(opt->fail_read);
   r->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(opt->aging);
   r->add_option("--paths", opt->paths,
                 "Paths in flight at most (bounds ray memory); 0 = auto: under --memory-budget all that fit next to "

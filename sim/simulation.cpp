@@ -497,6 +497,10 @@ json fault_metrics(const Engine& e, const Inputs& in, const Outcome& o, Time end
   j["not_reached"] = later;
   j["failed_activities_retried"] = o.stats.retried;
   sum.faults_applied = static_cast<int>(e.faults.size());
+  if (e.stream) {
+    j["rays_lost"] = e.stream->rays_lost();
+    sum.rays_lost = e.stream->rays_lost();
+  }
   if (e.path_trace) {
     j["rays_lost"] = e.path_trace->tally().lost;
     j["frames_abandoned"] = e.path_trace->abandoned_frames().size();

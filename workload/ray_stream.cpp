@@ -118,9 +118,21 @@ void RayStreamWorkload::top_up(Time now, JobPool& pool, Schedule& s) {
     int b = 0;
     while (b + 1 < opt_.blocks && (u -= 1.0 / (b + 1)) > 0) ++b;
     const auto rays = static_cast<std::uint64_t>(opt_.rays_min + (opt_.rays_max - opt_.rays_min) * uniform());
-    const MemId host = hosts_[static_cast<std::size_t>(uniform() * static_cast<double>(hosts_.size())) % hosts_.size()];
-    add_queue(b, rays, host, kNone, now, pool, s);
+    std::size_t h = static_cast<std::size_t>(uniform() * static_cast<double>(hosts_.size())) % hosts_.size();
+    // (After a fault: the next host memory still alive, in order.)
+    for (std::size_t k = 0; k < hosts_.size() && !s.memory_alive(hosts_[h]); ++k) h = (h + 1) % hosts_.size();
+    if (!s.memory_alive(hosts_[h])) return;
+    add_queue(b, rays, hosts_[h], kNone, now, pool, s);
   }
+}
+
+void RayStreamWorkload::on_lost(Time now, const std::vector<JobId>& jobs, const std::vector<BlockId>&, JobPool& pool,
+                                Schedule& s) {
+  for (JobId j : jobs) {
+    if (pool.job(j).type == type_) rays_lost_ += pool.job(j).work;
+    std::erase_if(open_, [j](const auto& e) { return e.second == j; });
+  }
+  top_up(now, pool, s);
 }
 
 void RayStreamWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedule& s) {

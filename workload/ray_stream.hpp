@@ -37,6 +37,11 @@ class RayStreamWorkload final : public Workload {
   void start(Time now, JobPool& pool, Schedule& schedule) override;
   void on_job_finished(JobId job, Time now, JobPool& pool, Schedule& schedule) override;
   bool finished() const override { return stopped_; }
+  // A stream goes on after a fault (docs/faults.md): the rays of lost jobs are counted, and
+  // new batches appear only on host memories still alive.
+  void on_lost(Time now, const std::vector<JobId>& jobs, const std::vector<BlockId>& blocks, JobPool& pool,
+               Schedule& schedule) override;
+  std::uint64_t rays_lost() const { return rays_lost_; }
 
   std::uint64_t rays_traced() const { return rays_traced_; }
   std::uint64_t merges() const { return merges_; }
@@ -59,7 +64,7 @@ class RayStreamWorkload final : public Workload {
   std::map<std::pair<int, MemId>, JobId> open_;  // (block, memory) -> queued job holding a queue there
   std::vector<int> job_block_;
   std::vector<MemId> job_queue_mem_;
-  std::uint64_t rays_traced_ = 0, merges_ = 0, primary_rays_ = 0, spawned_rays_ = 0;
+  std::uint64_t rays_traced_ = 0, merges_ = 0, primary_rays_ = 0, spawned_rays_ = 0, rays_lost_ = 0;
   bool stopped_ = false;
 };
 

@@ -3,6 +3,8 @@
 #include <span>
 #include <utility>
 
+#include "common/error.hpp"
+
 namespace rayline::engine {
 
 ActivityTasks::ActivityTasks(Setup s, std::vector<std::unique_ptr<accel::Aggregate>> aggregates)
@@ -44,7 +46,14 @@ LocalExecutor::Task ActivityTasks::task(ActivityId id, const Activity& a) {
   const std::uint32_t cell = load ? it->second : 0;
   return [this, load, cell, v = std::move(v)] {
     evict(v);
-    if (load) s_.store.load(cell);
+    if (!load) return;
+    try {
+      s_.store.load(cell);
+    } catch (const InputError& e) {
+      // A read error or a damaged block file (docs/faults.md): the runtime plans the load
+      // again, and after its retries ends the run with this error (exit 2, the file named).
+      throw ActivityError(e.what(), std::current_exception());
+    }
   };
 }
 

@@ -121,12 +121,14 @@ void LocalExecutor::worker(std::size_t lane) {
     cv_.notify_all();
     std::exception_ptr err;
     std::string recoverable;  // an ActivityError: reported Failed, the run re-plans it
+    std::exception_ptr cause;
     if (!skip && it.task) {
       try {
         it.task();
       } catch (const ActivityError& e) {
         recoverable = e.what();
         if (recoverable.empty()) recoverable = "failed";
+        cause = e.cause();
       } catch (...) {
         err = std::current_exception();
       }
@@ -140,7 +142,7 @@ void LocalExecutor::worker(std::size_t lane) {
     // A recoverable failure is not done: what waits for it waits for the loop's abort().
     const bool failed = err || skip || !recoverable.empty();
     if (recoverable.empty()) done_[static_cast<std::size_t>(it.id)] = 1;
-    else why_.emplace_back(it.id, std::move(recoverable));
+    else why_.push_back({it.id, std::move(recoverable), std::move(cause)});
     --in_flight_;
     events_.push_back({failed ? ExecutorEvent::Type::Failed : ExecutorEvent::Type::Finished, it.id, t_end});
     cv_.notify_all();
@@ -223,8 +225,15 @@ void LocalExecutor::abort(const std::vector<ActivityId>& ids) {
 std::string LocalExecutor::why_failed(ActivityId id) const {
   std::lock_guard lk(mu_);
   for (auto it = why_.rbegin(); it != why_.rend(); ++it)
-    if (it->first == id) return it->second;
+    if (it->id == id) return it->what;
   return {};
+}
+
+std::exception_ptr LocalExecutor::cause_of(ActivityId id) const {
+  std::lock_guard lk(mu_);
+  for (auto it = why_.rbegin(); it != why_.rend(); ++it)
+    if (it->id == id) return it->cause;
+  return nullptr;
 }
 
 std::exception_ptr LocalExecutor::failure() const {

@@ -49,6 +49,7 @@ class LocalExecutor final : public Executor {
             std::vector<ExecutorEvent>& events) override;
   void abort(const std::vector<ActivityId>& ids) override;
   std::string why_failed(ActivityId id) const override;
+  std::exception_ptr cause_of(ActivityId id) const override;
   bool gave_up() const override { return failure() != nullptr; }
   // One step: waits for the next batch of events and appends it to `out`; false when
   // nothing is in flight (tests step the executor by hand).
@@ -88,7 +89,12 @@ class LocalExecutor final : public Executor {
   std::vector<char> lost_;     // per lane: its device was lost (halt)
   std::vector<std::int32_t> lane_of_;  // per activity: its lane
   std::vector<Time> wakes_;            // a min-heap (wake_at)
-  std::vector<std::pair<ActivityId, std::string>> why_;  // ActivityError messages
+  struct Why {
+    ActivityId id;
+    std::string what;
+    std::exception_ptr cause;
+  };
+  std::vector<Why> why_;  // ActivityErrors
   std::size_t in_flight_ = 0;
   bool stop_ = false;
   std::exception_ptr failure_;

@@ -132,6 +132,9 @@ void activity_json(const RenderResult& r, const Schedule& s, json& m) {
                 {"hit_ratio", execs ? double(execs - std::min<std::uint64_t>(execs, fetched_for.size())) / double(execs) : 0.0}};
   m["jobs"] = {{"created", r.jobs}, {"merges", r.merges}, {"plan_calls", r.run.plan_calls},
                {"scheduler_seconds", r.run.scheduler_wall_seconds}};
+  if (r.run.faults > 0 || r.run.retried > 0)  // docs/faults.md
+    m["faults"] = {{"applied", r.run.faults}, {"activities_aborted", r.run.aborted},
+                   {"jobs_queued_again", r.run.requeued}, {"failed_activities_retried", r.run.retried}};
   m["predicted_vs_actual"] = {{"exec_median_rel_error", median(err_exec)},
                               {"transfer_median_rel_error", median(err_transfer)},
                               {"exec_samples", err_exec.size()},

@@ -455,6 +455,14 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
       [&tasks](ActivityId id, const Activity& a) { return tasks.hint(id, a); });
   RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
   loop.on_progress = LoopWatch{opt, p, executor, workload, gpu_store.get()};
+  for (const std::string& f : opt.faults) {
+    Fault fault = parse_fault(f, p.g);
+    if (!fault.memories.empty())  // (the renderer's memories hold the only copy of the rays and the image)
+      throw InputError("--fail", f, "the renderer can lose compute devices only (" +
+                                        std::string(p.g.computes.front().name) + ", ...), not memory devices or nodes");
+    loop.add_fault(std::move(fault));
+  }
+  store.fail_read(opt.fail_read);
   res.run = loop.run();
   res.seconds = executor.now();
   res.peak_rss_bytes = rss_peak();

@@ -35,6 +35,11 @@ struct RenderOptions {
   int loaders = 0;                 // disk->RAM channels (loads at once); 0 = the platform's (auto: 1)
   std::uint64_t seed = 1;
   Time horizon = 2.0;              // k of GMB (Sec. 4.2)
+  // Faults (docs/faults.md): "DEVICE@TIME" (a compute device of the workstation, e.g.
+  // W.cpu1@0.5s: its thread finishes its job and starts nothing more), and the n-th block
+  // read failing once (0: none).
+  std::vector<std::string> faults;
+  std::uint64_t fail_read = 0;
   Time aging = -1;                 // GMB (Sec. 4.3): <0 its default (5k, at least 1 s); kNever: off
   bool adaptive_aging = false;     // GMB: the threshold also at least twice the queue's median wait
   // BVH builder: "auto" = low (fast low-quality build) under a memory budget, where blocks are

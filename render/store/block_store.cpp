@@ -52,6 +52,8 @@ void BlockStore::busy(double t0, double t1, bool read) {
 BlockStore::TimedRead BlockStore::timed_read(std::uint32_t block) const {
   TimedRead r;
   r.t0 = since_start();
+  if (fail_read_ > 0 && reads_started_.fetch_add(1) + 1 == fail_read_)
+    throw InputError(path(block), "payload", "read failed: Input/output error (injected by --fail-read)");
   r.raw = read_block_uncached(path(block));
   r.t1 = since_start();
   return r;
@@ -149,7 +151,14 @@ void BlockStore::load(std::uint32_t block) {
     ++copies_.at(block);
     if (resident_[block]) return;
   }
-  auto g = build(block);
+  std::shared_ptr<const trace::BlockGeometry> g;
+  try {
+    g = build(block);
+  } catch (...) {  // (the load did not happen: the plan may try it again)
+    std::lock_guard lk(mu_);
+    --copies_[block];
+    throw;
+  }
   std::lock_guard lk(mu_);
   if (resident_[block]) return;
   resident_[block] = std::move(g);

@@ -58,6 +58,10 @@ class BlockStore {
   // replaced.
   void read_ahead(std::uint32_t block);
   void set_staging_slots(std::size_t n) { slots_ = n < 1 ? 1 : n; }
+  // Fault injection (docs/faults.md): the n-th read of a block file (1-based, read-aheads
+  // included) fails once, as an I/O error would (0: none). A failed load() leaves the
+  // store as it was, so the runtime can plan the load again.
+  void fail_read(std::uint64_t n) { fail_read_ = n; }
   // The resident geometry; when the block is not resident (a plan violation, counted) it
   // is loaded on the spot so the image stays right.
   std::shared_ptr<const trace::BlockGeometry> get(std::uint32_t block);
@@ -100,6 +104,8 @@ class BlockStore {
   mutable std::mutex stage_mu_;
   std::vector<std::unique_ptr<Staged>> staged_;  // oldest first, at most slots_
   std::size_t slots_ = 1;
+  std::uint64_t fail_read_ = 0;
+  mutable std::atomic<std::uint64_t> reads_started_{0};
   std::atomic<std::uint64_t> builds_started_{0};
   std::atomic<int> builds_active_{0};
 };

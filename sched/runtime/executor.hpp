@@ -4,6 +4,7 @@
 // activities started from maestro; render/ with worker threads and file reads; this
 // project's tests with ExactExecutor (plans run exactly as predicted, or perturbed).
 #pragma once
+#include <exception>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -25,7 +26,14 @@ struct ExecutorEvent {
 // engine goes on. Any other exception ends the run.
 class ActivityError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  // `cause`: the error itself (e.g. an InputError naming the block file), rethrown when the
+  // retries are used up so the run ends as that error would have ended it.
+  explicit ActivityError(const std::string& what, std::exception_ptr cause = nullptr)
+      : std::runtime_error(what), cause_(std::move(cause)) {}
+  std::exception_ptr cause() const { return cause_; }
+
+ private:
+  std::exception_ptr cause_;
 };
 
 class Executor {
@@ -60,6 +68,8 @@ class Executor {
   virtual void abort(const std::vector<ActivityId>& ids) = 0;
   // Why an activity was reported Failed (an I/O error reading a block), if the engine knows.
   virtual std::string why_failed(ActivityId) const { return {}; }
+  // The error behind an activity reported Failed (ActivityError::cause), if any.
+  virtual std::exception_ptr cause_of(ActivityId) const { return nullptr; }
   // The engine gave up after an error that is not an ActivityError: what it reports
   // Failed from then on is not recovered, the run just drains.
   virtual bool gave_up() const { return false; }

@@ -56,6 +56,7 @@ bool RuntimeLoop::handle(std::vector<ExecutorEvent>& events, RunStats& st) {
       auto it = std::find_if(retries_.begin(), retries_.end(), [key](const auto& r) { return r.first == key; });
       if (it == retries_.end()) it = retries_.insert(retries_.end(), {key, 0});
       if (++it->second > max_retries) {
+        if (const std::exception_ptr cause = executor_.cause_of(id)) std::rethrow_exception(cause);
         const std::string why = executor_.why_failed(id);
         throw std::runtime_error(
             (a.kind == ActivityKind::Transfer ? "moving " + pool_.block(a.block).name + " over " +
@@ -128,7 +129,12 @@ void RuntimeLoop::recover(const std::vector<ActivityId>& seeds, const std::vecto
     }
   st.requeued += requeued.size();
   if (!requeued.empty()) workload_.on_requeued(now, requeued, pool_, schedule_);
-  if (fr.lost.empty()) return;
+  if (fr.lost.empty()) {
+    // Memory devices lost with nothing on them the queue needs: the workload still hears
+    // of it (its clients may live there).
+    if (!memories.empty()) workload_.on_lost(now, {}, {}, pool_, schedule_);
+    return;
+  }
   // Lost work: queued jobs reading a lost block, and, transitively, jobs reading what
   // those would have produced.
   std::vector<BlockId> lost_blocks = fr.lost;

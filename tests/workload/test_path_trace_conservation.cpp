@@ -330,7 +330,9 @@ TEST(PathTraceFaults, NodeLostMidFrameFramesRenderedAgainConservationExact) {
       const Activity& a = s.activity(static_cast<ActivityId>(i));
       if (a.state != ActivityState::Done) continue;
       const bool lost = a.kind == ActivityKind::Exec ? !s.compute_alive(a.device) : !s.channel_alive(a.channel);
-      if (lost) EXPECT_LE(a.end, at + 1e-9) << "activity " << i;
+      if (lost) {
+        EXPECT_LE(a.end, at + 1e-9) << "activity " << i;
+      }
     }
     hit += wl.abandoned_frames().empty() ? 0 : 1;
     if (HasFailure()) return;
