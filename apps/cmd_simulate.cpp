@@ -143,6 +143,9 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.progress = ProgressLine::for_stderr(opt.no_progress);
   if (!opt.warmup.empty()) cfg.warmup = seconds_flag("--warmup", opt.warmup);
   cfg.faults = opt.fail;  // (checked against the platform when it is loaded)
+  cfg.warm = opt.start == "warm";
+  if (cfg.warm && cfg.workload_kind == sim::WorkloadKind::JobSet)
+    throw InputError("--start", "", "warm applies to the ray stream and to path tracing; a job set says where its data starts");
   if (cfg.workload_kind != sim::WorkloadKind::PathTrace) check_no_path_trace_flags(opt);
   // --blocks sizes the synthetic ray stream's scene; a job set and a scene profile bring their own.
   if (cfg.workload_kind != sim::WorkloadKind::RayStream && opt.blocks != SimulateOptions{}.blocks)

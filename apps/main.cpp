@@ -118,6 +118,11 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--replay", opt->replay, "Path tracing: replay log for --fidelity replay");
   sim->add_flag("--record-replay", opt->record_replay, "Path tracing: also write OUT/replay.log (this run's ray outcomes)");
   sim->add_option("--warmup", opt->warmup, "Path tracing: steady state starts here (default: a third of --duration)");
+  sim->add_option("--start", opt->start,
+                  "cold = scene blocks start on the disks only; warm = RAM and GPU memories start holding the blocks "
+                  "used most (3/4 of each, the rest for rays), as after a long steady run (docs/simulator.md)")
+      ->default_val(opt->start)
+      ->check(CLI::IsMember({"cold", "warm"}));
   sim->add_option("--fail", opt->fail,
                   "DEVICE@TIME: a node, memory or compute device fails at TIME (e.g. B3@10s); its work is re-planned "
                   "on the devices left, lost data made again where the workload can (repeatable; docs/faults.md)");
@@ -143,6 +148,9 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);
   c->add_option("--replay", o.replay, "Path tracing: replay log for --fidelity replay");
   c->add_option("--warmup", o.warmup, "Path tracing: steady state starts here (default: a third of --duration)");
+  c->add_option("--start", o.start, "cold = scene blocks on the disks only; warm = memories start holding the blocks used most")
+      ->default_val(o.start)
+      ->check(CLI::IsMember({"cold", "warm"}));
   c->add_option("--out", opt->out, "Output folder: OUT/<scheduler>/ per run (replaced only if it holds nothing but a run's files), OUT/compare.csv, compare.json")->default_val(opt->out);
   c->callback([opt, &action] { action = [opt] { return run_compare(*opt); }; });
 }

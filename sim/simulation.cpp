@@ -142,6 +142,7 @@ std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
     pto.prediction_depth = cfg.prediction_depth;
     pto.merge_planned = cfg.merge_planned;
     pto.cancel_failed = cfg.cancel_failed;
+    pto.warm = cfg.warm;
     pto.retime_merged = cfg.retime_merged;
     pto.seed = cfg.seed;
     if (cfg.record_replay) pto.record = &in->recording;
@@ -254,6 +255,7 @@ struct Engine {
         RayStreamOptions ro;
         ro.blocks = cfg.blocks;
         ro.seed = cfg.seed;
+        ro.warm = cfg.warm;
         auto w = std::make_unique<RayStreamWorkload>(in.graph, ro);
         stream = w.get();
         return w;
@@ -523,6 +525,7 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
   m["horizon_s"] = cfg.scheduler.horizon;
   m["transfer_order"] = std::string(to_string(cfg.transfer_order));
   m["seed"] = cfg.seed;
+  m["start"] = cfg.warm ? "warm" : "cold";
   m["simulated_s"] = end;
   m["makespan_s"] = makespan_metrics(e.schedule);
   m["stalled"] = o.stalled;

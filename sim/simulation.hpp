@@ -46,6 +46,7 @@ struct SimulationConfig {
   std::string replay_file;              // Fidelity::Replay: the log to replay
   bool record_replay = false;           // write OUT/replay.log (every split of this run)
   Time warmup = -1;                     // steady state from here (<0: a third of the duration)
+  bool warm = false;                    // --start warm: memories begin holding the blocks used most
   // Faults to inject (docs/faults.md): "DEVICE@TIME" each, as --fail takes them.
   std::vector<std::string> faults;
 

@@ -130,6 +130,7 @@ void PathTraceWorkload::start(Time now, JobPool& pool, Schedule& s) {
     s.put_initial(clients_[c].framebuffer, opt_.client_memory, now, true);
     request_frame(static_cast<int>(c), now);
   }
+  if (opt_.warm) rayline::warm_start(s, pool, scene_, expected_block_visits(p_), opt_.warm_start);
   top_up(now, pool, s);
 }
 

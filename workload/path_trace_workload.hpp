@@ -18,6 +18,7 @@
 #include "workload/path_trace_clients.hpp"
 #include "workload/path_trace_graph.hpp"
 #include "workload/path_trace_model.hpp"
+#include "workload/warm_start.hpp"
 #include "sched/runtime/workload.hpp"
 
 namespace rayline {
@@ -42,6 +43,9 @@ struct PathTraceOptions {
   // A planned prediction that failed is withdrawn with its T-jobs (Sec. 5.2, Schedule::
   // cancel_job). Off: it runs empty (0 s) and its prefetches still move their blocks.
   bool cancel_failed = true;
+  // Warm start (warm_start.hpp): memories begin holding the blocks used most.
+  bool warm = false;
+  WarmStart warm_start;
 };
 
 struct RayTally {

@@ -47,6 +47,11 @@ void RayStreamWorkload::start(Time now, JobPool& pool, Schedule& s) {
     scene_.push_back(id);
     for (MemId m : disks_) s.put_initial(id, m, now, true);  // Sec. 6.1: a full copy per node
   }
+  if (opt_.warm) {  // popularity: the Zipf weights top_up draws blocks with
+    std::vector<double> use(scene_.size());
+    for (std::size_t b = 0; b < use.size(); ++b) use[b] = 1.0 / static_cast<double>(b + 1);
+    warm_start(s, pool, scene_, use, opt_.warm_start);
+  }
   top_up(now, pool, s);
 }
 

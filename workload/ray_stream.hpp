@@ -15,6 +15,7 @@
 
 #include "sched/core/device_graph.hpp"
 #include "sched/runtime/workload.hpp"
+#include "workload/warm_start.hpp"
 
 namespace rayline {
 
@@ -29,6 +30,9 @@ struct RayStreamOptions {
   double min_rays = 1000;          // smaller spawned queues are dropped (path ends)
   Time stop_new_batches = kNever;  // no new primary batches after this time
   std::uint64_t seed = 1;
+  // Warm start (warm_start.hpp): memories begin holding the most popular blocks (Zipf).
+  bool warm = false;
+  WarmStart warm_start;
 };
 
 class RayStreamWorkload final : public Workload {
