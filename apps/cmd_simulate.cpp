@@ -56,9 +56,9 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
               static_cast<unsigned long long>(s.activities), s.scheduler_seconds,
               s.simulated > 0 ? 100 * s.scheduler_seconds / s.simulated : 0.0);
   if (s.path_trace) {
-    std::printf("steady state: %.4g rays/s; frames delivered %llu; devices busy %.1f%%, setup %.1f%%, fetching %.1f%%, true idle %.1f%%\n",
-                s.steady_rays_per_second, static_cast<unsigned long long>(s.frames_delivered), 100 * s.busy, 100 * s.setup,
-                100 * s.fetching, 100 * s.idle);
+    std::printf("steady state: %.4g rays shot/s (%.4g block visits/s); frames delivered %llu; devices busy %.1f%%, setup %.1f%%, fetching %.1f%%, true idle %.1f%%\n",
+                s.steady_rays_shot_per_second, s.steady_rays_per_second, static_cast<unsigned long long>(s.frames_delivered),
+                100 * s.busy, 100 * s.setup, 100 * s.fetching, 100 * s.idle);
     if (s.prediction_accuracy >= 0)
       std::printf("prediction accuracy %.1f%% (jobs), %.1f%% (rays)\n", 100 * s.prediction_accuracy,
                   100 * s.prediction_ray_accuracy);
@@ -83,6 +83,7 @@ void check_no_path_trace_flags(const SimulateOptions& opt) {
   };
   flag(counts.size() > 1 || counts[0] != 1, "--clients");
   flag(opt.prediction_depth != 0, "--prediction-depth");
+  flag(opt.frames_in_flight != 1, "--frames-in-flight");
   flag(opt.fidelity != "markov", "--fidelity");
   flag(!opt.replay.empty(), "--replay");
   flag(opt.record_replay, "--record-replay");
@@ -98,6 +99,7 @@ void check_no_path_trace_flags(const SimulateOptions& opt) {
 // The path-tracing options, parsed and checked (a workload that is a scene profile).
 void path_trace_config(const SimulateOptions& opt, sim::SimulationConfig& cfg) {
   cfg.prediction_depth = opt.prediction_depth;
+  cfg.frames_in_flight = opt.frames_in_flight;
   cfg.merge_planned = opt.merge_planned == "on";
   cfg.cancel_failed = opt.cancel_failed == "on";
   cfg.retime_merged = opt.retime_merged == "on";
@@ -197,9 +199,9 @@ int sweep_point(const sim::SimulationConfig& cfg, int clients, const std::string
     c.progress = ProgressLine::Mode::Off;
     const sim::SimulationSummary s = sim::run_simulation(c);
     char line[512];
-    const int len = std::snprintf(line, sizeof line, "%d,%.6g,%.4f,%.4f,%.4f,%.4f,%.4f,%llu\n", clients,
-                                  s.steady_rays_per_second, s.prediction_accuracy, s.busy, s.setup, s.fetching, s.idle,
-                                  static_cast<unsigned long long>(s.frames_delivered));
+    const int len = std::snprintf(line, sizeof line, "%d,%.6g,%.6g,%.4f,%.4f,%.4f,%.4f,%.4f,%llu\n", clients,
+                                  s.steady_rays_shot_per_second, s.steady_rays_per_second, s.prediction_accuracy, s.busy,
+                                  s.setup, s.fetching, s.idle, static_cast<unsigned long long>(s.frames_delivered));
     if (::write(fd, line, static_cast<std::size_t>(len)) != len) return kExitFailure;
     if (s.stalled) std::fprintf(stderr, "rayline: %d client(s): %s\n", clients, s.stalled_reason.c_str());
     return s.stalled ? kExitFailure : kExitOk;
@@ -222,7 +224,7 @@ int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, cons
   double peak = 0;
   int peak_n = 0;
   bool stalled = false;
-  std::printf("clients,steady_rays_per_second,prediction_accuracy,busy,setup,fetching,idle,frames\n");
+  std::printf("clients,steady_rays_shot_per_second,steady_block_visits_per_second,prediction_accuracy,busy,setup,fetching,idle,frames\n");
   std::fflush(stdout);
   for (int n : counts) {
     std::string line;  // one process per point
@@ -243,7 +245,7 @@ int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, cons
     }
   }
   stage.publish();
-  std::printf("peak: %.4g rays/s with %d client(s); results in %s/clients-N/\n", peak, peak_n, opt.out.c_str());
+  std::printf("peak: %.4g rays shot/s with %d client(s); results in %s/clients-N/\n", peak, peak_n, opt.out.c_str());
   return stalled ? kExitFailure : kExitOk;
 }
 

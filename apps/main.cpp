@@ -98,6 +98,11 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                 "Skip timeline.json (the Chrome trace; ~250 B per activity, so ~0.25 GB for a long path-tracing run)");
   sim->add_flag("--no-progress", opt->no_progress, "No progress line");
   sim->add_option("--clients", opt->clients, "Path tracing: clients requesting frames (N, or N1,N2,... for a sweep reporting the peak)")->default_val(opt->clients);
+  sim->add_option("--frames-in-flight", opt->frames_in_flight,
+                  "Path tracing: frames each client keeps requested at once (the offered load; the paper's clients "
+                  "feed requests frame by frame)")
+      ->default_val(opt->frames_in_flight)
+      ->check(CLI::Range(1, 64));
   sim->add_option("--prediction-depth", opt->prediction_depth, "Path tracing: job prediction depth (Sec. 5.2; 0 = off)")->default_val(opt->prediction_depth)->check(CLI::Range(0, 16));
   sim->add_option("--merge-planned", opt->merge_planned,
                   "Path tracing: on = arriving rays may join a planned, not yet started job (its E-job grows, see "
@@ -148,6 +153,9 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);
   c->add_option("--replay", o.replay, "Path tracing: replay log for --fidelity replay");
   c->add_option("--warmup", o.warmup, "Path tracing: steady state starts here (default: a third of --duration)");
+  c->add_option("--frames-in-flight", o.frames_in_flight, "Path tracing: frames each client keeps requested at once")
+      ->default_val(o.frames_in_flight)
+      ->check(CLI::Range(1, 64));
   c->add_option("--start", o.start, "cold = scene blocks on the disks only; warm = memories start holding the blocks used most")
       ->default_val(o.start)
       ->check(CLI::IsMember({"cold", "warm"}));

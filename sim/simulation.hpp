@@ -38,6 +38,7 @@ struct SimulationConfig {
   ProgressLine::Mode progress = ProgressLine::Mode::Off;  // progress on stderr
   // Path-tracing workload (a scene profile; docs/scene-profiles.md).
   int clients = 1;
+  int frames_in_flight = 1;             // frames each client keeps requested at once
   int prediction_depth = 0;             // Sec. 5.2; 0: off
   bool merge_planned = true;            // queues may join planned jobs
   bool retime_merged = true;            // planned jobs that rays joined are re-timed
@@ -64,7 +65,8 @@ struct SimulationSummary {
   std::string stalled_reason;  // when stalled: which job, and why no device can take it (sched/policy/unplaced.hpp)
   // Path-tracing workload only.
   bool path_trace = false;
-  double steady_rays_per_second = 0;    // rays intersected per second after the warm-up
+  double steady_rays_per_second = 0;    // block visits (rays intersected in a block) per second after the warm-up
+  double steady_rays_shot_per_second = 0;  // the paper's metric: rays traced to completion per second after the warm-up
   double prediction_accuracy = -1, prediction_ray_accuracy = -1;  // <0: prediction off
   std::uint64_t frames_delivered = 0;
   int faults_applied = 0;                 // --fail: faults that happened before the run ended

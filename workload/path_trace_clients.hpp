@@ -1,9 +1,9 @@
 // Clients of the path-tracing workload (Sec. 6): "a number of client processes ...
 // request a scene along predefined camera movements, feeding an image request in a
-// frame-by-frame manner". Each client renders one frame at a time: the frame's primary
-// rays are generated in waves (GenerateRays jobs) while the client has fewer than
-// `inflight_rays` rays alive, and its next frame is requested when AdditiveCompose has
-// delivered the last one. Frame f of client c uses camera keyframe (c + f) mod K, so
+// frame-by-frame manner". Each client keeps `frames_in_flight` frames requested (one by
+// default): a frame's primary rays are generated in waves (GenerateRays jobs) while the
+// frame has fewer than `inflight_rays` rays alive, and the client's next frame is
+// requested when AdditiveCompose has delivered one. Frame f of client c uses camera keyframe (c + f) mod K, so
 // clients look at different parts of the scene.
 //
 // Pixel accounting (conservation without per-ray state): a frame is tiles_x x tiles_y
@@ -52,8 +52,9 @@ struct FrameState {
 struct ClientState {
   MemId memory = kNone;       // where its framebuffer is (the compose destination)
   std::int32_t framebuffer = kNone;  // BlockId of its framebuffer
-  std::int64_t frame = -1;    // uid of its current frame (index into frames), -1: none
+  std::vector<std::int64_t> frames;  // uids of its frames in flight (indices into frames), oldest first
   int frames_done = 0;
+  int next_index = 0;         // the next frame along its camera path
 };
 
 // The next wave of a frame: per-tile ray counts at bounce 0, advancing next_unit.

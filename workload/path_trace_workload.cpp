@@ -128,50 +128,52 @@ void PathTraceWorkload::start(Time now, JobPool& pool, Schedule& s) {
     clients_[c].memory = opt_.client_memory;
     clients_[c].framebuffer = pool.add_block(fb);
     s.put_initial(clients_[c].framebuffer, opt_.client_memory, now, true);
-    request_frame(static_cast<int>(c), now);
+    for (int k = 0; k < std::max(1, opt_.frames_in_flight); ++k)
+      if (opt_.frames_per_client == 0 || clients_[c].next_index < opt_.frames_per_client)
+        request_frame(static_cast<int>(c), now);
   }
   if (opt_.warm) rayline::warm_start(s, pool, scene_, expected_block_visits(p_), opt_.warm_start);
   top_up(now, pool, s);
 }
 
-void PathTraceWorkload::request_frame(int c, Time now) {
+void PathTraceWorkload::request_frame(int c, Time now, int index) {
   ClientState& cl = clients_[static_cast<std::size_t>(c)];
   FrameState f;
   f.client = c;
-  f.index = cl.frames_done;
+  f.index = index >= 0 ? index : cl.next_index++;
   f.keyframe = static_cast<int>((static_cast<std::size_t>(c) + static_cast<std::size_t>(f.index)) % p_.camera_path.size());
   f.units_total = static_cast<std::uint64_t>(p_.spp) * static_cast<std::uint64_t>(p_.tiles());
   f.requested = now;
-  cl.frame = static_cast<std::int64_t>(frames_.size());
+  cl.frames.push_back(static_cast<std::int64_t>(frames_.size()));
   frames_.push_back(std::move(f));
 }
 
 void PathTraceWorkload::top_up(Time now, JobPool& pool, Schedule& s) {
-  for (ClientState& cl : clients_) {
-    if (cl.frame < 0) continue;
-    const auto uid = static_cast<std::uint32_t>(cl.frame);
-    FrameState& f = frames_[uid];
-    while (f.next_unit < f.units_total && (f.alive == 0 || f.alive + p_.wave_rays <= p_.inflight_rays)) {
-      RayCounts wave = next_wave(p_, uid, f);
-      const std::uint64_t n = total(wave);
-      f.alive += n;
-      ++f.generate_pending;
-      DataBlock req;
-      req.name = "request" + std::to_string(pool.block_count());
-      req.kind = DataKind::Generic;
-      req.bytes = p_.request_bytes;
-      req.consumed = true;
-      const BlockId rb = pool.add_block(req);
-      s.put_initial(rb, cl.memory, now, false);
-      const JobId j = pool.add_job(make_job(PtJob::Generate, -1, rb, 0, now));
-      JobInfo& I = info(j);
-      I.kind = PtJob::Generate;
-      I.mem = cl.memory;
-      I.rays = std::move(wave);
-      I.frame = uid;
-      ++jobs_by_kind_[static_cast<int>(PtJob::Generate)];
+  for (ClientState& cl : clients_)
+    for (const std::int64_t fid : cl.frames) {
+      const auto uid = static_cast<std::uint32_t>(fid);
+      FrameState& f = frames_[uid];
+      while (f.next_unit < f.units_total && (f.alive == 0 || f.alive + p_.wave_rays <= p_.inflight_rays)) {
+        RayCounts wave = next_wave(p_, uid, f);
+        const std::uint64_t n = total(wave);
+        f.alive += n;
+        ++f.generate_pending;
+        DataBlock req;
+        req.name = "request" + std::to_string(pool.block_count());
+        req.kind = DataKind::Generic;
+        req.bytes = p_.request_bytes;
+        req.consumed = true;
+        const BlockId rb = pool.add_block(req);
+        s.put_initial(rb, cl.memory, now, false);
+        const JobId j = pool.add_job(make_job(PtJob::Generate, -1, rb, 0, now));
+        JobInfo& I = info(j);
+        I.kind = PtJob::Generate;
+        I.mem = cl.memory;
+        I.rays = std::move(wave);
+        I.frame = uid;
+        ++jobs_by_kind_[static_cast<int>(PtJob::Generate)];
+      }
     }
-  }
 }
 
 // A queue of `kind` for `block` now sits on `mem`: merge it into the queued job holding one
@@ -413,8 +415,8 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
       reports_.push_back(r);
       ClientState& cl = clients_[static_cast<std::size_t>(f.client)];
       ++cl.frames_done;
-      cl.frame = -1;
-      if ((opt_.frames_per_client == 0 || cl.frames_done < opt_.frames_per_client) && now < opt_.stop_new_frames)
+      std::erase(cl.frames, static_cast<std::int64_t>(I.frame));
+      if ((opt_.frames_per_client == 0 || cl.next_index < opt_.frames_per_client) && now < opt_.stop_new_frames)
         request_frame(f.client, now);
       break;
     }
@@ -458,38 +460,38 @@ void PathTraceWorkload::scan_planned(const Schedule& s, const JobPool& pool) {
 // A frame whose rays and sample records are all done is composed at its client (Sec. 5.1:
 // framebuffers move only for AdditiveCompose).
 void PathTraceWorkload::check_frames(Time now, JobPool& pool, Schedule& s) {
-  for (ClientState& cl : clients_) {
-    if (cl.frame < 0) continue;
-    const auto uid = static_cast<std::uint32_t>(cl.frame);
-    FrameState& f = frames_[uid];
-    if (f.composing || f.next_unit < f.units_total || f.generate_pending > 0 || f.alive > 0 || f.records_pending > 0)
-      continue;
-    f.composing = true;
-    Job job;
-    job.name = "AdditiveCompose.frame" + std::to_string(uid);
-    job.type = type_[static_cast<int>(PtJob::Compose)];
-    job.created = now;
-    for (const auto& [m, tiles] : f.partial) {
-      Bytes px = 0;
-      for (std::size_t t = 0; t < tiles.size(); ++t)
-        if (tiles[t]) px += p_.tile_pixels(static_cast<int>(t));
-      DataBlock fb;
-      fb.name = "partial" + std::to_string(pool.block_count());
-      fb.kind = DataKind::Framebuffer;
-      fb.bytes = std::max<Bytes>(1, px * p_.framebuffer_bytes_per_pixel);
-      fb.consumed = true;
-      const BlockId b = pool.add_block(fb);
-      s.put_initial(b, m, now, false);
-      job.inputs.push_back(b);
+  for (ClientState& cl : clients_)
+    for (const std::int64_t fid : cl.frames) {
+      const auto uid = static_cast<std::uint32_t>(fid);
+      FrameState& f = frames_[uid];
+      if (f.composing || f.next_unit < f.units_total || f.generate_pending > 0 || f.alive > 0 || f.records_pending > 0)
+        continue;
+      f.composing = true;
+      Job job;
+      job.name = "AdditiveCompose.frame" + std::to_string(uid);
+      job.type = type_[static_cast<int>(PtJob::Compose)];
+      job.created = now;
+      for (const auto& [m, tiles] : f.partial) {
+        Bytes px = 0;
+        for (std::size_t t = 0; t < tiles.size(); ++t)
+          if (tiles[t]) px += p_.tile_pixels(static_cast<int>(t));
+        DataBlock fb;
+        fb.name = "partial" + std::to_string(pool.block_count());
+        fb.kind = DataKind::Framebuffer;
+        fb.bytes = std::max<Bytes>(1, px * p_.framebuffer_bytes_per_pixel);
+        fb.consumed = true;
+        const BlockId b = pool.add_block(fb);
+        s.put_initial(b, m, now, false);
+        job.inputs.push_back(b);
+      }
+      job.inputs.push_back(cl.framebuffer);
+      const JobId j = pool.add_job(std::move(job));
+      JobInfo& I = info(j);
+      I.kind = PtJob::Compose;
+      I.mem = cl.memory;
+      I.frame = uid;
+      ++jobs_by_kind_[static_cast<int>(PtJob::Compose)];
     }
-    job.inputs.push_back(cl.framebuffer);
-    const JobId j = pool.add_job(std::move(job));
-    JobInfo& I = info(j);
-    I.kind = PtJob::Compose;
-    I.mem = cl.memory;
-    I.frame = uid;
-    ++jobs_by_kind_[static_cast<int>(PtJob::Compose)];
-  }
 }
 
 void PathTraceWorkload::on_idle(Time now, JobPool& pool, Schedule& s) {
@@ -497,9 +499,9 @@ void PathTraceWorkload::on_idle(Time now, JobPool& pool, Schedule& s) {
   top_up(now, pool, s);
   if (pool.queued_count() == 0 && !finished())
     for (const ClientState& cl : clients_)
-      if (cl.frame >= 0)
-        throw std::logic_error("path-trace workload: frame " + std::to_string(cl.frame) + " has " +
-                               std::to_string(frames_[static_cast<std::size_t>(cl.frame)].alive) +
+      if (!cl.frames.empty())
+        throw std::logic_error("path-trace workload: frame " + std::to_string(cl.frames.front()) + " has " +
+                               std::to_string(frames_[static_cast<std::size_t>(cl.frames.front())].alive) +
                                " rays alive but no job left to trace them");
 }
 
@@ -569,10 +571,8 @@ void PathTraceWorkload::on_lost(Time now, const std::vector<JobId>& jobs, const 
     r.delivered = now;
     r.abandoned = true;
     abandoned_.push_back(r);
-    if (cl.frame == static_cast<std::int64_t>(uid)) {
-      cl.frame = -1;
-      request_frame(f.client, now);  // the same frame again (frames_done is unchanged)
-    }
+    if (std::erase(cl.frames, static_cast<std::int64_t>(uid)) > 0)
+      request_frame(f.client, now, f.index);  // the same frame again
   }
   check_frames(now, pool, s);
   top_up(now, pool, s);
@@ -580,7 +580,7 @@ void PathTraceWorkload::on_lost(Time now, const std::vector<JobId>& jobs, const 
 
 bool PathTraceWorkload::finished() const {
   for (const ClientState& cl : clients_) {
-    if (cl.frame >= 0) return false;
+    if (!cl.frames.empty()) return false;
     if (opt_.frames_per_client > 0 && cl.frames_done < opt_.frames_per_client && now_ < opt_.stop_new_frames) return false;
   }
   return opt_.frames_per_client > 0 || now_ >= opt_.stop_new_frames;

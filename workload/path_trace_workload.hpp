@@ -30,6 +30,7 @@ struct PathTraceOptions {
   std::shared_ptr<ReplayLog> replay;  // required for Fidelity::Replay
   ReplayLog* record = nullptr;        // when set, every split is recorded (a replay log)
   int frames_per_client = 0;          // 0: frame after frame until the run ends
+  int frames_in_flight = 1;           // frames each client keeps requested at once (offered load)
   Time stop_new_frames = kNever;      // no new frame requests after this time
   MemId client_memory = kNone;        // default: the first host memory of the platform
   std::uint64_t seed = 1;
@@ -129,7 +130,7 @@ class PathTraceWorkload final : public Workload {
   Job make_job(PtJob kind, int block, BlockId queue, std::uint64_t work, Time now) const;
   void add_queue(PtJob kind, int block, MemId mem, RayCounts rays, RayCounts records, Time now, JobPool& pool, Schedule& s);
   void route(JobId parent, Dest& d, MemId mem, Time now, JobPool& pool, Schedule& s);
-  void request_frame(int client, Time now);
+  void request_frame(int client, Time now, int index = -1);  // -1: the client's next frame
   void top_up(Time now, JobPool& pool, Schedule& s);
   void check_frames(Time now, JobPool& pool, Schedule& s);
   void scan_planned(const Schedule& s, const JobPool& pool);

@@ -6,6 +6,7 @@
 // per-job ray counts exactly.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <functional>
 #include <sstream>
@@ -338,4 +339,43 @@ TEST(PathTraceFaults, NodeLostMidFrameFramesRenderedAgainConservationExact) {
     if (HasFailure()) return;
   }
   EXPECT_GT(hit, 0) << "some fault must have taken work that a frame needed";
+}
+
+// Several frames in flight per client (more offered load): conservation stays exact, every
+// frame is delivered exact, frame indices along each client's camera path are 0..n-1.
+TEST(PathTraceFramesInFlight, ConservationExactWithThreeFramesInFlight) {
+  const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
+  const SceneProfile prof = load_scene_profile(kProfile);
+  PathTraceOptions o;
+  o.clients = 2;
+  o.frames_per_client = 4;
+  o.frames_in_flight = 3;
+  o.seed = 11;
+  JobPool pool;
+  Schedule s(g, pool);
+  PathTraceWorkload wl(g, prof, o);
+  GmbScheduler gmb;
+  ExactExecutor ex(s);
+  RuntimeLoop loop(gmb, ex, wl, pool, s);
+  const RunStats st = loop.run();
+  EXPECT_FALSE(st.stalled);
+  EXPECT_EQ(wl.tally().created(), wl.tally().ended());
+  EXPECT_EQ(wl.rays_alive(), 0u);
+  ASSERT_EQ(wl.frames().size(), 8u);
+  std::vector<std::vector<int>> seen(2);
+  for (const FrameReport& f : wl.frames()) {
+    EXPECT_TRUE(f.exact) << "client " << f.client << " frame " << f.index;
+    seen[static_cast<std::size_t>(f.client)].push_back(f.index);
+  }
+  for (auto& v : seen) {
+    std::sort(v.begin(), v.end());
+    EXPECT_EQ(v, (std::vector<int>{0, 1, 2, 3}));
+  }
+  // More than one frame of a client was in flight at once: some frame was requested
+  // before the one before it was delivered.
+  bool overlapped = false;
+  for (const FrameReport& a : wl.frames())
+    for (const FrameReport& b : wl.frames())
+      overlapped = overlapped || (a.client == b.client && a.index + 1 == b.index && b.requested < a.delivered);
+  EXPECT_TRUE(overlapped);
 }
