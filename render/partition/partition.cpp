@@ -10,12 +10,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "render/partition/occupancy_axis.hpp"
 #include "render/scene/scene_stream.hpp"
 #include "common/error.hpp"
+#include "common/json_fields.hpp"
 #include "common/output_folder.hpp"
 #include "common/unfinished_output.hpp"
 
@@ -345,111 +347,139 @@ std::string block_index_to_json(const BlockIndex& idx) {
   return j.dump(1) + "\n";
 }
 
+namespace {
+
+using Field = OrderedJsonField;
+
+// A coordinate: a JSON number that a float holds (a larger one would become infinite).
+float coordinate(const Field& f) {
+  const double v = f.number();
+  if (!(std::fabs(v) <= double(std::numeric_limits<float>::max()))) f.fail("must be a finite float");
+  return static_cast<float>(v);
+}
+
+// {"lo": [x, y, z], "hi": [x, y, z]} with lo <= hi on every axis; null is the empty
+// bounds where `may_be_empty` (the geometry of a block without triangles).
+Bounds bounds_field(const Field& f, bool may_be_empty) {
+  Bounds r;
+  if (may_be_empty && f.json().is_null()) return r;
+  f.object();
+  for (const char* end : {"lo", "hi"}) {
+    const Field v = f.at(end);
+    if (v.array().size() != 3) v.fail("must be an array of 3 numbers");
+  }
+  for (int i = 0; i < 3; ++i) {
+    r.lo[i] = coordinate(f.at("lo").element(std::size_t(i)));
+    r.hi[i] = coordinate(f.at("hi").element(std::size_t(i)));
+    if (r.lo[i] > r.hi[i]) f.fail("lo above hi on axis " + std::to_string(i));
+  }
+  return r;
+}
+
+std::uint32_t index_below(const Field& f, std::size_t n, const char* what) {
+  if (n == 0 || !f.json().is_number_unsigned() || f.json().get<std::uint64_t>() >= n)
+    f.fail(std::string("must be a ") + what + " index from 0 to " + std::to_string(n == 0 ? 0 : n - 1));
+  return static_cast<std::uint32_t>(f.json().get<std::uint64_t>());
+}
+
+}  // namespace
+
 BlockIndex load_block_index(const std::string& dir) {
   const std::string file = (fs::path(dir) / "blocks.json").string();
   std::ifstream in(file, std::ios::binary);
   if (!in) throw InputError(file, "", "cannot open (not a partitioned scene folder?)");
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const std::exception& e) {
-    throw InputError(file, "", std::string("malformed JSON: ") + e.what());
+  std::stringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(file, "", "cannot read");
+  // Parsed with the depth limit of every JSON input (kMaxJsonDepth); every value is then
+  // checked for its type and range before it is converted (converting 1e20 to an int is
+  // undefined behaviour).
+  const OrderedJsonInput input(file);
+  const json doc = input.parse(text.str());
+  const Field root = input.field(doc, "");
+  root.object();
+  if (root.at("format").string() != "rayline-blocks") root.fail_at("format", "not a block index");
+  if (const Field v = root.at("version"); v.json() != 1) v.fail("unsupported version (this build reads version 1)");
+  BlockIndex idx;
+  idx.scene = root.at("scene").string();
+  idx.scene_triangles = root.at("scene_triangles").unsigned_integer();
+  idx.references = root.at("references").unsigned_integer();
+  idx.bounds = bounds_field(root.at("bounds"), false);
+  const std::vector<Field> blocks = root.at("blocks").elements();
+  if (blocks.empty() || blocks.size() > (std::size_t(1) << 20))
+    root.fail_at("blocks", "must list 1 to 1048576 blocks");
+  const std::size_t nb = blocks.size();
+  for (std::size_t i = 0; i < nb; ++i) {
+    const Field& b = blocks[i];
+    BlockInfo bi;
+    if (b.at("id").integer(0, std::int64_t(nb) - 1) != std::int64_t(i)) b.at("id").fail("ids must be 0..N-1 in order");
+    bi.id = static_cast<std::uint32_t>(i);
+    bi.file = b.at("file").string();
+    if (bi.file.empty() || bi.file == "." || bi.file == ".." ||
+        bi.file.find_first_of(std::string("/\0", 2)) != std::string::npos)
+      b.at("file").fail("must be a plain file name");
+    bi.triangles = b.at("triangles").unsigned_integer();
+    bi.file_bytes = b.at("bytes").unsigned_integer();
+    bi.payload_crc32 = static_cast<std::uint32_t>(b.at("payload_crc32").integer(0, 0xffffffffll));
+    bi.cell = bounds_field(b.at("cell"), false);
+    bi.geometry = bounds_field(b.at("geometry_bounds"), true);
+    if (const auto o = b.find("occupancy")) {
+      if (const Field r = o->at("resolution"); r.json() != BlockInfo::kOccupancyRes)
+        r.fail("must be " + std::to_string(BlockInfo::kOccupancyRes));
+      const Field bits_field = o->at("bits");
+      const std::string bits = bits_field.string();
+      if (bits.size() != bi.occupancy.size() * 16 || bits.find_first_not_of("0123456789abcdef") != std::string::npos)
+        bits_field.fail("must be " + std::to_string(bi.occupancy.size() * 16) + " lower-case hex digits");
+      for (std::size_t k = 0; k < bi.occupancy.size(); ++k)
+        bi.occupancy[k] = std::stoull(bits.substr(k * 16, 16), nullptr, 16);
+      bi.has_occupancy = true;
+    }
+    for (const Field& n : b.at("neighbours").elements()) {
+      Neighbour x;
+      x.block = index_below(n.at("block"), nb, "block");
+      x.axis = static_cast<int>(n.at("axis").integer(0, 2));
+      x.area = n.at("area").number();
+      bi.neighbours.push_back(x);
+    }
+    idx.blocks.push_back(std::move(bi));
   }
-  std::string field;
-  try {
-    BlockIndex idx;
-    field = "format";
-    if (j.at("format").get<std::string>() != "rayline-blocks") throw InputError(file, field, "not a block index");
-    field = "version";
-    if (j.at("version").get<int>() != 1) throw InputError(file, field, "unsupported version");
-    auto get_bounds = [&](const json& b) {
-      Bounds r;
-      if (b.is_null()) return r;
-      for (int i = 0; i < 3; ++i) r.lo[i] = b.at("lo").at(i).get<float>(), r.hi[i] = b.at("hi").at(i).get<float>();
-      return r;
-    };
-    field = "scene";
-    idx.scene = j.at("scene").get<std::string>();
-    field = "scene_triangles";
-    idx.scene_triangles = j.at("scene_triangles").get<std::uint64_t>();
-    field = "references";
-    idx.references = j.at("references").get<std::uint64_t>();
-    field = "bounds";
-    idx.bounds = get_bounds(j.at("bounds"));
-    field = "blocks";
-    const json& blocks = j.at("blocks");
-    for (std::size_t i = 0; i < blocks.size(); ++i) {
-      field = "blocks[" + std::to_string(i) + "]";
-      const json& b = blocks.at(i);
-      BlockInfo bi;
-      bi.id = b.at("id").get<std::uint32_t>();
-      if (bi.id != i) throw InputError(file, field + ".id", "ids must be 0..N-1 in order");
-      bi.file = b.at("file").get<std::string>();
-      if (bi.file.find('/') != std::string::npos || bi.file.empty())
-        throw InputError(file, field + ".file", "must be a plain file name");
-      bi.triangles = b.at("triangles").get<std::uint64_t>();
-      bi.file_bytes = b.at("bytes").get<std::uint64_t>();
-      bi.payload_crc32 = b.at("payload_crc32").get<std::uint32_t>();
-      bi.cell = get_bounds(b.at("cell"));
-      bi.geometry = get_bounds(b.at("geometry_bounds"));
-      if (b.contains("occupancy")) {
-        const json& o = b.at("occupancy");
-        if (o.at("resolution").get<int>() != BlockInfo::kOccupancyRes)
-          throw InputError(file, field + ".occupancy.resolution",
-                           "must be " + std::to_string(BlockInfo::kOccupancyRes));
-        const std::string bits = o.at("bits").get<std::string>();
-        if (bits.size() != bi.occupancy.size() * 16 ||
-            bits.find_first_not_of("0123456789abcdef") != std::string::npos)
-          throw InputError(file, field + ".occupancy.bits",
-                           "must be " + std::to_string(bi.occupancy.size() * 16) + " lower-case hex digits");
-        for (std::size_t k = 0; k < bi.occupancy.size(); ++k)
-          bi.occupancy[k] = std::stoull(bits.substr(k * 16, 16), nullptr, 16);
-        bi.has_occupancy = true;
+  // The kd-tree: node 0 the root, children after their parent, every node but the root
+  // the child of exactly one node and every block the leaf of exactly one. Otherwise it
+  // is no partition: a node's cell would depend on which parent came last, and a block
+  // reached from no cell, or from two, would render wrong without a word.
+  const Field nodes_field = root.at("kdtree").at("nodes");
+  const std::vector<Field> nodes = nodes_field.elements();
+  if (nodes.size() != 2 * nb - 1) nodes_field.fail("expected 2N-1 nodes for N blocks");
+  std::vector<std::uint8_t> parents(nodes.size(), 0), leaves(nb, 0);
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    const Field& n = nodes[i];
+    KdNode k;
+    if (n.has("block")) {
+      k.block = index_below(n.at("block"), nb, "block");
+      if (leaves[k.block]++) n.at("block").fail("block " + std::to_string(k.block) + " is the leaf of two nodes");
+    } else {
+      k.axis = static_cast<int>(n.at("axis").integer(0, 2));
+      k.split = coordinate(n.at("split"));
+      k.left = index_below(n.at("left"), nodes.size(), "node");
+      k.right = index_below(n.at("right"), nodes.size(), "node");
+      for (const std::uint32_t child : {k.left, k.right}) {
+        if (child <= i) n.fail("a child must come after its parent");
+        if (parents[child]++) n.fail("node " + std::to_string(child) + " has two parents");
       }
-      for (const json& n : b.at("neighbours")) {
-        Neighbour x{n.at("block").get<std::uint32_t>(), n.at("axis").get<int>(), n.at("area").get<double>()};
-        if (x.block >= blocks.size() || x.axis < 0 || x.axis > 2)
-          throw InputError(file, field + ".neighbours", "out of range");
-        bi.neighbours.push_back(x);
-      }
-      idx.blocks.push_back(std::move(bi));
     }
-    field = "kdtree.nodes";
-    const json& nodes = j.at("kdtree").at("nodes");
-    for (std::size_t i = 0; i < nodes.size(); ++i) {
-      const json& n = nodes.at(i);
-      KdNode k;
-      if (n.contains("block")) {
-        k.block = n.at("block").get<std::uint32_t>();
-        if (k.block >= idx.blocks.size()) throw InputError(file, field, "leaf block out of range");
-        k.cell = idx.blocks[k.block].cell;
-      } else {
-        k.axis = n.at("axis").get<int>();
-        k.split = n.at("split").get<float>();
-        k.left = n.at("left").get<std::uint32_t>();
-        k.right = n.at("right").get<std::uint32_t>();
-        if (k.axis < 0 || k.axis > 2 || k.left <= i || k.right <= i || k.left >= nodes.size() ||
-            k.right >= nodes.size())
-          throw InputError(file, field + "[" + std::to_string(i) + "]", "bad axis or child index");
-      }
-      idx.nodes.push_back(k);
-    }
-    if (idx.nodes.empty() || idx.nodes.size() != 2 * idx.blocks.size() - 1)
-      throw InputError(file, field, "expected 2N-1 nodes for N blocks");
-    // Inner cells from the root down (children always follow their parent).
-    idx.nodes[0].cell = idx.bounds;
-    for (KdNode& n : idx.nodes) {
-      if (n.leaf()) continue;
-      Bounds l = n.cell, r = n.cell;
-      l.hi[n.axis] = n.split, r.lo[n.axis] = n.split;
-      idx.nodes[n.left].cell = l, idx.nodes[n.right].cell = r;
-    }
-    return idx;
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw InputError(file, field, std::string("missing or invalid: ") + e.what());
+    idx.nodes.push_back(k);
   }
+  // 2N-1 nodes, each but the root with one parent: N-1 inner nodes and N leaves, so
+  // every block has its leaf.
+  // Inner cells from the root down (children always follow their parent).
+  idx.nodes[0].cell = idx.bounds;
+  for (KdNode& n : idx.nodes) {
+    if (n.leaf()) continue;
+    Bounds l = n.cell, r = n.cell;
+    l.hi[n.axis] = n.split, r.lo[n.axis] = n.split;
+    idx.nodes[n.left].cell = l, idx.nodes[n.right].cell = r;
+  }
+  return idx;
 }
 
 // ---- the partitioner ----------------------------------------------------------------------

@@ -10,6 +10,7 @@
 #include "render/scene/assimp_walk.hpp"
 #include "render/scene/file_type.hpp"
 #include "render/scene/gltf_reader.hpp"
+#include "render/scene/isolated_import.hpp"
 #include "render/scene/obj_reader.hpp"
 #include "render/scene/off_reader.hpp"
 #include "render/scene/ply_reader.hpp"
@@ -41,7 +42,7 @@ void check_readable(const std::string& path) {
 // and asserts on faces without one), so it runs only on a scene that passed assimp's
 // aiProcess_ValidateDataStructure and check_ai_meshes; ReadFile with all three flags runs
 // the same steps in the same order (validation, preprocessing, post-processing).
-ImportStats stream_assimp(const std::string& path, const Affine& xf, const TriangleBatchFn& fn) {
+ImportStats stream_assimp_here(const std::string& path, const Affine& xf, const TriangleBatchFn& fn) {
   Assimp::Importer importer;
   const aiScene* sc = importer.ReadFile(path, aiProcess_ValidateDataStructure);
   if (!sc || !sc->mRootNode || (sc->mFlags & AI_SCENE_FLAGS_INCOMPLETE))
@@ -51,6 +52,12 @@ ImportStats stream_assimp(const std::string& path, const Affine& xf, const Trian
   sc = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_SortByPType);
   if (!sc) throw InputError(path, "", std::string("cannot import mesh: ") + importer.GetErrorString());
   return stream_ai_scene(*sc, path, xf, fn);
+}
+
+// Assimp crashes and loops on some malformed files (isolated_import.hpp): it runs in a
+// child process, whose failure is an InputError naming the file.
+ImportStats stream_assimp(const std::string& path, const Affine& xf, const TriangleBatchFn& fn) {
+  return import_in_child(path, [&](const TriangleBatchFn& out) { return stream_assimp_here(path, xf, out); }, fn);
 }
 
 }  // namespace

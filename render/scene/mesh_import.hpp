@@ -7,7 +7,8 @@
 // PLY layouts the native reader does not take (ply_reader.hpp); glTF 1.0, sparse
 // accessors and Draco/meshopt-compressed glTF (gltf_reader.hpp). Everywhere polygons are
 // triangulated, points and lines skipped and counted, and node hierarchies flattened into
-// the vertices.
+// the vertices. Assimp runs in a child process (isolated_import.hpp): a file it crashes
+// or loops on is an InputError, like any other malformed file.
 #pragma once
 #include <string>
 

@@ -178,6 +178,12 @@ Header parse_header(const std::string& path) {
     else if (kw == "element") read_element_line(path, ls, line, h);
     else if (kw == "property") read_property_line(path, ls, line, h);
     else if (kw == "end_header") ended = true;
+    else if (!kw.empty() && kw != "comment" && kw != "obj_info")
+      // Not PLY: the native reader would ignore the line, and then hand the file to assimp,
+      // whose PLY loader leaks what it allocated before it fails on such headers.
+      throw InputError(path, "header", "line " + std::to_string(lines) + ": unknown header keyword '" + kw +
+                                           "' (a PLY header holds format, comment, obj_info, element, property "
+                                           "and end_header lines)");
   }
   if (!ended) throw InputError(path, "header", "no end_header (truncated or not a PLY file)");
   if (!format) throw InputError(path, "header.format", "no format line");

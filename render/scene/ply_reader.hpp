@@ -13,7 +13,8 @@
 // Refused when the header is read, before either path, with InputError(path,
 // "header.property" or "header.element", ...): a list length type or a vertex index type
 // that is not an integer type, a property name repeated within an element, two vertex
-// index lists in one element, an element name declared twice.
+// index lists in one element, an element name declared twice; and ("header") a line
+// that is none of format, comment, obj_info, element, property and end_header.
 // Not native (mesh_import.cpp hands these to assimp): a vertex element without scalar
 // x, y, z; no `face` element with an integer `vertex_indices`/`vertex_index` list (e.g.
 // triangle strips only); in binary files, a vertex element with list properties.

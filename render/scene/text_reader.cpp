@@ -1,5 +1,6 @@
 #include "render/scene/text_reader.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
@@ -11,6 +12,7 @@
 namespace rayline::scene {
 namespace {
 constexpr std::size_t kInitialBuffer = std::size_t(1) << 20;
+constexpr std::size_t kMinBuffer = 4096;
 constexpr std::size_t kMaxLine = std::size_t(64) << 20;
 }  // namespace
 
@@ -28,7 +30,10 @@ LineReader::LineReader(const std::string& path, std::uint64_t offset, std::uint6
     ::close(fd_);
     throw InputError(path, "", std::string("cannot seek in mesh file: ") + std::strerror(errno));
   }
-  buf_.resize(kInitialBuffer);
+  // A small file gets a buffer of its size, not 1 MiB of zeroed memory (a mesh is read
+  // two or three times: stats, then the partitioner's passes).
+  const auto left = static_cast<std::uint64_t>(st.st_size) > offset ? static_cast<std::uint64_t>(st.st_size) - offset : 0;
+  buf_.resize(std::size_t(std::clamp<std::uint64_t>(left + 1, kMinBuffer, kInitialBuffer)));
 }
 
 LineReader::~LineReader() {

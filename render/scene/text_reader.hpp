@@ -1,7 +1,8 @@
 // Fast line and token reading for the text mesh formats (OBJ, OFF, ASCII PLY, ASCII STL).
-// LineReader reads the file with read() into one buffer (1 MiB, grown only for longer
-// lines, up to 64 MiB) and hands out lines as string_views into it: no iostreams, no
-// per-line allocation, and the file's pages stay in the page cache, not in this process.
+// LineReader reads the file with read() into one buffer (1 MiB, or the file's size if
+// smaller; grown only for longer lines, up to 64 MiB) and hands out lines as string_views
+// into it: no iostreams, no per-line allocation, and the file's pages stay in the page
+// cache, not in this process.
 // Tokens parses numbers with std::from_chars (correctly rounded, locale-free).
 #pragma once
 #include <charconv>

@@ -6,6 +6,7 @@
 
 #include <assimp/scene.h>
 
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,13 @@ TEST_F(Adversarial, PlyHeadersTheNativeReaderRefuses) {
        ply(kVertices + face + "property list uchar int vertex_indices\nproperty list uchar int vertex_index\n",
            kVertexData + "3 0 1 2 3 0 1 2\n"),
        "header.property"},
+      // A line that is no PLY header keyword: ignored, it sent the file to assimp, which
+      // leaked on it (found by fuzzing).
+      {"unknown_keyword.ply",
+       ply("element vertex 3\nproperty float x\n'property float y\nproperty float z\n" + face +
+               "property list uchar int vertex_indices\n",
+           kVertexData + "3 0 1 2\n"),
+       "unknown header keyword"},
       {"dup_element.ply",
        ply(kVertices + kVertices + face + "property list uchar int vertex_indices\n",
            kVertexData + kVertexData + "3 0 1 2\n"),
@@ -105,6 +113,33 @@ TEST_F(Adversarial, AssimpFilesWithBrokenStructure) {
   EXPECT_EQ(import_error(write("strip_ok.ply", ply(kVertices + "element tristrips 1\nproperty list int int vertex_indices\n",
                                                    kVertexData + "3 0 1 2\n"))),
             "");
+}
+
+// Found by fuzzing (tests/fuzz/): files on which assimp itself crashes (a PLY face element
+// without a vertex index list: a null pointer dereferenced in its PLY loader) or never
+// returns (an SMD "nodes" section cut short). Assimp runs in a child process
+// (isolated_import.hpp), so each is an InputError naming the file and what happened.
+TEST_F(Adversarial, AssimpCrashesAndEndlessLoopsAreInputErrors) {
+  ::setenv("RAYLINE_ASSIMP_CPU_SECONDS", "1", 1);
+  const std::string crash = write("crash.ply", ply("element vertex 1\nproperty float x\nproperty float y\n"
+                                                   "element face 1\nproperty list uchar int e\n"
+                                                   "property list uchar float texcoord\nproperty uchar x\n",
+                                                   "0 5\n"));
+  expect_names(import_error(crash), "crash.ply", "cannot import mesh: assimp crashed on this file (signal 11");
+  const std::string loop = write("loop.smd", "nodes\nro");
+  expect_names(import_error(loop), "loop.smd", "assimp did not finish within its CPU-time limit of 1 s");
+  ::unsetenv("RAYLINE_ASSIMP_CPU_SECONDS");
+  // The triangles of a file assimp reads come back from the child, and an error of the
+  // consumer stops the child and reaches the caller.
+  const std::string ok = write("ok.raw", "0 0 0 1 0 0 0 1 0\n1 1 1 0 0 0 1 1 1 0 0 1\n");
+  std::vector<Triangle> got;
+  const ImportStats st = stream_mesh_file(ok, {}, [&](std::span<const Triangle> t) { got.insert(got.end(), t.begin(), t.end()); });
+  ASSERT_EQ(st.triangles, 2u);
+  EXPECT_EQ(got.size(), 2u);
+  EXPECT_EQ(st.bounds.lo.x, 0.0f);
+  EXPECT_EQ(st.bounds.hi.x, 1.0f);
+  EXPECT_THROW(stream_mesh_file(ok, {}, [](std::span<const Triangle>) { throw InputError("consumer", "", "stop"); }),
+               InputError);
 }
 
 // ---- aiScene structures no importer is trusted not to build -------------------------
