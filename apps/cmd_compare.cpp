@@ -147,7 +147,7 @@ void report(const std::vector<Row>& rows, const std::string& out, const std::str
 
 int run_compare(const CompareOptions& opt) {
   const std::vector<std::string> scheds = scheduler_list(opt.schedulers);
-  if (opt.sim.clients.find(',') != std::string::npos)
+  if (opt.sim.clients.find(',') != std::string::npos || opt.sim.clients == "auto")
     throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
   check_simulate_flags(opt.sim);
   // Each run replaces OUT/<scheduler>, and the results replace OUT: checked for the user's

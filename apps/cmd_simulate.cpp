@@ -1,5 +1,7 @@
 #include "apps/cmd_simulate.hpp"
 
+#include "sim/peak_search.hpp"
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -13,6 +15,7 @@
 #include "apps/run/staged_folder.hpp"
 #include "common/error.hpp"
 #include "common/output_folder.hpp"
+#include "sim/peak_search.hpp"
 #include "sim/simulation.hpp"
 
 namespace rayline::cli {
@@ -33,8 +36,10 @@ sim::WorkloadKind workload_kind(const std::string& resolved) {
   return resolved == "ray-stream" ? sim::WorkloadKind::RayStream : sim::WorkloadKind::JobSet;
 }
 
+// --clients: N, a list N1,N2,..., or "auto" (empty: the sweep finds the peak itself).
 std::vector<int> client_counts(const std::string& text) {
   std::vector<int> out;
+  if (text == "auto") return out;
   std::size_t pos = 0;
   while (pos <= text.size()) {
     const std::size_t comma = text.find(',', pos);
@@ -42,7 +47,7 @@ std::vector<int> client_counts(const std::string& text) {
     char* end = nullptr;
     const long v = std::strtol(item.c_str(), &end, 10);
     if (item.empty() || *end != '\0' || v < 1 || v > 1023)
-      throw InputError("--clients", "", "expected N or a list N1,N2,... of integers in [1, 1023], got '" + text + "'");
+      throw InputError("--clients", "", "expected N, a list N1,N2,... of integers in [1, 1023], or auto, got '" + text + "'");
     out.push_back(static_cast<int>(v));
     if (comma == std::string::npos) break;
     pos = comma + 1;
@@ -81,7 +86,7 @@ void check_no_path_trace_flags(const SimulateOptions& opt) {
   const auto flag = [&given, &n](bool set, const char* name) {
     if (set) given += (n++ ? ", " : "") + std::string(name);
   };
-  flag(counts.size() > 1 || counts[0] != 1, "--clients");
+  flag(counts.size() != 1 || counts[0] != 1, "--clients");
   flag(opt.prediction_depth != 0, "--prediction-depth");
   flag(opt.frames_in_flight != 1, "--frames-in-flight");
   flag(opt.fidelity != "markov", "--fidelity");
@@ -218,6 +223,8 @@ int sweep_point(const sim::SimulationConfig& cfg, int clients, const std::string
 // performance"): one process per point, results in OUT/clients-N/; the summary line of
 // each and the peak. The points write into a staging folder, published as OUT once every
 // point completed (a stalled point completes: its results say so, and the sweep exits 1).
+// With no counts (--clients auto) the sweep finds the peak itself (sim/peak_search.hpp):
+// doubling client counts until two in a row gain no more than 2 %.
 int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, const std::vector<int>& counts) {
   const auto check = [&] { return check_results_set(opt, opt.out, {}, {"clients-*"}); };
   StagedFolder stage(check(), opt.out, "--out", check);
@@ -226,7 +233,10 @@ int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, cons
   bool stalled = false;
   std::printf("clients,steady_rays_shot_per_second,steady_block_visits_per_second,prediction_accuracy,busy,setup,fetching,idle,frames\n");
   std::fflush(stdout);
-  for (int n : counts) {
+  std::vector<std::pair<int, double>> points;
+  std::size_t k = 0;
+  const auto next = [&] { return counts.empty() ? sim::next_peak_point(points) : k < counts.size() ? counts[k++] : 0; };
+  for (int n = next(); n != 0; n = next()) {
     std::string line;  // one process per point
     const int rc = run_in_child([&](int fd) { return sweep_point(cfg, n, stage.path(), fd); }, line);
     if (rc != kExitOk && (rc != kExitFailure || !run_completed(stage.path() + "/clients-" + std::to_string(n)))) {
@@ -239,6 +249,7 @@ int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, cons
     std::printf("%s", line.c_str());
     std::fflush(stdout);
     const double r = std::strtod(line.c_str() + line.find(',') + 1, nullptr);
+    points.emplace_back(n, r);
     if (r > peak) {
       peak = r;
       peak_n = n;
@@ -269,7 +280,7 @@ int run_simulate(const SimulateOptions& opt) {
   const std::vector<int> counts = client_counts(opt.clients);
   // Before any run: a folder holding the user's files is never replaced, nor one an input lies in.
   for (int n : counts) check_run_folder(opt, counts.size() == 1 ? opt.out : opt.out + "/clients-" + std::to_string(n));
-  if (counts.size() > 1) return run_sweep(opt, cfg, counts);
+  if (counts.size() != 1) return run_sweep(opt, cfg, counts);
   return run_one(opt, cfg, opt.out);
 }
 

@@ -97,7 +97,10 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_flag("--no-timeline", opt->no_timeline,
                 "Skip timeline.json (the Chrome trace; ~250 B per activity, so ~0.25 GB for a long path-tracing run)");
   sim->add_flag("--no-progress", opt->no_progress, "No progress line");
-  sim->add_option("--clients", opt->clients, "Path tracing: clients requesting frames (N, or N1,N2,... for a sweep reporting the peak)")->default_val(opt->clients);
+  sim->add_option("--clients", opt->clients,
+                  "Path tracing: clients requesting frames: N; N1,N2,... for a sweep reporting the peak; or auto, a "
+                  "sweep doubling the clients until two counts in a row gain no more than 2 % (the paper's peak)")
+      ->default_val(opt->clients);
   sim->add_option("--frames-in-flight", opt->frames_in_flight,
                   "Path tracing: frames each client keeps requested at once (the offered load; the paper's clients "
                   "feed requests frame by frame)")

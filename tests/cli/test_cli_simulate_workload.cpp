@@ -194,3 +194,19 @@ TEST(CliSimulateWorkload, NodeOffAtTenSecondsIsReportedAndTheRunGoesOn) {
   EXPECT_NE(bad.err.find("--fail"), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(out));
 }
+
+// --clients auto: the sweep doubles the clients until two counts in a row gain no more than
+// 2 % (sim/peak_search.hpp) and reports the peak; compare refuses it (one count per run).
+TEST(CliSimulateWorkload, ClientsAutoFindsThePeakItself) {
+  const fs::path out = scratch("auto");
+  const auto r = rayline_cli("simulate --workload museum --clients auto --duration 3s --no-progress --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.out.find("peak:"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(out / "clients-1" / "metrics.json"));
+  EXPECT_TRUE(fs::exists(out / "clients-2" / "metrics.json"));
+  EXPECT_TRUE(fs::exists(out / "clients-4" / "metrics.json")) << "at least three points: two must fail to gain";
+  fs::remove_all(out);
+  const auto c = rayline_cli("compare --workload museum --clients auto --duration 1s --out " + out.string());
+  EXPECT_EQ(c.code, 2) << c.all;
+  EXPECT_FALSE(fs::exists(out));
+}

@@ -1,0 +1,59 @@
+// The client sweep that finds the peak by itself (sim/peak_search.hpp): doubling client
+// counts, stopping after two points in a row that do not beat the best by more than 2 %.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+
+#include "sim/peak_search.hpp"
+
+using namespace rayline::sim;
+
+namespace {
+// Runs the sweep on a synthetic throughput curve; returns the points measured.
+std::vector<std::pair<int, double>> sweep(const std::function<double(int)>& curve, PeakSearch opt = {}) {
+  std::vector<std::pair<int, double>> pts;
+  for (int n = next_peak_point(pts, opt); n != 0; n = next_peak_point(pts, opt)) pts.emplace_back(n, curve(n));
+  return pts;
+}
+std::vector<int> clients(const std::vector<std::pair<int, double>>& pts) {
+  std::vector<int> c;
+  for (const auto& p : pts) c.push_back(p.first);
+  return c;
+}
+}  // namespace
+
+TEST(PeakSearch, RisesThenFallsStopsTwoPointsAfterThePeak) {
+  // Peak at 16 clients: 1 2 4 8 16 improve, 32 and 64 fall.
+  const auto pts = sweep([](int n) { return n <= 16 ? 10.0 * n : 160.0 - (n - 16); });
+  EXPECT_EQ(clients(pts), (std::vector<int>{1, 2, 4, 8, 16, 32, 64}));
+  EXPECT_EQ(peak_of(pts).first, 16);
+  EXPECT_DOUBLE_EQ(peak_of(pts).second, 160.0);
+}
+
+TEST(PeakSearch, APlateauWithinTheGainEndsTheSweep) {
+  // Saturates at 8 clients: 16 and 32 gain 1 % each, under the 2 % threshold.
+  const auto pts = sweep([](int n) { return n <= 8 ? double(n) : 8.0 * std::pow(1.01, std::log2(n / 8.0)); });
+  EXPECT_EQ(clients(pts), (std::vector<int>{1, 2, 4, 8, 16, 32}));
+  EXPECT_EQ(peak_of(pts).first, 32) << "the best point measured, even if barely better";
+}
+
+TEST(PeakSearch, ADipThenARiseKeepsGoing) {
+  // One point below the best is not the end: 4 dips, 8 beats the best again.
+  const auto pts = sweep([](int n) { return n == 4 ? 1.0 : n <= 8 ? double(n) : 8.0; });
+  EXPECT_EQ(clients(pts), (std::vector<int>{1, 2, 4, 8, 16, 32}));
+  EXPECT_EQ(peak_of(pts).first, 8);
+}
+
+TEST(PeakSearch, StopsAtTheClientLimit) {
+  PeakSearch opt;
+  opt.max_clients = 64;
+  const auto pts = sweep([](int n) { return double(n); }, opt);
+  EXPECT_EQ(clients(pts).back(), 64);
+  EXPECT_EQ(peak_of(pts).first, 64);
+}
+
+TEST(PeakSearch, NoPointsMeansStartAtOneClient) {
+  EXPECT_EQ(next_peak_point({}), 1);
+  EXPECT_EQ(peak_of({}).first, 0);
+}
