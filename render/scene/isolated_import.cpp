@@ -17,6 +17,9 @@
 
 #include "common/error.hpp"
 
+// Present only in sanitizer builds (compiler-rt's common interface).
+extern "C" void __sanitizer_set_death_callback(void (*callback)()) __attribute__((weak));
+
 namespace rayline::scene {
 namespace {
 
@@ -60,6 +63,11 @@ void send(int fd, FrameKind kind, const void* data, std::size_t bytes, std::uint
 
 [[noreturn]] void child_main(int fd, const std::string& path, std::uint64_t cpu_seconds,
                              const std::function<ImportStats(const TriangleBatchFn&)>& import) {
+  // A crash here is this process's death by its signal, which the parent reports. Crash
+  // handlers inherited from the parent are the parent's: a sanitizer's report, and in a
+  // fuzzing build libFuzzer's, which would save the parent's input as a crash of its own.
+  if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
+  for (const int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT, SIGTRAP}) ::signal(sig, SIG_DFL);
   const rlimit no_core{0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
   if (cpu_seconds > 0) {

@@ -226,6 +226,15 @@ double scalar(const unsigned char* p, Type t, bool swap) {
   }
 }
 
+// A face's material slot: a value in [0, 2^32) (its fraction dropped). Converting a
+// negative, huge or NaN value to an unsigned integer would be undefined behaviour (found
+// by fuzzing: a binary int material_index of -2^31).
+bool material_slot(double v, std::uint32_t& slot) {
+  if (!(v >= 0 && v < 4294967296.0)) return false;
+  slot = static_cast<std::uint32_t>(v);
+  return true;
+}
+
 // The end of element `e`'s data starting at `p` (walking its lists when it has any).
 const unsigned char* skip_element(const std::string& path, const Element& e, const unsigned char* p,
                                   const unsigned char* end, bool swap) {
@@ -334,7 +343,10 @@ ImportStats stream_binary(const std::string& path, const Header& h, const Affine
         for (std::int64_t i = 0; i < n; ++i, p += is) idx.push_back(static_cast<std::int64_t>(scalar(p, prop.type, swap)));
       } else {
         if (std::size_t(end - p) < type_size(prop.type)) throw truncated();
-        if (roles[k] == Role::material) material = static_cast<std::uint32_t>(scalar(p, prop.type, swap));
+        if (roles[k] == Role::material && !material_slot(scalar(p, prop.type, swap), material))
+          throw InputError(path, "face.material_index", "face " + std::to_string(f) + ": material index " +
+                                                             std::to_string(scalar(p, prop.type, swap)) +
+                                                             " is not a slot number (0 to 4294967295)");
         p += type_size(prop.type);
       }
     }
@@ -456,8 +468,7 @@ class AsciiPly {
         case Role::indices: ok = read_indices(r, t, f); break;
         case Role::material: {
           float m = 0;
-          ok = t.number(m) && m >= 0;
-          material = static_cast<std::uint32_t>(m);
+          ok = t.number(m) && material_slot(m, material);
           break;
         }
         case Role::skip_list: ok = skip_list(t); break;

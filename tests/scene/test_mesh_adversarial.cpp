@@ -6,7 +6,9 @@
 
 #include <assimp/scene.h>
 
+#include <cstdint>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -96,6 +98,25 @@ TEST_F(Adversarial, PlyHeadersTheNativeReaderRefuses) {
       expect_names(msg, c.name, c.field);
     }
   }
+}
+
+// A material_index no slot number holds (negative, 2^32 or more): converting it to the
+// unsigned slot was undefined behaviour (found by fuzzing, binary int -2^31).
+TEST_F(Adversarial, PlyMaterialIndexOutsideTheSlotRange) {
+  const std::string header = "ply\nformat binary_little_endian 1.0\n" + kVertices +
+                             "element face 1\nproperty list uchar int vertex_indices\nproperty int material_index\n"
+                             "end_header\n";
+  std::vector<unsigned char> bin;
+  testing::put_text(bin, header);
+  for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) testing::put<float>(bin, v);
+  testing::put<std::uint8_t>(bin, 3);
+  for (std::int32_t i : {0, 1, 2, std::numeric_limits<std::int32_t>::min()}) testing::put<std::int32_t>(bin, i);
+  expect_names(import_error(write("negative.ply", bin)), "negative.ply", "face.material_index");
+  const std::string face = "element face 1\nproperty list uchar int vertex_indices\nproperty float material_index\n";
+  for (const char* m : {"-1", "1e30", "4294967296", "nan"})
+    expect_names(import_error(write("ascii.ply", ply(kVertices + face, kVertexData + "3 0 1 2 " + m + "\n"))),
+                 "ascii.ply", "line 14: face 0: bad or missing value for property 'material_index'");
+  EXPECT_EQ(import_error(write("ok.ply", ply(kVertices + face, kVertexData + "3 0 1 2 4000000000\n"))), "");
 }
 
 // Files that do reach assimp: a face index past the vertices (PLY triangle strips, which
