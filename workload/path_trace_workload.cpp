@@ -7,6 +7,18 @@
 
 namespace rayline {
 
+namespace {
+// A frame's report at `now` (delivered, or abandoned); exact is set by the caller.
+FrameReport report_of(const FrameState& f, Time now) {
+  FrameReport r;
+  r.client = f.client;
+  r.index = f.index;
+  r.requested = f.requested;
+  r.delivered = now;
+  return r;
+}
+}  // namespace
+
 PathTraceWorkload::PathTraceWorkload(const DeviceGraph& g, const SceneProfile& profile, PathTraceOptions opt)
     : g_(g), p_(profile), opt_(std::move(opt)), model_(profile, opt_.fidelity, opt_.seed) {
   for (int k = 0; k < kPtJobCount; ++k) {
@@ -403,11 +415,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
       f.delivered_samples.assign(static_cast<std::size_t>(p_.tiles()), 0);
       for (const auto& [m, tiles] : f.partial)
         for (std::size_t t = 0; t < tiles.size(); ++t) f.delivered_samples[t] += tiles[t];
-      FrameReport r;
-      r.client = f.client;
-      r.index = f.index;
-      r.requested = f.requested;
-      r.delivered = now;
+      FrameReport r = report_of(f, now);
       r.exact = true;
       for (int t = 0; t < p_.tiles(); ++t)
         r.exact = r.exact && f.delivered_samples[static_cast<std::size_t>(t)] ==
@@ -564,11 +572,7 @@ void PathTraceWorkload::on_lost(Time now, const std::vector<JobId>& jobs, const 
     f.abandoned = true;
     f.next_unit = f.units_total;  // no more waves: what is alive drains, nothing is composed
     ClientState& cl = clients_[static_cast<std::size_t>(f.client)];
-    FrameReport r;
-    r.client = f.client;
-    r.index = f.index;
-    r.requested = f.requested;
-    r.delivered = now;
+    FrameReport r = report_of(f, now);
     r.abandoned = true;
     abandoned_.push_back(r);
     if (std::erase(cl.frames, static_cast<std::int64_t>(uid)) > 0)

@@ -298,6 +298,24 @@ TEST(PathTraceDeterminism, SameSeedSameRun) {
   EXPECT_EQ(a.tally.created(), b.tally.created());
 }
 
+namespace {
+// The path-tracing workload under GMB and the exact executor, run to the end (with faults).
+struct GmbRun {
+  GmbRun(const DeviceGraph& g, const SceneProfile& prof, const PathTraceOptions& o, const std::vector<Fault>& faults = {})
+      : s(g, pool), wl(g, prof, o), ex(s), loop(gmb, ex, wl, pool, s) {
+    for (const Fault& f : faults) loop.add_fault(f);
+    stats = loop.run();
+  }
+  JobPool pool;
+  Schedule s;
+  PathTraceWorkload wl;
+  GmbScheduler gmb;
+  ExactExecutor ex;
+  RuntimeLoop loop;
+  RunStats stats;
+};
+}  // namespace
+
 // Faults (docs/faults.md): a whole node lost mid-frame. Its queues go with it; the
 // workload abandons each frame that had work there and its client asks for the frame
 // again. The run completes with every client's frames delivered exactly (spp samples per
@@ -311,15 +329,11 @@ TEST(PathTraceFaults, NodeLostMidFrameFramesRenderedAgainConservationExact) {
     o.clients = 2;
     o.frames_per_client = 2;
     o.seed = 7;
-    JobPool pool;
-    Schedule s(g, pool);
-    PathTraceWorkload wl(g, prof, o);
-    GmbScheduler gmb;
-    ExactExecutor ex(s);
-    RuntimeLoop loop(gmb, ex, wl, pool, s);
     // The node that does not hold the clients (their framebuffers are on the first host memory).
-    loop.add_fault(parse_fault(g.nodes.back().name + "@" + std::to_string(at) + "s", g));
-    const RunStats st = loop.run();
+    GmbRun r(g, prof, o, {parse_fault(g.nodes.back().name + "@" + std::to_string(at) + "s", g)});
+    const RunStats& st = r.stats;
+    const PathTraceWorkload& wl = r.wl;
+    const Schedule& s = r.s;
     EXPECT_FALSE(st.stalled) << "at " << at;
     EXPECT_EQ(st.faults, 1) << "at " << at;
     EXPECT_EQ(wl.tally().created(), wl.tally().ended() + wl.tally().lost) << "at " << at;
@@ -351,13 +365,9 @@ TEST(PathTraceFramesInFlight, ConservationExactWithThreeFramesInFlight) {
   o.frames_per_client = 4;
   o.frames_in_flight = 3;
   o.seed = 11;
-  JobPool pool;
-  Schedule s(g, pool);
-  PathTraceWorkload wl(g, prof, o);
-  GmbScheduler gmb;
-  ExactExecutor ex(s);
-  RuntimeLoop loop(gmb, ex, wl, pool, s);
-  const RunStats st = loop.run();
+  GmbRun r(g, prof, o);
+  const RunStats& st = r.stats;
+  const PathTraceWorkload& wl = r.wl;
   EXPECT_FALSE(st.stalled);
   EXPECT_EQ(wl.tally().created(), wl.tally().ended());
   EXPECT_EQ(wl.rays_alive(), 0u);
