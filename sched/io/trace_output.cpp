@@ -1,9 +1,11 @@
 #include "sched/io/trace_output.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <sstream>
 #include <string_view>
+#include <vector>
 
 namespace rayline {
 
@@ -66,11 +68,81 @@ struct JsonOut {
 }  // namespace
 
 // Timelines as Chrome trace JSON (the Trace Event Format's "X" complete events and "M"
-// metadata events): one process per node, one per channel group, a track per device and
-// per channel resource.
+// metadata events): one process per node, one per channel group; per device and per
+// channel resource a "planned" and an "actual" track. Perfetto drops a complete event that
+// overlaps another on its track without nesting in it, and both can happen on one device
+// (a plan committed after reality ran ahead starts before an earlier one's planned end;
+// channels sharing a resource run at once), so each track is split into as few lanes as
+// keep its slices apart: a slice goes to the first lane free at its start, in order of
+// start. Each lane is a thread of its own ("A0.cpu3 actual", "A0.cpu3 actual #2", ...).
 void write_chrome_trace(const Schedule& s, bool include_actual, std::ostream& out) {
   const DeviceGraph& g = s.graph();
   const JobPool& pool = s.pool();
+  const int pid_channels = static_cast<int>(g.nodes.size());
+  const std::size_t n_tracks = g.computes.size() + g.resources.size();
+  // Pass 1: every slice in emission order (activity id, planned before actual, resources in
+  // channel order), its track, and then its lane.
+  struct Slice {
+    double ts, dur;
+    std::uint32_t group;  // track * 2 + actual
+    std::uint32_t lane = 0;
+  };
+  std::vector<Slice> slices;
+  auto for_each_slice = [&](auto&& f) {
+    for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
+      const Activity& a = s.activity(id);
+      if (a.cancelled) continue;  // withdrawn before it ran: nothing to show (jobs.csv lists it)
+      for (const bool actual : {false, true}) {
+        if (actual && !(include_actual && a.state == ActivityState::Done)) continue;
+        const double ts = (actual ? a.start : a.planned_start) * 1e6;
+        const double dur = ((actual ? a.end : a.planned_end) - (actual ? a.start : a.planned_start)) * 1e6;
+        if (a.kind == ActivityKind::Exec) {
+          f(id, a, actual, ts, dur, static_cast<std::size_t>(a.device));
+        } else {
+          for (ResourceId r : g.channels[a.channel].resources) f(id, a, actual, ts, dur, g.computes.size() + static_cast<std::size_t>(r));
+        }
+      }
+    }
+  };
+  for_each_slice([&](ActivityId, const Activity&, bool actual, double ts, double dur, std::size_t track) {
+    slices.push_back({ts, dur, static_cast<std::uint32_t>(track * 2 + (actual ? 1 : 0))});
+  });
+  std::vector<std::uint32_t> order(slices.size());
+  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return slices[a].group != slices[b].group ? slices[a].group < slices[b].group : slices[a].ts < slices[b].ts;
+  });
+  std::vector<std::uint32_t> lanes_of(n_tracks * 2, 0);  // lanes used per group
+  {
+    std::vector<double> lane_end;  // of the group being filled
+    std::uint32_t group = ~0u;
+    for (const std::uint32_t i : order) {
+      Slice& sl = slices[i];
+      if (sl.group != group) {
+        group = sl.group;
+        lane_end.clear();
+      }
+      std::uint32_t lane = 0;
+      while (lane < lane_end.size() && lane_end[lane] > sl.ts) ++lane;
+      if (lane == lane_end.size()) lane_end.push_back(0);
+      lane_end[lane] = sl.ts + sl.dur;
+      sl.lane = lane;
+      lanes_of[group] = std::max<std::uint32_t>(lanes_of[group], lane + 1);
+    }
+  }
+  // Thread ids: per process, the lanes of each track in track order, planned then actual.
+  std::vector<std::uint32_t> first_tid(n_tracks * 2, 0);
+  {
+    std::vector<std::uint32_t> next_tid(g.nodes.size() + 1, 0);
+    for (std::size_t t = 0; t < n_tracks; ++t) {
+      const auto pid = static_cast<std::size_t>(t < g.computes.size() ? std::max(0, g.computes[t].node) : pid_channels);
+      for (std::size_t k = 0; k < 2; ++k) {
+        first_tid[t * 2 + k] = next_tid[pid];
+        next_tid[pid] += std::max<std::uint32_t>(1, lanes_of[t * 2 + k]);
+      }
+    }
+  }
+
   JsonOut o;
   o.sink = &out;
   o.s.reserve((std::size_t{1} << 20) + 4096);
@@ -82,7 +154,6 @@ void write_chrome_trace(const Schedule& s, bool include_actual, std::ostream& ou
     if (!first) o.s += ',';
     first = false;
   };
-  const int pid_channels = static_cast<int>(g.nodes.size());
   auto meta = [&](int pid, int tid, const char* what, const std::string& name) {
     begin_event();
     o.s += "{\"args\":{\"name\":";
@@ -93,11 +164,29 @@ void write_chrome_trace(const Schedule& s, bool include_actual, std::ostream& ou
     o.ph_pid_tid('M', pid, tid);
     o.s += '}';
   };
+  auto sort_index = [&](int pid, int tid) {  // tracks in tid order, as laid out above
+    begin_event();
+    o.s += "{\"args\":{\"sort_index\":";
+    o.num(tid);
+    o.s += "},\"name\":\"thread_sort_index\"";
+    o.ph_pid_tid('M', pid, tid);
+    o.s += '}';
+  };
   for (std::size_t n = 0; n < g.nodes.size(); ++n) meta(static_cast<int>(n), 0, "process_name", g.nodes[n].name + " (compute)");
   meta(pid_channels, 0, "process_name", "channels");
-  for (std::size_t d = 0; d < g.computes.size(); ++d)
-    meta(std::max(0, g.computes[d].node), static_cast<int>(d), "thread_name", g.computes[d].name);
-  for (std::size_t r = 0; r < g.resources.size(); ++r) meta(pid_channels, static_cast<int>(r), "thread_name", g.resources[r].name);
+  for (std::size_t t = 0; t < n_tracks; ++t) {
+    const bool compute = t < g.computes.size();
+    const int pid = compute ? std::max(0, g.computes[t].node) : pid_channels;
+    const std::string& name = compute ? g.computes[t].name : g.resources[t - g.computes.size()].name;
+    for (std::size_t k = 0; k < 2; ++k) {
+      if (k == 1 && !include_actual) continue;
+      for (std::uint32_t l = 0; l < std::max<std::uint32_t>(1, lanes_of[t * 2 + k]); ++l) {
+        const int tid = static_cast<int>(first_tid[t * 2 + k] + l);
+        meta(pid, tid, "thread_name", name + (k ? " actual" : " planned") + (l ? " #" + std::to_string(l + 1) : ""));
+        sort_index(pid, tid);
+      }
+    }
+  }
   // One "X" event; `args` is the inside of its args object (keys in alphabetical order, like the rest).
   auto event = [&](std::string_view args, const std::string& name, const char* cat, double ts, double dur, int pid, int tid) {
     begin_event();
@@ -115,47 +204,48 @@ void write_chrome_trace(const Schedule& s, bool include_actual, std::ostream& ou
     o.s += '}';
     o.drain();
   };
+  // Pass 2: the events, in the order of pass 1 (each slice finds its lane by its index).
   JsonOut args_out;
-  auto emit = [&](const Activity& a, ActivityId id, bool actual) {
-    const double ts = (actual ? a.start : a.planned_start) * 1e6;
-    const double dur = ((actual ? a.end : a.planned_end) - (actual ? a.start : a.planned_start)) * 1e6;
+  ActivityId args_for = kNone;
+  bool args_actual = false;
+  std::size_t k = 0;
+  for_each_slice([&](ActivityId id, const Activity& a, bool actual, double ts, double dur, std::size_t track) {
     const bool exec = a.kind == ActivityKind::Exec;
     const char* cat = exec ? (actual ? "E-job,actual" : "E-job,planned") : (actual ? "T-job,actual" : "T-job,planned");
-    // The args once per activity (a T-job is shown on each resource of its channel).
     JsonOut& w = args_out;
-    w.s.clear();
-    w.key("activity", true);
-    w.num(id);
-    if (exec) {
-      w.key("job");
-      w.str(pool.job(a.job).name);
-      w.key("setup_us");
-      w.num(a.setup * 1e6);
-      w.key("type");
-      w.str(g.job_types[pool.job(a.job).type]);
-      event(w.s, pool.job(a.job).name, cat, ts, dur, std::max(0, g.computes[a.device].node), a.device);
-    } else {
-      w.key("block");
-      w.str(pool.block(a.block).name);
-      w.key("bytes");
-      w.num(a.bytes);
-      w.key("channel");
-      w.str(g.channels[a.channel].name);
-      if (a.job != kNone) {
+    if (args_for != id || args_actual != actual) {  // the args once per activity (a T-job is on each of its resources)
+      args_for = id;
+      args_actual = actual;
+      w.s.clear();
+      w.key("activity", true);
+      w.num(id);
+      if (exec) {
         w.key("job");
         w.str(pool.job(a.job).name);
+        w.key("setup_us");
+        w.num(a.setup * 1e6);
+        w.key("type");
+        w.str(g.job_types[pool.job(a.job).type]);
+      } else {
+        w.key("block");
+        w.str(pool.block(a.block).name);
+        w.key("bytes");
+        w.num(a.bytes);
+        w.key("channel");
+        w.str(g.channels[a.channel].name);
+        if (a.job != kNone) {
+          w.key("job");
+          w.str(pool.job(a.job).name);
+        }
+        w.key("move");
+        w.s += a.move ? "true" : "false";
       }
-      w.key("move");
-      w.s += a.move ? "true" : "false";
-      for (ResourceId r : g.channels[a.channel].resources) event(w.s, pool.block(a.block).name, cat, ts, dur, pid_channels, r);
     }
-  };
-  for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
-    const Activity& a = s.activity(id);
-    if (a.cancelled) continue;  // withdrawn before it ran: nothing to show (jobs.csv lists it)
-    emit(a, id, false);
-    if (include_actual && a.state == ActivityState::Done) emit(a, id, true);
-  }
+    const Slice& sl = slices[k++];
+    const int pid = exec ? std::max(0, g.computes[a.device].node) : pid_channels;
+    const int tid = static_cast<int>(first_tid[track * 2 + (actual ? 1 : 0)] + sl.lane);
+    event(w.s, exec ? pool.job(a.job).name : pool.block(a.block).name, cat, ts, dur, pid, tid);
+  });
   o.s += "]}\n";
   o.drain(true);
 }

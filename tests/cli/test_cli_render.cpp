@@ -12,6 +12,7 @@
 
 #include "cli/cli_run.hpp"
 #include "cli/scratch_test.hpp"
+#include "cli/trace_check.hpp"
 
 namespace fs = std::filesystem;
 using rayline::testing::rayline_cli;
@@ -50,10 +51,14 @@ TEST_F(CliRender, SmallRenderWritesEveryOutput) {
   EXPECT_GT(m.at("rays_per_second").get<double>(), 0);
   EXPECT_EQ(m.at("io").at("unplanned_loads"), 0);
   EXPECT_EQ(m.at("devices").size(), m.at("threads").get<std::size_t>());
-  // The timeline opens in Perfetto: Chrome trace JSON.
+  // The timeline opens in Perfetto: Chrome trace JSON, no two slices overlapping on a track
+  // (Perfetto would drop one).
   std::ifstream tl(path("img.timeline.json"));
   const auto t = nlohmann::json::parse(tl);
   EXPECT_TRUE(t.contains("traceEvents"));
+  const auto c = rayline::testing::check_trace(t);
+  EXPECT_GT(c.slices, 0u);
+  EXPECT_EQ(c.overlaps, 0u);
   for (const auto& e : fs::directory_iterator(dir_))
     EXPECT_EQ(e.path().string().find(".partial"), std::string::npos) << e.path();
 }

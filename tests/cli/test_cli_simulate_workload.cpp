@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "cli_run.hpp"
+#include "cli/trace_check.hpp"
 
 using rayline::testing::rayline_cli;
 namespace fs = std::filesystem;
@@ -209,4 +210,18 @@ TEST(CliSimulateWorkload, ClientsAutoFindsThePeakItself) {
   const auto c = rayline_cli("compare --workload museum --clients auto --duration 1s --out " + out.string());
   EXPECT_EQ(c.code, 2) << c.all;
   EXPECT_FALSE(fs::exists(out));
+}
+
+// timeline.json opens in Perfetto without losing slices: no two complete events overlap
+// on one track (planned and actual on tracks of their own, each split into lanes where
+// its slices overlap). A 10 s museum run had 127 of 986 slices dropped before.
+TEST(CliSimulateWorkload, TimelineHasNoOverlappingSlicesOnAnyTrack) {
+  const fs::path out = scratch("trace");
+  const auto r = rayline_cli("simulate --workload museum --clients 4 --duration 10s --no-progress --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  std::ifstream in(out / "timeline.json");
+  const auto c = rayline::testing::check_trace(nlohmann::json::parse(in));
+  EXPECT_GT(c.slices, 500u);
+  EXPECT_EQ(c.overlaps, 0u) << c.slices << " slices on " << c.tracks << " tracks";
+  fs::remove_all(out);
 }
