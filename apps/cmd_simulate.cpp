@@ -64,6 +64,7 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
     std::printf("steady state: %.4g rays shot/s (%.4g block visits/s); frames delivered %llu; devices busy %.1f%%, setup %.1f%%, fetching %.1f%%, true idle %.1f%%\n",
                 s.steady_rays_shot_per_second, s.steady_rays_per_second, static_cast<unsigned long long>(s.frames_delivered),
                 100 * s.busy, 100 * s.setup, 100 * s.fetching, 100 * s.idle);
+    if (!s.nothing_delivered.empty()) std::printf("note: %s\n", s.nothing_delivered.c_str());
     if (s.prediction_accuracy >= 0)
       std::printf("prediction accuracy %.1f%% (jobs), %.1f%% (rays)\n", 100 * s.prediction_accuracy,
                   100 * s.prediction_ray_accuracy);

@@ -521,6 +521,41 @@ json fault_metrics(const Engine& e, const Inputs& in, const Outcome& o, Time end
   return j;
 }
 
+// A path-tracing run in which no ray ended after the warm-up: why, from what was running at
+// the end (usually first E-jobs longer than the run: a whole wave of primary rays in one
+// queue on one device), and what to change.
+std::string why_nothing_ended(const Engine& e, Time warm, Time end) {
+  Time longest = 0, longest_start = 0;
+  std::size_t running = 0;
+  std::string device;
+  for (std::size_t i = 0; i < e.schedule.activity_count(); ++i) {
+    const Activity& a = e.schedule.activity(static_cast<ActivityId>(i));
+    // (Running, or started without its start reported yet: SimExecutor hands starts over with
+    // the next batch, and the run may end before one comes.)
+    if (a.kind != ActivityKind::Exec || a.cancelled || a.state == ActivityState::Done || a.state == ActivityState::Failed ||
+        a.start > end)
+      continue;
+    ++running;
+    if (a.duration > longest) {
+      longest = a.duration;
+      longest_start = a.start;
+      device = e.schedule.graph().computes[static_cast<std::size_t>(a.device)].name;
+    }
+  }
+  char buf[512];
+  if (running > 0)
+    std::snprintf(buf, sizeof buf,
+                  "no ray ended after the warm-up (%.3g s of %.3g s): %zu E-job(s) unfinished at the end, the longest "
+                  "on %s from %.3g s, planned for %.3g s; try a --duration of at least %.3g s, or --start warm",
+                  warm, end, running, device.c_str(), longest_start, longest, 3 * (longest_start + longest));
+  else
+    std::snprintf(buf, sizeof buf,
+                  "no ray ended after the warm-up (%.3g s of %.3g s), and no E-job had started by the end: the devices "
+                  "were waiting for data (see device_summary); try a longer --duration or --start warm",
+                  warm, end);
+  return buf;
+}
+
 // metrics.json (its fields: docs/architecture.md); fills the summary's totals.
 json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e, const Outcome& o, double wall,
                  SimulationSummary& sum) {
@@ -548,7 +583,13 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
                      {"queued_at_end", e.pool.queued_count()}, {"e_jobs_cancelled", n.cancelled_exec},
                      {"t_jobs_cancelled", n.cancelled_transfer}};
   if (e.stream) m["activities"]["queue_merges"] = e.stream->merges();
-  if (e.path_trace) path_trace_metrics(m, *e.path_trace, *in.profile, cfg, end, sum);
+  if (e.path_trace) {
+    path_trace_metrics(m, *e.path_trace, *in.profile, cfg, end, sum);
+    if (sum.steady_rays_shot_per_second <= 0) {
+      sum.nothing_delivered = why_nothing_ended(e, cfg.warmup >= 0 ? cfg.warmup : end / 3, end);
+      m["path_trace"]["nothing_delivered"] = sum.nothing_delivered;
+    }
+  }
   m["prediction_error"] = {{"exec_mean_rel", mean_of(n.err_exec)}, {"exec_p95_rel", percentile(n.err_exec, 0.95)},
                            {"transfer_mean_rel", mean_of(n.err_transfer)},
                            {"transfer_p95_rel", percentile(n.err_transfer, 0.95)}};

@@ -69,6 +69,7 @@ struct SimulationSummary {
   double steady_rays_shot_per_second = 0;  // the paper's metric: rays traced to completion per second after the warm-up
   double prediction_accuracy = -1, prediction_ray_accuracy = -1;  // <0: prediction off
   std::uint64_t frames_delivered = 0;
+  std::string nothing_delivered;          // path tracing with no ray ended after the warm-up: why, what to change
   int faults_applied = 0;                 // --fail: faults that happened before the run ended
   std::uint64_t rays_lost = 0, frames_abandoned = 0;
   double busy = 0, setup = 0, fetching = 0, idle = 0;  // shares of compute-device time

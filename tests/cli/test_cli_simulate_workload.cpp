@@ -225,3 +225,21 @@ TEST(CliSimulateWorkload, TimelineHasNoOverlappingSlicesOnAnyTrack) {
   EXPECT_EQ(c.overlaps, 0u) << c.slices << " slices on " << c.tracks << " tracks";
   fs::remove_all(out);
 }
+
+// A run too short for its first ray jobs said "ok" with 0 rays/s. It now says why (the
+// longest unfinished E-job and when it would end) and what to change; compare marks the row
+// "no rays ended" (the run completed: exit 0) and points at the reason.
+TEST(CliSimulateWorkload, ARunThatDeliversNothingSaysWhy) {
+  const fs::path out = scratch("nothing");
+  const auto r = rayline_cli("simulate --platform paper-2A --workload museum --duration 4s --no-progress --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.out.find("note: no ray ended after the warm-up"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--duration of at least"), std::string::npos) << r.out;
+  EXPECT_TRUE(metrics(out)["path_trace"].contains("nothing_delivered"));
+  fs::remove_all(out);
+  const auto c = rayline_cli("compare --platform paper-2A --workload museum --duration 4s --schedulers gmb,budge --out " +
+                             out.string());
+  ASSERT_EQ(c.code, 0) << c.all;
+  EXPECT_NE(c.out.find("no rays ended"), std::string::npos) << c.out;
+  fs::remove_all(out);
+}
