@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "apps/cli_common.hpp"
+#include "common/invocation.hpp"
 #include "apps/interrupt.hpp"
 #include "apps/cmd_compare.hpp"
 #include "apps/cmd_generate.hpp"
@@ -364,6 +365,7 @@ bool bad_subcommand(const CLI::App& app, int argc, char** argv) {
 
 int main(int argc, char** argv) {
   rayline::cli::install_interrupt_cleanup();  // first: before any thread exists
+  rayline::record_invocation(RAYLINE_VERSION, argc, argv);  // for every metrics.json
   CLI::App app{"Rayline: timeline scheduling for out-of-core ray batching (Son & Yoon, HPG 2017)"};
   app.set_version_flag("--version", std::string("rayline ") + RAYLINE_VERSION);
   app.require_subcommand(1);

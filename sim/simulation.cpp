@@ -20,6 +20,7 @@
 #include "workload/ray_stream.hpp"
 #include "sched/runtime/runtime_loop.hpp"
 #include "sched/runtime/fault.hpp"
+#include "common/invocation.hpp"
 #include "sched/policy/scheduler_factory.hpp"
 #include "sched/io/trace_output.hpp"
 #include "sched/policy/unplaced.hpp"
@@ -561,6 +562,8 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
                  SimulationSummary& sum) {
   const Time end = o.end;
   json m;
+  if (!invocation_command().empty())
+    m["rayline"] = {{"version", invocation_version()}, {"command", invocation_command()}};
   m["platform"] = in.graph.name;
   m["platform_file"] = cfg.platform_file;
   m["workload"] = cfg.workload;

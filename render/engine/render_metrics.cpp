@@ -1,5 +1,7 @@
 #include "render/engine/render_metrics.hpp"
 
+#include "common/invocation.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -190,6 +192,8 @@ json gpu_json(const RenderResult& r) {
 
 std::string render_metrics_json(const RenderResult& r, const Schedule& s, const std::vector<double>& lane_busy) {
   json m;
+  if (!invocation_command().empty())
+    m["rayline"] = {{"version", invocation_version()}, {"command", invocation_command()}};
   m["scene"] = r.scene_name;
   m["resolution"] = {r.width, r.height};
   m["spp"] = r.spp;

@@ -47,6 +47,7 @@ TEST_F(CliRender, SmallRenderWritesEveryOutput) {
   EXPECT_EQ(m.at("resolution")[0], 32);
   EXPECT_EQ(m.at("spp"), 2);
   EXPECT_EQ(m.at("blocks"), 6);
+  EXPECT_NE(m.at("rayline").at("command").get<std::string>().find("render --resolution 32x24"), std::string::npos);
   EXPECT_TRUE(m.at("rays").at("conserved").get<bool>());
   EXPECT_GT(m.at("rays_per_second").get<double>(), 0);
   EXPECT_EQ(m.at("io").at("unplanned_loads"), 0);

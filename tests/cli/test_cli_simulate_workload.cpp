@@ -51,6 +51,9 @@ TEST(CliSimulateWorkload, MuseumRunsFromDefaults) {
   const auto r = rayline_cli("simulate --workload museum --duration 5s --no-progress --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.all;
   EXPECT_EQ(metrics(out)["path_trace"]["image"]["spp"], 128);
+  // The result says how it was made: version and command line.
+  EXPECT_FALSE(metrics(out)["rayline"]["version"].get<std::string>().empty());
+  EXPECT_NE(metrics(out)["rayline"]["command"].get<std::string>().find("simulate --workload museum"), std::string::npos);
   fs::remove_all(out);
 }
 
