@@ -274,7 +274,10 @@ std::string csv_field(const std::string& v) {
 void write_jobs_csv(const Schedule& s, std::ostream& out) {
   const DeviceGraph& g = s.graph();
   const JobPool& pool = s.pool();
-  out << "activity,kind,job,type,device_or_channel,block,bytes,planned_start,planned_end,actual_start,actual_end,state\n";
+  // `created`: when the E-job (for a T-job: the E-job it fetches for) entered the queue, so
+  // its wait is actual_start - created.
+  out << "activity,kind,job,type,device_or_channel,block,bytes,planned_start,planned_end,actual_start,actual_end,state,"
+         "created\n";
   char buf[256];
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
     const Activity& a = s.activity(id);
@@ -295,7 +298,12 @@ void write_jobs_csv(const Schedule& s, std::ostream& out) {
     } else {
       out << ",,";
     }
-    out << (a.state == ActivityState::Failed ? "aborted" : a.cancelled ? "cancelled" : done ? "done" : "planned") << '\n';
+    out << (a.state == ActivityState::Failed ? "aborted" : a.cancelled ? "cancelled" : done ? "done" : "planned") << ',';
+    if (a.job != kNone) {
+      std::snprintf(buf, sizeof buf, "%.9f", pool.job(a.job).created);
+      out << buf;
+    }
+    out << '\n';
   }
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 
@@ -145,6 +146,25 @@ TEST(CliSimulate, ShortRunWritesCompleteResults) {
   EXPECT_GT(m["rays_per_second"].get<double>(), 0);
   EXPECT_DOUBLE_EQ(m["simulated_s"].get<double>(), 5.0);
   EXPECT_TRUE(fs::exists(out / "jobs.csv"));
+  {  // jobs.csv: every row has the header's 13 fields; a done E-job started no earlier than it was created
+    std::ifstream csv(out / "jobs.csv");
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line.substr(line.rfind(',') + 1), "created");
+    int done_execs = 0;
+    while (std::getline(csv, line)) {
+      std::vector<std::string> f;
+      std::istringstream ls(line);
+      for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
+      if (!line.empty() && line.back() == ',') f.push_back("");
+      ASSERT_EQ(f.size(), 13u) << line;
+      if (f[1] == "E" && f[11] == "done") {
+        ++done_execs;
+        EXPECT_GE(std::stod(f[9]), std::stod(f[12]) - 1e-9) << line;
+      }
+    }
+    EXPECT_GT(done_execs, 0);
+  }
   std::ifstream t(out / "timeline.json");
   EXPECT_TRUE(nlohmann::json::parse(t).contains("traceEvents"));
   // --no-timeline: the same results without the trace.

@@ -165,7 +165,7 @@ TEST(JobSet, PlannedSetProducesTraceCsvAndUtilisation) {
   EXPECT_EQ(execs, 6);  // 3 planned + 3 actual
   EXPECT_GT(transfers, 0);
   const std::string csv = jobs_csv(s);
-  // RFC 4180 records: line breaks outside quotes; every record has the header's 12 fields.
+  // RFC 4180 records: line breaks outside quotes; every record has the header's 13 fields.
   std::vector<int> fields{1};
   bool quoted = false;
   for (const char c : csv) {
@@ -175,7 +175,7 @@ TEST(JobSet, PlannedSetProducesTraceCsvAndUtilisation) {
   }
   fields.pop_back();  // after the last line break
   EXPECT_EQ(fields.size(), s.activity_count() + 1);
-  for (int f : fields) EXPECT_EQ(f, 12);
+  for (int f : fields) EXPECT_EQ(f, 13);
   EXPECT_NE(csv.find(",\"ray \"\"q\"\" \\ 1\n"), std::string::npos);  // the odd name, quoted
   EXPECT_NE(csv.find("n1.cpu0"), std::string::npos);
   // Time split adds up to the span on every device.
