@@ -235,6 +235,14 @@ bool material_slot(double v, std::uint32_t& slot) {
   return true;
 }
 
+std::uint32_t binary_material(const std::string& path, std::uint64_t face, double v) {
+  std::uint32_t slot = 0;
+  if (!material_slot(v, slot))
+    throw InputError(path, "face.material_index", "face " + std::to_string(face) + ": material index " +
+                                                       std::to_string(v) + " is not a slot number (0 to 4294967295)");
+  return slot;
+}
+
 // The end of element `e`'s data starting at `p` (walking its lists when it has any).
 const unsigned char* skip_element(const std::string& path, const Element& e, const unsigned char* p,
                                   const unsigned char* end, bool swap) {
@@ -343,10 +351,7 @@ ImportStats stream_binary(const std::string& path, const Header& h, const Affine
         for (std::int64_t i = 0; i < n; ++i, p += is) idx.push_back(static_cast<std::int64_t>(scalar(p, prop.type, swap)));
       } else {
         if (std::size_t(end - p) < type_size(prop.type)) throw truncated();
-        if (roles[k] == Role::material && !material_slot(scalar(p, prop.type, swap), material))
-          throw InputError(path, "face.material_index", "face " + std::to_string(f) + ": material index " +
-                                                             std::to_string(scalar(p, prop.type, swap)) +
-                                                             " is not a slot number (0 to 4294967295)");
+        if (roles[k] == Role::material) material = binary_material(path, f, scalar(p, prop.type, swap));
         p += type_size(prop.type);
       }
     }

@@ -15,12 +15,14 @@
 
 namespace rayline::fuzz {
 
+// With `partition` false only the first step runs: load_scene, one streaming pass.
 inline void run_mesh_file(const char* target, const std::string& file_name, const std::uint8_t* data,
-                          std::size_t size) {
+                          std::size_t size, bool partition = true) {
   const std::string path = write_input(file_name, data, size);
   const std::string blocks = (scratch_dir() / "blocks").string();
   expect_clean(target, [&] {
     const scene::Scene sc = scene::load_scene(path);
+    if (!partition) return;
     partition::PartitionOptions po;
     po.blocks = 4;
     po.memory_limit = std::uint64_t(16) << 20;  // the smallest bound `partition` accepts
