@@ -46,13 +46,29 @@ def load(name, extra=None):
     return pd.read_csv(path)
 
 
+def shown_path(path):
+    """A path as printed in a notebook's output: relative to the repository when inside it,
+    so executed notebooks carry no machine's absolute paths."""
+    path = os.path.abspath(path)
+    return os.path.relpath(path, REPO) if path.startswith(REPO + os.sep) else os.path.basename(path)
+
+
 def savefig(fig, fname):
-    """PNG next to the notebook (full setting) or into the reduced output folder."""
+    """PNG next to the notebook (full setting) or into the reduced output folder, and the
+    same image inline in the executed notebook."""
     folder = os.path.join(OUT, "figures") if REDUCED else HERE
     os.makedirs(folder, exist_ok=True)
     path = os.path.join(folder, fname)
     fig.savefig(path, dpi=110, bbox_inches="tight")
-    print("figure:", os.path.relpath(path, REPO) if path.startswith(REPO) else path)
+    plt.close(fig)
+    print("figure:", shown_path(path))
+    try:
+        from IPython import get_ipython
+        from IPython.display import Image, display
+        if get_ipython() is not None:
+            display(Image(filename=path))
+    except ImportError:
+        pass
 
 
 def peak(df, by):

@@ -13,7 +13,7 @@ sys.path.insert(0, os.path.abspath('.'))
 from _nb import *
 import numpy as np
 pd.set_option('display.width', 160); pd.set_option('display.max_columns', 30)
-print('setting:', 'reduced (CI)' if REDUCED else 'full', '| results:', OUT)"""
+print('setting:', 'reduced (CI)' if REDUCED else 'full', '| results:', shown_path(OUT))"""
 
 NB = {}
 
@@ -46,14 +46,20 @@ fig, axes = plt.subplots(1, 2, figsize=(12, 3.6))
 ss = schedulers_in(cl); w = 0.8 / len(ss)
 for i, s in enumerate(ss):
     r = cl[cl.scheduler == s].set_index('scene').reindex(['boeing', 'museum'])
-    axes[0].bar(np.arange(2) + (i - (len(ss) - 1) / 2) * w, 100 * r.lan_utilisation_mean, w, color=COLORS[s], label=NAMES[s])
+    bars = axes[0].bar(np.arange(2) + (i - (len(ss) - 1) / 2) * w, 100 * r.lan_utilisation_mean, w, color=COLORS[s], label=NAMES[s])
+    axes[0].bar_label(bars, fmt='%.1f', fontsize=7, padding=1)
 axes[0].axhline(87.8, color=COLORS['gmb'], ls=':', lw=1); axes[0].axhline(37.1, color=COLORS['budge'], ls=':', lw=1)
 axes[0].axhline(39.2, color=COLORS['loadanyonce'], ls=':', lw=1)
 axes[0].set_xticks(range(2)); axes[0].set_xticklabels(['boeing', 'museum']); axes[0].set_ylabel('mean LAN utilisation %')
-axes[0].set_title('heterogeneous 8 nodes (dotted: paper)'); axes[0].legend(fontsize=7)
-shares = cl.set_index(['scene', 'scheduler'])[['busy', 'fetching', 'true_idle']]
+axes[0].set_title('heterogeneous 8 nodes (dotted: paper)'); axes[0].set_ylim(0, 100)
+axes[0].legend(fontsize=7, loc='upper center', bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
+shares = cl.set_index(['scene', 'scheduler'])[['busy', 'fetching', 'true_idle']].rename(columns={'true_idle': 'idle'})
+shares.index = [f'{sc} · {SHORT[s]}' for sc, s in shares.index]
 shares.plot.barh(stacked=True, ax=axes[1], color=['tab:green', 'tab:red', 'tab:gray'])
 axes[1].set_xlabel('share of compute-device time'); axes[1].set_title('where device time goes (8 nodes)')
+axes[1].set_ylabel(''); axes[1].set_xlim(0, 1)
+axes[1].legend(fontsize=8, loc='upper center', bbox_to_anchor=(0.5, -0.16), ncol=3, frameon=False)
+fig.subplots_adjust(wspace=0.45)
 savefig(fig, 'fig8_lan_utilisation.png')
 print(cl[['scene', 'scheduler', 'clients', 'steady_rays_per_second', 'lan_utilisation_mean', 'busy', 'fetching', 'true_idle',
           'exec_prediction_error', 'scheduler_share']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
@@ -110,8 +116,12 @@ for ax, lab in zip(axes, cen):
     l = links[links.label == lab].set_index('scheduler').reindex(SCHEDULERS)
     ws = [w for w in (10, 30, 60) if f'slave_to_slave_share_{w}s' in l.columns]
     for j, w in enumerate(ws):
-        ax.bar(np.arange(3) + (j - (len(ws) - 1) / 2) * 0.25, 100 * l[f'slave_to_slave_share_{w}s'].fillna(0), 0.25,
-               color=[COLORS[s] for s in SCHEDULERS], alpha=0.4 + 0.3 * j, edgecolor='k', label=f'first {w} s')
+        bars = ax.bar(np.arange(3) + (j - (len(ws) - 1) / 2) * 0.25, 100 * l[f'slave_to_slave_share_{w}s'].fillna(0), 0.25,
+                      color=[COLORS[s] for s in SCHEDULERS], alpha=0.4 + 0.3 * j, edgecolor='k', label=f'first {w} s')
+        ax.bar_label(bars, labels=[f'{w}s: {100 * v:.0f}%' for v in l[f'slave_to_slave_share_{w}s'].fillna(0)],
+                     fontsize=6, rotation=90, padding=2)
+    if not (l[[f'slave_to_slave_share_{w}s' for w in ws]].fillna(0).to_numpy() > 0).any():
+        ax.text(1, 60, 'no scene bytes went slave to slave,\\nfor any method, in any window', ha='center', fontsize=9, color='0.3')
     ax.axhline(31, color='k', ls=':', lw=1); ax.text(2.4, 32, 'paper, GMB, first 10 s: 31 %', ha='right', fontsize=8)
     ax.set_xticks(range(3)); ax.set_xticklabels([NAMES[s] for s in SCHEDULERS], fontsize=8); ax.legend(fontsize=7)
     ax.set_ylim(0, 100); ax.set_ylabel('% of LAN scene bytes'); ax.set_title(lab + ': slave-to-slave share', fontsize=9)
@@ -127,9 +137,12 @@ fig, ax = plt.subplots(figsize=(7, 3.6)); ss = schedulers_in(pk); w = 0.8 / len(
 for i, s in enumerate(ss):
     r = pk[pk.scheduler == s].set_index('scene').reindex(scenes)
     xs = np.arange(len(scenes)) + (i - (len(ss) - 1) / 2) * w
-    ax.bar(xs, r.steady_rays_per_second.fillna(0), w, color=COLORS[s], label=NAMES[s])
-    mark_failures(ax, xs, r.reset_index(), 1.0, COLORS[s])
-ax.set_xticks(range(len(scenes))); ax.set_xticklabels(scenes); ax.set_ylabel('peak rays/s'); ax.legend(fontsize=8)
+    bars = ax.bar(xs, r.steady_rays_per_second.fillna(0), w, color=COLORS[s], label=NAMES[s])
+    ax.bar_label(bars, labels=[f'{v / 1e6:.3g} M' if v > 0 else '' for v in r.steady_rays_per_second.fillna(0)], fontsize=7, padding=1)
+    mark_failures(ax, xs, r.reset_index(), 1e4, COLORS[s])
+ax.set_yscale('log'); ax.set_ylim(bottom=1e4)
+ax.set_xticks(range(len(scenes))); ax.set_xticklabels(scenes); ax.set_ylabel('peak rays/s (log)')
+ax.legend(fontsize=8, loc='upper center', bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
 ax.set_title('one workstation: 16 CPU threads + 4 GPUs, NVMe')
 savefig(fig, 'workstation.png')
 t = pk.pivot_table(index='scene', columns='scheduler', values='steady_rays_per_second').reindex(columns=ss)
@@ -183,7 +196,11 @@ for p, c in [('paper-A', 'tab:purple'), ('paper-cluster', 'tab:blue')]:
     r = cost[cost.platform == p].sort_values('horizon_s')
     if r.empty: continue
     axes[1].plot(r.scheduler_wall_s, r.steady_rays_per_second, 'o-', color=c, label=p)
-    for _, x in r.iterrows(): axes[1].annotate(f"k={x.horizon_s:g}s", (x.scheduler_wall_s, x.steady_rays_per_second), fontsize=7)
+    # labels staggered around their points (in order of wall time), so close points stay readable
+    offs = [(5, 6), (5, -12), (-34, 6), (-34, -12)]
+    for i, (_, x) in enumerate(r.sort_values('scheduler_wall_s').iterrows()):
+        axes[1].annotate(f"k={x.horizon_s:g}s", (x.scheduler_wall_s, x.steady_rays_per_second), fontsize=7,
+                         textcoords='offset points', xytext=offs[i % len(offs)], color=c)
 axes[1].set_xscale('log'); axes[1].set_xlabel('GMB wall time in the run (s)'); axes[1].set_ylabel('steady rays/s')
 axes[1].set_title('scheduler cost vs schedule quality (museum, 8 clients)'); axes[1].legend(fontsize=8); axes[1].grid(alpha=.3)
 savefig(fig, 'speed_accuracy.png')
@@ -205,7 +222,8 @@ def pan(ax, rows, xcol, title, xlabel, logx=False, xticks=None):
     ax.set_yscale('log'); ax.set_title(title, fontsize=9); ax.set_xlabel(xlabel); ax.grid(alpha=.3)
     if logx: ax.set_xscale('log')
     if xticks is not None: ax.set_xticks(xticks)
-fig, axes = plt.subplots(2, 3, figsize=(18, 8.5)); axes = axes.ravel(); axes[5].axis('off')
+fig, axes = plt.subplots(2, 3, figsize=(18, 9)); axes = axes.ravel(); axes[5].axis('off')
+fig.subplots_adjust(hspace=0.35, wspace=0.25)
 tk = df[df.label == 'tiny k'].copy()
 gk = tk[tk.scheduler == 'gmb']
 pan(axes[0], gk, 'horizon_s', 'tiny k: GMB starvation? (A, museum)', 'k (s)', logx=True)
@@ -223,7 +241,12 @@ gpu = df[df.label.astype(str).str.startswith('GPU')].copy(); gpu['f'] = gpu.labe
 pan(axes[3], gpu, 'f', 'one GPU x f, CPU threads / f (A)', 'GPU speed-up f', logx=True)
 cl = df[df.label == 'clients']
 pan(axes[4], cl, 'clients', 'many clients (4A, museum)', 'clients', logx=True)
-axes[0].legend(fontsize=7); axes[4].legend(fontsize=7); axes[0].set_ylabel('steady rays/s')
+axes[0].legend(fontsize=7, loc='lower right'); axes[0].set_ylabel('steady rays/s'); axes[3].set_ylabel('steady rays/s')
+from matplotlib.lines import Line2D
+key = [Line2D([], [], color=COLORS[s], marker='o', label=NAMES[s]) for s in SCHEDULERS]
+key.append(Line2D([], [], color='0.5', marker='X', markeredgecolor='red', markersize=10, ls='',
+                  label='a run that stalled, failed or traced no rays\\nafter its warm-up (drawn at the floor)'))
+axes[5].legend(handles=key, loc='center', fontsize=10, frameon=False, title='every panel')
 savefig(fig, 'stability.png')
 print(df[['label', 'platform', 'scheduler', 'clients', 'horizon_s', 'status', 'steady_rays_per_second', 'busy', 'fetching',
           'true_idle', 'queued_at_end', 'run_wall_s']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",

@@ -49,7 +49,7 @@ class Ctx:
 
     def save(self):
         rx.write_csv(os.path.join(self.out, self.name + ".csv"), self.rows)
-        print(f"wrote {os.path.join(self.out, self.name + '.csv')} ({len(self.rows)} runs)")
+        print(f"wrote {rx.shown(os.path.join(self.out, self.name + '.csv'))} ({len(self.rows)} runs)")
 
 
 def scaling(c):
@@ -247,7 +247,7 @@ def main():
     a = ap.parse_args()
     reduced = rx.is_reduced(a.mode)
     out = a.out or os.path.join(rx.REPO, "out/experiments-reduced" if reduced else "notebooks/results")
-    print(f"rayline: {rx.rayline_bin()}  mode: {'reduced' if reduced else 'full'}  results: {out}")
+    print(f"rayline: {rx.shown(rx.rayline_bin())}  mode: {'reduced' if reduced else 'full'}  results: {rx.shown(out)}")
     for name in (EXPERIMENTS if a.name == "all" else [a.name]):
         c = Ctx(name, reduced, out)
         EXPERIMENTS[name](c)

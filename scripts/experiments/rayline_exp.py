@@ -21,6 +21,18 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 PLATFORMS = os.path.join(REPO, "platforms")
 
 
+def shown(path):
+    """A path as printed: relative to the repository when inside it (no machine's absolute
+    paths in logs or executed notebooks)."""
+    path = os.path.abspath(path)
+    return os.path.relpath(path, REPO) if path.startswith(REPO + os.sep) else os.path.basename(path)
+
+
+def scrub(text):
+    """Log text with the repository's absolute prefix taken off its paths."""
+    return text.replace(REPO + os.sep, "")
+
+
 def rayline_bin():
     """RAYLINE_BIN, else build/apps/rayline, else any build*/apps/rayline of the checkout."""
     env = os.environ.get("RAYLINE_BIN")
@@ -67,10 +79,10 @@ def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth
         rc = p.returncode
         if rc != 0:
             status = "stalled" if "could not be placed" in p.stderr else "failed"
-            sys.stderr.write(f"[{status}] {' '.join(cmd)}\n{p.stderr[-2000:]}\n")
+            sys.stderr.write(scrub(f"[{status}] {' '.join(cmd)}\n{p.stderr[-2000:]}\n"))
     except subprocess.TimeoutExpired:
         status, rc = "timeout", 124
-        sys.stderr.write(f"[timeout after {timeout} s] {' '.join(cmd)}\n")
+        sys.stderr.write(scrub(f"[timeout after {timeout} s] {' '.join(cmd)}\n"))
     wall = time.monotonic() - t0
     row = {k: "" for k in FIELDS}
     row.update(labels)
