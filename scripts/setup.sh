@@ -8,7 +8,7 @@ BUILD_DIR="${1:-build}"; shift || true
 PACKAGES=(
   cmake ninja-build g++ pkg-config
   libsimgrid-dev libembree-dev embree-tools libtbb-dev libopenexr-dev libpng-dev nlohmann-json3-dev
-  libgtest-dev libbenchmark-dev libcli11-dev libeigen3-dev libassimp-dev zlib1g-dev
+  libgtest-dev libbenchmark-dev libcli11-dev libeigen3-dev libglpk-dev libassimp-dev zlib1g-dev
   libvulkan-dev mesa-vulkan-drivers glslc
   python3-matplotlib python3-pandas jupyter-nbconvert python3-nbformat python3-ipykernel python3-imath
   valgrind  # scripts/count_plan_instructions.sh (GMB planning cost, deterministic)

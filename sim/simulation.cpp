@@ -15,7 +15,9 @@
 #include "workload/job_set.hpp"
 #include "common/output_folder.hpp"
 #include "common/unfinished_output.hpp"
+#include "workload/compute_bound.hpp"
 #include "workload/path_trace_workload.hpp"
+#include "workload/ray_flow_expectation.hpp"
 #include "sched/io/platform_loader.hpp"
 #include "workload/ray_stream.hpp"
 #include "sched/runtime/runtime_loop.hpp"
@@ -120,6 +122,31 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   sum.steady_rays_per_second = traced / span;
   sum.steady_rays_shot_per_second = ended / span;
   sum.frames_delivered = pt.frames().size();
+}
+
+// metrics.json "path_trace.bound": the compute bound of this platform and profile
+// (workload/compute_bound.hpp) and the expected ray flow behind it, so a run's throughput
+// can be read against the most any schedule could reach.
+void bound_metrics(nlohmann::json& pt, const DeviceGraph& g, const SceneProfile& prof, Fidelity fidelity,
+                   SimulationSummary& sum) {
+  const RayFlowExpectation flow = expected_ray_flow(prof, fidelity);
+  const ComputeBound b = compute_bound(g, prof, flow);
+  nlohmann::json kinds = nlohmann::json::array();
+  for (const ComputeBound::Kind& k : b.kinds)
+    kinds.push_back({{"kind", k.kind}, {"devices", k.devices}, {"busy_share", k.busy_share},
+                     {"block_visits_per_second", k.block_visits_per_second}});
+  auto finite = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  pt["bound"] = {{"compute_rays_shot_per_second", finite(b.rays_shot_per_second)},
+                 {"compute_block_visits_per_second", finite(b.block_visits_per_second)},
+                 {"compute_camera_rays_per_second", finite(b.camera_rays_per_second)},
+                 {"by_kind", kinds},
+                 {"limit", b.limit},
+                 {"per_camera_ray", {{"rays_shot", flow.rays_shot()}, {"block_visits", flow.block_visits()},
+                                     {"secondary", flow.secondary}, {"shadow", flow.shadow_rays}}}};
+  const double steady = pt.value("steady_rays_shot_per_second", 0.0);
+  pt["bound"]["share_of_compute_bound"] =
+      std::isfinite(b.rays_shot_per_second) && b.rays_shot_per_second > 0 ? steady / b.rays_shot_per_second : 0.0;
+  sum.compute_bound_rays_shot_per_second = b.rays_shot_per_second;
 }
 
 // ---- setup ---------------------------------------------------------------------------
@@ -588,6 +615,7 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
   if (e.stream) m["activities"]["queue_merges"] = e.stream->merges();
   if (e.path_trace) {
     path_trace_metrics(m, *e.path_trace, *in.profile, cfg, end, sum);
+    bound_metrics(m["path_trace"], e.schedule.graph(), *in.profile, e.path_trace->model().fidelity(), sum);
     if (sum.steady_rays_shot_per_second <= 0) {
       sum.nothing_delivered = why_nothing_ended(e, cfg.warmup >= 0 ? cfg.warmup : end / 3, end);
       m["path_trace"]["nothing_delivered"] = sum.nothing_delivered;

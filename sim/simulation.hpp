@@ -66,6 +66,7 @@ struct SimulationSummary {
   // Path-tracing workload only.
   bool path_trace = false;
   double steady_rays_per_second = 0;    // block visits (rays intersected in a block) per second after the warm-up
+  double compute_bound_rays_shot_per_second = 0;  // path tracing: the most any schedule could reach (workload/compute_bound.hpp)
   double steady_rays_shot_per_second = 0;  // the paper's metric: rays traced to completion per second after the warm-up
   double prediction_accuracy = -1, prediction_ray_accuracy = -1;  // <0: prediction off
   std::uint64_t frames_delivered = 0;

@@ -1,5 +1,7 @@
 #include "workload/warm_start.hpp"
 
+#include "workload/ray_flow_expectation.hpp"
+
 #include <algorithm>
 #include <numeric>
 
@@ -30,30 +32,9 @@ std::size_t warm_start(Schedule& s, const JobPool& pool, const std::vector<Block
 }
 
 std::vector<double> expected_block_visits(const SceneProfile& p) {
-  const std::size_t n = p.blocks.size();
-  std::vector<double> visits(n, 0.0), now(n, 0.0), next(n, 0.0);
-  for (const CameraKey& k : p.camera_path)
-    for (const auto& [b, prob] : k.entry)
-      if (b >= 0 && static_cast<std::size_t>(b) < n) now[static_cast<std::size_t>(b)] += prob / static_cast<double>(p.camera_path.size());
-  // Each step moves every ray once; a path has at most max_bounces surviving hits, and a
-  // missed ray crosses at most a few hundred cells, so 4096 steps bound the walk.
-  for (int step = 0; step < 4096; ++step) {
-    double mass = 0;
-    std::fill(next.begin(), next.end(), 0.0);
-    for (std::size_t b = 0; b < n; ++b) {
-      const double v = now[b];
-      if (v <= 0) continue;
-      visits[b] += v;
-      const ProfileBlock& pb = p.blocks[b];
-      next[b] += v * pb.alpha * pb.beta;  // a hit that survives: its next ray starts here
-      const double onward = v * (1 - pb.alpha) * (1 - pb.escape);
-      for (const ProfileNeighbour& nb : pb.neighbours)
-        if (nb.block >= 0 && static_cast<std::size_t>(nb.block) < n) next[static_cast<std::size_t>(nb.block)] += onward * nb.p;
-    }
-    for (double v : next) mass += v;
-    now.swap(next);
-    if (mass < 1e-9) break;
-  }
+  const RayFlowExpectation e = expected_ray_flow(p, Fidelity::Markov);
+  std::vector<double> visits(e.intersect.size());
+  for (std::size_t b = 0; b < visits.size(); ++b) visits[b] = e.intersect[b] + e.shadow[b];
   return visits;
 }
 

@@ -29,10 +29,8 @@ struct WarmStart {
 std::size_t warm_start(Schedule& s, const JobPool& pool, const std::vector<BlockId>& blocks, const std::vector<double>& use,
                        const WarmStart& opt);
 
-// Expected visits of each block per camera ray of the profile (Markov statistics): the
-// camera path's entry distribution pushed through misses (to neighbours, or out of the
-// scene) and surviving bounces (a new ray in the same block), until the mass left is
-// negligible. Shadow rays are not counted.
+// How much each block is used per camera ray of the profile: its expected RayIntersect
+// and ShadowIntersect visits (workload/ray_flow_expectation.hpp, Markov statistics).
 std::vector<double> expected_block_visits(const SceneProfile& p);
 
 }  // namespace rayline

@@ -1,7 +1,7 @@
 // Warm start (workload/warm_start.hpp): placements respect every capacity, take the most
 // used blocks first, skip a block that does not fit for a smaller one that does, and
 // leave disks and memories without compute devices alone; the expected block visits of a
-// hand-checked profile; and a warm run starts with the blocks in place.
+// hand-checked profile (intersections and shadow rays); and a warm run starts with the blocks in place.
 #include <gtest/gtest.h>
 
 #include <random>
@@ -41,7 +41,9 @@ TEST(WarmStart, MostUsedFirstWithinTheShareOfEveryMemory) {
     const MemoryDevice& md = g.memories[m];
     const auto mem = static_cast<MemId>(m);
     EXPECT_LE(s.used(mem), static_cast<Bytes>(0.75 * static_cast<double>(md.capacity))) << md.name;
-    if (md.kind == MemoryKind::Disk) EXPECT_EQ(s.used(mem), 0u) << md.name;
+    if (md.kind == MemoryKind::Disk) {
+      EXPECT_EQ(s.used(mem), 0u) << md.name;
+    }
     if (md.kind == MemoryKind::Host) {  // 1536 MiB: 900, not 700 (1600), 600 (1500), not 100 (1600)
       EXPECT_TRUE(s.copy_at(blocks[0], mem));
       EXPECT_FALSE(s.copy_at(blocks[1], mem));
@@ -54,7 +56,9 @@ TEST(WarmStart, MostUsedFirstWithinTheShareOfEveryMemory) {
       EXPECT_FALSE(s.copy_at(blocks[3], mem)) << "700 + 100 MiB exceed 768 MiB";
     }
     for (BlockId b : blocks)
-      if (const Copy* c = s.copy_at(b, mem)) EXPECT_FALSE(c->origin) << "warm copies are caches";
+      if (const Copy* c = s.copy_at(b, mem)) {
+        EXPECT_FALSE(c->origin) << "warm copies are caches";
+      }
   }
   EXPECT_EQ(placed, 3u * 3u);
 }
@@ -84,17 +88,19 @@ TEST(WarmStart, RandomPlatformsNeverExceedACapacity) {
     const double share = std::uniform_real_distribution<double>(0, 1)(rng);
     warm_start(s, pool, blocks, use, WarmStart{share, share});
     for (std::size_t m = 0; m < g.memories.size(); ++m)
-      if (g.memories[m].kind == MemoryKind::Host)
+      if (g.memories[m].kind == MemoryKind::Host) {
         EXPECT_LE(static_cast<double>(s.used(static_cast<MemId>(m))), share * static_cast<double>(g.memories[m].capacity))
             << "seed " << seed;
+      }
   }
 }
 
-TEST(WarmStart, ExpectedVisitsOfAHandCheckedProfile) {
-  // Two cells: camera rays enter cell 0. Cell 0: alpha 0.5, beta 0.5, escape 0; misses go
-  // to cell 1. Cell 1: alpha 0, escape 1. Per camera ray: visits(0) = 1 + 0.25 + 0.25^2
-  // + ... = 4/3; visits(1) = 0.5 x 4/3 = 2/3.
+TEST(WarmStart, UseIsTheExpectedIntersectAndShadowVisits) {
+  // Two cells: camera rays enter cell 0 (alpha 0.5, beta 0.5, misses to cell 1); cell 1
+  // lets every ray escape; one bounce only. Per camera ray: intersections 1 in cell 0 and
+  // 0.5 in cell 1, and 0.5 hits in cell 0, each with a shadow ray ending there.
   SceneProfile p;
+  p.max_bounces = 1;
   p.blocks.resize(2);
   p.blocks[0].alpha = 0.5;
   p.blocks[0].beta = 0.5;
@@ -105,8 +111,8 @@ TEST(WarmStart, ExpectedVisitsOfAHandCheckedProfile) {
   p.camera_path = {CameraKey{{{0, 1.0}}, 0}};
   const std::vector<double> v = expected_block_visits(p);
   ASSERT_EQ(v.size(), 2u);
-  EXPECT_NEAR(v[0], 4.0 / 3.0, 1e-9);
-  EXPECT_NEAR(v[1], 2.0 / 3.0, 1e-9);
+  EXPECT_NEAR(v[0], 1.5, 1e-12);
+  EXPECT_NEAR(v[1], 0.5, 1e-12);
 }
 
 TEST(WarmStart, WarmRayStreamStartsWithTheHotBlocksResident) {

@@ -1,0 +1,51 @@
+// The compute bound in a run's metrics (metrics.json path_trace.bound,
+// workload/compute_bound.hpp) checked against simulations: with I/O made free, a warm run
+// of one paper node comes within a few per cent of it and does not pass it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <unistd.h>
+
+#include "cli_run.hpp"
+
+using rayline::testing::rayline_cli;
+namespace fs = std::filesystem;
+
+namespace {
+fs::path scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("rayline-bound-" + std::to_string(::getpid()) + "-" + name);
+  fs::remove_all(p);
+  return p;
+}
+nlohmann::json path_trace(const fs::path& dir) {
+  std::ifstream in(dir / "metrics.json");
+  return nlohmann::json::parse(in)["path_trace"];
+}
+}  // namespace
+
+TEST(CliBound, FreeIoMeetsTheComputeBoundWithoutPassingIt) {
+  // Rays are counted when their job ends, so a window holds a little of the work done
+  // before it: the tolerance above 1 is that edge (a 12 s window; 24 s gives 0.99).
+  const fs::path out = scratch("free-io");
+  const auto r = rayline_cli("simulate --platform " + std::string(RAYLINE_TEST_DATA) +
+                             "/platforms/paper-A-free-io.json --workload museum --clients 2 --duration 16s --warmup 4s"
+                             " --start warm --no-progress --no-timeline --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto pt = path_trace(out);
+  const auto& b = pt["bound"];
+  EXPECT_TRUE(b["limit"].get<std::string>().empty());
+  const double bound = b["compute_rays_shot_per_second"].get<double>();
+  const double steady = pt["steady_rays_shot_per_second"].get<double>();
+  EXPECT_GT(bound, 0);
+  EXPECT_GT(steady, 0.85 * bound) << "free I/O: compute is all that limits the run";
+  EXPECT_LT(steady, 1.03 * bound) << "no schedule can shoot more rays than the devices can trace";
+  EXPECT_NEAR(b["share_of_compute_bound"].get<double>(), steady / bound, 1e-9);
+  // The run's own ratio of block visits to rays shot is the expected one (same model).
+  const double visits_per_ray = pt["steady_block_visits_per_second"].get<double>() / steady;
+  const double expected = b["per_camera_ray"]["block_visits"].get<double>() / b["per_camera_ray"]["rays_shot"].get<double>();
+  EXPECT_NEAR(visits_per_ray, expected, 0.1 * expected);
+  fs::remove_all(out);
+}
