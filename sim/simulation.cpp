@@ -52,7 +52,7 @@ double mean_of(const std::vector<double>& v) {
 
 std::uint64_t work_of(const PathTraceWorkload& pt) {
   std::uint64_t w = 0;
-  for (const auto& [t, n] : pt.traced()) w += n;
+  for (const RaySpan& r : pt.traced()) w += r.rays;
   return w;
 }
 
@@ -62,10 +62,11 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
                         const SimulationConfig& cfg, Time end, SimulationSummary& sum) {
   const Time warm = cfg.warmup >= 0 ? cfg.warmup : end / 3;
   double traced = 0, ended = 0;
-  for (const auto& [t, n] : pt.traced())
-    if (t >= warm) traced += static_cast<double>(n);
-  for (const auto& [t, n] : pt.ended_series())
-    if (t >= warm) ended += static_cast<double>(n);
+  // The work done inside the window: each job's rays pro rata to the part of its run
+  // inside [warm, end] (counting a job's rays at its end would credit the window with work
+  // done before it: seconds-long jobs make that several per cent of a short window).
+  for (const RaySpan& r : pt.traced()) traced += r.within(warm, end + 1e-9);
+  for (const RaySpan& r : pt.ended_series()) ended += r.within(warm, end + 1e-9);
   const double span = std::max(1e-9, end - warm);
   const RayTally& r = pt.tally();
   std::uint64_t exact = 0;
@@ -505,12 +506,11 @@ json fault_metrics(const Engine& e, const Inputs& in, const Outcome& o, Time end
     json devices = json::array();
     for (DeviceId d : a.fault.computes) devices.push_back(g.computes[static_cast<std::size_t>(d)].name);
     for (MemId m : a.fault.memories) devices.push_back(g.memories[static_cast<std::size_t>(m)].name);
-    // Work finished in [from, to) per second: from the activities that finished then.
+    // Work done in [from, to) per second: path tracing pro rata over each job's run; other workloads: the activities that finished then.
     auto rate = [&](Time from, Time to) {
       double w = 0;
       if (e.path_trace) {
-        for (const auto& [t, n] : e.path_trace->traced())
-          if (t >= from && t < to) w += static_cast<double>(n);
+        for (const RaySpan& r : e.path_trace->traced()) w += r.within(from, to);
       } else {
         for (std::size_t i = 0; i < e.schedule.activity_count(); ++i) {
           const Activity& x = e.schedule.activity(static_cast<ActivityId>(i));

@@ -64,6 +64,12 @@ PathTraceWorkload::PathTraceWorkload(const DeviceGraph& g, const SceneProfile& p
   }
 }
 
+double RaySpan::within(Time from, Time to) const {
+  if (end <= start) return end >= from && end < to ? static_cast<double>(rays) : 0.0;
+  const Time overlap = std::min(end, to) - std::max(start, from);
+  return overlap > 0 ? static_cast<double>(rays) * overlap / (end - start) : 0.0;
+}
+
 PathTraceWorkload::JobInfo& PathTraceWorkload::info(JobId j) {
   if (static_cast<std::size_t>(j) >= info_.size()) info_.resize(static_cast<std::size_t>(j) + 1);
   return info_[static_cast<std::size_t>(j)];
@@ -315,7 +321,9 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
     F.finished = true;
     F.processed = I.kind == PtJob::Accumulate ? total(I.records) : total(I.rays);
   }
-  const MemId mem = g_.computes[s.activity(pool.activity(j)).device].memory;
+  const Activity& act = s.activity(pool.activity(j));
+  const MemId mem = g_.computes[act.device].memory;
+  const Time started = std::min(act.start, now);
   // The rays going to (kind, block), routed below. Every key of the job sends to the same
   // few destinations, so each caller slot looks its destination up once, at first use
   // (exactly the destinations used are created; map references stay valid).
@@ -361,7 +369,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
         for (std::size_t i = 0; i < blk.neighbours.size(); ++i)
           add_count(dest(1 + i, PtJob::Intersect, blk.neighbours[i].block), key, out[kFirstNeighbour + i]);
       }
-      if (rays) traced_.emplace_back(now, rays);
+      if (rays) traced_.push_back({started, now, rays});
       if (predictor_) predictor_->observe_intersect(I.block, rays, hits);
       break;
     }
@@ -396,7 +404,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
         for (std::size_t i = 0; i < blk.neighbours.size(); ++i)
           add_count(dest(i, PtJob::Shadow, blk.neighbours[i].block), key, out[kFirstNeighbour + i]);
       }
-      if (rays) traced_.emplace_back(now, rays);
+      if (rays) traced_.push_back({started, now, rays});
       break;
     }
     case PtJob::Accumulate: {
@@ -429,7 +437,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
       break;
     }
   }
-  if (ended) ended_.emplace_back(now, ended);
+  if (ended) ended_.push_back({started, now, ended});
   for (auto& [k, d] : dests) route(j, d, mem, now, pool, s);
   if (predictor_) {  // children it produced nothing for: failed (Sec. 5.2)
     predictor_->finish(j, pool);

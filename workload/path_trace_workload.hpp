@@ -59,6 +59,15 @@ struct RayTally {
   std::uint64_t ended() const { return hit + escaped + occluded + lit; }
 };
 
+// Rays a job processed, and when it ran.
+struct RaySpan {
+  Time start = 0, end = 0;
+  std::uint64_t rays = 0;
+  // The rays that fall in [from, to), pro rata to the part of [start, end] inside it (a job
+  // of no duration: all of them, if it ended inside).
+  double within(Time from, Time to) const;
+};
+
 struct FrameReport {
   int client = 0, index = 0;
   Time requested = 0, delivered = 0;
@@ -99,9 +108,11 @@ class PathTraceWorkload final : public Workload {
   // because another job uses their copies).
   const Schedule::CancelCount& withdrawn() const { return withdrawn_; }
   std::uint64_t jobs_of(PtJob k) const { return jobs_by_kind_[static_cast<int>(k)]; }
-  // (finish time, rays) of every finished RayIntersect/ShadowIntersect; (time, rays ended).
-  const std::vector<std::pair<Time, std::uint64_t>>& traced() const { return traced_; }
-  const std::vector<std::pair<Time, std::uint64_t>>& ended_series() const { return ended_; }
+  // Rays of every finished RayIntersect/ShadowIntersect (block visits), and rays ended, per
+  // job with the interval the job ran (a steady-state window counts the share of each job
+  // that ran inside it: sim/simulation.cpp).
+  const std::vector<RaySpan>& traced() const { return traced_; }
+  const std::vector<RaySpan>& ended_series() const { return ended_; }
   // Per job: the rays it processed (for replay checks), by JobId; 0 for non-ray jobs.
   std::uint64_t job_rays(JobId j) const;
 
@@ -159,7 +170,7 @@ class PathTraceWorkload final : public Workload {
   Schedule::CancelCount withdrawn_;
   RayTally tally_;
   std::vector<FrameReport> reports_, abandoned_;
-  std::vector<std::pair<Time, std::uint64_t>> traced_, ended_;
+  std::vector<RaySpan> traced_, ended_;
   std::array<std::uint64_t, kPtJobCount> jobs_by_kind_{};
   std::uint64_t merges_ = 0;
   Time now_ = 0;

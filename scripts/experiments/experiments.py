@@ -1,8 +1,9 @@
 #!/usr/bin/python3
-"""The paper's experiments (Son & Yoon 2017, Sec. 6) and the issue's extra sweeps, as real
+"""The paper's experiments (Son & Yoon 2017, Sec. 6) and further sweeps, as real
 `rayline simulate` runs. One sub-command per notebook:
 
-  scaling     Fig. 8: peak rays/s of gmb, budge, loadanyonce on A .. 4A+B+C+D+R, both scenes
+  scaling     Fig. 8: peak rays/s of gmb, budge, loadanyonce on A .. 4A+B+C+D+R, both scenes (cold)
+  peak        Fig. 8 warm: each method's peak over clients (--clients auto), rays shot/s, compute bound
   central     Fig. 9: only node D holds the scene; throughput over time, slave-to-slave share
   workstation one multi-GPU workstation (platforms/workstation-4gpu.json)
   horizon     horizon k 0.2..10 s, prediction depth 0..3, scheduling-overhead share
@@ -81,6 +82,22 @@ def scaling(c):
             for t, v in enumerate(json.load(open(mp)).get("rays_per_second_series", [])):
                 series.append({"scheduler": s, "t_s": t + 1, "rays_per_second": v})
     _write(os.path.join(c.out, "scaling-long-series.csv"), series)
+
+
+def peak(c):
+    """Fig. 8 the way the paper measured it: warm start (docs/simulator.md), clients doubled
+    until throughput stops rising (`--clients auto`), rays shot per second, beside the
+    compute bound of each platform and profile (path_trace.bound)."""
+    plats = ["paper-A", "paper-cluster"] if c.reduced else SCALING
+    dur = "6s" if c.reduced else "12s"
+    for scene in ["museum", "boeing"]:
+        for p in plats:
+            for s in SCHEDULERS:
+                rows = rx.simulate_peak(os.path.join(c.runs, f"{scene}-{p}-{s}"), p, scene, s,
+                                        duration=dur, timeout=c.timeout * 12, experiment=c.name, label=LABEL[p])
+                for r in rows:
+                    rx.log(r)
+                c.rows.extend(rows)
 
 
 def central(c):
@@ -235,7 +252,7 @@ def _write(path, rows):
     os.replace(path + ".tmp", path)
 
 
-EXPERIMENTS = {"scaling": scaling, "central": central, "workstation": workstation, "horizon": horizon,
+EXPERIMENTS = {"scaling": scaling, "peak": peak, "central": central, "workstation": workstation, "horizon": horizon,
                "accuracy": accuracy, "stability": stability}
 
 

@@ -61,7 +61,9 @@ FIELDS = ["experiment", "label", "platform", "scene", "scheduler", "clients", "h
           "sim_wall_s", "run_wall_s", "prediction_accuracy", "prediction_ray_accuracy", "exec_prediction_error",
           "transfer_prediction_error", "e_jobs_done", "queued_at_end", "frames_delivered", "cpu_busy", "gpu_busy",
           "work_units_done", "ray_jobs", "ray_jobs_gpu", "rays_per_ray_job", "scene_fetch_bytes",
-          "scene_bytes_per_ray", "withdrawn_t_jobs", "withdrawn_t_job_bytes", "scheduler_parameters", "out_dir"]
+          "scene_bytes_per_ray", "withdrawn_t_jobs", "withdrawn_t_job_bytes", "scheduler_parameters", "out_dir",
+          "start", "steady_rays_shot_per_second", "compute_bound_rays_shot_per_second", "share_of_compute_bound",
+          "block_visits_per_ray_shot", "cpu_fetching", "gpu_fetching", "sim_speedup"]
 
 
 def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth=0, fidelity="markov",
@@ -89,6 +91,43 @@ def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth
     row.update(platform=os.path.basename(platform).removesuffix(".json"), scene=scene, scheduler=scheduler,
                clients=clients, horizon_s=_seconds(horizon), prediction_depth=depth, fidelity=fidelity,
                duration_s=_seconds(duration), status=status, exit_code=rc, run_wall_s=round(wall, 3), out_dir=out_dir)
+    return read_run(row, out_dir)
+
+
+def simulate_peak(out_dir, platform, scene, scheduler, duration="12s", timeout=1800, extra=(), **labels):
+    """The paper's peak (Sec. 6): one `rayline simulate --clients auto` sweep (clients
+    doubled until two counts in a row gain no more than 2 %), warm start. Returns one row
+    per client count; status and exit code are the sweep's."""
+    cmd = [rayline_bin(), "simulate", "--platform", platform, "--workload", scene, "--scheduler", scheduler,
+           "--clients", "auto", "--start", "warm", "--duration", str(duration), "--no-progress", "--no-timeline",
+           "--out", out_dir] + list(extra)
+    shutil.rmtree(out_dir, ignore_errors=True)
+    status, rc = "ok", 0
+    t0 = time.monotonic()
+    try:
+        p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=timeout)
+        rc = p.returncode
+        if rc != 0:
+            status = "failed"
+            sys.stderr.write(scrub(f"[{status}] {' '.join(cmd)}\n{p.stderr[-2000:]}\n"))
+    except subprocess.TimeoutExpired:
+        status, rc = "timeout", 124
+        sys.stderr.write(scrub(f"[timeout after {timeout} s] {' '.join(cmd)}\n"))
+    wall = time.monotonic() - t0
+    rows = []
+    found = os.listdir(out_dir) if os.path.isdir(out_dir) else []
+    for n, d in sorted((int(d.split("-")[1]), d) for d in found if d.startswith("clients-")):
+        row = {k: "" for k in FIELDS}
+        row.update(labels)
+        row.update(platform=os.path.basename(platform).removesuffix(".json"), scene=scene, scheduler=scheduler,
+                   clients=n, duration_s=_seconds(duration), status=status, exit_code=rc, run_wall_s=round(wall, 3),
+                   out_dir=os.path.join(out_dir, d))
+        rows.append(read_run(row, os.path.join(out_dir, d)))
+    return rows
+
+
+def read_run(row, out_dir):
+    """Fills a row from a run folder's metrics.json and jobs.csv (when they exist)."""
     mpath = os.path.join(out_dir, "metrics.json")
     if os.path.exists(mpath):  # a stalled run still writes its metrics
         m = json.load(open(mpath))
@@ -120,7 +159,14 @@ def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth
             frames_delivered=pt.get("frames", {}).get("delivered", ""),
             cpu_busy=ds.get("cpu", {}).get("busy", ""), gpu_busy=ds.get("gpu", {}).get("busy", ""),
             work_units_done=m.get("work_units_done", 0),
-            scheduler_parameters=m.get("scheduler_parameters", ""))
+            scheduler_parameters=m.get("scheduler_parameters", ""), start=m.get("start", ""),
+            steady_rays_shot_per_second=pt.get("steady_rays_shot_per_second", ""),
+            compute_bound_rays_shot_per_second=pt.get("bound", {}).get("compute_rays_shot_per_second", ""),
+            share_of_compute_bound=pt.get("bound", {}).get("share_of_compute_bound", ""),
+            block_visits_per_ray_shot=(pt["steady_block_visits_per_second"] / pt["steady_rays_shot_per_second"]
+                                       if pt.get("steady_rays_shot_per_second") else ""),
+            cpu_fetching=ds.get("cpu", {}).get("fetching", ""), gpu_fetching=ds.get("gpu", {}).get("fetching", ""),
+            sim_speedup=m["simulator"].get("speedup_vs_simulated", ""))
         row.update(job_diagnostics(os.path.join(out_dir, "jobs.csv"), float(m.get("work_units_done", 0))))
     return row
 
@@ -171,7 +217,9 @@ def write_csv(path, rows):
 def log(row):
     sys.stdout.write(f"  {row.get('label','')} {row['platform']} {row['scene']} {row['scheduler']} c={row['clients']} "
                      f"k={row['horizon_s']} d={row['prediction_depth']}: {row['status']} "
-                     f"{float(row['steady_rays_per_second'] or 0):.4g} rays/s ({row['run_wall_s']} s wall)\n")
+                     f"{float(row['steady_rays_per_second'] or 0):.4g} block visits/s"
+                     + (f", {float(row['steady_rays_shot_per_second']):.4g} rays shot/s" if row.get('steady_rays_shot_per_second') not in ("", None) else "")
+                     + f" ({row['run_wall_s']} s wall)\n")
     sys.stdout.flush()
 
 
