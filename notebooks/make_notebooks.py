@@ -92,6 +92,61 @@ savefig(fig, 'fig8_long_run.png')
 print(long[['scheduler', 'duration_s', 'steady_rays_per_second', 'frames_delivered', 'fetching', 'true_idle']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
 ]
 
+NB["07_peak"] = [
+"""df = load('peak')
+df['steady_rays_shot_per_second'] = pd.to_numeric(df.steady_rays_shot_per_second, errors='coerce').fillna(0)
+order = ['A', '2A', '3A', '4A', '+B', '+C', '+D', '+R']
+ok = df[df.status == 'ok']
+best = ok.loc[ok.groupby(['scene', 'label', 'scheduler']).steady_rays_shot_per_second.idxmax()].copy()
+best['x'] = best.label.map({l: i for i, l in enumerate(order)})
+bound = ok.groupby(['scene', 'label']).compute_bound_rays_shot_per_second.max().reset_index()
+bound['x'] = bound.label.map({l: i for i, l in enumerate(order)})
+fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+for ax, scene in zip(axes, ['boeing', 'museum']):
+    b = bound[bound.scene == scene].sort_values('x')
+    ax.plot(b.x, b.compute_bound_rays_shot_per_second, 'k--', lw=1.2, label='compute bound (platform + profile)')
+    for s in SCHEDULERS:
+        r = best[(best.scene == scene) & (best.scheduler == s)].sort_values('x')
+        ax.plot(r.x, r.steady_rays_shot_per_second, 'o-', color=COLORS[s], label=NAMES[s])
+    ax.axhline(50e6, color='0.6', ls=':', lw=1)
+    ax.text(0, 52e6, '50 M', color='0.4', fontsize=8)
+    ax.set_xticks(range(len(order))); ax.set_xticklabels(order); ax.set_yscale('log')
+    ax.set_title(f'{scene}: peak rays shot/s, warm'); ax.set_xlabel('nodes'); ax.grid(alpha=.3)
+axes[0].set_ylabel('rays shot / s (at each method\'s peak over clients)')
+axes[1].legend(fontsize=8, loc='lower right')
+savefig(fig, 'fig8_peak.png')
+cols = ['scene', 'label', 'scheduler', 'clients', 'steady_rays_shot_per_second', 'share_of_compute_bound', 'cpu_busy',
+        'gpu_busy', 'cpu_fetching', 'gpu_fetching', 'lan_utilisation_mean', 'scene_bytes_per_ray', 'sim_speedup']
+tab = best.sort_values(['scene', 'x', 'scheduler'])[cols]
+print(tab.to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+"""cl = ok[ok.label == '+R']
+fig, axes = plt.subplots(1, 2, figsize=(12, 3.8))
+for ax, scene in zip(axes, ['boeing', 'museum']):
+    for s in SCHEDULERS:
+        r = cl[(cl.scene == scene) & (cl.scheduler == s)].sort_values('clients')
+        ax.plot(r.clients, r.steady_rays_shot_per_second, 'o-', color=COLORS[s], label=NAMES[s])
+    bnd = cl[cl.scene == scene].compute_bound_rays_shot_per_second.max()
+    ax.axhline(bnd, color='k', ls='--', lw=1.2, label='compute bound')
+    ax.set_xscale('log', base=2); ax.set_yscale('log'); ax.grid(alpha=.3)
+    ax.set_title(f'{scene}, 8 nodes: the sweep over clients'); ax.set_xlabel('clients')
+axes[0].set_ylabel('rays shot / s'); axes[1].legend(fontsize=8)
+savefig(fig, 'fig8_peak_sweep.png')
+b8 = best[best.label == '+R'].set_index(['scene', 'scheduler'])
+paper_lan = {'gmb': 87.8, 'budge': 37.1, 'loadanyonce': 39.2}
+rows = []
+for (scene, s), r in b8.iterrows():
+    rows.append({'scene': scene, 'scheduler': s, 'peak clients': r.clients, 'M rays shot/s': r.steady_rays_shot_per_second / 1e6,
+                 'of bound': r.share_of_compute_bound, 'CPU busy': r.cpu_busy, 'GPU busy': r.gpu_busy,
+                 'CPU fetching': r.cpu_fetching, 'GPU fetching': r.gpu_fetching,
+                 'LAN % (paper)': f"{100 * float(r.lan_utilisation_mean or 0):.1f} ({paper_lan[s]})",
+                 'scene B/visit': r.scene_bytes_per_ray})
+print(pd.DataFrame(rows).to_string(index=False, float_format=lambda v: f'{v:.3g}'))
+free = ok[ok.label == '+R free I/O'][['scene', 'scheduler', 'clients', 'steady_rays_shot_per_second',
+                                      'compute_bound_rays_shot_per_second', 'share_of_compute_bound']]
+print('\\nThe bound checked against runs: 8 nodes with I/O made free, warm, 8 clients')
+print(free.to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+]
+
 NB["02_central_database"] = [
 """df = load('central'); series = load('central', 'central-series'); links = load('central', 'central-links')
 labels = [l for l in ['central database on D', 'central database on D, 1 Gb/s NICs', 'full copy on every disk'] if l in set(series.label)]

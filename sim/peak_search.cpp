@@ -1,5 +1,7 @@
 #include "sim/peak_search.hpp"
 
+#include <algorithm>
+
 namespace rayline::sim {
 
 int next_peak_point(const std::vector<std::pair<int, double>>& points, const PeakSearch& opt) {
@@ -15,8 +17,9 @@ int next_peak_point(const std::vector<std::pair<int, double>>& points, const Pea
     if (points[i].second > best) best = points[i].second;
   }
   if (misses >= 2) return 0;
-  const int next = points.back().first * 2;
-  return next > opt.max_clients ? 0 : next;
+  const int last = points.back().first;
+  if (last >= opt.max_clients) return 0;
+  return std::min(last * 2, opt.max_clients);
 }
 
 std::pair<int, double> peak_of(const std::vector<std::pair<int, double>>& points) {

@@ -53,6 +53,13 @@ TEST(PeakSearch, StopsAtTheClientLimit) {
   EXPECT_EQ(peak_of(pts).first, 64);
 }
 
+TEST(PeakSearch, StillRisingAtTheLimitMeasuresTheLimitLast) {
+  // The default limit is the workload's 1023 clients: 512 doubles to 1023, not 1024.
+  const auto pts = sweep([](int n) { return double(n); });
+  EXPECT_EQ(clients(pts), (std::vector<int>{1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1023}));
+  EXPECT_EQ(peak_of(pts).first, 1023);
+}
+
 TEST(PeakSearch, NoPointsMeansStartAtOneClient) {
   EXPECT_EQ(next_peak_point({}), 1);
   EXPECT_EQ(peak_of({}).first, 0);
