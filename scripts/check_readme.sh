@@ -12,11 +12,11 @@
 # which is removed at the end (--keep keeps it). The commands that act on the build itself
 # (`cmake ...`, `scripts/setup.sh ...`) run in the repository root: setup.sh is idempotent
 # and, with every package installed, the assets fetched and the build up to date, takes
-# seconds. Each part has --timeout seconds (default 600).
+# about 20 s. Each part has --timeout seconds (default 600).
 #
 # Markers: --quick (the ctest readme.quick, tests/README.md) skips, and says so, the parts
 # that match QUICK_SKIP below: those that rebuild or rerun the build under test, and the
-# slow renders and sweeps. Without --quick nothing is skipped.
+# renders and calibration (a minute together). Without --quick nothing is skipped.
 set -uo pipefail
 
 # QUICK_SKIP: "extended regular expression ## reason", matched against each part of a command.
@@ -24,9 +24,7 @@ QUICK_SKIP=(
   '^scripts/setup\.sh ## installs, fetches and builds: the build under test is already there'
   '^cmake( |$) ## configures or builds the build under test'
   '^ctest( |$) ## runs tests of the suite that runs this check'
-  'rayline (render|calibrate)( |$) ## renders and calibration: tens of seconds each on 2 cores'
-  'rayline compare( |$) ## one simulation per scheduler'
-  '--clients (auto|[0-9]+,) ## a sweep of client counts'
+  'rayline (render|calibrate)( |$) ## renders and calibration: a minute together on 2 cores'
 )
 
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
