@@ -65,3 +65,5 @@ check_json(${WORK_DIR}/elsewhere/museum/metrics.json workload ${prefix}/share/ra
 # A platform that exists only in the installed folder.
 file(COPY_FILE ${prefix}/share/rayline/platforms/paper-A.json ${prefix}/share/rayline/platforms/installed-only.json)
 run("platform check installed-only" ignored ${rayline} platform check installed-only)
+
+file(REMOVE_RECURSE ${WORK_DIR})  # passed: the prefix holds a copy of the binary, not kept
