@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "apps/cli_common.hpp"
+#include "apps/data_dir.hpp"
 #include "apps/platform_path.hpp"
 #include "apps/run/child_process.hpp"
 #include "apps/run/run_options.hpp"
@@ -21,13 +22,11 @@
 namespace rayline::cli {
 
 namespace {
-// "boeing" / "museum": the scene profiles in scenes/ (RAYLINE_SCENES overrides the folder).
+// "boeing" / "museum": the built-in scene profiles among the scene files (apps/data_dir.hpp;
+// $RAYLINE_SCENES overrides the folder).
 std::string resolve_workload(const std::string& w) {
-  namespace fs = std::filesystem;
   if (w != "boeing" && w != "museum") return w;
-  const char* env = std::getenv("RAYLINE_SCENES");
-  const fs::path dir = env ? fs::path(env) : fs::path(RAYLINE_PLATFORM_DIR) / ".." / "scenes";
-  return (dir / (w + ".profile.json")).lexically_normal().string();
+  return find_data_file("scenes", "RAYLINE_SCENES", w + ".profile.json", "--workload", w);
 }
 
 // A resolved --workload: a scene profile (path tracing), the ray stream, or a job-set file.

@@ -18,6 +18,7 @@
 #include "apps/cmd_plan.hpp"
 #include "apps/cmd_platform.hpp"
 #include "apps/cmd_simulate.hpp"
+#include "apps/version.hpp"
 #include "sched/policy/scheduler_factory.hpp"
 
 namespace {
@@ -365,9 +366,9 @@ bool bad_subcommand(const CLI::App& app, int argc, char** argv) {
 
 int main(int argc, char** argv) {
   rayline::cli::install_interrupt_cleanup();  // first: before any thread exists
-  rayline::record_invocation(RAYLINE_VERSION, argc, argv);  // for every metrics.json
+  rayline::record_invocation(rayline::cli::version(), argc, argv);  // for every metrics.json
   CLI::App app{"Rayline: timeline scheduling for out-of-core ray batching (Son & Yoon, HPG 2017)"};
-  app.set_version_flag("--version", std::string("rayline ") + RAYLINE_VERSION);
+  app.set_version_flag("--version", std::string("rayline ") + rayline::cli::version());
   app.require_subcommand(1);
   std::function<int()> action;
   add_platform(app, action);

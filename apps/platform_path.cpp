@@ -1,7 +1,8 @@
 #include "apps/platform_path.hpp"
 
-#include <cstdlib>
 #include <filesystem>
+
+#include "apps/data_dir.hpp"
 
 namespace rayline::cli {
 
@@ -10,9 +11,7 @@ std::string resolve_platform(const std::string& arg) {
   const std::string name = arg.empty() ? "paper-cluster" : arg;
   if (fs::exists(name)) return name;
   if (name.find('/') != std::string::npos || name.ends_with(".json")) return name;  // let the loader report it
-  const char* env = std::getenv("RAYLINE_PLATFORMS");
-  const fs::path dir = env ? fs::path(env) : fs::path(RAYLINE_PLATFORM_DIR);
-  return (dir / (name + ".json")).string();
+  return find_data_file("platforms", "RAYLINE_PLATFORMS", name + ".json", "--platform", name);
 }
 
 }  // namespace rayline::cli

@@ -1,5 +1,5 @@
 // Resolve a --platform argument: an existing path, or a built-in name such as
-// "paper-cluster" / "paper-A" looked up in $RAYLINE_PLATFORMS or the source tree.
+// "paper-cluster" / "paper-A" looked up among the platform files (apps/data_dir.hpp).
 #pragma once
 #include <string>
 
