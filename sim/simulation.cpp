@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sys/resource.h>
 
 #include "common/error.hpp"
 #include "workload/job_set.hpp"
@@ -482,6 +483,12 @@ void resource_metrics(json& m, const SgPlatform& platform, Time end) {
   m["lan_utilisation_mean"] = lan_n ? lan_sum / lan_n : 0.0;
 }
 
+// The process's peak resident set so far (getrusage: kilobytes on Linux), in MB.
+double peak_rss_mb() {
+  rusage u{};
+  return getrusage(RUSAGE_SELF, &u) == 0 ? static_cast<double>(u.ru_maxrss) / 1024.0 : 0.0;
+}
+
 // Where the time goes: SimGrid (solver + event queue) = the run minus our callbacks; the
 // scheduler (plan calls); bookkeeping (runtime loop, executor, workload).
 json simulator_metrics(const Outcome& o, double in_callbacks, double wall, std::uint64_t activities) {
@@ -493,7 +500,8 @@ json simulator_metrics(const Outcome& o, double in_callbacks, double wall, std::
           {"bookkeeping_s", std::max(0.0, in_callbacks - sched)},
           {"setup_and_metrics_s", std::max(0.0, wall - o.run_wall)},
           {"speedup_vs_simulated", wall > 0 ? o.end / wall : 0},
-          {"activities_per_wall_s", wall > 0 ? static_cast<double>(activities) / wall : 0}};
+          {"activities_per_wall_s", wall > 0 ? static_cast<double>(activities) / wall : 0},
+          {"peak_rss_mb", peak_rss_mb()}};
 }
 
 // The faults of --fail (docs/faults.md): what each took, and the throughput before and

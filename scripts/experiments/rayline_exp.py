@@ -63,7 +63,7 @@ FIELDS = ["experiment", "label", "platform", "scene", "scheduler", "clients", "h
           "work_units_done", "ray_jobs", "ray_jobs_gpu", "rays_per_ray_job", "scene_fetch_bytes",
           "scene_bytes_per_ray", "withdrawn_t_jobs", "withdrawn_t_job_bytes", "scheduler_parameters", "out_dir",
           "start", "steady_rays_shot_per_second", "compute_bound_rays_shot_per_second", "share_of_compute_bound",
-          "block_visits_per_ray_shot", "cpu_fetching", "gpu_fetching", "sim_speedup"]
+          "block_visits_per_ray_shot", "cpu_fetching", "gpu_fetching", "sim_speedup", "peak_rss_mb"]
 
 
 def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth=0, fidelity="markov",
@@ -166,7 +166,8 @@ def read_run(row, out_dir):
             block_visits_per_ray_shot=(pt["steady_block_visits_per_second"] / pt["steady_rays_shot_per_second"]
                                        if pt.get("steady_rays_shot_per_second") else ""),
             cpu_fetching=ds.get("cpu", {}).get("fetching", ""), gpu_fetching=ds.get("gpu", {}).get("fetching", ""),
-            sim_speedup=m["simulator"].get("speedup_vs_simulated", ""))
+            sim_speedup=m["simulator"].get("speedup_vs_simulated", ""),
+            peak_rss_mb=m["simulator"].get("peak_rss_mb", ""))
         row.update(job_diagnostics(os.path.join(out_dir, "jobs.csv"), float(m.get("work_units_done", 0))))
     return row
 
