@@ -7,7 +7,6 @@
 #include <thread>
 
 #include "apps/cli_common.hpp"
-#include "apps/cmd_partition.hpp"
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/workstation.hpp"
 #include "sched/core/data_block.hpp"
@@ -39,6 +38,10 @@ json timing_of(const DeviceGraph& g, DeviceId d) {
 }  // namespace
 
 int run_devices(const DevicesCliOptions& opt) {
+  // The sizes first: a bad flag is reported before the devices are opened.
+  const Bytes ram = opt.memory_budget.empty() ? Bytes(::sysconf(_SC_PHYS_PAGES)) * Bytes(::sysconf(_SC_PAGESIZE))
+                                              : size_flag("--memory-budget", opt.memory_budget);
+  const Bytes gpu_budget = opt.gpu_memory_budget.empty() ? 0 : size_flag("--gpu-memory-budget", opt.gpu_memory_budget);
   json out;
   std::string why;
   const auto vk = gpu::list_gpu_devices(&why);
@@ -60,13 +63,8 @@ int run_devices(const DevicesCliOptions& opt) {
   const std::string source =
       defaults ? std::string("defaults (uncalibrated; `rayline calibrate` measures this machine)") : opt.platform;
   m.threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
-  m.ram_capacity = opt.memory_budget.empty()
-                       ? Bytes(::sysconf(_SC_PHYS_PAGES)) * Bytes(::sysconf(_SC_PAGESIZE))
-                       : parse_bytes(opt.memory_budget, "--memory-budget");
-  engine::set_gpu(m, ctx ? engine::gpu_memory_budget(ctx->info(), opt.gpu_memory_budget.empty()
-                                                                      ? 0
-                                                                      : parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget"))
-                       : 0);
+  m.ram_capacity = ram;
+  engine::set_gpu(m, ctx ? engine::gpu_memory_budget(ctx->info(), gpu_budget) : 0);
   const DeviceGraph g = engine::make_workstation(m, opt.platform);
   out["gpu"] = {{"selector", opt.gpu}, {"status", status}, {"device", ctx ? ctx->info().name : ""},
                 {"cpu_backed", ctx ? ctx->info().cpu_backed : false}};

@@ -17,28 +17,6 @@
 
 namespace rayline::cli {
 
-std::uint64_t parse_bytes(const std::string& text, const std::string& field) {
-  std::size_t pos = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &pos);
-  } catch (const std::exception&) {
-    throw InputError(field, "", "not a size: '" + text + "' (e.g. 1GiB, 512MiB)");
-  }
-  std::string suffix = text.substr(pos);
-  if (suffix.size() >= 2 && suffix.substr(suffix.size() - 2) == "iB") suffix.resize(suffix.size() - 2);
-  else if (!suffix.empty() && suffix.back() == 'B') suffix.pop_back();
-  double mul = 1;
-  if (suffix == "K" || suffix == "k") mul = 1024.0;
-  else if (suffix == "M") mul = 1024.0 * 1024;
-  else if (suffix == "G") mul = 1024.0 * 1024 * 1024;
-  else if (suffix == "T") mul = 1024.0 * 1024 * 1024 * 1024;
-  else if (!suffix.empty()) throw InputError(field, "", "unknown unit in '" + text + "' (B, KiB, MiB, GiB, TiB)");
-  const double n = std::round(v * mul);
-  if (!(n >= 1) || n > 1e15) throw InputError(field, "", "'" + text + "' out of range");
-  return static_cast<std::uint64_t>(n);
-}
-
 std::function<void(const partition::PartitionProgress&)> partition_progress(ProgressLine& line) {
   return [&line](const partition::PartitionProgress& p) {
     if (!line.due()) return;
@@ -61,7 +39,7 @@ int run_partition(const PartitionOptions& opt) {
   const auto t0 = Clock::now();
   part::PartitionOptions po;
   po.blocks = opt.blocks;
-  po.memory_limit = parse_bytes(opt.memory_limit, "--memory-limit");
+  po.memory_limit = size_flag("--memory-limit", opt.memory_limit);
   const scene::Scene sc = opt.scene.empty() ? scene::default_scene() : scene::load_scene(opt.scene);
 
   ProgressLine line(ProgressLine::for_stderr(opt.quiet));

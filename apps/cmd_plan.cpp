@@ -22,7 +22,7 @@ namespace {
 // The flags checked before any work: the scheduler, the horizon, the outputs.
 ExactRunOptions plan_options(const PlanOptions& opt) {
   ExactRunOptions o;
-  const Time horizon = seconds_flag("--horizon", opt.horizon);
+  const Time horizon = duration_flag("--horizon", opt.horizon);
   o.scheduler = scheduler_choice(opt.scheduler, horizon, parse_aging(opt.aging, "--aging"));
   o.platform_file = resolve_platform(opt.platform);
   o.jobs_file = opt.jobs;

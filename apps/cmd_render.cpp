@@ -1,5 +1,6 @@
-// `rayline render` / `rayline calibrate`: options → engine::render / engine::calibrate,
-// outputs next to the image: IMAGE.exr, IMAGE.png (preview), IMAGE.metrics.json,
+// `rayline render` / `rayline calibrate`: options → engine::render / engine::calibrate.
+// The image is written in the format its name's extension names: IMAGE.exr (with its PNG
+// preview IMAGE.png) or IMAGE.png alone; next to it IMAGE.metrics.json,
 // IMAGE.timeline.json (Chrome trace), IMAGE.jobs.csv, and the recordings asked for, all
 // published together once every one is written (apps/run/output_set.hpp).
 #include "apps/cmd_render.hpp"
@@ -49,6 +50,27 @@ void parse_resolution(const std::string& s, int& w, int& h) {
 std::string sibling(const std::string& image, const std::string& suffix) {
   fs::path p(image);
   return (p.parent_path() / (p.stem().string() + suffix)).string();
+}
+
+// True for an --out named .exr (OpenEXR, and its PNG preview), false for .png (the 8-bit
+// sRGB image alone), any case; InputError for any other name.
+bool writes_exr(const std::string& out) {
+  std::string ext = fs::path(out).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext == ".exr" || ext == ".png") return ext == ".exr";
+  throw InputError(out, "--out", "the image is written in the format its extension names: use a name ending in .exr "
+                                 "(OpenEXR, with a PNG preview next to it) or .png");
+}
+
+// The files of a render's --out: the image, its PNG preview (EXR only), the metrics, the
+// timeline and the jobs CSV.
+std::vector<NamedPath> image_outputs(const std::string& out) {
+  std::vector<NamedPath> files{{"--out", out}};
+  if (writes_exr(out)) files.push_back({"--out (its PNG preview)", sibling(out, ".png")});
+  files.push_back({"--out (its metrics)", sibling(out, ".metrics.json")});
+  files.push_back({"--out (its timeline)", sibling(out, ".timeline.json")});
+  files.push_back({"--out (its jobs CSV)", sibling(out, ".jobs.csv")});
+  return files;
 }
 
 // The scene file and the mesh files a JSON scene names (resolved as the loader resolves
@@ -103,10 +125,8 @@ engine::RenderOptions render_options(const RenderCliOptions& opt) {
   ro.max_depth = opt.max_depth;
   ro.threads = opt.threads;
   ro.seed = opt.seed;
-  // (CLI11's PositiveNumber lets NaN through, and reports "inf" as a 300-digit number.)
-  if (!(std::isfinite(opt.horizon) && opt.horizon > 0))
-    throw InputError("--horizon", "", "must be a finite number of seconds > 0, e.g. 2 or 0.5");
-  const SchedulerChoice choice = scheduler_choice(opt.scheduler, opt.horizon, parse_aging(opt.aging, "--aging"));
+  const SchedulerChoice choice =
+      scheduler_choice(opt.scheduler, duration_flag("--horizon", opt.horizon), parse_aging(opt.aging, "--aging"));
   ro.scheduler = std::string(scheduler_name(choice.kind));
   ro.horizon = choice.horizon;
   ro.aging = choice.aging;
@@ -120,30 +140,27 @@ engine::RenderOptions render_options(const RenderCliOptions& opt) {
   ro.skip_empty = opt.skip_empty == "on";
   ro.loaders = opt.loaders;
   parse_resolution(opt.resolution, ro.width, ro.height);
-  if (!opt.memory_budget.empty()) ro.memory_budget = parse_bytes(opt.memory_budget, "--memory-budget");
+  if (!opt.memory_budget.empty()) ro.memory_budget = size_flag("--memory-budget", opt.memory_budget);
   ro.gpu = opt.gpu;
   if (!opt.gpu_memory_budget.empty())
-    ro.gpu_memory_budget = parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget");
+    ro.gpu_memory_budget = size_flag("--gpu-memory-budget", opt.gpu_memory_budget);
   return ro;
 }
 
 // Before rendering (nothing rendered for nothing): the image and its companions are
 // written beside it (sibling names), and none of them, nor a recording, may be an input.
 void check_render_outputs(const RenderCliOptions& opt) {
-  const std::string ext = fs::path(opt.out).extension().string();
-  if (ext != ".exr") throw InputError(opt.out, "--out", "the image is written as OpenEXR: use a name ending in .exr");
+  std::error_code ec;
+  if (fs::is_directory(opt.out, ec))
+    throw InputError(opt.out, "--out", "is a folder; give a file name such as out/render.exr or out/render.png");
+  std::vector<NamedPath> outputs = image_outputs(opt.out);
+  outputs.push_back({"--record-profile", opt.record_profile});
+  outputs.push_back({"--record-replay", opt.record_replay});
   std::vector<NamedPath> inputs = scene_inputs(opt.scene);
   inputs.push_back({"--platform", opt.platform == "auto" ? std::string() : opt.platform});
   inputs.push_back(
       {"--blocks-dir", opt.blocks_dir.empty() ? std::string() : (fs::path(opt.blocks_dir) / "blocks.json").string()});
-  check_distinct({{"--out", opt.out},
-                  {"--out (its PNG preview)", sibling(opt.out, ".png")},
-                  {"--out (its metrics)", sibling(opt.out, ".metrics.json")},
-                  {"--out (its timeline)", sibling(opt.out, ".timeline.json")},
-                  {"--out (its jobs CSV)", sibling(opt.out, ".jobs.csv")},
-                  {"--record-profile", opt.record_profile},
-                  {"--record-replay", opt.record_replay}},
-                 inputs);
+  check_distinct(outputs, inputs);
   check_output_file(opt.out, "--out", "out/render.exr");
 }
 
@@ -181,8 +198,10 @@ void write_recordings(const RenderCliOptions& opt, const engine::ProfileRecorder
     });
 }
 
-// IMAGE.exr (with the run's metadata), IMAGE.png, IMAGE.metrics.json, .timeline.json, .jobs.csv.
+// IMAGE.exr (with the run's metadata) and IMAGE.png, or IMAGE.png alone; IMAGE.metrics.json,
+// .timeline.json, .jobs.csv.
 void write_image_and_companions(const std::string& out, const engine::RenderResult& r, OutputSet& outputs) {
+  const bool exr = writes_exr(out);
   image::Metadata meta;
   meta.strings["rayline.scene"] = r.scene_name;
   meta.strings["rayline.scheduler"] = r.scheduler_parameters;
@@ -192,8 +211,9 @@ void write_image_and_companions(const std::string& out, const engine::RenderResu
   meta.ints["rayline.max_depth"] = r.max_depth;
   meta.doubles["rayline.seconds"] = r.seconds;
   meta.doubles["rayline.memory_budget_bytes"] = static_cast<double>(r.memory_budget);
-  outputs.write(out, [&](const std::string& staged) { image::write_exr(staged, r.width, r.height, r.rgb.data(), meta); });
-  outputs.write(sibling(out, ".png"), [&](const std::string& staged) {
+  if (exr)
+    outputs.write(out, [&](const std::string& staged) { image::write_exr(staged, r.width, r.height, r.rgb.data(), meta); });
+  outputs.write(exr ? sibling(out, ".png") : out, [&](const std::string& staged) {
     image::write_png_preview(staged, r.width, r.height, r.rgb.data(), 1.0f);
   });
   outputs.write_text(sibling(out, ".metrics.json"), r.metrics_json);
@@ -215,9 +235,9 @@ void print_render_summary(const std::string& out, const engine::RenderResult& r)
                 static_cast<unsigned long long>(r.gpu.gpu_jobs), static_cast<unsigned long long>(r.gpu.gpu_rays),
                 static_cast<unsigned long long>(r.gpu.fallback_rays),
                 static_cast<unsigned long long>(r.gpu.block_uploads), r.gpu_status.c_str());
-  std::printf("wrote %s, %s, %s, %s, %s\n", out.c_str(), sibling(out, ".png").c_str(),
-              sibling(out, ".metrics.json").c_str(), sibling(out, ".timeline.json").c_str(),
-              sibling(out, ".jobs.csv").c_str());
+  std::string files;
+  for (const NamedPath& f : image_outputs(out)) files += (files.empty() ? "" : ", ") + f.path;
+  std::printf("wrote %s\n", files.c_str());
 }
 
 }  // namespace

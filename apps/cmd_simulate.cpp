@@ -140,16 +140,16 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.platform_file = resolve_platform(opt.platform);
   cfg.workload = resolve_workload(opt.workload);
   cfg.workload_kind = workload_kind(cfg.workload);
-  const Time horizon = seconds_flag("--horizon", opt.horizon);
+  const Time horizon = duration_flag("--horizon", opt.horizon);
   const AgingSetting aging = parse_aging(opt.aging, "--aging");
-  cfg.duration = seconds_flag("--duration", opt.duration);
+  cfg.duration = duration_flag("--duration", opt.duration);
   cfg.seed = opt.seed;
   cfg.blocks = opt.blocks;
   cfg.out_dir = opt.out;
   cfg.paje = opt.paje;
   cfg.timeline = !opt.no_timeline;
   cfg.progress = ProgressLine::for_stderr(opt.no_progress);
-  if (!opt.warmup.empty()) cfg.warmup = seconds_flag("--warmup", opt.warmup);
+  if (!opt.warmup.empty()) cfg.warmup = duration_flag("--warmup", opt.warmup);
   cfg.faults = opt.fail;  // (checked against the platform when it is loaded)
   cfg.warm = opt.start == "warm";
   if (cfg.warm && cfg.workload_kind == sim::WorkloadKind::JobSet)

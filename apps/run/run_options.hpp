@@ -1,6 +1,6 @@
 // The run facade's typed options (apps/run/): every subcommand that runs a schedule
 // (plan, simulate, compare, render) turns its text flags into these through the functions
-// here, so a flag means the same and fails with the same message everywhere. Each throws
+// here and in apps/cli_common.hpp (durations, sizes), so a flag means the same and fails with the same message everywhere. Each throws
 // InputError naming the flag; the names of schedulers come from the factory
 // (sched/policy/scheduler_factory.hpp) and nowhere else.
 #pragma once
@@ -10,9 +10,6 @@
 #include "sched/policy/scheduler_factory.hpp"
 
 namespace rayline::cli {
-
-// A duration flag ("2s", "500ms", common/units.hpp) in seconds.
-Time seconds_flag(const std::string& flag, const std::string& text);
 
 // A scheduler name. `known` prefixes the list of names in the message ("known: " or "").
 SchedulerKind scheduler_flag(const std::string& flag, const std::string& name, const std::string& known = "known: ");
