@@ -114,6 +114,14 @@ std::string format_rate(double per_second, const std::string& what) {
   return three_digits(s.value) + " " + s.prefix + what + "/s";
 }
 
+std::string format_bandwidth(double bytes_per_second) {
+  static const double steps[] = {1e3, 1e6, 1e9, 1e12};
+  static const char* const prefixes[] = {"kB/s", "MB/s", "GB/s", "TB/s"};
+  const Scaled s = scale(bytes_per_second, steps, prefixes);
+  if (!std::isfinite(bytes_per_second) || !*s.prefix) return general(bytes_per_second, "B/s");
+  return three_digits(s.value) + " " + s.prefix;
+}
+
 int guarded(const std::function<int()>& body) {
   try {
     return body();

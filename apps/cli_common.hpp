@@ -29,9 +29,11 @@ std::uint64_t size_flag(const std::string& flag, const std::string& text);
 //   format_duration(12.34) = "12.3 s", (0.0042) = "4.20 ms" (us, ns below)
 //   format_size(1.5 * 2^30) = "1.50 GiB" (B, KiB, MiB, GiB, TiB: binary prefixes)
 //   format_rate(4.273e6, "rays") = "4.27 M rays/s" (k, M, G, T: decimal prefixes)
+//   format_bandwidth(1.5e8) = "150 MB/s" (decimal prefixes, as platform files write it)
 std::string format_duration(double seconds);
 std::string format_size(double bytes);
 std::string format_rate(double per_second, const std::string& what);
+std::string format_bandwidth(double bytes_per_second);
 
 // Runs body(); turns InputError into "rayline: FILE: FIELD: msg" and exit 2, other
 // std::exception into "rayline: error: msg" and exit 1.

@@ -46,7 +46,9 @@ std::string row(const CLI::Option& opt) {
   const std::size_t colon = full.find(':');
   const std::string kind = full.substr(0, colon);
   std::string allowed = colon == std::string::npos ? std::string() : full.substr(colon + 1);
-  if (allowed.rfind(kind + " in ", 0) == 0) allowed = allowed.substr(kind.size() + 4);  // CLI::Range: "INT in [1 - 64]"
+  // CLI::Range describes itself as "INT in [1 - 64]" (INT for any integer): keep "[1 - 64]".
+  if (const std::size_t in = allowed.find(" in ["); in != std::string::npos && allowed.find(' ') == in)
+    allowed = allowed.substr(in + 4);
   std::string units = units_of(kind);
   if (!allowed.empty()) units += (units.empty() ? "" : "; ") + allowed;
   const bool flag = full.empty();  // a flag takes no value, so has no type name

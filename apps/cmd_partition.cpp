@@ -55,17 +55,19 @@ int run_partition(const PartitionOptions& opt) {
     const double mean = double(idx.references) / double(idx.blocks.size());
     std::printf("partitioned %s: %llu triangles into %zu blocks (%s)\n", idx.scene.c_str(),
                 static_cast<unsigned long long>(idx.scene_triangles), idx.blocks.size(), r.dir.c_str());
-    std::printf("references %llu (%.2f %% duplicated across split planes), %.1f MiB on disk\n",
+    std::printf("references %llu (%.2f %% duplicated across split planes), %s on disk\n",
                 static_cast<unsigned long long>(idx.references),
                 100.0 * double(idx.references - idx.scene_triangles) / double(idx.scene_triangles),
-                double(bytes) / (1 << 20));
+                format_size(double(bytes)).c_str());
     std::printf("triangles per block: min %llu, max %llu, mean %.0f (max/mean %.3f)\n",
                 static_cast<unsigned long long>(lo), static_cast<unsigned long long>(hi), mean,
                 mean > 0 ? double(hi) / mean : 0.0);
-    std::printf("pass 1 (bounds, sample of %llu centroids) %.2f s, pass 2 (route, write) %.2f s\n",
-                static_cast<unsigned long long>(r.sample_size), r.seconds_pass1, r.seconds_pass2);
+    std::printf("pass 1 (bounds, sample of %llu centroids) %s, pass 2 (route, write) %s\n",
+                static_cast<unsigned long long>(r.sample_size), format_duration(r.seconds_pass1).c_str(),
+                format_duration(r.seconds_pass2).c_str());
   }
-  std::printf("time %.2f s, %.2f MTriangles/s\n", s, double(idx.scene_triangles) / 1e6 / std::max(s, 1e-9));
+  std::printf("time %s, %s\n", format_duration(s).c_str(),
+              format_rate(double(idx.scene_triangles) / std::max(s, 1e-9), "triangles").c_str());
   return 0;
 }
 

@@ -61,7 +61,7 @@ int run_platform_check(const PlatformCheckOptions& opt) {
     if (fetch[m] == kNever)
       std::printf("  %-16s %-5s %12s\n", g.memories[m].name.c_str(), kind.c_str(), "unreachable");
     else
-      std::printf("  %-16s %-5s %10.4f s\n", g.memories[m].name.c_str(), kind.c_str(), fetch[m]);
+      std::printf("  %-16s %-5s %12s\n", g.memories[m].name.c_str(), kind.c_str(), format_duration(fetch[m]).c_str());
   }
   return 0;
 }

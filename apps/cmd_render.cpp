@@ -105,8 +105,8 @@ std::function<void(double, double)> progress_bar(ProgressLine& line, const char*
   return [&line, what](double fraction, double rays_per_s) {
     if (!line.due()) return;
     const int width = 30, n = static_cast<int>(fraction * width + 0.5);
-    line.print(what, "[%.*s%*s] %5.1f %%  %.2f Mrays/s", n, "##############################", width - n, "",
-               100 * fraction, rays_per_s / 1e6);
+    line.print(what, "[%.*s%*s] %5.1f %%  %s", n, "##############################", width - n, "", 100 * fraction,
+               format_rate(rays_per_s, "rays").c_str());
   };
 }
 
@@ -222,12 +222,12 @@ void write_image_and_companions(const std::string& out, const engine::RenderResu
 }
 
 void print_render_summary(const std::string& out, const engine::RenderResult& r) {
-  std::printf("rendered %dx%d, %d spp, %u blocks, %s, budget %s: %.3f s, %.3f Mrays/s (%llu rays), %llu loads, "
-              "%.1f MB read (%s)\n",
+  std::printf("rendered %dx%d, %d spp, %u blocks, %s, budget %s: %s, %s (%llu rays), %llu loads, %s read (%s)\n",
               r.width, r.height, r.spp, r.blocks, r.scheduler.c_str(),
-              r.memory_budget ? (std::to_string(r.memory_budget / (1 << 20)) + " MiB").c_str() : "in core", r.seconds,
-              double(r.counts.created) / r.seconds / 1e6, static_cast<unsigned long long>(r.counts.created),
-              static_cast<unsigned long long>(r.store.loads), double(r.store.bytes_read) / 1e6,
+              r.memory_budget ? format_size(double(r.memory_budget)).c_str() : "in core", format_duration(r.seconds).c_str(),
+              format_rate(double(r.counts.created) / r.seconds, "rays").c_str(),
+              static_cast<unsigned long long>(r.counts.created), static_cast<unsigned long long>(r.store.loads),
+              format_size(double(r.store.bytes_read)).c_str(),
               r.store.buffered_reads == 0 ? "O_DIRECT" : "buffered, pages dropped");
   if (!r.gpu_device.empty())
     std::printf("gpu '%s'%s: %llu jobs, %llu rays (%llu rays on the CPU path), %llu block uploads; %s\n",
@@ -266,10 +266,15 @@ int run_render(const RenderCliOptions& opt) {
 // first, since the worst relative error belongs to the shortest samples.
 std::string fit_quality(const FitErrors& f, const char* sample) {
   char buf[200];
-  std::snprintf(buf, sizeof buf, "error %.0f %% of the measured time (median %s %.0f %%, RMS %.3f ms, worst %.0f %%)",
-                100 * f.weighted_rel, sample, 100 * f.median_rel, f.rms * 1e3, 100 * f.max_rel);
+  std::snprintf(buf, sizeof buf, "error %.0f %% of the measured time (median %s %.0f %%, RMS %s, worst %.0f %%)",
+                100 * f.weighted_rel, sample, 100 * f.median_rel, format_duration(f.rms).c_str(), 100 * f.max_rel);
   return buf;
 }
+
+namespace {
+// Eq. 2's rate (seconds per byte of 64-byte ray records) as rays per second.
+std::string ray_rate(double seconds_per_byte) { return format_rate(1.0 / (seconds_per_byte * 64), "rays"); }
+}  // namespace
 
 int run_calibrate(const CalibrateCliOptions& opt) {
   engine::RenderOptions ro;
@@ -291,29 +296,30 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   const engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);
   line.done();
   write_file_atomic(opt.out, c.platform_json);
-  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %.3f ms, bandwidth %.1f MB/s; %s\n",
-              c.load_samples, c.model.disk_latency * 1e3, c.model.disk_bandwidth / 1e6,
+  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %s, bandwidth %s; %s\n", c.load_samples,
+              format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),
               fit_quality(c.load_fit, "load").c_str());
-  std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %.1f us, %.3f Mrays/s; %s\n", c.exec_samples,
-              c.model.intersect_setup * 1e6, 1.0 / (c.model.intersect_rate * 64) / 1e6,
+  std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %s, %s; %s\n", c.exec_samples,
+              format_duration(c.model.intersect_setup).c_str(), ray_rate(c.model.intersect_rate).c_str(),
               fit_quality(c.intersect_fit, "job").c_str());
-  std::printf("ShadowIntersect per thread: setup %.1f us, %.3f Mrays/s; %s\n", c.model.shadow_setup * 1e6,
-              1.0 / (c.model.shadow_rate * 64) / 1e6, fit_quality(c.shadow_fit, "job").c_str());
+  std::printf("ShadowIntersect per thread: setup %s, %s; %s\n", format_duration(c.model.shadow_setup).c_str(),
+              ray_rate(c.model.shadow_rate).c_str(), fit_quality(c.shadow_fit, "job").c_str());
   if (!c.model.gpus.empty()) {
     const engine::GpuModel& gm = c.model.gpus[0];
     if (c.gpu_pass)
       std::printf("the measuring render gave the GPU %d RayIntersect and %d ShadowIntersect jobs (GPU %s), fewer than "
                   "%d of a type: measured it in a second render with its jobs planned on the GPU alone\n",
                   c.gpu_mixed_jobs[0], c.gpu_mixed_jobs[1], c.gpu_mixed_status.c_str(), engine::kMinGpuJobsPerType);
-    std::printf("GPU '%s' over %d jobs: RayIntersect setup %.1f us, %.3f Mrays/s%s; ShadowIntersect setup %.1f us, "
-                "%.3f Mrays/s%s\n",
-                c.gpu_device.c_str(), c.gpu_exec_samples, gm.intersect_setup * 1e6, 1.0 / (gm.intersect_rate * 64) / 1e6,
-                c.gpu_intersect_fitted ? "" : " (defaults kept: no usable fit)", gm.shadow_setup * 1e6,
-                1.0 / (gm.shadow_rate * 64) / 1e6, c.gpu_shadow_fitted ? "" : " (defaults kept: no usable fit)");
+    std::printf("GPU '%s' over %d jobs: RayIntersect setup %s, %s%s; ShadowIntersect setup %s, %s%s\n",
+                c.gpu_device.c_str(), c.gpu_exec_samples, format_duration(gm.intersect_setup).c_str(),
+                ray_rate(gm.intersect_rate).c_str(), c.gpu_intersect_fitted ? "" : " (defaults kept: no usable fit)",
+                format_duration(gm.shadow_setup).c_str(), ray_rate(gm.shadow_rate).c_str(),
+                c.gpu_shadow_fitted ? "" : " (defaults kept: no usable fit)");
     if (c.gpu_intersect_fitted) std::printf("  GPU RayIntersect: %s\n", fit_quality(c.gpu_intersect_fit, "job").c_str());
     if (c.gpu_shadow_fitted) std::printf("  GPU ShadowIntersect: %s\n", fit_quality(c.gpu_shadow_fit, "job").c_str());
-    std::printf("RAM->GPU channel, Eq. 1 over %d uploads: latency %.1f us, bandwidth %.1f MB/s; %s\n", c.pcie_samples,
-                gm.pcie_latency * 1e6, gm.pcie_bandwidth / 1e6, fit_quality(c.pcie_fit, "upload").c_str());
+    std::printf("RAM->GPU channel, Eq. 1 over %d uploads: latency %s, bandwidth %s; %s\n", c.pcie_samples,
+                format_duration(gm.pcie_latency).c_str(), format_bandwidth(gm.pcie_bandwidth).c_str(),
+                fit_quality(c.pcie_fit, "upload").c_str());
   }
   std::printf("wrote %s (use: rayline render --platform %s)\n", opt.out.c_str(), opt.out.c_str());
   return kExitOk;

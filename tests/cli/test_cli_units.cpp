@@ -114,3 +114,9 @@ TEST(CliFormat, RatesUseDecimalPrefixes) {
   EXPECT_EQ(format_rate(12.5, "rays"), "12.5 rays/s");
   EXPECT_EQ(format_rate(0, "rays"), "0 rays/s");
 }
+
+TEST(CliFormat, BandwidthsUseDecimalPrefixes) {
+  EXPECT_EQ(format_bandwidth(1.5e8), "150 MB/s");
+  EXPECT_EQ(format_bandwidth(1.25e9), "1.25 GB/s");
+  EXPECT_EQ(format_bandwidth(512), "512 B/s");
+}
