@@ -106,6 +106,27 @@ TEST(CliGrammar, ShortFlagsMeanOneThing) {
   EXPECT_EQ(seen.size(), meaning.size());
 }
 
+// --help describes every flag: no row of the reference has an empty meaning, and every
+// DURATION and SIZE lists its units.
+TEST(CliGrammar, EveryFlagIsDescribedWithItsUnits) {
+  const auto r = rayline_cli("--cli-reference");
+  ASSERT_EQ(r.code, 0) << r.all;
+  std::istringstream lines(r.out);
+  int rows = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("| `", 0) != 0) continue;
+    ++rows;
+    EXPECT_EQ(line.find(" |  |", line.size() - 5), std::string::npos) << "no meaning: " << line;
+    if (line.find("| `DURATION") != std::string::npos) {
+      EXPECT_NE(line.find("| ns, us, ms, s, min, h (required)"), std::string::npos) << line;
+    }
+    if (line.find("| `SIZE` |") != std::string::npos) {
+      EXPECT_NE(line.find("| B, kB, MB, GB, TB, KiB, MiB, GiB, TiB (required)"), std::string::npos) << line;
+    }
+  }
+  EXPECT_GE(rows, 100);
+}
+
 TEST(CliGrammar, ReferenceIsPrintedButNotListedInHelp) {
   const auto help = rayline_cli("--help");
   EXPECT_EQ(help.code, 0);
