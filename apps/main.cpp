@@ -333,15 +333,26 @@ std::string where(const std::string& path) {
   return space == std::string::npos ? std::string() : path.substr(space + 1) + ": ";
 }
 
-// "rayline render" when CLI11 stopped inside `rayline render`: the subcommands it parsed.
-std::string parsed_path(const CLI::App& app) {
-  std::string path = "rayline";
+// The subcommand CLI11 stopped in (`app` itself when none), and its path ("rayline render").
+const CLI::App* parsed_command(const CLI::App& app, std::string& path) {
+  path = "rayline";
   for (const CLI::App* at = &app;;) {
     const std::vector<const CLI::App*> subs = at->get_subcommands([](const CLI::App* s) { return s->parsed(); });
-    if (subs.empty()) return path;
+    if (subs.empty()) return at;
     at = subs.front();
     path += " " + at->get_name();
   }
+}
+
+// CLI11's message, except "Could not convert: --exec-noise = abc", which becomes the form
+// of the other flag errors: "--exec-noise: 'abc' is not a FLOAT".
+std::string parse_message(const CLI::App& at, const CLI::ParseError& e) {
+  const std::string what = e.what(), prefix = "Could not convert: ";
+  const std::size_t eq = what.find(" = ");
+  if (what.rfind(prefix, 0) != 0 || eq == std::string::npos) return what;
+  const std::string name = what.substr(prefix.size(), eq - prefix.size());
+  const CLI::Option* opt = at.get_option_no_throw(name);
+  return name + ": '" + what.substr(eq + 3) + "' is not " + (opt ? "a " + opt->get_type_name() : "a valid value");
 }
 
 // A CLI11 parse error (unknown flag, bad value, missing argument) in the form of every
@@ -349,8 +360,10 @@ std::string parsed_path(const CLI::App& app) {
 // --version, which CLI11 reports as errors with exit code 0, print as CLI11 prints them.
 int parse_error(const CLI::App& app, const CLI::ParseError& e) {
   if (e.get_exit_code() == 0) return app.exit(e);
-  const std::string path = parsed_path(app);
-  std::fprintf(stderr, "rayline: %s%s (see %s --help)\n", where(path).c_str(), e.what(), path.c_str());
+  std::string path;
+  const CLI::App* at = parsed_command(app, path);
+  std::fprintf(stderr, "rayline: %s%s (see %s --help)\n", where(path).c_str(), parse_message(*at, e).c_str(),
+               path.c_str());
   return kExitBadInput;
 }
 

@@ -41,7 +41,8 @@ TEST(CliGrammar, ParseErrorsArePrefixedAndExitTwo) {
       {"compare --seed x", "--seed"},                    {"generate --seed x", "--seed"},
       {"partition --blocks 0", "--blocks"},               {"render --spp abc", "--spp"},
       {"calibrate --threads 0", "--threads"},             {"devices --threads many", "--threads"},
-      {"render --read-ahead maybe", "--read-ahead"},      {"simulate --transfer-order random", "--transfer-order"}};
+      {"render --read-ahead maybe", "--read-ahead"},      {"simulate --transfer-order random", "--transfer-order"},
+      {"simulate --exec-noise abc", "--exec-noise: 'abc' is not a FLOAT"}};
   for (const auto& [args, flag] : bad_values)
     expect_bad_input(args, "rayline: " + args.substr(0, args.find(' ')) + ": ", flag);
   const std::vector<std::pair<std::string, std::string>> missing = {
