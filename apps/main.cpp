@@ -1,5 +1,6 @@
-// The `rayline` command line. This is the only translation unit that includes CLI11;
-// every subcommand registers here and runs from its own cmd_*.cpp.
+// The `rayline` command line. With cli_reference.cpp (the flag tables of docs/cli.md) the
+// only translation unit that includes CLI11; every subcommand registers here, each option
+// with its kind of value (cli_reference.hpp), and runs from its own cmd_*.cpp.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
