@@ -3,7 +3,9 @@
 #include <fcntl.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -14,8 +16,111 @@
 #include "common/error.hpp"
 #include "common/output_folder.hpp"
 #include "common/unfinished_output.hpp"
+#include "common/units.hpp"
 
 namespace rayline::cli {
+
+namespace {
+const char* const kDurationUnits = "ns, us, ms, s, min, h";
+const char* const kSizeUnits = "B, kB, MB, GB, TB, KiB, MiB, GiB, TiB";
+
+// The whole text is a number (no unit after it): "2", "-1", "1e3".
+bool bare_number(const std::string& text) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0';
+}
+
+// Three significant digits of `v` (1 <= |v| < 1000): "4.27", "42.7", "427"; larger
+// values (past the last prefix) whole: "1234".
+std::string three_digits(double v) {
+  const double a = std::fabs(v);
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", a < 9.995 ? 2 : a < 99.95 ? 1 : 0, v);
+  return buf;
+}
+
+// `v` divided by the largest of `steps` (ascending) that it reaches (after rounding to
+// three digits), and that step's prefix; values under the first step keep no prefix.
+struct Scaled {
+  double value;
+  const char* prefix;
+};
+template <std::size_t N>
+Scaled scale(double v, const double (&steps)[N], const char* const (&prefixes)[N]) {
+  Scaled s{v, ""};
+  for (std::size_t i = 0; i < N; ++i)
+    if (std::fabs(v) >= steps[i] * 0.9995) s = {v / steps[i], prefixes[i]};
+  return s;
+}
+
+// Outside the finite numbers, or under the smallest unit: printf's %.3g.
+std::string general(double v, const std::string& unit) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.3g %s", v, unit.c_str());
+  return buf;
+}
+}  // namespace
+
+double duration_flag(const std::string& flag, const std::string& text) {
+  if (bare_number(text))
+    throw InputError(flag, "", "'" + text + "' has no unit; a duration takes one, e.g. 2s or 500ms (units: " +
+                                   kDurationUnits + ")");
+  try {
+    return units::parse_duration(text);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(flag, "", std::string(e.what()) + " (units: " + kDurationUnits + ")");
+  }
+}
+
+std::uint64_t size_flag(const std::string& flag, const std::string& text) {
+  if (bare_number(text))
+    throw InputError(flag, "", "'" + text + "' has no unit; a size takes one, e.g. 512MiB or 64GiB (units: " +
+                                   kSizeUnits + ")");
+  double bytes = 0;
+  try {
+    bytes = units::parse_bytes(text);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(flag, "", std::string(e.what()) + " (units: " + kSizeUnits + ")");
+  }
+  const double whole = std::round(bytes);
+  if (whole < 1) throw InputError(flag, "", "'" + text + "' is less than 1B");
+  return static_cast<std::uint64_t>(whole);
+}
+
+std::string format_duration(double seconds) {
+  static const double steps[] = {1e-9, 1e-6, 1e-3, 1};
+  static const char* const units[] = {"ns", "us", "ms", "s"};
+  const Scaled s = scale(seconds, steps, units);
+  if (!std::isfinite(seconds) || !*s.prefix) return general(seconds, "s");
+  return three_digits(s.value) + " " + s.prefix;
+}
+
+std::string format_size(double bytes) {
+  static const double steps[] = {1024.0, 1048576.0, 1073741824.0, 1099511627776.0};
+  static const char* const prefixes[] = {"KiB", "MiB", "GiB", "TiB"};
+  const Scaled s = scale(bytes, steps, prefixes);
+  if (!std::isfinite(bytes)) return general(bytes, "B");
+  if (!*s.prefix) return std::to_string(std::llround(bytes)) + " B";
+  return three_digits(s.value) + " " + s.prefix;
+}
+
+std::string format_rate(double per_second, const std::string& what) {
+  static const double steps[] = {1e3, 1e6, 1e9, 1e12};
+  static const char* const prefixes[] = {"k ", "M ", "G ", "T "};
+  const Scaled s = scale(per_second, steps, prefixes);
+  if (!std::isfinite(per_second) || !*s.prefix) return general(per_second, what + "/s");
+  return three_digits(s.value) + " " + s.prefix + what + "/s";
+}
+
+std::string format_bandwidth(double bytes_per_second) {
+  static const double steps[] = {1e3, 1e6, 1e9, 1e12};
+  static const char* const prefixes[] = {"kB/s", "MB/s", "GB/s", "TB/s"};
+  const Scaled s = scale(bytes_per_second, steps, prefixes);
+  if (!std::isfinite(bytes_per_second) || !*s.prefix) return general(bytes_per_second, "B/s");
+  return three_digits(s.value) + " " + s.prefix;
+}
 
 int guarded(const std::function<int()>& body) {
   try {

@@ -1,5 +1,8 @@
-// Helpers shared by subcommands (no CLI11 here): error reporting and exit codes.
+// Helpers shared by subcommands (no CLI11 here): error reporting and exit codes, the
+// parsers of the command line's quantities and the formatters of the numbers it prints
+// (the grammar in docs/cli.md).
 #pragma once
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -11,6 +14,26 @@ namespace rayline::cli {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;   // a run that failed for reasons other than input
 inline constexpr int kExitBadInput = 2;  // bad platform/scene/profile/jobs file or flag
+
+// A duration flag ("2s", "500ms", "1.5min"; units ns, us, ms, s, min, h) in seconds (>= 0).
+// InputError naming the flag, the value and the accepted units otherwise: a bare number
+// ("2"), an unknown unit, a negative or non-finite value, more than 1e9 s.
+double duration_flag(const std::string& flag, const std::string& text);
+
+// A size flag ("64GiB", "512MiB", "1.5GB", "4096B"; B with an optional k/M/G/T or
+// Ki/Mi/Gi/Ti prefix) in whole bytes (>= 1). InputError naming the flag, the value and the
+// accepted units otherwise: a bare number ("64"), bits ("8Gb"), zero, negative, over 1 EiB.
+std::uint64_t size_flag(const std::string& flag, const std::string& text);
+
+// The numbers every summary line prints, three significant digits and a unit:
+//   format_duration(12.34) = "12.3 s", (0.0042) = "4.20 ms" (us, ns below)
+//   format_size(1.5 * 2^30) = "1.50 GiB" (B, KiB, MiB, GiB, TiB: binary prefixes)
+//   format_rate(4.273e6, "rays") = "4.27 M rays/s" (k, M, G, T: decimal prefixes)
+//   format_bandwidth(1.5e8) = "150 MB/s" (decimal prefixes, as platform files write it)
+std::string format_duration(double seconds);
+std::string format_size(double bytes);
+std::string format_rate(double per_second, const std::string& what);
+std::string format_bandwidth(double bytes_per_second);
 
 // Runs body(); turns InputError into "rayline: FILE: FIELD: msg" and exit 2, other
 // std::exception into "rayline: error: msg" and exit 1.

@@ -108,7 +108,7 @@ void report(const std::vector<Row>& rows, const std::string& out, const std::str
   for (const Row& r : rows)
     if (r.scheduler == "gmb") ref = &r;
   auto metric = [](const Row& r) { return r.steady >= 0 ? r.steady : r.rays; };
-  std::printf("\n%-12s %-15s %14s %9s %8s %6s %9s %6s %12s %15s\n", "scheduler", "status", "rays/s", "vs gmb", "LAN util",
+  std::printf("\n%-12s %-15s %18s %9s %8s %6s %9s %6s %12s %15s\n", "scheduler", "status", "throughput", "vs gmb", "LAN util",
               "busy", "fetching", "idle", "sched wall s", "wait p50/p95 s");
   std::ostringstream csv;
   csv << "scheduler,status,exit_code,rays_per_second,steady_rays_shot_per_second,lan_utilisation_mean,busy,fetching,true_idle,"
@@ -122,7 +122,8 @@ void report(const std::vector<Row>& rows, const std::string& out, const std::str
     if (r.lan >= 0) std::snprintf(lan, sizeof lan, "%.1f%%", 100 * r.lan);
     char wait[48] = "-";
     if (r.wait_p50 >= 0) std::snprintf(wait, sizeof wait, "%.2f/%.2f", r.wait_p50, r.wait_p95);
-    std::printf("%-12s %-15s %14.4g %9s %8s %5.1f%% %8.1f%% %5.1f%% %12.3f %15s\n", r.scheduler.c_str(), r.status.c_str(), metric(r), rel,
+    std::printf("%-12s %-15s %18s %9s %8s %5.1f%% %8.1f%% %5.1f%% %12.3f %15s\n", r.scheduler.c_str(), r.status.c_str(),
+                format_rate(metric(r), "rays").c_str(), rel,
                 lan, 100 * r.busy, 100 * r.fetching, 100 * r.idle, r.sched_wall, wait);
     std::string params = r.parameters;
     for (char& c : params)
@@ -141,7 +142,7 @@ void report(const std::vector<Row>& rows, const std::string& out, const std::str
     if (r.status == "no rays ended")
       std::printf("%s: no ray ended after the warm-up (why: %s/%s/metrics.json, path_trace.nothing_delivered)\n",
                   r.scheduler.c_str(), out.c_str(), r.scheduler.c_str());
-  std::printf("rays/s: path tracing: rays shot per second in the steady state (each ray once, the paper's unit); ray "
+  std::printf("throughput: path tracing: rays shot per second in the steady state (each ray once, the paper's unit); ray "
               "stream and job sets: rays intersected in a block per second over the whole run; results in %s/<scheduler>/, "
               "%s/compare.csv, compare.json\n",
               out.c_str(), out.c_str());

@@ -7,7 +7,6 @@
 #include <thread>
 
 #include "apps/cli_common.hpp"
-#include "apps/cmd_partition.hpp"
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/workstation.hpp"
 #include "sched/core/data_block.hpp"
@@ -17,12 +16,6 @@ namespace rayline::cli {
 using nlohmann::json;
 
 namespace {
-
-std::string gib(double b) {
-  char s[32];
-  std::snprintf(s, sizeof s, "%.2f GiB", b / double(1ull << 30));
-  return s;
-}
 
 // Eq. 2 coefficients as "setup, rays/s" (64-byte ray records).
 json timing_of(const DeviceGraph& g, DeviceId d) {
@@ -39,6 +32,10 @@ json timing_of(const DeviceGraph& g, DeviceId d) {
 }  // namespace
 
 int run_devices(const DevicesCliOptions& opt) {
+  // The sizes first: a bad flag is reported before the devices are opened.
+  const Bytes ram = opt.memory_budget.empty() ? Bytes(::sysconf(_SC_PHYS_PAGES)) * Bytes(::sysconf(_SC_PAGESIZE))
+                                              : size_flag("--memory-budget", opt.memory_budget);
+  const Bytes gpu_budget = opt.gpu_memory_budget.empty() ? 0 : size_flag("--gpu-memory-budget", opt.gpu_memory_budget);
   json out;
   std::string why;
   const auto vk = gpu::list_gpu_devices(&why);
@@ -60,13 +57,8 @@ int run_devices(const DevicesCliOptions& opt) {
   const std::string source =
       defaults ? std::string("defaults (uncalibrated; `rayline calibrate` measures this machine)") : opt.platform;
   m.threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
-  m.ram_capacity = opt.memory_budget.empty()
-                       ? Bytes(::sysconf(_SC_PHYS_PAGES)) * Bytes(::sysconf(_SC_PAGESIZE))
-                       : parse_bytes(opt.memory_budget, "--memory-budget");
-  engine::set_gpu(m, ctx ? engine::gpu_memory_budget(ctx->info(), opt.gpu_memory_budget.empty()
-                                                                      ? 0
-                                                                      : parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget"))
-                       : 0);
+  m.ram_capacity = ram;
+  engine::set_gpu(m, ctx ? engine::gpu_memory_budget(ctx->info(), gpu_budget) : 0);
   const DeviceGraph g = engine::make_workstation(m, opt.platform);
   out["gpu"] = {{"selector", opt.gpu}, {"status", status}, {"device", ctx ? ctx->info().name : ""},
                 {"cpu_backed", ctx ? ctx->info().cpu_backed : false}};
@@ -94,14 +86,14 @@ int run_devices(const DevicesCliOptions& opt) {
   if (vk.empty()) std::printf("  none (%s)\n", why.c_str());
   for (const auto& d : vk)
     std::printf("  %d  %-40s %-10s %s  %s  Vulkan %s  %s\n", d.index, d.name.c_str(), d.type.c_str(),
-                d.cpu_backed ? "CPU-backed" : "GPU       ", gib(double(d.device_local_bytes)).c_str(),
+                d.cpu_backed ? "CPU-backed" : "GPU       ", format_size(double(d.device_local_bytes)).c_str(),
                 d.api_version.c_str(), d.driver.c_str());
   std::printf("\n--gpu %s: %s\n", opt.gpu.c_str(), status.c_str());
   std::printf("\nWorkstation the renderer drives (timing: %s):\n", source.c_str());
   std::printf("  memory devices:\n");
   for (const MemoryDevice& md : g.memories)
     std::printf("    %-12s %-5s capacity %s\n", md.name.c_str(), std::string(to_string(md.kind)).c_str(),
-                gib(double(md.capacity)).c_str());
+                format_size(double(md.capacity)).c_str());
   std::printf("  compute devices (Eq. 2: setup + rate per 64-byte ray):\n");
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
     const ComputeDevice& c = g.computes[d];
@@ -114,13 +106,14 @@ int run_devices(const DevicesCliOptions& opt) {
     std::printf("    %s on %s\n", name.c_str(), g.memories[c.memory].name.c_str());
     const json timing = timing_of(g, DeviceId(d));
     for (auto it = timing.begin(); it != timing.end(); ++it)
-      std::printf("      %-16s setup %8.1f us, %10.3f M rays/s\n", it.key().c_str(),
-                  it.value()["setup_s"].get<double>() * 1e6, it.value()["rays_per_second"].get<double>() / 1e6);
+      std::printf("      %-16s setup %10s, %16s\n", it.key().c_str(),
+                  format_duration(it.value()["setup_s"].get<double>()).c_str(),
+                  format_rate(it.value()["rays_per_second"].get<double>(), "rays").c_str());
   }
   std::printf("  channels (Eq. 1: latency + bytes / bandwidth):\n");
   for (const Channel& c : g.channels)
-    std::printf("    %-14s %s -> %s  latency %8.1f us, %10.1f MB/s\n", c.name.c_str(), g.memories[c.from].name.c_str(),
-                g.memories[c.to].name.c_str(), c.latency * 1e6, c.bandwidth / 1e6);
+    std::printf("    %-14s %s -> %s  latency %10s, %11s\n", c.name.c_str(), g.memories[c.from].name.c_str(),
+                g.memories[c.to].name.c_str(), format_duration(c.latency).c_str(), format_bandwidth(c.bandwidth).c_str());
   return kExitOk;
 }
 

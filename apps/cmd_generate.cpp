@@ -92,10 +92,11 @@ int run_generate(const GenerateOptions& opt) {
                 static_cast<unsigned long long>(opt.seed));
     std::printf("bounds [%g %g %g] .. [%g %g %g]\n", r.bounds.lo.x, r.bounds.lo.y, r.bounds.lo.z, r.bounds.hi.x,
                 r.bounds.hi.y, r.bounds.hi.z);
-    std::printf("mesh  %s (%.1f MiB)\n", r.mesh_path.c_str(), double(bytes) / (1 << 20));
+    std::printf("mesh  %s (%s)\n", r.mesh_path.c_str(), format_size(double(bytes)).c_str());
     if (!r.scene_path.empty()) std::printf("scene %s\n", r.scene_path.c_str());
   }
-  std::printf("time %.2f s, %.2f MTriangles/s\n", s, double(r.triangles) / 1e6 / std::max(s, 1e-9));
+  std::printf("time %s, %s\n", format_duration(s).c_str(),
+              format_rate(double(r.triangles) / std::max(s, 1e-9), "triangles").c_str());
   return 0;
 }
 

@@ -17,28 +17,6 @@
 
 namespace rayline::cli {
 
-std::uint64_t parse_bytes(const std::string& text, const std::string& field) {
-  std::size_t pos = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &pos);
-  } catch (const std::exception&) {
-    throw InputError(field, "", "not a size: '" + text + "' (e.g. 1GiB, 512MiB)");
-  }
-  std::string suffix = text.substr(pos);
-  if (suffix.size() >= 2 && suffix.substr(suffix.size() - 2) == "iB") suffix.resize(suffix.size() - 2);
-  else if (!suffix.empty() && suffix.back() == 'B') suffix.pop_back();
-  double mul = 1;
-  if (suffix == "K" || suffix == "k") mul = 1024.0;
-  else if (suffix == "M") mul = 1024.0 * 1024;
-  else if (suffix == "G") mul = 1024.0 * 1024 * 1024;
-  else if (suffix == "T") mul = 1024.0 * 1024 * 1024 * 1024;
-  else if (!suffix.empty()) throw InputError(field, "", "unknown unit in '" + text + "' (B, KiB, MiB, GiB, TiB)");
-  const double n = std::round(v * mul);
-  if (!(n >= 1) || n > 1e15) throw InputError(field, "", "'" + text + "' out of range");
-  return static_cast<std::uint64_t>(n);
-}
-
 std::function<void(const partition::PartitionProgress&)> partition_progress(ProgressLine& line) {
   return [&line](const partition::PartitionProgress& p) {
     if (!line.due()) return;
@@ -61,7 +39,7 @@ int run_partition(const PartitionOptions& opt) {
   const auto t0 = Clock::now();
   part::PartitionOptions po;
   po.blocks = opt.blocks;
-  po.memory_limit = parse_bytes(opt.memory_limit, "--memory-limit");
+  po.memory_limit = size_flag("--memory-limit", opt.memory_limit);
   const scene::Scene sc = opt.scene.empty() ? scene::default_scene() : scene::load_scene(opt.scene);
 
   ProgressLine line(ProgressLine::for_stderr(opt.quiet));
@@ -77,17 +55,19 @@ int run_partition(const PartitionOptions& opt) {
     const double mean = double(idx.references) / double(idx.blocks.size());
     std::printf("partitioned %s: %llu triangles into %zu blocks (%s)\n", idx.scene.c_str(),
                 static_cast<unsigned long long>(idx.scene_triangles), idx.blocks.size(), r.dir.c_str());
-    std::printf("references %llu (%.2f %% duplicated across split planes), %.1f MiB on disk\n",
+    std::printf("references %llu (%.2f %% duplicated across split planes), %s on disk\n",
                 static_cast<unsigned long long>(idx.references),
                 100.0 * double(idx.references - idx.scene_triangles) / double(idx.scene_triangles),
-                double(bytes) / (1 << 20));
+                format_size(double(bytes)).c_str());
     std::printf("triangles per block: min %llu, max %llu, mean %.0f (max/mean %.3f)\n",
                 static_cast<unsigned long long>(lo), static_cast<unsigned long long>(hi), mean,
                 mean > 0 ? double(hi) / mean : 0.0);
-    std::printf("pass 1 (bounds, sample of %llu centroids) %.2f s, pass 2 (route, write) %.2f s\n",
-                static_cast<unsigned long long>(r.sample_size), r.seconds_pass1, r.seconds_pass2);
+    std::printf("pass 1 (bounds, sample of %llu centroids) %s, pass 2 (route, write) %s\n",
+                static_cast<unsigned long long>(r.sample_size), format_duration(r.seconds_pass1).c_str(),
+                format_duration(r.seconds_pass2).c_str());
   }
-  std::printf("time %.2f s, %.2f MTriangles/s\n", s, double(idx.scene_triangles) / 1e6 / std::max(s, 1e-9));
+  std::printf("time %s, %s\n", format_duration(s).c_str(),
+              format_rate(double(idx.scene_triangles) / std::max(s, 1e-9), "triangles").c_str());
   return 0;
 }
 

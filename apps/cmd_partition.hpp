@@ -27,7 +27,4 @@ int run_partition(const PartitionOptions& opt);
 // The partitioner's progress as lines of `line` (partition, and render's own partition).
 std::function<void(const partition::PartitionProgress&)> partition_progress(ProgressLine& line);
 
-// "1GiB", "512MiB", "64M", "1000000" → bytes (K/M/G/T: 2^10.. with or without "iB"/"B").
-std::uint64_t parse_bytes(const std::string& text, const std::string& field);
-
 }  // namespace rayline::cli

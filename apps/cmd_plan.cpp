@@ -22,7 +22,7 @@ namespace {
 // The flags checked before any work: the scheduler, the horizon, the outputs.
 ExactRunOptions plan_options(const PlanOptions& opt) {
   ExactRunOptions o;
-  const Time horizon = seconds_flag("--horizon", opt.horizon);
+  const Time horizon = duration_flag("--horizon", opt.horizon);
   o.scheduler = scheduler_choice(opt.scheduler, horizon, parse_aging(opt.aging, "--aging"));
   o.platform_file = resolve_platform(opt.platform);
   o.jobs_file = opt.jobs;
@@ -80,11 +80,12 @@ void print_summary(const ExactRun& p, const RunStats& st, Time horizon) {
       bytes_moved += static_cast<double>(s.activity(static_cast<ActivityId>(i)).bytes);
   std::printf("platform %s: %zu nodes, %zu compute devices, %zu memory devices\n", g.name.c_str(), g.nodes.size(),
               g.computes.size(), g.memories.size());
-  std::printf("jobs %zu  E-jobs %llu  T-jobs %llu  evictions %llu  moved %.3f GB  horizon k=%.3f s\n",
-              p.pool().job_count(), static_cast<unsigned long long>(st.execs), static_cast<unsigned long long>(st.transfers),
-              static_cast<unsigned long long>(st.evictions), bytes_moved / 1e9, horizon);
-  std::printf("makespan %.3f s  plan calls %d  scheduler wall %.3f ms\n", st.makespan, st.plan_calls,
-              st.scheduler_wall_seconds * 1e3);
+  std::printf("jobs %zu  E-jobs %llu  T-jobs %llu  evictions %llu  moved %s  horizon k=%s\n", p.pool().job_count(),
+              static_cast<unsigned long long>(st.execs), static_cast<unsigned long long>(st.transfers),
+              static_cast<unsigned long long>(st.evictions), format_size(bytes_moved).c_str(),
+              format_duration(horizon).c_str());
+  std::printf("makespan %s  plan calls %d  scheduler wall %s\n", format_duration(st.makespan).c_str(), st.plan_calls,
+              format_duration(st.scheduler_wall_seconds).c_str());
 }
 
 }  // namespace

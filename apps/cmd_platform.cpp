@@ -9,20 +9,15 @@
 #include <vector>
 #include <nlohmann/json.hpp>
 
+#include "apps/cli_common.hpp"
 #include "apps/platform_path.hpp"
 #include "common/error.hpp"
 #include "sched/io/platform_loader.hpp"
-#include "common/units.hpp"
 
 namespace rayline::cli {
 
 int run_platform_check(const PlatformCheckOptions& opt) {
-  Bytes block = 0;
-  try {
-    block = static_cast<Bytes>(units::parse_bytes(opt.block_size));
-  } catch (const std::invalid_argument& e) {
-    throw InputError("--block-size", "", e.what());
-  }
+  const Bytes block = size_flag("--block-size", opt.block_size);
   const DeviceGraph g = load_platform(resolve_platform(opt.file));
   std::map<std::string, int> mem_kinds, comp_kinds;
   for (const auto& m : g.memories) ++mem_kinds[std::string(to_string(m.kind))];
@@ -66,7 +61,7 @@ int run_platform_check(const PlatformCheckOptions& opt) {
     if (fetch[m] == kNever)
       std::printf("  %-16s %-5s %12s\n", g.memories[m].name.c_str(), kind.c_str(), "unreachable");
     else
-      std::printf("  %-16s %-5s %10.4f s\n", g.memories[m].name.c_str(), kind.c_str(), fetch[m]);
+      std::printf("  %-16s %-5s %12s\n", g.memories[m].name.c_str(), kind.c_str(), format_duration(fetch[m]).c_str());
   }
   return 0;
 }

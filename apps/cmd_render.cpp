@@ -1,5 +1,6 @@
-// `rayline render` / `rayline calibrate`: options → engine::render / engine::calibrate,
-// outputs next to the image: IMAGE.exr, IMAGE.png (preview), IMAGE.metrics.json,
+// `rayline render` / `rayline calibrate`: options → engine::render / engine::calibrate.
+// The image is written in the format its name's extension names: IMAGE.exr (with its PNG
+// preview IMAGE.png) or IMAGE.png alone; next to it IMAGE.metrics.json,
 // IMAGE.timeline.json (Chrome trace), IMAGE.jobs.csv, and the recordings asked for, all
 // published together once every one is written (apps/run/output_set.hpp).
 #include "apps/cmd_render.hpp"
@@ -51,6 +52,27 @@ std::string sibling(const std::string& image, const std::string& suffix) {
   return (p.parent_path() / (p.stem().string() + suffix)).string();
 }
 
+// True for an --out named .exr (OpenEXR, and its PNG preview), false for .png (the 8-bit
+// sRGB image alone), any case; InputError for any other name.
+bool writes_exr(const std::string& out) {
+  std::string ext = fs::path(out).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext == ".exr" || ext == ".png") return ext == ".exr";
+  throw InputError(out, "--out", "the image is written in the format its extension names: use a name ending in .exr "
+                                 "(OpenEXR, with a PNG preview next to it) or .png");
+}
+
+// The files of a render's --out: the image, its PNG preview (EXR only), the metrics, the
+// timeline and the jobs CSV.
+std::vector<NamedPath> image_outputs(const std::string& out) {
+  std::vector<NamedPath> files{{"--out", out}};
+  if (writes_exr(out)) files.push_back({"--out (its PNG preview)", sibling(out, ".png")});
+  files.push_back({"--out (its metrics)", sibling(out, ".metrics.json")});
+  files.push_back({"--out (its timeline)", sibling(out, ".timeline.json")});
+  files.push_back({"--out (its jobs CSV)", sibling(out, ".jobs.csv")});
+  return files;
+}
+
 // The scene file and the mesh files a JSON scene names (resolved as the loader resolves
 // them): no output may replace one of them either. (A scene that does not load is reported
 // here, before any work, with the loader's message.)
@@ -83,8 +105,8 @@ std::function<void(double, double)> progress_bar(ProgressLine& line, const char*
   return [&line, what](double fraction, double rays_per_s) {
     if (!line.due()) return;
     const int width = 30, n = static_cast<int>(fraction * width + 0.5);
-    line.print(what, "[%.*s%*s] %5.1f %%  %.2f Mrays/s", n, "##############################", width - n, "",
-               100 * fraction, rays_per_s / 1e6);
+    line.print(what, "[%.*s%*s] %5.1f %%  %s", n, "##############################", width - n, "", 100 * fraction,
+               format_rate(rays_per_s, "rays").c_str());
   };
 }
 
@@ -103,10 +125,8 @@ engine::RenderOptions render_options(const RenderCliOptions& opt) {
   ro.max_depth = opt.max_depth;
   ro.threads = opt.threads;
   ro.seed = opt.seed;
-  // (CLI11's PositiveNumber lets NaN through, and reports "inf" as a 300-digit number.)
-  if (!(std::isfinite(opt.horizon) && opt.horizon > 0))
-    throw InputError("--horizon", "", "must be a finite number of seconds > 0, e.g. 2 or 0.5");
-  const SchedulerChoice choice = scheduler_choice(opt.scheduler, opt.horizon, parse_aging(opt.aging, "--aging"));
+  const SchedulerChoice choice =
+      scheduler_choice(opt.scheduler, duration_flag("--horizon", opt.horizon), parse_aging(opt.aging, "--aging"));
   ro.scheduler = std::string(scheduler_name(choice.kind));
   ro.horizon = choice.horizon;
   ro.aging = choice.aging;
@@ -120,30 +140,27 @@ engine::RenderOptions render_options(const RenderCliOptions& opt) {
   ro.skip_empty = opt.skip_empty == "on";
   ro.loaders = opt.loaders;
   parse_resolution(opt.resolution, ro.width, ro.height);
-  if (!opt.memory_budget.empty()) ro.memory_budget = parse_bytes(opt.memory_budget, "--memory-budget");
+  if (!opt.memory_budget.empty()) ro.memory_budget = size_flag("--memory-budget", opt.memory_budget);
   ro.gpu = opt.gpu;
   if (!opt.gpu_memory_budget.empty())
-    ro.gpu_memory_budget = parse_bytes(opt.gpu_memory_budget, "--gpu-memory-budget");
+    ro.gpu_memory_budget = size_flag("--gpu-memory-budget", opt.gpu_memory_budget);
   return ro;
 }
 
 // Before rendering (nothing rendered for nothing): the image and its companions are
 // written beside it (sibling names), and none of them, nor a recording, may be an input.
 void check_render_outputs(const RenderCliOptions& opt) {
-  const std::string ext = fs::path(opt.out).extension().string();
-  if (ext != ".exr") throw InputError(opt.out, "--out", "the image is written as OpenEXR: use a name ending in .exr");
+  std::error_code ec;
+  if (fs::is_directory(opt.out, ec))
+    throw InputError(opt.out, "--out", "is a folder; give a file name such as out/render.exr or out/render.png");
+  std::vector<NamedPath> outputs = image_outputs(opt.out);
+  outputs.push_back({"--record-profile", opt.record_profile});
+  outputs.push_back({"--record-replay", opt.record_replay});
   std::vector<NamedPath> inputs = scene_inputs(opt.scene);
   inputs.push_back({"--platform", opt.platform == "auto" ? std::string() : opt.platform});
   inputs.push_back(
       {"--blocks-dir", opt.blocks_dir.empty() ? std::string() : (fs::path(opt.blocks_dir) / "blocks.json").string()});
-  check_distinct({{"--out", opt.out},
-                  {"--out (its PNG preview)", sibling(opt.out, ".png")},
-                  {"--out (its metrics)", sibling(opt.out, ".metrics.json")},
-                  {"--out (its timeline)", sibling(opt.out, ".timeline.json")},
-                  {"--out (its jobs CSV)", sibling(opt.out, ".jobs.csv")},
-                  {"--record-profile", opt.record_profile},
-                  {"--record-replay", opt.record_replay}},
-                 inputs);
+  check_distinct(outputs, inputs);
   check_output_file(opt.out, "--out", "out/render.exr");
 }
 
@@ -181,8 +198,10 @@ void write_recordings(const RenderCliOptions& opt, const engine::ProfileRecorder
     });
 }
 
-// IMAGE.exr (with the run's metadata), IMAGE.png, IMAGE.metrics.json, .timeline.json, .jobs.csv.
+// IMAGE.exr (with the run's metadata) and IMAGE.png, or IMAGE.png alone; IMAGE.metrics.json,
+// .timeline.json, .jobs.csv.
 void write_image_and_companions(const std::string& out, const engine::RenderResult& r, OutputSet& outputs) {
+  const bool exr = writes_exr(out);
   image::Metadata meta;
   meta.strings["rayline.scene"] = r.scene_name;
   meta.strings["rayline.scheduler"] = r.scheduler_parameters;
@@ -192,8 +211,9 @@ void write_image_and_companions(const std::string& out, const engine::RenderResu
   meta.ints["rayline.max_depth"] = r.max_depth;
   meta.doubles["rayline.seconds"] = r.seconds;
   meta.doubles["rayline.memory_budget_bytes"] = static_cast<double>(r.memory_budget);
-  outputs.write(out, [&](const std::string& staged) { image::write_exr(staged, r.width, r.height, r.rgb.data(), meta); });
-  outputs.write(sibling(out, ".png"), [&](const std::string& staged) {
+  if (exr)
+    outputs.write(out, [&](const std::string& staged) { image::write_exr(staged, r.width, r.height, r.rgb.data(), meta); });
+  outputs.write(exr ? sibling(out, ".png") : out, [&](const std::string& staged) {
     image::write_png_preview(staged, r.width, r.height, r.rgb.data(), 1.0f);
   });
   outputs.write_text(sibling(out, ".metrics.json"), r.metrics_json);
@@ -202,12 +222,12 @@ void write_image_and_companions(const std::string& out, const engine::RenderResu
 }
 
 void print_render_summary(const std::string& out, const engine::RenderResult& r) {
-  std::printf("rendered %dx%d, %d spp, %u blocks, %s, budget %s: %.3f s, %.3f Mrays/s (%llu rays), %llu loads, "
-              "%.1f MB read (%s)\n",
+  std::printf("rendered %dx%d, %d spp, %u blocks, %s, budget %s: %s, %s (%llu rays), %llu loads, %s read (%s)\n",
               r.width, r.height, r.spp, r.blocks, r.scheduler.c_str(),
-              r.memory_budget ? (std::to_string(r.memory_budget / (1 << 20)) + " MiB").c_str() : "in core", r.seconds,
-              double(r.counts.created) / r.seconds / 1e6, static_cast<unsigned long long>(r.counts.created),
-              static_cast<unsigned long long>(r.store.loads), double(r.store.bytes_read) / 1e6,
+              r.memory_budget ? format_size(double(r.memory_budget)).c_str() : "in core", format_duration(r.seconds).c_str(),
+              format_rate(double(r.counts.created) / r.seconds, "rays").c_str(),
+              static_cast<unsigned long long>(r.counts.created), static_cast<unsigned long long>(r.store.loads),
+              format_size(double(r.store.bytes_read)).c_str(),
               r.store.buffered_reads == 0 ? "O_DIRECT" : "buffered, pages dropped");
   if (!r.gpu_device.empty())
     std::printf("gpu '%s'%s: %llu jobs, %llu rays (%llu rays on the CPU path), %llu block uploads; %s\n",
@@ -215,9 +235,9 @@ void print_render_summary(const std::string& out, const engine::RenderResult& r)
                 static_cast<unsigned long long>(r.gpu.gpu_jobs), static_cast<unsigned long long>(r.gpu.gpu_rays),
                 static_cast<unsigned long long>(r.gpu.fallback_rays),
                 static_cast<unsigned long long>(r.gpu.block_uploads), r.gpu_status.c_str());
-  std::printf("wrote %s, %s, %s, %s, %s\n", out.c_str(), sibling(out, ".png").c_str(),
-              sibling(out, ".metrics.json").c_str(), sibling(out, ".timeline.json").c_str(),
-              sibling(out, ".jobs.csv").c_str());
+  std::string files;
+  for (const NamedPath& f : image_outputs(out)) files += (files.empty() ? "" : ", ") + f.path;
+  std::printf("wrote %s\n", files.c_str());
 }
 
 }  // namespace
@@ -246,10 +266,15 @@ int run_render(const RenderCliOptions& opt) {
 // first, since the worst relative error belongs to the shortest samples.
 std::string fit_quality(const FitErrors& f, const char* sample) {
   char buf[200];
-  std::snprintf(buf, sizeof buf, "error %.0f %% of the measured time (median %s %.0f %%, RMS %.3f ms, worst %.0f %%)",
-                100 * f.weighted_rel, sample, 100 * f.median_rel, f.rms * 1e3, 100 * f.max_rel);
+  std::snprintf(buf, sizeof buf, "error %.0f %% of the measured time (median %s %.0f %%, RMS %s, worst %.0f %%)",
+                100 * f.weighted_rel, sample, 100 * f.median_rel, format_duration(f.rms).c_str(), 100 * f.max_rel);
   return buf;
 }
+
+namespace {
+// Eq. 2's rate (seconds per byte of 64-byte ray records) as rays per second.
+std::string ray_rate(double seconds_per_byte) { return format_rate(1.0 / (seconds_per_byte * 64), "rays"); }
+}  // namespace
 
 int run_calibrate(const CalibrateCliOptions& opt) {
   engine::RenderOptions ro;
@@ -271,29 +296,30 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   const engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);
   line.done();
   write_file_atomic(opt.out, c.platform_json);
-  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %.3f ms, bandwidth %.1f MB/s; %s\n",
-              c.load_samples, c.model.disk_latency * 1e3, c.model.disk_bandwidth / 1e6,
+  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %s, bandwidth %s; %s\n", c.load_samples,
+              format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),
               fit_quality(c.load_fit, "load").c_str());
-  std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %.1f us, %.3f Mrays/s; %s\n", c.exec_samples,
-              c.model.intersect_setup * 1e6, 1.0 / (c.model.intersect_rate * 64) / 1e6,
+  std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %s, %s; %s\n", c.exec_samples,
+              format_duration(c.model.intersect_setup).c_str(), ray_rate(c.model.intersect_rate).c_str(),
               fit_quality(c.intersect_fit, "job").c_str());
-  std::printf("ShadowIntersect per thread: setup %.1f us, %.3f Mrays/s; %s\n", c.model.shadow_setup * 1e6,
-              1.0 / (c.model.shadow_rate * 64) / 1e6, fit_quality(c.shadow_fit, "job").c_str());
+  std::printf("ShadowIntersect per thread: setup %s, %s; %s\n", format_duration(c.model.shadow_setup).c_str(),
+              ray_rate(c.model.shadow_rate).c_str(), fit_quality(c.shadow_fit, "job").c_str());
   if (!c.model.gpus.empty()) {
     const engine::GpuModel& gm = c.model.gpus[0];
     if (c.gpu_pass)
       std::printf("the measuring render gave the GPU %d RayIntersect and %d ShadowIntersect jobs (GPU %s), fewer than "
                   "%d of a type: measured it in a second render with its jobs planned on the GPU alone\n",
                   c.gpu_mixed_jobs[0], c.gpu_mixed_jobs[1], c.gpu_mixed_status.c_str(), engine::kMinGpuJobsPerType);
-    std::printf("GPU '%s' over %d jobs: RayIntersect setup %.1f us, %.3f Mrays/s%s; ShadowIntersect setup %.1f us, "
-                "%.3f Mrays/s%s\n",
-                c.gpu_device.c_str(), c.gpu_exec_samples, gm.intersect_setup * 1e6, 1.0 / (gm.intersect_rate * 64) / 1e6,
-                c.gpu_intersect_fitted ? "" : " (defaults kept: no usable fit)", gm.shadow_setup * 1e6,
-                1.0 / (gm.shadow_rate * 64) / 1e6, c.gpu_shadow_fitted ? "" : " (defaults kept: no usable fit)");
+    std::printf("GPU '%s' over %d jobs: RayIntersect setup %s, %s%s; ShadowIntersect setup %s, %s%s\n",
+                c.gpu_device.c_str(), c.gpu_exec_samples, format_duration(gm.intersect_setup).c_str(),
+                ray_rate(gm.intersect_rate).c_str(), c.gpu_intersect_fitted ? "" : " (defaults kept: no usable fit)",
+                format_duration(gm.shadow_setup).c_str(), ray_rate(gm.shadow_rate).c_str(),
+                c.gpu_shadow_fitted ? "" : " (defaults kept: no usable fit)");
     if (c.gpu_intersect_fitted) std::printf("  GPU RayIntersect: %s\n", fit_quality(c.gpu_intersect_fit, "job").c_str());
     if (c.gpu_shadow_fitted) std::printf("  GPU ShadowIntersect: %s\n", fit_quality(c.gpu_shadow_fit, "job").c_str());
-    std::printf("RAM->GPU channel, Eq. 1 over %d uploads: latency %.1f us, bandwidth %.1f MB/s; %s\n", c.pcie_samples,
-                gm.pcie_latency * 1e6, gm.pcie_bandwidth / 1e6, fit_quality(c.pcie_fit, "upload").c_str());
+    std::printf("RAM->GPU channel, Eq. 1 over %d uploads: latency %s, bandwidth %s; %s\n", c.pcie_samples,
+                format_duration(gm.pcie_latency).c_str(), format_bandwidth(gm.pcie_bandwidth).c_str(),
+                fit_quality(c.pcie_fit, "upload").c_str());
   }
   std::printf("wrote %s (use: rayline render --platform %s)\n", opt.out.c_str(), opt.out.c_str());
   return kExitOk;

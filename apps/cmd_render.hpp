@@ -17,7 +17,7 @@ struct RenderCliOptions {
   std::string resolution;            // "WxH"; empty: the scene camera's
   std::string memory_budget;         // "512MiB"; empty: unlimited (in core)
   std::uint64_t seed = 1;
-  double horizon = 2.0;
+  std::string horizon = "2s";      // --horizon DURATION (GMB, Sec. 4.2)
   std::vector<std::string> fail;  // --fail DEVICE@TIME (docs/faults.md)
   std::uint64_t fail_read = 0;    // --fail-read N
   std::string aging = "auto";        // --aging auto|adaptive|off|DURATION (GMB, Sec. 4.3)

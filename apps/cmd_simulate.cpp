@@ -55,13 +55,15 @@ std::vector<int> client_counts(const std::string& text) {
 }
 
 void print_summary(const sim::SimulationSummary& s, const std::string& out, bool timeline) {
-  std::printf("simulated %.3f s in %.3f s wall (%.0fx), %.4g rays/s, %llu activities, scheduler %.3f s (%.2f%% of simulated time)\n",
-              s.simulated, s.wall_seconds, s.wall_seconds > 0 ? s.simulated / s.wall_seconds : 0.0, s.rays_per_second,
-              static_cast<unsigned long long>(s.activities), s.scheduler_seconds,
+  std::printf("simulated %s in %s wall (%.0fx), %s, %llu activities, scheduler %s (%.2f%% of simulated time)\n",
+              format_duration(s.simulated).c_str(), format_duration(s.wall_seconds).c_str(),
+              s.wall_seconds > 0 ? s.simulated / s.wall_seconds : 0.0, format_rate(s.rays_per_second, "rays").c_str(),
+              static_cast<unsigned long long>(s.activities), format_duration(s.scheduler_seconds).c_str(),
               s.simulated > 0 ? 100 * s.scheduler_seconds / s.simulated : 0.0);
   if (s.path_trace) {
-    std::printf("steady state: %.4g rays shot/s (%.4g block visits/s); frames delivered %llu; devices busy %.1f%%, setup %.1f%%, fetching %.1f%%, true idle %.1f%%\n",
-                s.steady_rays_shot_per_second, s.steady_rays_per_second, static_cast<unsigned long long>(s.frames_delivered),
+    std::printf("steady state: %s (%s); frames delivered %llu; devices busy %.1f%%, setup %.1f%%, fetching %.1f%%, true idle %.1f%%\n",
+                format_rate(s.steady_rays_shot_per_second, "rays shot").c_str(),
+                format_rate(s.steady_rays_per_second, "block visits").c_str(), static_cast<unsigned long long>(s.frames_delivered),
                 100 * s.busy, 100 * s.setup, 100 * s.fetching, 100 * s.idle);
     if (!s.nothing_delivered.empty()) std::printf("note: %s\n", s.nothing_delivered.c_str());
     if (s.prediction_accuracy >= 0)
@@ -139,16 +141,16 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.platform_file = resolve_platform(opt.platform);
   cfg.workload = resolve_workload(opt.workload);
   cfg.workload_kind = workload_kind(cfg.workload);
-  const Time horizon = seconds_flag("--horizon", opt.horizon);
+  const Time horizon = duration_flag("--horizon", opt.horizon);
   const AgingSetting aging = parse_aging(opt.aging, "--aging");
-  cfg.duration = seconds_flag("--duration", opt.duration);
+  cfg.duration = duration_flag("--duration", opt.duration);
   cfg.seed = opt.seed;
   cfg.blocks = opt.blocks;
   cfg.out_dir = opt.out;
   cfg.paje = opt.paje;
   cfg.timeline = !opt.no_timeline;
   cfg.progress = ProgressLine::for_stderr(opt.no_progress);
-  if (!opt.warmup.empty()) cfg.warmup = seconds_flag("--warmup", opt.warmup);
+  if (!opt.warmup.empty()) cfg.warmup = duration_flag("--warmup", opt.warmup);
   cfg.faults = opt.fail;  // (checked against the platform when it is loaded)
   cfg.warm = opt.start == "warm";
   if (cfg.warm && cfg.workload_kind == sim::WorkloadKind::JobSet)
@@ -256,7 +258,8 @@ int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, cons
     }
   }
   stage.publish();
-  std::printf("peak: %.4g rays shot/s with %d client(s); results in %s/clients-N/\n", peak, peak_n, opt.out.c_str());
+  std::printf("peak: %s with %d client(s); results in %s/clients-N/\n", format_rate(peak, "rays shot").c_str(), peak_n,
+              opt.out.c_str());
   return stalled ? kExitFailure : kExitOk;
 }
 

@@ -1,5 +1,6 @@
-// The `rayline` command line. This is the only translation unit that includes CLI11;
-// every subcommand registers here and runs from its own cmd_*.cpp.
+// The `rayline` command line. With cli_reference.cpp (the flag tables of docs/cli.md) the
+// only translation unit that includes CLI11; every subcommand registers here, each option
+// with its kind of value (cli_reference.hpp), and runs from its own cmd_*.cpp.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "apps/cli_common.hpp"
+#include "apps/cli_reference.hpp"
 #include "common/invocation.hpp"
 #include "apps/interrupt.hpp"
 #include "apps/cmd_compare.hpp"
@@ -48,8 +50,8 @@ void add_platform(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<PlatformCheckOptions>();
   auto* check = platform->add_subcommand(
       "check", "Validate a platform file and summarise it: nodes, devices, channels, shortest fetch times");
-  check->add_option("file", opt->file, "Platform JSON file")->required();
-  check->add_option("--block-size", opt->block_size, "Block size for the fetch-time table")
+  check->add_option("file", opt->file, "Platform JSON file")->type_name(kPath)->required();
+  check->add_option("--block-size", opt->block_size, "Block size for the fetch-time table")->type_name(kSize)
       ->default_val(opt->block_size);
   check->add_flag("--json", opt->json, "Print the summary as JSON");
   check->callback([opt, &action] { action = [opt] { return run_platform_check(*opt); }; });
@@ -58,19 +60,19 @@ void add_platform(CLI::App& app, std::function<int()>& action) {
 void add_plan(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<PlanOptions>();
   auto* plan = app.add_subcommand("plan", "Plan a static job set (GMB by default) and report makespan and utilisation");
-  plan->add_option("--platform", opt->platform, "Platform JSON (default: platforms/paper-cluster.json)");
-  plan->add_option("--jobs", opt->jobs, "Job-set JSON (default: a synthetic ray-batching job set)");
+  plan->add_option("--platform", opt->platform, "Platform JSON (default: platforms/paper-cluster.json)")->type_name(kPath);
+  plan->add_option("--jobs", opt->jobs, "Job-set JSON (default: a synthetic ray-batching job set)")->type_name(kPath);
   plan->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014) or budge (Budge 2009)")->default_val(opt->scheduler);
-  plan->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
-  plan->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(opt->aging);
-  plan->add_option("--trace", opt->trace, "Write timelines as Chrome trace JSON (open in Perfetto)");
-  plan->add_option("--jobs-csv", opt->jobs_csv, "Write per-job CSV");
+  plan->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->type_name(kDuration)->default_val(opt->horizon);
+  plan->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->type_name(kAging)->default_val(opt->aging);
+  plan->add_option("--trace", opt->trace, "Write timelines as Chrome trace JSON (open in Perfetto)")->type_name(kPath);
+  plan->add_option("--jobs-csv", opt->jobs_csv, "Write per-job CSV")->type_name(kPath);
   plan->add_option("--synthetic-blocks", opt->synthetic_blocks, "Scene blocks of the synthetic job set")
       ->default_val(opt->synthetic_blocks)->check(CLI::Range(1, 1000000));
   plan->add_option("--synthetic-jobs", opt->synthetic_jobs, "Jobs of the synthetic job set")
       ->default_val(opt->synthetic_jobs)->check(CLI::Range(1, 100000000));
   plan->add_option("--seed", opt->seed, "Seed of the synthetic job set")->default_val(opt->seed)->check(kSeed);
-  plan->add_flag("--quiet,-q", opt->quiet, "Print only the summary line");
+  plan->add_flag("--quiet,-q", opt->quiet, "Print only the summary lines, no per-device table");
   plan->callback([opt, &action] { action = [opt] { return run_plan(*opt); }; });
 }
 
@@ -78,12 +80,12 @@ void add_plan(CLI::App& app, std::function<int()>& action) {
 void add_simulate(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<SimulateOptions>();
   auto* sim = app.add_subcommand("simulate", "Run a schedule on the SimGrid virtual platform and measure it");
-  sim->add_option("--platform", opt->platform, "Platform JSON or built-in name (default: paper-cluster)");
+  sim->add_option("--platform", opt->platform, "Platform JSON or built-in name (default: paper-cluster)")->type_name(kPath);
   sim->add_option("--workload", opt->workload, "'ray-stream', a job-set JSON file, or path tracing on a scene profile: boeing, museum or FILE.profile.json")->default_val(opt->workload);
   sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014) or budge (Budge 2009)")->default_val(opt->scheduler);
-  sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->default_val(opt->horizon);
-  sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->default_val(opt->aging);
-  sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->default_val(opt->duration);
+  sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->type_name(kDuration)->default_val(opt->horizon);
+  sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->type_name(kAging)->default_val(opt->aging);
+  sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->type_name(kDuration)->default_val(opt->duration);
   sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed)->check(kSeed);
   sim->add_option("--exec-noise", opt->exec_noise, "Actual E-job time = predicted x U[1-n,1+n]")->default_val(opt->exec_noise);
   sim->add_option("--transfer-order", opt->transfer_order,
@@ -93,12 +95,12 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                   "T-job first")
       ->default_val(opt->transfer_order)
       ->check(CLI::IsMember({"channel", "resource", "exclusive"}));
-  sim->add_option("--blocks", opt->blocks, "Scene blocks of the ray stream")->default_val(opt->blocks)->check(CLI::Range(1, 1000000));
-  sim->add_option("--out", opt->out, "Output folder (metrics.json, jobs.csv, timeline.json); an existing one is replaced only if it holds nothing else")->default_val(opt->out);
+  sim->add_option("--blocks,-n", opt->blocks, "Scene blocks of the ray stream")->default_val(opt->blocks)->check(CLI::Range(1, 1000000));
+  sim->add_option("--out,-o", opt->out, "Output folder (metrics.json, jobs.csv, timeline.json); an existing one is replaced only if it holds nothing else")->type_name(kFolder)->default_val(opt->out);
   sim->add_flag("--paje", opt->paje, "Also write SimGrid's Paje trace (simgrid.trace)");
   sim->add_flag("--no-timeline", opt->no_timeline,
                 "Skip timeline.json (the Chrome trace; ~250 B per activity, so ~0.25 GB for a long path-tracing run)");
-  sim->add_flag("--no-progress", opt->no_progress, "No progress line");
+  sim->add_flag("--quiet,-q,--no-progress", opt->no_progress, "No progress line on stderr");
   sim->add_option("--clients", opt->clients,
                   "Path tracing: clients requesting frames: N; N1,N2,... for a sweep reporting the peak; or auto, a "
                   "sweep doubling the clients until two counts in a row gain no more than 2 % (the paper's peak)")
@@ -125,9 +127,9 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
       ->default_val(opt->cancel_failed)
       ->check(CLI::IsMember({"on", "off"}));
   sim->add_option("--fidelity", opt->fidelity, "Path tracing: ray-flow model analytic, markov or replay")->default_val(opt->fidelity);
-  sim->add_option("--replay", opt->replay, "Path tracing: replay log for --fidelity replay");
+  sim->add_option("--replay", opt->replay, "Path tracing: replay log for --fidelity replay")->type_name(kPath);
   sim->add_flag("--record-replay", opt->record_replay, "Path tracing: also write OUT/replay.log (this run's ray outcomes)");
-  sim->add_option("--warmup", opt->warmup, "Path tracing: steady state starts here (default: a third of --duration)");
+  sim->add_option("--warmup", opt->warmup, "Path tracing: steady state starts here (default: a third of --duration)")->type_name(kDuration);
   sim->add_option("--start", opt->start,
                   "cold = scene blocks start on the disks only; warm = RAM and GPU memories start holding the blocks "
                   "used most (3/4 of each, the rest for rays), as after a long steady run (docs/simulator.md)")
@@ -135,7 +137,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
       ->check(CLI::IsMember({"cold", "warm"}));
   sim->add_option("--fail", opt->fail,
                   "DEVICE@TIME: a node, memory or compute device fails at TIME (e.g. B3@10s); its work is re-planned "
-                  "on the devices left, lost data made again where the workload can (repeatable; docs/faults.md)");
+                  "on the devices left, lost data made again where the workload can (repeatable; docs/faults.md)")->type_name(kFault);
   sim->callback([opt, &action] { action = [opt] { return run_simulate(*opt); }; });
 }
 
@@ -144,11 +146,11 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   SimulateOptions& o = opt->sim;
   auto* c = app.add_subcommand("compare", "Simulate the same platform and workload under several schedulers and compare them");
   c->add_option("--schedulers", opt->schedulers, "Comma-separated: gmb, gmb-ca, budge, loadanyonce")->default_val(opt->schedulers);
-  c->add_option("--platform", o.platform, "Platform JSON or built-in name (default: paper-cluster)");
+  c->add_option("--platform", o.platform, "Platform JSON or built-in name (default: paper-cluster)")->type_name(kPath);
   c->add_option("--workload", o.workload, "'ray-stream', a job-set JSON file, or boeing, museum, FILE.profile.json")->default_val(o.workload);
-  c->add_option("--horizon,-k", o.horizon, "GMB horizon k (Sec. 4.2)")->default_val(o.horizon);
-  c->add_option("--aging", o.aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(o.aging);
-  c->add_option("--duration", o.duration, "Simulated time")->default_val(o.duration);
+  c->add_option("--horizon,-k", o.horizon, "GMB horizon k (Sec. 4.2)")->type_name(kDuration)->default_val(o.horizon);
+  c->add_option("--aging", o.aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->type_name(kAging)->default_val(o.aging);
+  c->add_option("--duration", o.duration, "Simulated time")->type_name(kDuration)->default_val(o.duration);
   c->add_option("--transfer-order", o.transfer_order, "T-jobs on shared media: channel, resource or exclusive (see simulate --help)")
       ->default_val(o.transfer_order)
       ->check(CLI::IsMember({"channel", "resource", "exclusive"}));
@@ -156,15 +158,15 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--clients", o.clients, "Path tracing: clients requesting frames")->default_val(o.clients);
   c->add_option("--prediction-depth", o.prediction_depth, "Path tracing: job prediction depth (GMB only)")->default_val(o.prediction_depth)->check(CLI::Range(0, 16));
   c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);
-  c->add_option("--replay", o.replay, "Path tracing: replay log for --fidelity replay");
-  c->add_option("--warmup", o.warmup, "Path tracing: steady state starts here (default: a third of --duration)");
+  c->add_option("--replay", o.replay, "Path tracing: replay log for --fidelity replay")->type_name(kPath);
+  c->add_option("--warmup", o.warmup, "Path tracing: steady state starts here (default: a third of --duration)")->type_name(kDuration);
   c->add_option("--frames-in-flight", o.frames_in_flight, "Path tracing: frames each client keeps requested at once")
       ->default_val(o.frames_in_flight)
       ->check(CLI::Range(1, 64));
   c->add_option("--start", o.start, "cold = scene blocks on the disks only; warm = memories start holding the blocks used most")
       ->default_val(o.start)
       ->check(CLI::IsMember({"cold", "warm"}));
-  c->add_option("--out", opt->out, "Output folder: OUT/<scheduler>/ per run (replaced only if it holds nothing but a run's files), OUT/compare.csv, compare.json")->default_val(opt->out);
+  c->add_option("--out,-o", opt->out, "Output folder: OUT/<scheduler>/ per run (replaced only if it holds nothing but a run's files), OUT/compare.csv, compare.json")->type_name(kFolder)->default_val(opt->out);
   c->callback([opt, &action] { action = [opt] { return run_compare(*opt); }; });
 }
 #endif  // RAYLINE_WITH_SIM
@@ -175,15 +177,15 @@ void add_generate(CLI::App& app, std::function<int()>& action) {
   auto* gen = app.add_subcommand(
       "generate", "Write a procedural scene (binary PLY + companion scene JSON), deterministic per seed");
   gen->add_option("name", opt->name, "Generator: museum-like, boeing-like, cornell, furnace, block-crossing");
-  gen->add_option("--triangles,-n", opt->triangles,
+  gen->add_option("--triangles", opt->triangles,
                   "Triangle count, K/M/G suffixes allowed, at most 4G (default: per generator). About 4M triangles/s: "
                   "large counts run for minutes, with a progress line on stderr (none with -q). The PLY holds at "
-                  "most 2^31 vertices (block-crossing: 3 per triangle)");
-  gen->add_option("--out,-o", opt->out, "Mesh output path (.ply)");
+                  "most 2^31 vertices (block-crossing: 3 per triangle)")->type_name(kCount);
+  gen->add_option("--out,-o", opt->out, "Mesh output path (.ply)")->type_name(kPath);
   gen->add_option("--seed", opt->seed, "Random seed")->default_val(opt->seed)->check(kSeed);
-  gen->add_option("--scene-out", opt->scene_out, "Companion scene JSON (default: OUT with .json; '-': none)");
+  gen->add_option("--scene-out", opt->scene_out, "Companion scene JSON (default: OUT with .json; '-': none)")->type_name(kPath);
   gen->add_flag("--list", opt->list, "List the generators and exit");
-  gen->add_flag("--quiet,-q", opt->quiet, "Print only the timing line");
+  gen->add_flag("--quiet,-q", opt->quiet, "No progress line on stderr; print only the timing line");
   gen->callback([opt, &action] { action = [opt] { return run_generate(*opt); }; });
 }
 
@@ -191,43 +193,43 @@ void add_partition(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<PartitionOptions>();
   auto* part = app.add_subcommand(
       "partition", "Split a scene into N spatially coherent blocks on disk (streaming median-split kd-tree)");
-  part->add_option("--scene", opt->scene, "Scene JSON or bare mesh file (default: the built-in scene)");
+  part->add_option("--scene", opt->scene, "Scene JSON or bare mesh file (default: the built-in scene)")->type_name(kPath);
   part->add_option("--blocks,-n", opt->blocks, "Number of blocks")->default_val(opt->blocks)->check(CLI::Range(1, 1 << 20));
-  part->add_option("--out,-o", opt->out, "Output folder (replaced atomically, and only if it holds nothing but an earlier partition)")->default_val(opt->out);
-  part->add_option("--memory-limit", opt->memory_limit, "Bound on the sample and block buffers")
+  part->add_option("--out,-o", opt->out, "Output folder (replaced atomically, and only if it holds nothing but an earlier partition)")->type_name(kFolder)->default_val(opt->out);
+  part->add_option("--memory-limit", opt->memory_limit, "Bound on the sample and block buffers")->type_name(kSize)
       ->default_val(opt->memory_limit);
-  part->add_flag("--quiet,-q", opt->quiet, "Print only the timing line");
+  part->add_flag("--quiet,-q", opt->quiet, "No progress line on stderr; print only the timing line");
   part->callback([opt, &action] { action = [opt] { return run_partition(*opt); }; });
 }
 
 void add_render(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<RenderCliOptions>();
   auto* r = app.add_subcommand("render", "Render a scene out of core: blocks on disk, a RAM budget, GMB-planned loads and ray jobs");
-  r->add_option("--scene", opt->scene, "Scene JSON or bare mesh file (default: the built-in Cornell-like room)");
+  r->add_option("--scene", opt->scene, "Scene JSON or bare mesh file (default: the built-in Cornell-like room)")->type_name(kPath);
   r->add_option("--blocks-dir", opt->blocks_dir,
-                "Partition folder to use (from `rayline partition`), or to create (default: a temporary one)");
+                "Partition folder to use (from `rayline partition`), or to create (default: a temporary one)")->type_name(kFolder);
   r->add_option("--blocks,-n", opt->blocks, "Blocks when partitioning (default: from scene size and budget)")
       ->check(CLI::Range(1, 1 << 20));
-  r->add_option("--platform", opt->platform, "auto, or a platform file written by `rayline calibrate`")
+  r->add_option("--platform", opt->platform, "auto, or a platform file written by `rayline calibrate`")->type_name(kPath)
       ->default_val(opt->platform);
   r->add_option("--scheduler", opt->scheduler, "gmb | gmb-ca | budge | loadanyonce")
       ->default_val(opt->scheduler)
       ->check(CLI::IsMember(scheduler_name_list()));
   r->add_option("--spp", opt->spp, "Samples per pixel (default: the scene's)")->check(CLI::Range(1, 1 << 20));
   r->add_option("--max-depth", opt->max_depth, "Surface hits per path (default: the scene's)")->check(CLI::Range(1, 1000));
-  r->add_option("--resolution", opt->resolution, "WIDTHxHEIGHT (default: the scene camera's)");
-  r->add_option("--memory-budget", opt->memory_budget, "RAM for scene blocks and ray queues, e.g. 512MiB (default: unlimited)");
+  r->add_option("--resolution", opt->resolution, "WIDTHxHEIGHT (default: the scene camera's)")->type_name(kResolution);
+  r->add_option("--memory-budget", opt->memory_budget, "RAM for scene blocks and ray queues, e.g. 512MiB (default: unlimited)")->type_name(kSize);
   r->add_option("--threads,-j", opt->threads, "Worker threads = compute devices (default: all hardware threads)")
       ->check(CLI::Range(1, 4096));
   r->add_option("--seed", opt->seed, "Random seed (same seed: same image, bit for bit)")->default_val(opt->seed)->check(kSeed);
-  r->add_option("--horizon", opt->horizon, "GMB horizon k in seconds (Sec. 4.2), > 0")->default_val(opt->horizon);
+  r->add_option("--horizon,-k", opt->horizon, "GMB horizon k (Sec. 4.2), > 0")->type_name(kDuration)->default_val(opt->horizon);
   r->add_option("--fail", opt->fail,
                 "DEVICE@TIME: a compute device (e.g. W.cpu1@0.5s) is lost at TIME: its thread finishes its job, "
-                "the work planned there is re-planned on the others (repeatable; docs/faults.md)");
+                "the work planned there is re-planned on the others (repeatable; docs/faults.md)")->type_name(kFault);
   r->add_option("--fail-read", opt->fail_read,
                 "N: the N-th block read fails once, as an I/O error would; the load is planned again (docs/faults.md)")
       ->default_val(opt->fail_read);
-  r->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->default_val(opt->aging);
+  r->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->type_name(kAging)->default_val(opt->aging);
   r->add_option("--paths", opt->paths,
                 "Paths in flight at most (bounds ray memory); 0 = auto: under --memory-budget all that fit next to "
                 "the largest block, else 131072")
@@ -256,48 +258,49 @@ void add_render(CLI::App& app, std::function<int()>& action) {
                 "Vulkan device: none | auto (first non-CPU device, else none) | index | name substring (see `rayline devices`)")
       ->default_val(opt->gpu);
   r->add_option("--gpu-memory-budget", opt->gpu_memory_budget,
-                "GPU memory for scene blocks and ray queues, e.g. 4GiB (default: half of the device's)");
+                "GPU memory for scene blocks and ray queues, e.g. 4GiB (default: half of the device's)")->type_name(kSize);
   r->add_option("--record-profile", opt->record_profile,
-                "Write per-cell ray statistics of this render (JSON, docs/scene-profiles.md); CPU kernels only");
+                "Write per-cell ray statistics of this render (JSON, docs/scene-profiles.md); CPU kernels only")->type_name(kPath);
   r->add_option("--record-replay", opt->record_replay,
-                "Write a replay log of this render for `rayline simulate --fidelity replay` (CPU kernels only)");
-  r->add_option("--record-tiles", opt->record_tiles, "Tile grid of the recorded replay log, TXxTY (the profile's image.tiles)")
+                "Write a replay log of this render for `rayline simulate --fidelity replay` (CPU kernels only)")->type_name(kPath);
+  r->add_option("--record-tiles", opt->record_tiles, "Tile grid of the recorded replay log, TXxTY (the profile's image.tiles)")->type_name(kTiles)
       ->default_val(opt->record_tiles);
   r->add_option("--record-keyframe", opt->record_keyframe,
                 "Camera keyframe this render stands for (replay log: frame and keyframe)")
       ->default_val(opt->record_keyframe)
       ->check(CLI::Range(0, 65535));
-  r->add_option("--out,-o", opt->out, "OpenEXR image; .png, .metrics.json, .timeline.json, .jobs.csv go next to it")
+  r->add_option("--out,-o", opt->out, "Image, in the format its extension names: NAME.exr (OpenEXR, and a PNG preview NAME.png next to it) or "
+                "NAME.png (8-bit sRGB); NAME.metrics.json, NAME.timeline.json, NAME.jobs.csv go next to it")->type_name(kPath)
       ->default_val(opt->out);
-  r->add_flag("--quiet,-q", opt->quiet, "No progress bar or summary");
+  r->add_flag("--quiet,-q", opt->quiet, "No progress line on stderr and no summary");
   r->callback([opt, &action] { action = [opt] { return run_render(*opt); }; });
 }
 
 void add_calibrate(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<CalibrateCliOptions>();
   auto* c = app.add_subcommand("calibrate", "Measure this machine (disk channel, per-thread job times), fit the timing model, write a platform file");
-  c->add_option("--scene", opt->scene, "Scene to measure with (default: the built-in scene)");
+  c->add_option("--scene", opt->scene, "Scene to measure with (default: the built-in scene)")->type_name(kPath);
   c->add_option("--blocks,-n", opt->blocks, "Blocks to partition it into")->default_val(opt->blocks)->check(CLI::Range(2, 1 << 20));
   c->add_option("--threads,-j", opt->threads, "Worker threads (default: all hardware threads)")->check(CLI::Range(1, 4096));
   c->add_option("--spp", opt->spp, "Samples per pixel of the measuring render")->default_val(opt->spp)->check(CLI::Range(1, 1 << 16));
-  c->add_option("--resolution", opt->resolution, "Resolution of the measuring render")->default_val(opt->resolution);
+  c->add_option("--resolution", opt->resolution, "Resolution of the measuring render, WIDTHxHEIGHT")->type_name(kResolution)->default_val(opt->resolution);
   c->add_option("--budget-fraction", opt->budget_fraction, "RAM budget as a share of the scene's block bytes (forces loads)")
       ->default_val(opt->budget_fraction);
   c->add_option("--gpu", opt->gpu, "Vulkan device to measure too: none | auto | index | name substring")
       ->default_val(opt->gpu);
-  c->add_option("--out,-o", opt->out, "Platform file to write")->default_val(opt->out);
-  c->add_flag("--quiet,-q", opt->quiet, "No progress bar");
+  c->add_option("--out,-o", opt->out, "Platform file to write")->type_name(kPath)->default_val(opt->out);
+  c->add_flag("--quiet,-q", opt->quiet, "No progress line on stderr");
   c->callback([opt, &action] { action = [opt] { return run_calibrate(*opt); }; });
 }
 
 void add_devices(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<DevicesCliOptions>();
   auto* d = app.add_subcommand("devices", "List the Vulkan devices and the compute/memory devices, channels and timing model the renderer would use");
-  d->add_option("--platform", opt->platform, "auto, or a platform file written by `rayline calibrate`")->default_val(opt->platform);
+  d->add_option("--platform", opt->platform, "auto, or a platform file written by `rayline calibrate`")->type_name(kPath)->default_val(opt->platform);
   d->add_option("--threads,-j", opt->threads, "CPU compute devices (default: all hardware threads)")->check(CLI::Range(1, 4096));
   d->add_option("--gpu", opt->gpu, "none | auto | index | name substring")->default_val(opt->gpu);
-  d->add_option("--memory-budget", opt->memory_budget, "RAM capacity to show (default: this machine's RAM)");
-  d->add_option("--gpu-memory-budget", opt->gpu_memory_budget, "GPU memory capacity (default: half of the device's)");
+  d->add_option("--memory-budget", opt->memory_budget, "RAM capacity to show (default: this machine's RAM)")->type_name(kSize);
+  d->add_option("--gpu-memory-budget", opt->gpu_memory_budget, "GPU memory capacity (default: half of the device's)")->type_name(kSize);
   d->add_flag("--json", opt->json, "Print JSON instead of text");
   d->callback([opt, &action] { action = [opt] { return run_devices(*opt); }; });
 }
@@ -326,6 +329,46 @@ std::string subcommand_names(const CLI::App& app) {
   return names;
 }
 
+// "platform check: " for the command path "rayline platform check"; "" for "rayline".
+std::string where(const std::string& path) {
+  const std::size_t space = path.find(' ');
+  return space == std::string::npos ? std::string() : path.substr(space + 1) + ": ";
+}
+
+// The subcommand CLI11 stopped in (`app` itself when none), and its path ("rayline render").
+const CLI::App* parsed_command(const CLI::App& app, std::string& path) {
+  path = "rayline";
+  for (const CLI::App* at = &app;;) {
+    const std::vector<const CLI::App*> subs = at->get_subcommands([](const CLI::App* s) { return s->parsed(); });
+    if (subs.empty()) return at;
+    at = subs.front();
+    path += " " + at->get_name();
+  }
+}
+
+// CLI11's message, except "Could not convert: --exec-noise = abc", which becomes the form
+// of the other flag errors: "--exec-noise: 'abc' is not a FLOAT".
+std::string parse_message(const CLI::App& at, const CLI::ParseError& e) {
+  const std::string what = e.what(), prefix = "Could not convert: ";
+  const std::size_t eq = what.find(" = ");
+  if (what.rfind(prefix, 0) != 0 || eq == std::string::npos) return what;
+  const std::string name = what.substr(prefix.size(), eq - prefix.size());
+  const CLI::Option* opt = at.get_option_no_throw(name);
+  return name + ": '" + what.substr(eq + 3) + "' is not " + (opt ? "a " + opt->get_type_name() : "a valid value");
+}
+
+// A CLI11 parse error (unknown flag, bad value, missing argument) in the form of every
+// other error: "rayline: render: MESSAGE (see rayline render --help)", exit 2. --help and
+// --version, which CLI11 reports as errors with exit code 0, print as CLI11 prints them.
+int parse_error(const CLI::App& app, const CLI::ParseError& e) {
+  if (e.get_exit_code() == 0) return app.exit(e);
+  std::string path;
+  const CLI::App* at = parsed_command(app, path);
+  std::fprintf(stderr, "rayline: %s%s (see %s --help)\n", where(path).c_str(), parse_message(*at, e).c_str(),
+               path.c_str());
+  return kExitBadInput;
+}
+
 // CLI11 answers a mistyped subcommand ("rayline simualte"), and a missing one, with "A
 // subcommand is required". Name the word, the subcommands there are, and the closest one.
 // False: every word names a subcommand (or none is needed), so CLI11 parses.
@@ -348,8 +391,8 @@ bool bad_subcommand(const CLI::App& app, int argc, char** argv) {
       }
     }
     if (!next) {
-      std::fprintf(stderr, "%s: unknown subcommand '%s'%s (expected one of: %s; see %s --help)\n", path.c_str(),
-                   word.c_str(), closest.empty() ? "" : (", did you mean '" + closest + "'?").c_str(),
+      std::fprintf(stderr, "rayline: %sunknown subcommand '%s'%s (expected one of: %s; see %s --help)\n",
+                   where(path).c_str(), word.c_str(), closest.empty() ? "" : (", did you mean '" + closest + "'?").c_str(),
                    subcommand_names(*at).c_str(), path.c_str());
       return true;
     }
@@ -357,7 +400,7 @@ bool bad_subcommand(const CLI::App& app, int argc, char** argv) {
     path += " " + word;
   }
   if (at->get_require_subcommand_min() == 0) return false;
-  std::fprintf(stderr, "%s: a subcommand is required, one of: %s (see %s --help)\n", path.c_str(),
+  std::fprintf(stderr, "rayline: %sa subcommand is required, one of: %s (see %s --help)\n", where(path).c_str(),
                subcommand_names(*at).c_str(), path.c_str());
   return true;
 }
@@ -386,12 +429,15 @@ int main(int argc, char** argv) {
 #endif
   // New subcommands: add an add_<name>(app, action) above, call it here, and list its
   // cmd_<name>.cpp in apps/CMakeLists.txt.
+  if (argc == 2 && std::string(argv[1]) == kCliReferenceFlag) {  // docs/cli.md (scripts/update_cli_reference.sh)
+    std::fputs(cli_reference(app).c_str(), stdout);
+    return kExitOk;
+  }
   if (bad_subcommand(app, argc, argv)) return kExitBadInput;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);
-    return rc == 0 ? 0 : kExitBadInput;
+    return parse_error(app, e);
   }
   return action ? guarded(action) : kExitBadInput;
 }

@@ -54,8 +54,8 @@ echo "| run | blocks | budget | BVH | wall | rays/s | samples/s | loads | read |
 echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 run in-core-1 1 ""
 run in-core-16 16 ""
-run budget-25 "$OOC" "$((SCENE_BYTES / 4))"
-run budget-10 "$OOC" "$((SCENE_BYTES / 10))"
+run budget-25 "$OOC" "$((SCENE_BYTES / 4))B"
+run budget-10 "$OOC" "$((SCENE_BYTES / 10))B"
 LOG="$WORK/embree.log"
 T0=$(date +%s.%N)
 pathtracer -i "$PLY" --vp "$PX" "$PY" "$PZ" --vi "$LX" "$LY" "$LZ" --vu "$UX" "$UY" "$UZ" --fov "$FOV" \
@@ -79,7 +79,7 @@ REPS="${REPS:-1}"
 if [ "$REPS" -gt 1 ]; then
   for i in $(seq 1 "$REPS"); do
     for r in in-core-1 budget-25; do
-      if [ $r = in-core-1 ]; then b=1; extra=(); else b=$OOC; extra=(--memory-budget "$((SCENE_BYTES / 4))"); fi
+      if [ $r = in-core-1 ]; then b=1; extra=(); else b=$OOC; extra=(--memory-budget "$((SCENE_BYTES / 4))B"); fi
       "$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-$b" --resolution "${RES}x${RES}" --spp "$SPP" \
         --max-depth "$DEPTH" "${extra[@]}" ${RENDER_FLAGS:-} --out "$WORK/rep-$r-$i.exr"
     done

@@ -76,5 +76,5 @@ PY
 }
 run cpu-in-core none ""
 run gpu-in-core "$GPU" "" cpu-in-core
-run cpu-budget-25 none "$((SCENE_BYTES / 4))"
-run gpu-budget-25 "$GPU" "$((SCENE_BYTES / 4))" cpu-budget-25
+run cpu-budget-25 none "$((SCENE_BYTES / 4))B"
+run gpu-budget-25 "$GPU" "$((SCENE_BYTES / 4))B" cpu-budget-25

@@ -58,7 +58,7 @@ THIRD_PARTY = {
     "simgrid/": ["sim/sg_platform.cpp", "sim/sg_platform_internal.hpp"],
     "embree3/": ["render/embree", "render/vulkan", "render/reference"],
     "vulkan/": ["render/vulkan"],
-    "CLI/": ["apps/main.cpp"],
+    "CLI/": ["apps/main.cpp", "apps/cli_reference.cpp"],
     # the JSON fields helper declares its types with the forward header (no parser)
     "nlohmann/json_fwd.hpp": ["common/json_fields.hpp"],
     "nlohmann/": ["common/json_fields.cpp", "sched/io/*.cpp", "workload/*.cpp", "sim/*.cpp", "render/*.cpp",

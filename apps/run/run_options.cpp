@@ -1,20 +1,11 @@
 #include "apps/run/run_options.hpp"
 
 #include <cmath>
-#include <stdexcept>
 
+#include "apps/cli_common.hpp"
 #include "common/error.hpp"
-#include "common/units.hpp"
 
 namespace rayline::cli {
-
-Time seconds_flag(const std::string& flag, const std::string& text) {
-  try {
-    return units::parse_duration(text);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(flag, "", e.what());
-  }
-}
 
 SchedulerKind scheduler_flag(const std::string& flag, const std::string& name, const std::string& known) {
   if (const std::optional<SchedulerKind> kind = scheduler_kind(name)) return *kind;
@@ -33,9 +24,9 @@ AgingSetting parse_aging(const std::string& text, const std::string& flag) {
     return a;
   }
   try {
-    a.aging = units::parse_duration(text);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(flag, "", std::string(e.what()) + " (or auto, adaptive, off)");
+    a.aging = duration_flag(flag, text);
+  } catch (const InputError& e) {
+    throw InputError(flag, "", "auto, adaptive, off or a duration: " + std::string(e.what()).substr(flag.size() + 2));
   }
   if (!(a.aging >= 0)) throw InputError(flag, "", "must be >= 0, auto, adaptive or off");
   return a;

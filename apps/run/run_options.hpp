@@ -1,18 +1,20 @@
 // The run facade's typed options (apps/run/): every subcommand that runs a schedule
 // (plan, simulate, compare, render) turns its text flags into these through the functions
-// here, so a flag means the same and fails with the same message everywhere. Each throws
-// InputError naming the flag; the names of schedulers come from the factory
-// (sched/policy/scheduler_factory.hpp) and nowhere else.
+// here and in apps/cli_common.hpp (durations, sizes), so a flag means the same and fails
+// with the same message everywhere. Each throws InputError naming the flag; the names of
+// schedulers come from the factory (sched/policy/scheduler_factory.hpp) and nowhere else.
 #pragma once
 #include <string>
 
+#include "apps/cli_common.hpp"
 #include "sched/core/types.hpp"
 #include "sched/policy/scheduler_factory.hpp"
 
 namespace rayline::cli {
 
-// A duration flag ("2s", "500ms", common/units.hpp) in seconds.
-Time seconds_flag(const std::string& flag, const std::string& text);
+// A duration flag in seconds: duration_flag (apps/cli_common.hpp, a unit required), under
+// the name the run facade's subcommands call it by.
+inline Time seconds_flag(const std::string& flag, const std::string& text) { return duration_flag(flag, text); }
 
 // A scheduler name. `known` prefixes the list of names in the message ("known: " or "").
 SchedulerKind scheduler_flag(const std::string& flag, const std::string& name, const std::string& known = "known: ");

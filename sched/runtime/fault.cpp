@@ -17,7 +17,7 @@ Fault parse_fault(std::string_view spec, const DeviceGraph& g, const std::string
   try {
     f.at = units::parse_duration(spec.substr(at + 1));
   } catch (const std::invalid_argument& e) {
-    throw InputError(flag, f.what, std::string("TIME: ") + e.what());
+    throw InputError(flag, f.what, std::string("TIME: ") + e.what() + " (units: ns, us, ms, s, min, h)");
   }
   if (const NodeId n = g.find_node(name); n != kNone) {
     const Node& node = g.nodes[static_cast<std::size_t>(n)];

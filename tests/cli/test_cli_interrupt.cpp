@@ -143,7 +143,7 @@ TEST_F(Interrupt, RenderRemovesItsTemporaryPartition) {
 }
 
 TEST_F(Interrupt, GenerateRemovesItsHalfWrittenMesh) {
-  start({"generate", "museum-like", "-q", "-n", "1G", "--out", path("big.ply")});
+  start({"generate", "museum-like", "-q", "--triangles", "1G", "--out", path("big.ply")});
   ASSERT_TRUE(wait_until([&] { return any_starting(dir_, "big.ply.tmp."); })) << err();
   EXPECT_EQ(stop(SIGTERM), 128 + SIGTERM) << err();
   EXPECT_FALSE(any_starting(dir_, "big.")) << err();
@@ -164,11 +164,11 @@ TEST_F(Interrupt, AKilledRunsPartialFolderIsRemovedByTheNextRun) {
 }
 
 TEST_F(Interrupt, AKilledRunsHalfWrittenMeshIsRemovedByTheNextRun) {
-  start({"generate", "museum-like", "-q", "-n", "1G", "--out", path("big.ply")});
+  start({"generate", "museum-like", "-q", "--triangles", "1G", "--out", path("big.ply")});
   ASSERT_TRUE(wait_until([&] { return any_starting(dir_, "big.ply.tmp-faces."); })) << err();
   EXPECT_EQ(stop(SIGKILL), -1);
   ASSERT_TRUE(any_starting(dir_, "big.ply.tmp")) << "nothing could remove it";
-  start({"generate", "museum-like", "-q", "-n", "10000", "--out", path("big.ply")});
+  start({"generate", "museum-like", "-q", "--triangles", "10000", "--out", path("big.ply")});
   ASSERT_EQ(finish(), 0) << err();
   EXPECT_FALSE(any_starting(dir_, "big.ply.")) << err();
   EXPECT_TRUE(fs::exists(path("big.ply")));

@@ -185,8 +185,8 @@ TEST_F(OutputFolders, OutputFilesNamedAsFoldersAreRefusedBeforeTheWork) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"plan -q --trace " + path("d"), "--trace: is a folder"},
       {"plan -q --jobs-csv " + path("d"), "--jobs-csv: is a folder"},
-      {"generate cornell -q -n 1000 --out " + path("d"), "--out: is a folder"},
-      {"generate cornell -q -n 1000 --out " + path("g.ply") + " --scene-out " + path("d"), "--scene-out: is a folder"},
+      {"generate cornell -q --triangles 1000 --out " + path("d"), "--out: is a folder"},
+      {"generate cornell -q --triangles 1000 --out " + path("g.ply") + " --scene-out " + path("d"), "--scene-out: is a folder"},
       {"render -q --spp 1 --resolution 8x8 --out " + path("r.exr") + " --record-replay " + path("d"),
        "--record-replay: is a folder"},
       {"render -q --spp 1 --resolution 8x8 --out " + path("r.exr") + " --record-profile " + path("d"),
@@ -208,7 +208,7 @@ TEST_F(OutputFolders, OutputFilesNamedAsFoldersAreRefusedBeforeTheWork) {
 // --trace F --jobs-csv F` left only the CSV. The meshes a scene file names are inputs too:
 // `render --scene S.json --record-profile MESH.ply` replaced the mesh with statistics.
 TEST_F(OutputFolders, OutputsThatWouldOverwriteAnInputOrEachOtherAreRefused) {
-  ASSERT_EQ(rayline_cli("generate cornell -q -n 1000 --out " + path("c.ply")).code, 0);
+  ASSERT_EQ(rayline_cli("generate cornell -q --triangles 1000 --out " + path("c.ply")).code, 0);
   const std::string scene = read("c.json"), mesh = read("c.ply");
   ASSERT_FALSE(scene.empty());
   ASSERT_FALSE(mesh.empty());

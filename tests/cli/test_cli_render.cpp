@@ -79,7 +79,7 @@ TEST_F(CliRender, MemoryStaysWithinBudgetPlusDocumentedOverhead) {
   for (const std::string loaders : {"1", "2"}) {  // one or two loads in flight
     const std::string name = "b" + loaders;
     r = rayline_cli("render -q --scene " + path("museum.ply") + " --blocks-dir " + path("blocks") +
-                    " --resolution 64x64 --spp 1 --loaders " + loaders + " --memory-budget " + std::to_string(budget) +
+                    " --resolution 64x64 --spp 1 --loaders " + loaders + " --memory-budget " + std::to_string(budget) + "B" +
                     " --out " + path(name + ".exr"));
     ASSERT_EQ(r.code, 0) << r.all;
     const auto m = metrics(name).at("memory");
@@ -139,6 +139,20 @@ TEST_F(CliRender, PathsInFlightAutoAndExplicit) {
   ASSERT_EQ(r.code, 0) << r.all;
   EXPECT_NE(metrics("off").at("scheduler_parameters").get<std::string>().find("aging=off"), std::string::npos);
   EXPECT_FALSE(fs::exists(path("bad.exr")));
+}
+
+// --out names the image's format by its extension: .png writes the 8-bit image alone (no
+// OpenEXR, no second preview), with the metrics, timeline and jobs CSV next to it.
+TEST_F(CliRender, PngOutWritesAPngAndItsCompanions) {
+  const auto r = rayline_cli("render -q --resolution 16x12 --spp 1 --blocks 2 --out " + path("img.PNG"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(slurp(path("img.PNG")).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  for (const char* s : {"img.metrics.json", "img.timeline.json", "img.jobs.csv"}) EXPECT_TRUE(fs::exists(path(s))) << s;
+  for (const char* s : {"img.exr", "img.png"}) EXPECT_FALSE(fs::exists(path(s))) << s;
+  EXPECT_EQ(metrics("img").at("resolution")[0], 16);
+  const auto v = rayline_cli("render --resolution 16x12 --spp 1 --blocks 2 --out " + path("v.png"));
+  ASSERT_EQ(v.code, 0) << v.all;
+  EXPECT_NE(v.out.find("wrote " + path("v.png") + ", " + path("v.metrics.json")), std::string::npos) << v.out;
 }
 
 TEST_F(CliRender, BadInputsExitTwoAndKeepTheGoodImage) {
@@ -207,14 +221,18 @@ TEST_F(CliRender, BadInputsExitTwoAndKeepTheGoodImage) {
   EXPECT_EQ(r.code, 2) << r.all;
   r = rayline_cli(args + "--scheduler fastest");
   EXPECT_EQ(r.code, 2) << r.all;
-  for (const std::string h : {"nan", "inf", "0", "-1"}) {  // NaN used to pass CLI11's PositiveNumber
+  // NaN used to pass CLI11's PositiveNumber; a bare number has no unit.
+  for (const std::string h : {"nan", "inf", "0", "-1", "2", "0s", "-1s", "nans", "1e300s"}) {
     r = rayline_cli(args + "--horizon " + h);
     EXPECT_EQ(r.code, 2) << h << ": " << r.all;
     EXPECT_NE(r.err.find("--horizon"), std::string::npos) << r.err;
     EXPECT_LT(r.err.size(), 200u) << "a short message, not a 300-digit number: " << r.err;
   }
-  r = rayline_cli("render -q --out " + path("img.png"));
-  EXPECT_EQ(r.code, 2) << r.all;
+  for (const char* out : {"img.jpg", "img", "img.exr.tmp"}) {
+    r = rayline_cli("render -q --out " + path(out));
+    EXPECT_EQ(r.code, 2) << out << ": " << r.all;
+    EXPECT_NE(r.err.find("use a name ending in .exr"), std::string::npos) << r.err;
+  }
   // Messages name the flag the user gave, once: a new partition's folder is --blocks-dir
   // (not partition's --out), too many blocks is --blocks (the buffer bound is not a render
   // flag), and a flag is not repeated as a field ("--paths: paths:").

@@ -30,7 +30,7 @@ TEST(CliSubcommands, FarFromEveryNameGetsNoSuggestion) {
 TEST(CliSubcommands, NestedUnknownWordNamesItsParent) {
   const auto r = rayline("platform chekc platforms/paper-A.json");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("rayline platform: unknown subcommand 'chekc', did you mean 'check'?"), std::string::npos)
+  EXPECT_NE(r.err.find("rayline: platform: unknown subcommand 'chekc', did you mean 'check'?"), std::string::npos)
       << r.err;
 }
 
@@ -48,7 +48,7 @@ TEST(CliSubcommands, MissingSubcommandListsTheChoices) {
   EXPECT_NE(none.err.find("rayline: a subcommand is required, one of: platform, plan"), std::string::npos) << none.err;
   const auto nested = rayline("platform");
   EXPECT_EQ(nested.code, 2);
-  EXPECT_NE(nested.err.find("rayline platform: a subcommand is required, one of: check"), std::string::npos)
+  EXPECT_NE(nested.err.find("rayline: platform: a subcommand is required, one of: check"), std::string::npos)
       << nested.err;
 }
 
