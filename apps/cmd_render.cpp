@@ -8,6 +8,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -101,12 +102,17 @@ std::vector<NamedPath> scene_inputs(const std::string& scene_path) {
 }
 
 // The render's progress: a bar, the fraction of camera paths done and the rays per second.
+// Elapsed time since the bar was made, and the time left at the rate so far (ETA).
 std::function<void(double, double)> progress_bar(ProgressLine& line, const char* what) {
-  return [&line, what](double fraction, double rays_per_s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  return [&line, what, t0](double fraction, double rays_per_s) {
     if (!line.due()) return;
     const int width = 30, n = static_cast<int>(fraction * width + 0.5);
-    line.print(what, "[%.*s%*s] %5.1f %%  %s", n, "##############################", width - n, "", 100 * fraction,
-               format_rate(rays_per_s, "rays").c_str());
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const std::string left =
+        fraction > 0.01 && fraction < 1 ? format_duration(elapsed * (1 - fraction) / fraction) + " left" : "";
+    line.print(what, "[%.*s%*s] %5.1f %%  %s  %s elapsed  %s", n, "##############################", width - n, "",
+               100 * fraction, format_rate(rays_per_s, "rays").c_str(), format_duration(elapsed).c_str(), left.c_str());
   };
 }
 
@@ -276,6 +282,24 @@ namespace {
 std::string ray_rate(double seconds_per_byte) { return format_rate(1.0 / (seconds_per_byte * 64), "rays"); }
 }  // namespace
 
+// What a poor fit means for the user, when a fit misses the measured times by more than a
+// third: plans on this platform file mis-time jobs by about as much. Other programs
+// competing for the cores are the common cause (a busy 2-core machine gave 60-120 %).
+void print_fit_advice(const engine::CalibrationResult& c) {
+  constexpr double kPoor = 0.33;
+  const std::pair<const char*, const FitErrors*> fits[] = {
+      {"disk loads", &c.load_fit}, {"RayIntersect", &c.intersect_fit}, {"ShadowIntersect", &c.shadow_fit}};
+  std::string poor;
+  for (const auto& [name, f] : fits)
+    if (f->weighted_rel > kPoor) poor += std::string(poor.empty() ? "" : ", ") + name;
+  if (poor.empty()) return;
+  std::printf("advice: the fits of %s miss the measured times by more than %.0f %%, so plans made with this file will "
+              "mis-time those jobs by about as much (jobs.csv and rayline report show planned against actual). "
+              "Programs competing for the cores are the usual cause: calibrate again on an otherwise idle machine. "
+              "The file is written and usable.\n",
+              poor.c_str(), 100 * kPoor);
+}
+
 int run_calibrate(const CalibrateCliOptions& opt) {
   engine::RenderOptions ro;
   ro.scene = opt.scene;
@@ -321,6 +345,7 @@ int run_calibrate(const CalibrateCliOptions& opt) {
                 format_duration(gm.pcie_latency).c_str(), format_bandwidth(gm.pcie_bandwidth).c_str(),
                 fit_quality(c.pcie_fit, "upload").c_str());
   }
+  print_fit_advice(c);
   std::printf("wrote %s (use: rayline render --platform %s)\n", opt.out.c_str(), opt.out.c_str());
   return kExitOk;
 }
