@@ -1,0 +1,199 @@
+// The numbers behind the report's charts (apps/report/run_stats.hpp).
+#include "apps/report/run_stats.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+namespace rayline::report {
+
+Throughput throughput(const RunData& run, std::size_t bins) {
+  Throughput t;
+  if (!run.rays_per_second_series.empty()) {
+    t.counts = "rays traced per simulated second (metrics.json: rays_per_second_series)";
+    t.unit = "rays/s";
+    for (std::size_t i = 0; i < run.rays_per_second_series.size(); ++i) {
+      t.x.push_back(static_cast<double>(i) + 0.5);
+      t.values.push_back(run.rays_per_second_series[i]);
+    }
+    return t;
+  }
+  double end = 0;
+  for (const Activity& a : run.activities)
+    if (a.kind == 'E' && a.actual_end) end = std::max(end, *a.actual_end);
+  if (end <= 0 || bins == 0) return t;
+  const double width = end / static_cast<double>(bins);
+  std::vector<double> bytes(bins, 0.0);
+  for (const Activity& a : run.activities)
+    if (a.kind == 'E' && a.actual_end)
+      bytes[std::min(bins - 1, static_cast<std::size_t>(*a.actual_end / width))] += a.bytes;
+  t.counts = "ray-queue bytes of the E-jobs finished per second, in " + std::to_string(bins) +
+             " equal time bins (jobs.csv: bytes, actual_end)";
+  t.unit = "B/s";
+  for (std::size_t i = 0; i < bins; ++i) {
+    t.x.push_back((static_cast<double>(i) + 0.5) * width);
+    t.values.push_back(bytes[i] / width);
+  }
+  return t;
+}
+
+std::vector<DeviceRow> device_rows(const std::vector<DeviceTime>& devices, std::size_t max_rows) {
+  std::vector<DeviceRow> rows;
+  if (devices.size() <= max_rows) {
+    for (const DeviceTime& d : devices) rows.push_back({d.name, d.busy_s, d.setup_s, d.fetching_s, d.idle_s});
+    return rows;
+  }
+  std::map<std::string, std::size_t> at;  // "node kind" -> row
+  std::vector<std::size_t> counts;
+  for (const DeviceTime& d : devices) {
+    const std::string node = d.name.substr(0, d.name.find('.'));
+    const std::string key = node + " " + (d.kind.empty() ? "device" : d.kind);
+    const auto [it, fresh] = at.emplace(key, rows.size());
+    if (fresh) {
+      rows.push_back({key, 0, 0, 0, 0});
+      counts.push_back(0);
+    }
+    DeviceRow& r = rows[it->second];
+    r.busy_s += d.busy_s;
+    r.setup_s += d.setup_s;
+    r.fetching_s += d.fetching_s;
+    r.idle_s += d.idle_s;
+    ++counts[it->second];
+  }
+  for (std::size_t i = 0; i < rows.size(); ++i) rows[i].name += " x" + std::to_string(counts[i]);
+  return rows;
+}
+
+namespace {
+
+// Length of the union of intervals.
+double union_length(std::vector<std::pair<double, double>> v) {
+  std::sort(v.begin(), v.end());
+  double total = 0, start = 0, end = 0;
+  bool open = false;
+  for (const auto& [s, e] : v) {
+    if (open && s <= end) {
+      end = std::max(end, e);
+      continue;
+    }
+    if (open) total += end - start;
+    start = s;
+    end = e;
+    open = true;
+  }
+  return open ? total + (end - start) : total;
+}
+
+}  // namespace
+
+std::vector<ChannelUse> channel_use(const RunData& run) {
+  if (!run.channels.empty()) return run.channels;
+  std::map<std::string, std::vector<std::pair<double, double>>> busy;
+  std::map<std::string, double> bytes;
+  double last = 0;
+  for (const Activity& a : run.activities) {
+    if (!a.actual_end) continue;
+    last = std::max(last, *a.actual_end);
+    if (a.kind != 'T' || !a.actual_start) continue;
+    busy[a.where].emplace_back(*a.actual_start, std::max(*a.actual_start, *a.actual_end));
+    bytes[a.where] += a.bytes;
+  }
+  const double span = run.run_seconds > 0 ? run.run_seconds : last;
+  std::vector<ChannelUse> out;
+  for (auto& [name, intervals] : busy)
+    out.push_back({name, span > 0 ? std::min(1.0, union_length(intervals) / span) : 0.0, bytes[name], false});
+  return out;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const double rank = std::min<double>(static_cast<double>(v.size() - 1), q * static_cast<double>(v.size()));
+  return v[static_cast<std::size_t>(rank)];
+}
+
+std::vector<double> queue_waits(const std::vector<Activity>& activities) {
+  std::vector<double> w;
+  for (const Activity& a : activities)
+    if (a.kind == 'E' && a.actual_start && a.created) w.push_back(std::max(0.0, *a.actual_start - *a.created));
+  return w;
+}
+
+std::vector<WaitStats> wait_stats(const std::vector<Activity>& activities) {
+  std::map<std::string, std::vector<double>> by_type;
+  std::vector<double> all;
+  for (const Activity& a : activities) {
+    if (a.kind != 'E' || !a.actual_start || !a.created) continue;
+    const double w = std::max(0.0, *a.actual_start - *a.created);
+    by_type[a.type].push_back(w);
+    all.push_back(w);
+  }
+  const auto stats = [](const std::string& type, const std::vector<double>& v) {
+    return WaitStats{type, v.size(), percentile(v, 0.5), percentile(v, 0.95),
+                     v.empty() ? 0.0 : *std::max_element(v.begin(), v.end())};
+  };
+  std::vector<WaitStats> out;
+  for (const auto& [type, v] : by_type) out.push_back(stats(type, v));
+  if (!all.empty()) out.push_back(stats("all", all));
+  return out;
+}
+
+GanttView gantt_view(const std::vector<Activity>& activities, std::size_t max_rows, std::size_t max_bars) {
+  GanttView g;
+  g.all_activities = activities.size();
+  // Busiest compute devices (E-jobs) first, then channels (T-jobs): about 3/5 of the rows
+  // for devices, the rest for channels, a share one side does not fill going to the other.
+  std::map<std::string, double> busy[2];  // [0] devices, [1] channels
+  for (const Activity& a : activities)
+    if (a.actual_start && a.actual_end) busy[a.kind == 'T'][a.where] += *a.actual_end - *a.actual_start;
+  std::vector<std::pair<double, std::string>> ranked[2];
+  for (int k = 0; k < 2; ++k) {
+    for (const auto& [where, t] : busy[k]) ranked[k].emplace_back(-t, where);
+    std::sort(ranked[k].begin(), ranked[k].end());
+  }
+  const std::size_t want_devices = std::max(max_rows - std::min(ranked[1].size(), max_rows * 2 / 5), max_rows * 3 / 5);
+  const std::size_t devices = std::min(ranked[0].size(), want_devices);
+  const std::size_t channels = std::min(ranked[1].size(), max_rows - devices);
+  std::map<std::string, std::size_t> row_of;
+  for (int k = 0; k < 2; ++k)
+    for (std::size_t i = 0; i < (k == 0 ? devices : channels); ++i) {
+      row_of.emplace(ranked[k][i].second, g.rows.size());
+      g.rows.push_back(ranked[k][i].second);
+    }
+  // The selected rows' activities by first start (planned or actual), and their bars.
+  std::vector<const Activity*> chosen;
+  for (const Activity& a : activities)
+    if (row_of.count(a.where)) chosen.push_back(&a);
+  g.row_activities = chosen.size();
+  const auto first_start = [](const Activity* a) {
+    return a->actual_start ? std::min(a->planned_start, *a->actual_start) : a->planned_start;
+  };
+  std::stable_sort(chosen.begin(), chosen.end(),
+                   [&](const Activity* a, const Activity* b) { return first_start(a) < first_start(b); });
+  std::size_t bars = 0;
+  bool any = false, cut = false;
+  double cut_at = 0;  // where the first activity left out starts: the window ends there
+  for (const Activity* a : chosen) {
+    const std::size_t n = 1 + (a->actual_start && a->actual_end ? 1 : 0);
+    if (bars + n > max_bars) {
+      cut = true;
+      cut_at = first_start(a);
+      break;
+    }
+    bars += n;
+    const std::size_t row = row_of.at(a->where);
+    g.bars.push_back({row, a->planned_start, a->planned_end, true, a});
+    if (n == 2) g.bars.push_back({row, *a->actual_start, *a->actual_end, false, a});
+    ++g.shown_activities;
+  }
+  for (const GanttView::Bar& b : g.bars) {
+    g.t0 = any ? std::min(g.t0, b.start) : b.start;
+    g.t1 = any ? std::max(g.t1, b.end) : b.end;
+    any = true;
+  }
+  if (cut && any) g.t1 = std::max(g.t0, std::min(g.t1, cut_at));
+  return g;
+}
+
+}  // namespace rayline::report
