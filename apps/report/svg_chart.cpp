@@ -246,7 +246,7 @@ std::string clip(const std::string& s, std::size_t n) {
 std::string line_chart(const ChartFrame& frame, const std::vector<double>& x, const std::vector<Series>& series,
                        std::string_view y_unit) {
   Svg svg(frame, frame.height);
-  const double x0 = x.empty() ? 0 : *std::min_element(x.begin(), x.end());
+  const double x0 = x.empty() ? 0 : std::min(0.0, *std::min_element(x.begin(), x.end()));  // from 0 when it can
   const double x1 = x.empty() ? 1 : *std::max_element(x.begin(), x.end());
   const Ticks xt = nice_ticks(x0, x1, 8);
   const Ticks yt = nice_ticks(0, max_of(series), 5);
@@ -368,7 +368,7 @@ std::string gantt(const ChartFrame& frame, const std::vector<std::string>& rows,
     if (b.row >= rows.size() || b.end < t0 || b.start > t1) continue;
     const double x0 = xs(std::max(b.start, t0)), x1 = xs(std::min(b.end, t1));
     const double y = svg.top() + b.row * band + (b.planned ? band * 0.08 : band * 0.5);
-    svg.rect(x0, y, std::max(x1 - x0, 0.6), band * 0.42, b.colour, b.tip);
+    svg.rect(x0, y, std::max(x1 - x0, 0.6), band * 0.42, b.colour, b.tip, R"(stroke="#fff" stroke-width="0.5")");
   }
   svg.line(svg.left(), svg.top(), svg.left(), svg.bottom(), "#495057");
   return svg.finish();
