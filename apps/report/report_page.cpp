@@ -226,8 +226,36 @@ std::string compare_section(const RunFolder& folder) {
   return h + "</section>\n";
 }
 
+// The value of the header fact `label`, 0 when the run does not have it.
+double fact_value(const RunData& run, const std::string& label) {
+  for (const Fact& f : run.facts)
+    if (f.label == label && f.value) return *f.value;
+  return 0;
+}
+
+// A client sweep: throughput per client count, then a section per count.
+std::string sweep_section(const RunFolder& folder) {
+  std::vector<std::string> names;
+  Series whole{"rays/s over the run", colour::kLine, {}}, steady{"steady rays shot/s", colour::kBusy, {}};
+  std::string links;
+  for (const RunData& run : folder.runs) {
+    names.push_back(run.label);
+    whole.values.push_back(fact_value(run, "rays/s over the run"));
+    steady.values.push_back(fact_value(run, "steady rays shot/s"));
+    links += std::string(links.empty() ? "" : ", ") + "<a href=\"#run-" + escape_xml(id_safe(run.label)) + "\">" +
+             escape_xml(run.label) + "</a>";
+  }
+  ChartFrame f{"chart-sweep-throughput", "Throughput per client count", "clients", "rays/s"};
+  return "<section id=\"sweep\">\n<h2>Client sweep</h2>\n" +
+         figure(bar_chart(f, names, {steady, whole}, "rays/s"),
+                "From each clients-N/metrics.json: path_trace.steady_rays_shot_per_second (each ray once, after the "
+                "warm-up) and rays_per_second (rays intersected per second over the whole run).") +
+         "<p>Runs: " + links + ".</p>\n</section>\n";
+}
+
 std::string run_title(const RunFolder& folder, const RunData& run) {
   switch (folder.kind) {
+    case RunFolder::Kind::sweep: return "Sweep point " + run.label;
     case RunFolder::Kind::compare: return "Scheduler " + run.label;
     case RunFolder::Kind::render: return "Render " + run.label;
     case RunFolder::Kind::simulate: break;
@@ -236,7 +264,8 @@ std::string run_title(const RunFolder& folder, const RunData& run) {
 }
 
 std::string run_prefix(const RunFolder& folder, const RunData& run) {
-  return folder.runs.size() > 1 || folder.kind == RunFolder::Kind::compare ? id_safe(run.label) : "";
+  const bool several = folder.runs.size() > 1 || folder.kind == RunFolder::Kind::compare || folder.kind == RunFolder::Kind::sweep;
+  return several ? id_safe(run.label) : "";
 }
 
 }  // namespace
@@ -284,6 +313,7 @@ std::string report_html(const RunFolder& folder) {
     h << ", written by rayline " << escape_xml(folder.runs.front().version);
   h << ".</p>\n";
   if (folder.compare) h << compare_section(folder);
+  if (folder.kind == RunFolder::Kind::sweep) h << sweep_section(folder);
   for (const RunData& run : folder.runs) {
     const std::string prefix = run_prefix(folder, run);
     h << "<section class=\"run\" id=\"run-" << escape_xml(prefix.empty() ? "main" : prefix) << "\">\n<h2>"

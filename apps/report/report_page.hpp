@@ -5,7 +5,9 @@
 // Every chart is an <svg> whose id names it (docs/report.md): chart-throughput,
 // chart-devices, chart-channels, chart-queue-waits, chart-gantt, and the render's
 // <img id="render-image">; in a compare page chart-compare-throughput, and each
-// scheduler's charts with its name in front ("gmb-chart-devices"). A chart whose data
+// scheduler's charts with its name in front ("gmb-chart-devices"); in a client sweep
+// chart-sweep-throughput and "clients-N-chart-devices"; with several renders in one
+// folder, the image stem in front. A chart whose data
 // the run does not have is replaced by a paragraph of class "missing" saying why.
 #pragma once
 #include <string>

@@ -346,6 +346,21 @@ RunFolder read_compare_folder(const fs::path& dir) {
   return f;
 }
 
+// The clients-N folders holding a metrics.json, by client count.
+std::vector<std::pair<long, std::string>> sweep_points(const fs::path& dir) {
+  static const std::string kPrefix = "clients-";
+  std::vector<std::pair<long, std::string>> points;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (!name.starts_with(kPrefix) || name.size() == kPrefix.size() || name.size() > kPrefix.size() + 9) continue;
+    if (!std::all_of(name.begin() + kPrefix.size(), name.end(), [](char c) { return c >= '0' && c <= '9'; })) continue;
+    if (fs::is_regular_file(e.path() / "metrics.json", ec)) points.emplace_back(std::stol(name.substr(kPrefix.size())), name);
+  }
+  std::sort(points.begin(), points.end());
+  return points;
+}
+
 }  // namespace
 
 RunFolder read_run_folder(const std::string& dir) {
@@ -366,10 +381,16 @@ RunFolder read_run_folder(const std::string& dir) {
     return f;
   }
   const std::vector<std::string> stems = render_stems(d);
-  if (stems.empty())
-    throw InputError(dir, "",
-                     "not a run folder: it holds no metrics.json (rayline simulate), compare.csv (rayline compare) "
-                     "or IMAGE.metrics.json (rayline render)");
+  if (stems.empty()) {
+    const auto points = sweep_points(d);
+    if (points.empty())
+      throw InputError(dir, "",
+                       "not a run folder: it holds no metrics.json (rayline simulate), compare.csv (rayline compare), "
+                       "clients-N/metrics.json (a client sweep) or IMAGE.metrics.json (rayline render)");
+    f.kind = RunFolder::Kind::sweep;
+    for (const auto& [n, name] : points) f.runs.push_back(read_simulate_run(d / name, name));
+    return f;
+  }
   f.kind = RunFolder::Kind::render;
   for (const std::string& stem : stems) f.runs.push_back(read_render_run(d, stem));
   return f;

@@ -1,6 +1,7 @@
 // A run's output folder read into plain structs for `rayline report`: a simulate folder
 // (metrics.json, jobs.csv), a compare folder (compare.csv and one simulate folder per
-// scheduler) or a render's outputs (IMAGE.metrics.json, IMAGE.jobs.csv, IMAGE.png). JSON
+// scheduler), a client sweep (`simulate --clients N1,N2,...`: one clients-N folder per
+// count) or a render's outputs (IMAGE.metrics.json, IMAGE.jobs.csv, IMAGE.png). JSON
 // and CSV parsing stay in run_files.cpp; a file that is not what its run writes is an
 // InputError naming the file and the field.
 #pragma once
@@ -69,9 +70,9 @@ struct CompareTable {
   std::string cell(std::size_t row, const std::string& name) const;
 };
 
-// What a folder holds: one run, a comparison of runs, or several renders.
+// What a folder holds: one run, a comparison of runs, a client sweep, or renders.
 struct RunFolder {
-  enum class Kind { simulate, compare, render };
+  enum class Kind { simulate, compare, sweep, render };
   Kind kind = Kind::simulate;
   std::string dir;
   std::optional<CompareTable> compare;

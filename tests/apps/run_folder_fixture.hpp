@@ -56,6 +56,13 @@ inline void write_compare_run(const std::filesystem::path& dir) {
                   "budge,ok,1500000,500000,\"budge2009{x}\"\n");
 }
 
+// A client sweep: clients-2 and clients-10 (sorted by count, not by name).
+inline void write_sweep_run(const std::filesystem::path& dir) {
+  write_simulate_run(dir / "clients-10");
+  write_simulate_run(dir / "clients-2");
+  write_text_file(dir / "clients-x" / "metrics.json", "not a sweep point: never read");
+}
+
 // A render's outputs IMAGE.metrics.json, IMAGE.jobs.csv, IMAGE.png (not a real PNG: the
 // report only embeds its bytes).
 inline void write_render_run(const std::filesystem::path& dir, const std::string& stem = "render") {

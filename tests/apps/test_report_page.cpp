@@ -97,6 +97,28 @@ TEST_F(ReportPage, ComparePageHasTheTableBarsAndASectionPerScheduler) {
   expect_self_contained(page);
 }
 
+TEST_F(ReportPage, SweepPageHasThroughputPerClientCountAndASectionPerPoint) {
+  rayline::testing::write_sweep_run(dir_);
+  const std::string page = report_html(read_run_folder(dir_.string()));
+  const std::vector<std::string> ids = svg_ids(page);
+  ASSERT_EQ(ids.size(), 11u);
+  EXPECT_EQ(ids[0], "chart-sweep-throughput");
+  EXPECT_EQ(ids[1], "clients-2-chart-throughput");
+  EXPECT_EQ(ids[10], "clients-10-chart-gantt");
+  EXPECT_TRUE(has(page, "clients-10, rays/s over the run: 2.5M rays/s"));
+  EXPECT_TRUE(has(page, "<a href=\"#run-clients-2\">clients-2</a>"));
+  expect_self_contained(page);
+}
+
+TEST_F(ReportPage, SeveralRendersInOneFolderEachGetASection) {
+  rayline::testing::write_render_run(dir_, "a");
+  rayline::testing::write_render_run(dir_, "b");
+  const std::string page = report_html(read_run_folder(dir_.string()));
+  EXPECT_TRUE(has(page, "<img id=\"a-render-image\""));
+  EXPECT_TRUE(has(page, "<img id=\"b-render-image\""));
+  EXPECT_TRUE(has(page, "<svg id=\"b-chart-gantt\""));
+}
+
 TEST_F(ReportPage, RenderPageEmbedsTheImageAndDerivesChannelsFromTransfers) {
   rayline::testing::write_render_run(dir_);
   const RunFolder f = read_run_folder(dir_.string());

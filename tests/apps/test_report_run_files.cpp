@@ -83,6 +83,16 @@ TEST_F(ReportFiles, ReadsACompareFolderWithEachSchedulersRun) {
   EXPECT_EQ(f.runs[1].scheduler, "budge");
 }
 
+TEST_F(ReportFiles, ReadsAClientSweepInClientOrder) {
+  rayline::testing::write_sweep_run(dir_);
+  const RunFolder f = read_run_folder(dir_.string());
+  EXPECT_EQ(f.kind, RunFolder::Kind::sweep);
+  ASSERT_EQ(f.runs.size(), 2u);
+  EXPECT_EQ(f.runs[0].label, "clients-2");
+  EXPECT_EQ(f.runs[1].label, "clients-10");
+  EXPECT_EQ(f.runs[1].activities.size(), 5u);
+}
+
 TEST_F(ReportFiles, NamesWhatIsMissingOrMalformed) {
   EXPECT_NE(error_of(path("nowhere")).find("nowhere: no such folder"), std::string::npos);
   EXPECT_NE(error_of(dir_.string()).find("not a run folder: it holds no metrics.json"), std::string::npos);

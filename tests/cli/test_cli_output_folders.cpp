@@ -114,7 +114,14 @@ TEST_F(OutputFolders, ARunsReportPageDoesNotKeepTheFolderFromBeingReplaced) {
   r = rayline_cli(cmp);
   ASSERT_EQ(r.code, 0) << r.all;
   EXPECT_FALSE(fs::exists(path("cmp/report.html")));
-  expect_only({"run", "cmp"});
+  const std::string sweep = "simulate --platform paper-A --workload museum --clients 1,2 --duration 1s --no-progress --out " + path("sweep");
+  ASSERT_EQ(rayline_cli(sweep).code, 0);
+  ASSERT_EQ(rayline_cli("report " + path("sweep")).code, 0);
+  ASSERT_TRUE(fs::exists(path("sweep/report.html")));
+  r = rayline_cli(sweep);
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_FALSE(fs::exists(path("sweep/report.html")));
+  expect_only({"run", "cmp", "sweep"});
 }
 
 TEST_F(OutputFolders, CompareAndSweepsCheckEveryRunsFolderBeforeTheFirstRun) {
