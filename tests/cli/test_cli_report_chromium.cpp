@@ -99,7 +99,7 @@ TEST_F(ReportChromium, SimulatePageShowsEveryChart) {
 }
 
 TEST_F(ReportChromium, ComparePageShowsTheSchedulersAndEachRunsCharts) {
-  const auto r = rayline_cli("compare --workload museum --clients 2 --duration 4s --start warm --schedulers gmb,budge --out " +
+  const auto r = rayline_cli("compare --platform paper-2A --workload museum --clients 2 --duration 4s --start warm --schedulers gmb,budge --out " +
                              path("cmp"));
   ASSERT_EQ(r.code, 0) << r.all;
   load_report(path("cmp"));
