@@ -139,60 +139,77 @@ std::vector<WaitStats> wait_stats(const std::vector<Activity>& activities) {
   return out;
 }
 
+namespace {
+
+// `where` names ranked by actual activity time, busiest first; kind 'E' or 'T'.
+std::vector<std::string> ranked_rows(const std::vector<Activity>& activities, char kind) {
+  std::map<std::string, double> busy;
+  for (const Activity& a : activities)
+    if (a.kind == kind && a.actual_start && a.actual_end) busy[a.where] += *a.actual_end - *a.actual_start;
+  std::vector<std::pair<double, std::string>> ranked;
+  for (const auto& [where, t] : busy) ranked.emplace_back(-t, where);
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<std::string> names;
+  for (auto& r : ranked) names.push_back(std::move(r.second));
+  return names;
+}
+
+// Busiest compute devices first, then channels: about 3/5 of the rows for devices, the
+// rest for channels, a share one side does not fill going to the other.
+std::vector<std::string> gantt_rows(const std::vector<Activity>& activities, std::size_t max_rows) {
+  std::vector<std::string> devices = ranked_rows(activities, 'E'), channels = ranked_rows(activities, 'T');
+  const std::size_t want = std::max(max_rows - std::min(channels.size(), max_rows * 2 / 5), max_rows * 3 / 5);
+  devices.resize(std::min(devices.size(), want));
+  channels.resize(std::min(channels.size(), max_rows - devices.size()));
+  devices.insert(devices.end(), channels.begin(), channels.end());
+  return devices;
+}
+
+double first_start(const Activity* a) {
+  return a->actual_start ? std::min(a->planned_start, *a->actual_start) : a->planned_start;
+}
+
+// The window the bars cover, ending where the first activity left out starts (`cut_at`).
+void set_window(GanttView& g, std::optional<double> cut_at) {
+  if (g.bars.empty()) return;
+  g.t0 = g.bars.front().start;
+  g.t1 = g.bars.front().end;
+  for (const GanttView::Bar& b : g.bars) {
+    g.t0 = std::min(g.t0, b.start);
+    g.t1 = std::max(g.t1, b.end);
+  }
+  if (cut_at) g.t1 = std::max(g.t0, std::min(g.t1, *cut_at));
+}
+
+}  // namespace
+
 GanttView gantt_view(const std::vector<Activity>& activities, std::size_t max_rows, std::size_t max_bars) {
   GanttView g;
   g.all_activities = activities.size();
-  // Busiest compute devices (E-jobs) first, then channels (T-jobs): about 3/5 of the rows
-  // for devices, the rest for channels, a share one side does not fill going to the other.
-  std::map<std::string, double> busy[2];  // [0] devices, [1] channels
-  for (const Activity& a : activities)
-    if (a.actual_start && a.actual_end) busy[a.kind == 'T'][a.where] += *a.actual_end - *a.actual_start;
-  std::vector<std::pair<double, std::string>> ranked[2];
-  for (int k = 0; k < 2; ++k) {
-    for (const auto& [where, t] : busy[k]) ranked[k].emplace_back(-t, where);
-    std::sort(ranked[k].begin(), ranked[k].end());
-  }
-  const std::size_t want_devices = std::max(max_rows - std::min(ranked[1].size(), max_rows * 2 / 5), max_rows * 3 / 5);
-  const std::size_t devices = std::min(ranked[0].size(), want_devices);
-  const std::size_t channels = std::min(ranked[1].size(), max_rows - devices);
+  g.rows = gantt_rows(activities, max_rows);
   std::map<std::string, std::size_t> row_of;
-  for (int k = 0; k < 2; ++k)
-    for (std::size_t i = 0; i < (k == 0 ? devices : channels); ++i) {
-      row_of.emplace(ranked[k][i].second, g.rows.size());
-      g.rows.push_back(ranked[k][i].second);
-    }
-  // The selected rows' activities by first start (planned or actual), and their bars.
+  for (std::size_t r = 0; r < g.rows.size(); ++r) row_of.emplace(g.rows[r], r);
+  // The selected rows' activities by first start (planned or actual), a planned and an
+  // actual bar each, until the next would pass max_bars.
   std::vector<const Activity*> chosen;
   for (const Activity& a : activities)
     if (row_of.count(a.where)) chosen.push_back(&a);
   g.row_activities = chosen.size();
-  const auto first_start = [](const Activity* a) {
-    return a->actual_start ? std::min(a->planned_start, *a->actual_start) : a->planned_start;
-  };
   std::stable_sort(chosen.begin(), chosen.end(),
-                   [&](const Activity* a, const Activity* b) { return first_start(a) < first_start(b); });
-  std::size_t bars = 0;
-  bool any = false, cut = false;
-  double cut_at = 0;  // where the first activity left out starts: the window ends there
+                   [](const Activity* a, const Activity* b) { return first_start(a) < first_start(b); });
+  std::optional<double> cut_at;
   for (const Activity* a : chosen) {
-    const std::size_t n = 1 + (a->actual_start && a->actual_end ? 1 : 0);
-    if (bars + n > max_bars) {
-      cut = true;
+    const bool ran = a->actual_start && a->actual_end;
+    if (g.bars.size() + (ran ? 2 : 1) > max_bars) {
       cut_at = first_start(a);
       break;
     }
-    bars += n;
     const std::size_t row = row_of.at(a->where);
     g.bars.push_back({row, a->planned_start, a->planned_end, true, a});
-    if (n == 2) g.bars.push_back({row, *a->actual_start, *a->actual_end, false, a});
+    if (ran) g.bars.push_back({row, *a->actual_start, *a->actual_end, false, a});
     ++g.shown_activities;
   }
-  for (const GanttView::Bar& b : g.bars) {
-    g.t0 = any ? std::min(g.t0, b.start) : b.start;
-    g.t1 = any ? std::max(g.t1, b.end) : b.end;
-    any = true;
-  }
-  if (cut && any) g.t1 = std::max(g.t0, std::min(g.t1, cut_at));
+  set_window(g, cut_at);
   return g;
 }
 

@@ -310,14 +310,33 @@ std::string histogram(const ChartFrame& frame, const std::vector<double>& edges,
   return svg.finish();
 }
 
+namespace {
+
+// Each row's sum over the series (negative values count as 0).
+std::vector<double> row_totals(std::size_t rows, const std::vector<Series>& series) {
+  std::vector<double> totals(rows, 0.0);
+  for (const Series& s : series)
+    for (std::size_t r = 0; r < rows && r < s.values.size(); ++r) totals[r] += std::max(0.0, s.values[r]);
+  return totals;
+}
+
+// The tooltip of one segment: its value, or its share (and value unless that is a share).
+std::string segment_tip(const std::string& row, const Series& s, double value, double share, bool shares,
+                        std::string_view unit) {
+  std::string tip = row + ", " + s.name + ": ";
+  if (!shares) return tip + format_quantity(value, unit);
+  tip += format_quantity(share / 100, "%");
+  return unit == "%" ? tip : tip + " (" + format_quantity(value, unit) + ")";
+}
+
+}  // namespace
+
 std::string stacked_hbars(const ChartFrame& frame, const std::vector<std::string>& rows,
                           const std::vector<Series>& series, bool shares, std::string_view value_unit) {
   constexpr double kRow = 16;
   const int height = std::max(frame.height, frame.top + frame.bottom + static_cast<int>(kRow * rows.size()));
   Svg svg(frame, height);
-  std::vector<double> totals(rows.size(), 0.0);
-  for (const Series& s : series)
-    for (std::size_t r = 0; r < rows.size() && r < s.values.size(); ++r) totals[r] += std::max(0.0, s.values[r]);
+  const std::vector<double> totals = row_totals(rows.size(), series);
   const double widest = totals.empty() ? 0 : *std::max_element(totals.begin(), totals.end());
   const Ticks xt = shares ? nice_ticks(0, 100, 5) : nice_ticks(0, widest, 6);
   const LinearScale xs{xt.values.front(), xt.values.back(), svg.left(), svg.left() + svg.plot_width()};
@@ -329,15 +348,12 @@ std::string stacked_hbars(const ChartFrame& frame, const std::vector<std::string
     const double y = svg.top() + r * band;
     svg.text(svg.left() - 6, y + band / 2 + 4, clip(rows[r], static_cast<std::size_t>(svg.left() / 6.5)), "end",
              "font-size=\"11\"");
-    double at = 0;
+    double at = 0;  // where the next segment starts, in axis units
     for (const Series& s : series) {
       const double v = r < s.values.size() ? std::max(0.0, s.values[r]) : 0;
       const double w = shares ? (totals[r] > 0 ? 100 * v / totals[r] : 0) : v;
-      const std::string tip = rows[r] + ", " + s.name + ": " +
-                              (!shares ? format_quantity(v, value_unit)
-                               : value_unit == "%" ? format_quantity(w / 100, "%")
-                                                   : format_quantity(w / 100, "%") + " (" + format_quantity(v, value_unit) + ")");
-      svg.rect(xs(at), y + band * 0.15, xs(at + w) - xs(at), band * 0.7, s.colour, tip);
+      svg.rect(xs(at), y + band * 0.15, xs(at + w) - xs(at), band * 0.7, s.colour,
+               segment_tip(rows[r], s, v, w, shares, value_unit));
       at += w;
     }
   }
