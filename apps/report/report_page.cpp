@@ -144,7 +144,7 @@ std::string waits_chart(const RunData& run, const std::string& prefix) {
   constexpr std::size_t kBins = 30;
   std::vector<double> edges, counts(kBins, 0.0);
   for (std::size_t i = 0; i <= kBins; ++i) edges.push_back(hi * static_cast<double>(i) / kBins);
-  for (const double w : waits) counts[std::min(kBins - 1, static_cast<std::size_t>(w / hi * kBins))] += 1;
+  for (const double w : waits) counts[bin_of(w, 0, hi / kBins, kBins)] += 1;
   ChartFrame f{id_of(prefix, "chart-queue-waits"), "Queue waits of E-jobs", "wait (s)", "E-jobs"};
   return figure(histogram(f, edges, counts, "s"),
                 "How long each started E-job waited in the queue: actual_start − created (jobs CSV), " +

@@ -27,7 +27,7 @@ Throughput throughput(const RunData& run, std::size_t bins) {
   std::vector<double> bytes(bins, 0.0);
   for (const Activity& a : run.activities)
     if (a.kind == 'E' && a.actual_end)
-      bytes[std::min(bins - 1, static_cast<std::size_t>(*a.actual_end / width))] += a.bytes;
+      bytes[bin_of(*a.actual_end, 0, width, bins)] += a.bytes;
   t.counts = "ray-queue bytes of the E-jobs finished per second, in " + std::to_string(bins) +
              " equal time bins (jobs.csv: bytes, actual_end)";
   t.unit = "B/s";
@@ -106,6 +106,13 @@ std::vector<ChannelUse> channel_use(const RunData& run) {
   return out;
 }
 
+std::size_t bin_of(double x, double lo, double width, std::size_t bins) {
+  if (bins == 0) return 0;
+  const double at = width > 0 ? (x - lo) / width : 0;
+  if (!(at > 0)) return 0;  // also NaN
+  return at >= static_cast<double>(bins - 1) ? bins - 1 : static_cast<std::size_t>(at);
+}
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -116,7 +123,8 @@ double percentile(std::vector<double> v, double q) {
 std::vector<double> queue_waits(const std::vector<Activity>& activities) {
   std::vector<double> w;
   for (const Activity& a : activities)
-    if (a.kind == 'E' && a.actual_start && a.created) w.push_back(std::max(0.0, *a.actual_start - *a.created));
+    if (a.kind == 'E' && a.actual_start && a.created && std::isfinite(*a.actual_start - *a.created))
+      w.push_back(std::max(0.0, *a.actual_start - *a.created));
   return w;
 }
 
@@ -124,7 +132,7 @@ std::vector<WaitStats> wait_stats(const std::vector<Activity>& activities) {
   std::map<std::string, std::vector<double>> by_type;
   std::vector<double> all;
   for (const Activity& a : activities) {
-    if (a.kind != 'E' || !a.actual_start || !a.created) continue;
+    if (a.kind != 'E' || !a.actual_start || !a.created || !std::isfinite(*a.actual_start - *a.created)) continue;
     const double w = std::max(0.0, *a.actual_start - *a.created);
     by_type[a.type].push_back(w);
     all.push_back(w);

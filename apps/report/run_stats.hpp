@@ -35,7 +35,8 @@ std::vector<DeviceRow> device_rows(const std::vector<DeviceTime>& devices, std::
 // or the last actual end).
 std::vector<ChannelUse> channel_use(const RunData& run);
 
-// Queue waits of E-jobs: actual_start - created, for those that started.
+// Queue waits of E-jobs: actual_start - created, for those that started (a wait that
+// overflows a double is left out).
 struct WaitStats {
   std::string type;
   std::size_t count = 0;
@@ -44,6 +45,10 @@ struct WaitStats {
 std::vector<double> queue_waits(const std::vector<Activity>& activities);
 // Per E-job type (sorted by name), then "all" last.
 std::vector<WaitStats> wait_stats(const std::vector<Activity>& activities);
+// The bin of `x` among `bins` bins of `width` from `lo`: values outside (and NaN) go to
+// the first or last bin.
+std::size_t bin_of(double x, double lo, double width, std::size_t bins);
+
 // The value at quantile q of `v` (nearest rank, as metrics.json's percentiles).
 double percentile(std::vector<double> v, double q);
 

@@ -36,9 +36,10 @@ double LinearScale::operator()(double v) const {
 Ticks nice_ticks(double lo, double hi, int max_ticks) {
   if (!std::isfinite(lo) || !std::isfinite(hi)) lo = hi = 0;
   if (hi < lo) std::swap(lo, hi);
-  if (hi == lo) hi = lo + 1;
+  if (hi - lo <= std::abs(lo) * 1e-9) hi = lo + (lo == 0 ? 1 : std::abs(lo) * 0.1);  // a range a step can cover
   max_ticks = std::max(max_ticks, 1);
   const double raw = (hi - lo) / max_ticks;
+  if (!std::isfinite(raw) || raw <= 0) return Ticks{{lo, hi}, hi - lo};
   const double mag = std::pow(10.0, std::floor(std::log10(raw)));
   double step = mag;
   for (const double m : {1.0, 2.0, 5.0, 10.0}) {
@@ -48,7 +49,7 @@ Ticks nice_ticks(double lo, double hi, int max_ticks) {
   Ticks t;
   t.step = step;
   const double first = std::floor(lo / step + 1e-9) * step;
-  for (int i = 0;; ++i) {
+  for (int i = 0; i <= 2 * max_ticks + 2; ++i) {  // bounded, whatever rounding does
     const double v = first + i * step;
     t.values.push_back(std::abs(v) < step * 1e-9 ? 0.0 : v);
     if (v >= hi - step * 1e-9) break;
@@ -74,6 +75,10 @@ Suffix si_suffix(double v) {
 // `v` with `decimals` decimals, trailing zeros (and a trailing point) removed, no "-0".
 std::string fixed(double v, int decimals) {
   char buf[64];
+  if (!std::isfinite(v) || std::abs(v) >= 1e15) {  // too long in full: an exponent
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    return buf;
+  }
   std::snprintf(buf, sizeof buf, "%.*f", std::clamp(decimals, 0, 12), v);
   std::string s = buf;
   if (s.find('.') != std::string::npos) {
@@ -119,7 +124,7 @@ std::string format_quantity(double value, std::string_view unit) {
     const double a = std::abs(value);
     if (a > 0 && a < 1e-3) return sig3(value * 1e6) + " µs";
     if (a > 0 && a < 1) return sig3(value * 1e3) + " ms";
-    return (a >= 1000 ? fixed(value, 0) : sig3(value)) + " s";
+    return (a >= 1000 && a < 1e15 ? fixed(value, 0) : sig3(value)) + " s";
   }
   if (unit == "B") {
     const Suffix s = si_suffix(value);
@@ -134,7 +139,8 @@ std::string format_quantity(double value, std::string_view unit) {
 
 namespace {
 
-std::string num(double v) { return fixed(v, 1); }
+// A coordinate; one that overflowed (a value near the largest double) is drawn at 0.
+std::string num(double v) { return std::isfinite(v) ? fixed(v, 1) : "0"; }
 
 // Markup of one <svg> element, written in order.
 class Svg {
@@ -351,7 +357,8 @@ std::string stacked_hbars(const ChartFrame& frame, const std::vector<std::string
     double at = 0;  // where the next segment starts, in axis units
     for (const Series& s : series) {
       const double v = r < s.values.size() ? std::max(0.0, s.values[r]) : 0;
-      const double w = shares ? (totals[r] > 0 ? 100 * v / totals[r] : 0) : v;
+      double w = shares ? (totals[r] > 0 ? 100 * v / totals[r] : 0) : v;
+      if (!std::isfinite(w)) w = 0;
       svg.rect(xs(at), y + band * 0.15, xs(at + w) - xs(at), band * 0.7, s.colour,
                segment_tip(rows[r], s, v, w, shares, value_unit));
       at += w;

@@ -2,12 +2,14 @@
 // numbers right, nothing loaded from outside.
 #include <gtest/gtest.h>
 
+#include <random>
 #include <regex>
 
 #include "apps/report/report_page.hpp"
 #include "apps/report/run_files.hpp"
 #include "apps/run_folder_fixture.hpp"
 #include "cli/scratch_test.hpp"
+#include "common/error.hpp"
 
 namespace rayline::report {
 namespace {
@@ -130,6 +132,48 @@ TEST_F(ReportPage, RenderPageEmbedsTheImageAndDerivesChannelsFromTransfers) {
   EXPECT_TRUE(has(page, "<th>scene</th><td>scenes/cornell.json</td>"));
   EXPECT_TRUE(has(page, "ray-queue bytes of the E-jobs finished per second"));
   expect_self_contained(page);
+}
+
+// Mutated run files: each one is read and charted or refused as bad input (InputError),
+// never a crash or another exception, and no chart holds a coordinate that is not a number.
+TEST_F(ReportPage, MutatedRunFilesAreChartedOrRefusedAsBadInput) {
+  const std::string metrics = rayline::testing::simulate_metrics(), jobs = rayline::testing::simulate_jobs();
+  const std::string alphabet = "0123456789.-e,\"{}[]:\n x";
+  std::mt19937 rng(7);
+  std::size_t refused = 0;
+  for (int i = 0; i < 400; ++i) {
+    std::string m = metrics, j = jobs;
+    std::string& target = i % 2 ? j : m;
+    for (int k = 0; k < 1 + i % 3; ++k) {
+      const std::size_t at = rng() % target.size();
+      if (rng() % 4 == 0)
+        target.erase(at, 1 + rng() % 8);
+      else
+        target[at] = alphabet[rng() % alphabet.size()];
+    }
+    rayline::testing::write_text_file(dir_ / "metrics.json", m);
+    rayline::testing::write_text_file(dir_ / "jobs.csv", j);
+    try {
+      const std::string page = report_html(read_run_folder(dir_.string()));
+      EXPECT_FALSE(std::regex_search(page, std::regex("=\"-?(nan|inf)"))) << m << j;
+    } catch (const InputError&) {
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 50u);  // the mutations reach the checks
+  EXPECT_LT(refused, 400u);
+}
+
+TEST_F(ReportPage, ValuesNearTheLargestDoubleStillGiveNumbers) {
+  rayline::testing::write_text_file(dir_ / "metrics.json",
+                                    R"({"rays_per_second_series": [1e308, 1e308], "simulated_s": 1e308,
+                                        "devices": [{"name": "a", "busy_s": 1e308, "fetching_s": 1e308, "idle_s": 1e308}],
+                                        "resources": [{"resource": "r", "utilisation": 1e308}]})");
+  rayline::testing::write_text_file(dir_ / "jobs.csv", rayline::testing::simulate_jobs() +
+                                                           "5,E,j,Shade,A.cpu0,,1e308,0,1e308,-1e308,1e308,done,-1e308\n");
+  const std::string page = report_html(read_run_folder(dir_.string()));
+  EXPECT_FALSE(std::regex_search(page, std::regex("=\"-?(nan|inf)")));
+  EXPECT_EQ(svg_ids(page).size(), 5u);
 }
 
 }  // namespace

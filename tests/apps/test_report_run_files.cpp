@@ -1,6 +1,8 @@
 // Reading run folders for `rayline report`, and the numbers behind its charts.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "apps/report/run_files.hpp"
 #include "apps/report/run_stats.hpp"
 #include "apps/run_folder_fixture.hpp"
@@ -138,6 +140,15 @@ TEST(ReportStats, ThroughputComesFromTheSeriesOrFromFinishedEJobs) {
   ASSERT_EQ(b.values.size(), 2u);
   EXPECT_DOUBLE_EQ(b.values[0], 0.0);          // [0, 0.5): nothing finished
   EXPECT_DOUBLE_EQ(b.values[1], 1200 / 0.5);   // [0.5, 1]: both
+}
+
+TEST(ReportStats, BinsClampValuesOutsideTheRange) {
+  EXPECT_EQ(bin_of(0.0, 0, 0.5, 4), 0u);
+  EXPECT_EQ(bin_of(0.6, 0, 0.5, 4), 1u);
+  EXPECT_EQ(bin_of(2.0, 0, 0.5, 4), 3u);  // the upper end is in the last bin
+  EXPECT_EQ(bin_of(1e300, 0, 0.5, 4), 3u);
+  EXPECT_EQ(bin_of(-3, 0, 0.5, 4), 0u);
+  EXPECT_EQ(bin_of(std::nan(""), 0, 0.5, 4), 0u);
 }
 
 TEST(ReportStats, ManyDevicesAreGroupedPerNodeAndKind) {
