@@ -29,6 +29,7 @@ code { background: #f1f3f5; padding: 0 .2em; word-break: break-all; }
 figure { margin: 1em 0 2em; } figcaption { font-size: .85em; color: #495057; max-width: 760px; }
 svg.chart { font-family: sans-serif; font-size: 11px; display: block; }
 p.missing { color: #868e96; font-style: italic; }
+div.wide { overflow-x: auto; }
 img.render { image-rendering: pixelated; min-width: 256px; max-width: 100%; border: 1px solid #dee2e6; }
 </style>
 )";
@@ -192,9 +193,19 @@ double cell_number(const std::string& s) {
   return ec == std::errc() && end == s.data() + s.size() && std::isfinite(v) ? v : 0.0;
 }
 
+// A cell of compare.csv: a number with 3 significant digits (the value as written in its
+// tooltip), else the text.
+std::string table_cell(const std::string& cell) {
+  double v = 0;
+  const auto [end, ec] = std::from_chars(cell.data(), cell.data() + cell.size(), v);
+  if (cell.empty() || ec != std::errc() || end != cell.data() + cell.size() || !std::isfinite(v))
+    return "<td>" + escape_xml(cell) + "</td>";
+  return "<td class=\"num\" title=\"" + escape_xml(cell) + "\">" + escape_xml(format_si(v)) + "</td>";
+}
+
 std::string compare_section(const RunFolder& folder) {
   const CompareTable& t = *folder.compare;
-  std::string h = "<section id=\"compare\">\n<h2>Schedulers compared</h2>\n<table class=\"compare\">\n<tr>";
+  std::string h = "<section id=\"compare\">\n<h2>Schedulers compared</h2>\n<div class=\"wide\"><table class=\"compare\">\n<tr>";
   for (const std::string& c : t.header) h += "<th>" + escape_xml(c) + "</th>";
   h += "</tr>\n";
   std::vector<std::string> names;
@@ -208,14 +219,14 @@ std::string compare_section(const RunFolder& folder) {
       if (t.header[c] == "scheduler" && has_run)
         h += "<td><a href=\"#run-" + escape_xml(id_safe(name)) + "\">" + escape_xml(cell) + "</a></td>";
       else
-        h += "<td>" + escape_xml(cell) + "</td>";
+        h += table_cell(cell);
     }
     h += "</tr>\n";
     names.push_back(name);
     whole.values.push_back(cell_number(t.cell(r, "rays_per_second")));
     steady.values.push_back(cell_number(t.cell(r, "steady_rays_shot_per_second")));
   }
-  h += "</table>\n";
+  h += "</table></div>\n";
   std::vector<Series> series{whole};
   if (std::any_of(steady.values.begin(), steady.values.end(), [](double v) { return v > 0; })) series.push_back(steady);
   ChartFrame f{"chart-compare-throughput", "Throughput per scheduler", "scheduler", "rays/s"};

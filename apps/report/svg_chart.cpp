@@ -109,6 +109,8 @@ std::string with_si(double v) {
 
 }  // namespace
 
+std::string format_si(double value) { return std::isfinite(value) ? with_si(value) : "n/a"; }
+
 std::string format_tick(double value, double step) {
   if (std::abs(value) < std::abs(step) * 1e-9) return "0";
   const Suffix s = si_suffix(value);

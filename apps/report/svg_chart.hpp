@@ -32,6 +32,8 @@ Ticks nice_ticks(double lo, double hi, int max_ticks = 6);
 // A tick label: the value with as many decimals as the step needs, and k, M, G, T for
 // thousands and up ("0", "0.5M", "1M", "1.5M"); never "-0".
 std::string format_tick(double value, double step);
+// 3 significant digits and an SI suffix for thousands and up: "6.31M", "0.423", "12".
+std::string format_si(double value);
 // A value for a table or tooltip with 3 significant digits and its unit: "s" as µs, ms or
 // s ("664 µs"); "B" as B, kB, MB, GB, TB ("1.46 GB"); "%" (a fraction) as a percentage
 // ("97.6 %"); other units after an SI suffix ("3.67M rays/s"); no unit: a plain number

@@ -94,6 +94,7 @@ TEST_F(ReportPage, ComparePageHasTheTableBarsAndASectionPerScheduler) {
   EXPECT_TRUE(has(page, "<td><a href=\"#run-gmb\">gmb</a></td>"));
   EXPECT_TRUE(has(page, "<section class=\"run\" id=\"run-budge\">"));
   EXPECT_TRUE(has(page, "<td>gmb{k=2s; a, b}</td>"));
+  EXPECT_TRUE(has(page, "<td class=\"num\" title=\"1500000\">1.5M</td>"));  // numbers shortened
   EXPECT_TRUE(has(page, "gmb, rays/s over the run: 3M rays/s"));
   EXPECT_TRUE(has(page, "budge, steady rays shot/s: 500k rays/s"));
   expect_self_contained(page);

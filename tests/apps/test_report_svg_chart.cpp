@@ -85,6 +85,14 @@ TEST(ReportSvg, QuantitiesCarryTheirUnit) {
   EXPECT_EQ(format_quantity(2.5, ""), "2.5");
 }
 
+TEST(ReportSvg, SiFormatKeepsThreeSignificantDigits) {
+  EXPECT_EQ(format_si(6314550), "6.31M");
+  EXPECT_EQ(format_si(0.422702), "0.423");
+  EXPECT_EQ(format_si(12), "12");
+  EXPECT_EQ(format_si(3.2768e-05), "3.28e-05");
+  EXPECT_EQ(format_si(-1500), "-1.5k");
+}
+
 TEST(ReportSvg, LineChartHasItsIdTitleAxesAndOnePointPerValue) {
   ChartFrame f{"chart-x", "Rays <per> second", "time (s)", "rays/s"};
   const std::string svg = line_chart(f, {0.5, 1.5, 2.5}, {{"rays/s", "#000", {0, 2e6, 1e6}}}, "rays/s");
