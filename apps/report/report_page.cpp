@@ -29,7 +29,7 @@ code { background: #f1f3f5; padding: 0 .2em; word-break: break-all; }
 figure { margin: 1em 0 2em; } figcaption { font-size: .85em; color: #495057; max-width: 760px; }
 svg.chart { font-family: sans-serif; font-size: 11px; display: block; }
 p.missing { color: #868e96; font-style: italic; }
-div.wide { overflow-x: auto; }
+div.wide { overflow-x: auto; } table.compare td { white-space: nowrap; }
 img.render { image-rendering: pixelated; min-width: 256px; max-width: 100%; border: 1px solid #dee2e6; }
 </style>
 )";

@@ -2,7 +2,6 @@
 // shapes each chart draws.
 #include <gtest/gtest.h>
 
-#include <regex>
 #include <string>
 
 #include "apps/report/svg_chart.hpp"
@@ -16,12 +15,14 @@ std::size_t count(const std::string& s, const std::string& what) {
   return n;
 }
 
-// The width attribute of the rect whose tooltip starts with `tip`.
+// The width attribute of the rect whose tooltip starts with `tip` (-1 when there is none).
 double rect_width(const std::string& svg, const std::string& tip) {
-  const std::regex re("<rect [^>]*width=\"([0-9.]+)\"[^>]*><title>" + tip);
-  std::smatch m;
-  if (!std::regex_search(svg, m, re)) return -1;
-  return std::stod(m[1]);
+  const std::size_t title = svg.find("><title>" + tip);
+  if (title == std::string::npos) return -1;
+  const std::size_t rect = svg.rfind("<rect ", title);
+  const std::size_t width = svg.find(" width=\"", rect);
+  if (rect == std::string::npos || width == std::string::npos || width > title) return -1;
+  return std::stod(svg.substr(width + 8));
 }
 
 TEST(ReportSvg, EscapesMarkupQuotesAndControlCharacters) {
