@@ -74,7 +74,7 @@ std::string header_table(const RunData& run) {
 std::string throughput_chart(const RunData& run, const std::string& prefix) {
   const Throughput t = throughput(run);
   if (t.values.empty()) return missing("Throughput over time", "no rays_per_second_series in metrics.json and no finished E-jobs in a jobs CSV");
-  ChartFrame f{id_of(prefix, "chart-throughput"), "Throughput over time", run.render ? "run time (s)" : "simulated time (s)",
+  ChartFrame f{id_of(prefix, "chart-throughput"), t.title, run.render ? "run time (s)" : "simulated time (s)",
                t.unit};
   return figure(line_chart(f, t.x, {{t.unit, colour::kLine, t.values}}, t.unit), "Counts " + t.counts + ".");
 }

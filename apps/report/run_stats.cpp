@@ -11,6 +11,7 @@ namespace rayline::report {
 Throughput throughput(const RunData& run, std::size_t bins) {
   Throughput t;
   if (!run.rays_per_second_series.empty()) {
+    t.title = "Throughput: rays traced per simulated second";
     t.counts = "rays traced per simulated second (metrics.json: rays_per_second_series)";
     t.unit = "rays/s";
     for (std::size_t i = 0; i < run.rays_per_second_series.size(); ++i) {
@@ -28,6 +29,7 @@ Throughput throughput(const RunData& run, std::size_t bins) {
   for (const Activity& a : run.activities)
     if (a.kind == 'E' && a.actual_end)
       bytes[bin_of(*a.actual_end, 0, width, bins)] += a.bytes;
+  t.title = "Throughput: ray bytes of the E-jobs finished per second";
   t.counts = "ray-queue bytes of the E-jobs finished per second, in " + std::to_string(bins) +
              " equal time bins (jobs.csv: bytes, actual_end)";
   t.unit = "B/s";

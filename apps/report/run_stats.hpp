@@ -13,6 +13,7 @@ namespace rayline::report {
 // A throughput curve: values[i] at x[i] (seconds), with what it counts.
 struct Throughput {
   std::vector<double> x, values;
+  std::string title;   // what it counts, short, for the chart's title
   std::string counts;  // e.g. "rays per simulated second (metrics.json: rays_per_second_series)"
   std::string unit;    // of values: "rays/s" or "B/s"
 };

@@ -75,6 +75,7 @@ TEST_F(ReportPage, SimulatePageHasEveryChartAndTheHeader) {
   EXPECT_TRUE(has(page, "lan:A-&gt;B (LAN), busy: 12.5 %"));
   EXPECT_TRUE(has(page, "A.gpu0, busy: 75 % (3 s)"));     // device shares
   EXPECT_TRUE(has(page, "rays/s: 4M rays/s at"));          // the last second of the series
+  EXPECT_TRUE(has(page, ">Throughput: rays traced per simulated second</text>"));
   // Queue waits per type: RayIntersect 1 s; Shade 0 s and 3 s; all three.
   EXPECT_TRUE(has(page, "<tr><td>RayIntersect</td><td class=\"num\">1</td><td class=\"num\">1 s</td>"));
   EXPECT_TRUE(has(page, "<tr><td>Shade</td><td class=\"num\">2</td>"));
@@ -144,7 +145,7 @@ TEST_F(ReportPage, RenderPageEmbedsTheImageAndDerivesChannelsFromTransfers) {
   EXPECT_TRUE(has(page, "W.disk:disk-&gt;ram, busy: 50 %"));  // [0, 0.5] and [0.25, 1] over 2 s
   EXPECT_TRUE(has(page, "<th>resolution</th><td>64 x 48</td>"));
   EXPECT_TRUE(has(page, "<th>scene</th><td>scenes/cornell.json</td>"));
-  EXPECT_TRUE(has(page, "ray-queue bytes of the E-jobs finished per second"));
+  EXPECT_TRUE(has(page, ">Throughput: ray bytes of the E-jobs finished per second</text>"));
   expect_self_contained(page);
 }
 
