@@ -2,8 +2,10 @@
 #include "apps/report/report_page.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 #include "apps/report/run_stats.hpp"
@@ -120,12 +122,12 @@ std::string channels_chart(const RunData& run, const std::string& prefix) {
   ChartFrame f{id_of(prefix, "chart-channels"), "Channel utilisation", "share of the run (%)", ""};
   f.left = 190;
   f.height = 120;
-  const std::string source = run.channels.empty()
-                                 ? "each channel's T-jobs (jobs CSV), as the union of their actual intervals over the run"
-                                 : "each channel resource, a medium its channels share (metrics.json resources[])";
+  const std::string source =
+      run.channels.empty()
+          ? "Share of the run each channel was busy: the union of its T-jobs' actual intervals (jobs CSV) over the run's time"
+          : "Share of the run each channel resource (a medium its channels share: metrics.json resources[]) was busy";
   return figure(stacked_hbars(f, names, {busy, idle}, true, "%"),
-                "Share of the run that " + source + " was busy" +
-                    (all > use.size() ? "; the " + std::to_string(use.size()) + " busiest of " + std::to_string(all) + " shown." : "."));
+                source + (all > use.size() ? "; the " + std::to_string(use.size()) + " busiest of " + std::to_string(all) + " shown." : "."));
 }
 
 std::string waits_table(const std::vector<WaitStats>& stats) {

@@ -2,6 +2,7 @@
 #include "apps/report/run_files.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
