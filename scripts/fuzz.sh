@@ -33,7 +33,7 @@ Targets: platform job_set scene_profile scene ply obj stl off gltf assimp block 
 USAGE
 }
 
-ALL_TARGETS=(platform job_set scene_profile scene ply obj stl off gltf assimp block block_index)
+ALL_TARGETS=(platform job_set scene_profile scene ply obj stl off gltf assimp block block_index run_metrics jobs_csv)
 MINUTES=10
 BUILD_DIR=""
 WORK="${TMPDIR:-/tmp}/rayline-fuzz-work"
