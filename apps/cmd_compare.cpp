@@ -162,7 +162,7 @@ int run_compare(const CompareOptions& opt) {
   for (const std::string& s : scheds) check_run_folder(opt.sim, opt.out + "/" + s);
   std::vector<std::string> folders;
   for (const std::string_view name : kSchedulerNames) folders.emplace_back(name);
-  const auto check = [&] { return check_results_set(opt.sim, opt.out, {"compare.csv", "compare.json"}, folders); };
+  const auto check = [&] { return check_results_set(opt.sim, opt.out, {"compare.csv", "compare.json", "report.html"}, folders); };
   StagedFolder stage(check(), opt.out, "--out", check);
   std::vector<Row> rows;
   for (const auto& s : scheds) {

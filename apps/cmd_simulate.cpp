@@ -228,7 +228,7 @@ int sweep_point(const sim::SimulationConfig& cfg, int clients, const std::string
 // With no counts (--clients auto) the sweep finds the peak itself (sim/peak_search.hpp):
 // doubling client counts until two in a row gain no more than 2 %.
 int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, const std::vector<int>& counts) {
-  const auto check = [&] { return check_results_set(opt, opt.out, {}, {"clients-*"}); };
+  const auto check = [&] { return check_results_set(opt, opt.out, {"report.html"}, {"clients-*"}); };
   StagedFolder stage(check(), opt.out, "--out", check);
   double peak = 0;
   int peak_n = 0;

@@ -17,6 +17,7 @@
 #include "apps/cmd_partition.hpp"
 #include "apps/cmd_devices.hpp"
 #include "apps/cmd_render.hpp"
+#include "apps/cmd_report.hpp"
 #include "apps/cmd_plan.hpp"
 #include "apps/cmd_platform.hpp"
 #include "apps/cmd_simulate.hpp"
@@ -74,6 +75,18 @@ void add_plan(CLI::App& app, std::function<int()>& action) {
   plan->add_option("--seed", opt->seed, "Seed of the synthetic job set")->default_val(opt->seed)->check(kSeed);
   plan->add_flag("--quiet,-q", opt->quiet, "Print only the summary lines, no per-device table");
   plan->callback([opt, &action] { action = [opt] { return run_plan(*opt); }; });
+}
+
+void add_report(CLI::App& app, std::function<int()>& action) {
+  auto opt = std::make_shared<ReportOptions>();
+  auto* r = app.add_subcommand(
+      "report", "Write a self-contained HTML page (inline SVG charts) of a simulate, compare or render output folder");
+  r->add_option("run_dir", opt->dir,
+                "RUN_DIR: a folder written by `simulate --out`, `compare --out`, or holding a render's "
+                "IMAGE.metrics.json (with IMAGE.jobs.csv, IMAGE.png)")
+      ->required();
+  r->add_option("--out,-o", opt->out, "HTML file to write (default: RUN_DIR/report.html)");
+  r->callback([opt, &action] { action = [opt] { return run_report(*opt); }; });
 }
 
 #ifdef RAYLINE_WITH_SIM  // simulate, compare: need sim/ (SimGrid)
@@ -427,6 +440,7 @@ int main(int argc, char** argv) {
   add_calibrate(app, action);
   add_devices(app, action);
 #endif
+  add_report(app, action);
   // New subcommands: add an add_<name>(app, action) above, call it here, and list its
   // cmd_<name>.cpp in apps/CMakeLists.txt.
   if (argc == 2 && std::string(argv[1]) == kCliReferenceFlag) {  // docs/cli.md (scripts/update_cli_reference.sh)

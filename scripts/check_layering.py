@@ -47,6 +47,8 @@ LAYERS = {
     "render/accel": RENDER_INTEGRATOR + RENDER_ENGINES + ["render/store", "sched/core/types.hpp"],
     "render/engine": SCHED_ALL + ["workload", "render"],
     "apps": SCHED_ALL + ["workload", "sim", "render", "apps"],
+    # `rayline report` reads a run's files: it needs none of the engines
+    "apps/report": ["common"],
     "tests": None,  # anything
     "bench": None,
 }
@@ -88,6 +90,7 @@ TARGETS = {
     "rayline_store": "render/store",
     "rayline_accel": "render/accel",
     "rayline_render": "render/engine",
+    "rayline_report": "apps/report",
 }
 TARGET_FOLDER_OF_LINK = {  # what a linked target stands for, as an include prefix
     "rayline_common": "common", "rayline_sched": "sched", "rayline_workload": "workload",
@@ -95,6 +98,7 @@ TARGET_FOLDER_OF_LINK = {  # what a linked target stands for, as an include pref
     "rayline_partition": "render/partition", "rayline_reference": "render/reference",
     "rayline_integrator": "render/integrator", "rayline_embree": "render/embree", "rayline_vulkan": "render/vulkan",
     "rayline_store": "render/store", "rayline_accel": "render/accel", "rayline_render": "render/engine",
+    "rayline_report": "apps/report",
 }
 
 SOURCE_EXT = (".cpp", ".hpp", ".h")

@@ -29,11 +29,11 @@ with ctest -L fuzz. This is the check CI can run besides the normal test suite.
 --jobs N: parallel compile jobs (default 2). The compiler cache is used when ccache is
 installed (CCACHE_DIR as set in the environment).
 
-Targets: platform job_set scene_profile scene ply obj stl off gltf assimp block block_index
+Targets: platform job_set scene_profile scene ply obj stl off gltf assimp block block_index run_metrics jobs_csv
 USAGE
 }
 
-ALL_TARGETS=(platform job_set scene_profile scene ply obj stl off gltf assimp block block_index)
+ALL_TARGETS=(platform job_set scene_profile scene ply obj stl off gltf assimp block block_index run_metrics jobs_csv)
 MINUTES=10
 BUILD_DIR=""
 WORK="${TMPDIR:-/tmp}/rayline-fuzz-work"

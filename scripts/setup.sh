@@ -12,6 +12,7 @@ PACKAGES=(
   libvulkan-dev mesa-vulkan-drivers glslc
   python3-matplotlib python3-pandas jupyter-nbconvert python3-nbformat python3-ipykernel python3-imath
   valgrind  # scripts/count_plan_instructions.sh (GMB planning cost, deterministic)
+  chromium  # ctest -L report: `rayline report` pages loaded headless (tests/cli/test_cli_report_chromium.cpp)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

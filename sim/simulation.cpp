@@ -36,8 +36,9 @@ namespace {
 
 using nlohmann::json;
 
-// What a run writes into its folder (the only files replacing it may remove).
-const OwnFiles kRunFiles = {"metrics.json", "jobs.csv", "timeline.json", "simgrid.trace", "replay.log"};
+// What a run writes into its folder (the only files replacing it may remove), and the
+// page `rayline report` writes there by default (it describes the run being replaced).
+const OwnFiles kRunFiles = {"metrics.json", "jobs.csv", "timeline.json", "simgrid.trace", "replay.log", "report.html"};
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;

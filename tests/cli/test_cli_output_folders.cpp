@@ -98,6 +98,32 @@ TEST_F(OutputFolders, SimulateReplacesItsOwnEarlierResults) {
   expect_only({"run", "real", "link"});
 }
 
+// `rayline report` writes its page into the run's folder: the next run still replaces
+// the folder, and the page of the run it replaces goes with it.
+TEST_F(OutputFolders, ARunsReportPageDoesNotKeepTheFolderFromBeingReplaced) {
+  ASSERT_EQ(rayline_cli(kSim + "--out " + path("run")).code, 0);
+  ASSERT_EQ(rayline_cli("report " + path("run")).code, 0);
+  ASSERT_TRUE(fs::exists(path("run/report.html")));
+  auto r = rayline_cli(kSim + "--out " + path("run"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_FALSE(fs::exists(path("run/report.html")));
+  const std::string cmp = "compare --platform paper-A --duration 1s --schedulers gmb,budge --out " + path("cmp");
+  ASSERT_EQ(rayline_cli(cmp).code, 0);
+  ASSERT_EQ(rayline_cli("report " + path("cmp")).code, 0);
+  ASSERT_TRUE(fs::exists(path("cmp/report.html")));
+  r = rayline_cli(cmp);
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_FALSE(fs::exists(path("cmp/report.html")));
+  const std::string sweep = "simulate --platform paper-A --workload museum --clients 1,2 --duration 1s --no-progress --out " + path("sweep");
+  ASSERT_EQ(rayline_cli(sweep).code, 0);
+  ASSERT_EQ(rayline_cli("report " + path("sweep")).code, 0);
+  ASSERT_TRUE(fs::exists(path("sweep/report.html")));
+  r = rayline_cli(sweep);
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_FALSE(fs::exists(path("sweep/report.html")));
+  expect_only({"run", "cmp", "sweep"});
+}
+
 TEST_F(OutputFolders, CompareAndSweepsCheckEveryRunsFolderBeforeTheFirstRun) {
   write("cmp/budge/mine.txt", "mine");
   auto r = rayline_cli("compare --platform paper-A --duration 1s --schedulers gmb,budge --out " + path("cmp"));

@@ -277,6 +277,52 @@ def block_seeds(c):
     write(c, "block_index", "repro_version_1e20.json", json.dumps(dict(one, version=1e20)))
 
 
+JOBS_HEADER = ("activity,kind,job,type,device_or_channel,block,bytes,planned_start,planned_end,actual_start,"
+               "actual_end,state,created\n")
+
+
+def report_seeds(c):
+    """`rayline report`'s inputs: a simulation's and a render's metrics.json, jobs CSVs."""
+    sim = {"rayline": {"command": "rayline simulate --out x", "version": "0.1.0"}, "scheduler": "gmb",
+           "platform": "tiny", "workload": "ray-stream", "simulated_s": 4.0, "rays_per_second": 2.5e6,
+           "rays_per_second_series": [1e6, 3e6, 2e6, 4e6], "lan_utilisation_mean": 0.25,
+           "queue_wait_s": {"p50": 0.5, "p95": 2.0}, "activities": {"e_jobs_done": 3}, "stalled": False,
+           "makespan_s": {"actual": 4.0, "planned": 3.5}, "path_trace": {"steady_rays_shot_per_second": 9e5},
+           "devices": [{"name": "A0.cpu0", "kind": "cpu", "busy_s": 1.0, "setup_s": 0.0, "fetching_s": 2.0,
+                        "idle_s": 1.0, "utilisation": 0.25},
+                       {"name": "A0.gpu0", "kind": "gpu", "busy_s": 3.0, "setup_s": 0.5, "fetching_s": 0.5,
+                        "idle_s": 0.0, "utilisation": 0.75}],
+           "resources": [{"resource": "A0.sata", "utilisation": 0.5, "bytes": 3e8, "bandwidth_Bps": 1.5e8,
+                          "lan": False},
+                         {"resource": "lan:A0->B", "utilisation": 0.125, "bytes": 1e8, "bandwidth_Bps": 1e9,
+                          "lan": True}]}
+    write(c, "run_metrics", "simulate.json", json.dumps(sim, indent=1))
+    render = {"rayline": {"command": "rayline render --out r.exr", "version": "0.1.0"}, "scheduler": "gmb",
+              "platform": "auto", "scene": "scenes/cornell.json", "seconds": 0.13, "rays_per_second": 6e5,
+              "resolution": [64, 64], "spp": 4, "threads": 2, "io": {"bytes_read": 400128},
+              "cache": {"hit_ratio": 0.9},
+              "devices": [{"device": "W.cpu0", "busy_s": 0.065, "setup_s": 1.2e-4, "fetching_idle_s": 0.029,
+                           "true_idle_s": 0.04, "utilisation": 0.49}]}
+    write(c, "run_metrics", "render.json", json.dumps(render, indent=1))
+    write(c, "run_metrics", "repro_number_overflow.json", '{"simulated_s": 1e400}')
+    write(c, "run_metrics", "huge_values.json",
+          '{"rays_per_second_series": [1e308, 1e308], "devices": [{"name": "a", "busy_s": 1e308, '
+          '"fetching_s": 1e308, "idle_s": 1e308}], "resources": [{"resource": "r", "utilisation": 1e308}]}')
+    write(c, "jobs_csv", "simulate.csv", JOBS_HEADER +
+          "0,T,j0,transfer,A.sata:disk->ram,scene0,1000,0,1,0,1.5,done,0\n"
+          "1,E,j0,RayIntersect,A.cpu0,,2000,1,2,1.5,2.5,done,0.5\n"
+          "2,E,j1,Shade,A.gpu0,,4000,0,1,0,1,done,0\n"
+          "3,E,j2,Shade,A.gpu0,,4000,1,3,3,4,done,0\n"
+          "4,E,j3,RayIntersect,A.cpu0,,2000,3,4,,,planned,2.5\n")
+    write(c, "jobs_csv", "render.csv", JOBS_HEADER +
+          "0,T,ri0,transfer,W.disk:disk->ram,scene0,1404096,0.018,0.028,0.019,0.054,done,0.0005\n"
+          "1,E,ri0,RayIntersect,W.cpu0,,2452672,0.028,0.044,0.055,0.096,done,0.0005\n")
+    write(c, "jobs_csv", "quoted_cells.csv", JOBS_HEADER.replace(",created", "") +
+          '0,E,"j,0",Shade,"A.cpu0",,1,0,1,0,1,done\n')
+    write(c, "jobs_csv", "extreme_times.csv", JOBS_HEADER +
+          "0,E,j,Shade,A.cpu0,,1e308,0,1e308,-1e308,1e308,done,-1e308\n")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--root", default=ROOT)
@@ -286,6 +332,7 @@ def main():
     gltf_seeds(corpus)
     assimp_seeds(corpus)
     block_seeds(corpus)
+    report_seeds(corpus)
 
 
 if __name__ == "__main__":
