@@ -113,14 +113,19 @@ def simulate_peak(out_dir, platform, scene, scheduler, duration="12s", timeout=1
     except subprocess.TimeoutExpired:
         status, rc = "timeout", 124
         sys.stderr.write(scrub(f"[timeout after {timeout} s] {' '.join(cmd)}\n"))
-    wall = time.monotonic() - t0
+    return read_peak(out_dir, platform, scene, scheduler, duration, status, rc, time.monotonic() - t0, **labels)
+
+
+def read_peak(out_dir, platform, scene, scheduler, duration="12s", status="ok", rc=0, wall="", **labels):
+    """The rows of a client sweep's folder (one per clients-N/ subfolder)."""
     rows = []
     found = os.listdir(out_dir) if os.path.isdir(out_dir) else []
     for n, d in sorted((int(d.split("-")[1]), d) for d in found if d.startswith("clients-")):
         row = {k: "" for k in FIELDS}
         row.update(labels)
         row.update(platform=os.path.basename(platform).removesuffix(".json"), scene=scene, scheduler=scheduler,
-                   clients=n, duration_s=_seconds(duration), status=status, exit_code=rc, run_wall_s=round(wall, 3),
+                   clients=n, duration_s=_seconds(duration), status=status, exit_code=rc,
+                   run_wall_s=round(wall, 3) if wall != "" else "",
                    out_dir=os.path.join(out_dir, d))
         rows.append(read_run(row, os.path.join(out_dir, d)))
     return rows
