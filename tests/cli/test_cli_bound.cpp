@@ -7,29 +7,25 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
-#include <unistd.h>
 
 #include "cli_run.hpp"
+#include "scratch_test.hpp"
 
 using rayline::testing::rayline_cli;
 namespace fs = std::filesystem;
 
 namespace {
-fs::path scratch(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("rayline-bound-" + std::to_string(::getpid()) + "-" + name);
-  fs::remove_all(p);
-  return p;
-}
+class CliBound : public rayline::testing::ScratchTest {};
 nlohmann::json path_trace(const fs::path& dir) {
   std::ifstream in(dir / "metrics.json");
   return nlohmann::json::parse(in)["path_trace"];
 }
 }  // namespace
 
-TEST(CliBound, FreeIoMeetsTheComputeBoundWithoutPassingIt) {
+TEST_F(CliBound, FreeIoMeetsTheComputeBoundWithoutPassingIt) {
   // Rays are counted when their job ends, so a window holds a little of the work done
   // before it: the tolerance above 1 is that edge (a 12 s window; 24 s gives 0.99).
-  const fs::path out = scratch("free-io");
+  const fs::path out = dir_ / "free-io";
   const auto r = rayline_cli("simulate --platform " + std::string(RAYLINE_TEST_DATA) +
                              "/platforms/paper-A-free-io.json --workload museum --clients 2 --duration 16s --warmup 4s"
                              " --start warm --no-progress --no-timeline --out " + out.string());
@@ -47,5 +43,4 @@ TEST(CliBound, FreeIoMeetsTheComputeBoundWithoutPassingIt) {
   const double visits_per_ray = pt["steady_block_visits_per_second"].get<double>() / steady;
   const double expected = b["per_camera_ray"]["block_visits"].get<double>() / b["per_camera_ray"]["rays_shot"].get<double>();
   EXPECT_NEAR(visits_per_ray, expected, 0.1 * expected);
-  fs::remove_all(out);
 }

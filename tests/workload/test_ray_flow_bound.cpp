@@ -12,28 +12,13 @@
 #include "workload/compute_bound.hpp"
 #include "workload/ray_flow_expectation.hpp"
 #include "workload/scene_profile.hpp"
+#include "workload/two_cell_profile.hpp"
 
 using namespace rayline;
 
 namespace {
 
 const std::string kScenes = std::string(RAYLINE_SCENES_DIR) + "/";
-
-// Two cells; camera rays enter cell 0. Cell 0: alpha 0.5, beta 0.5, misses go to cell 1.
-// Cell 1: alpha 0, every miss escapes. Shadow rays: never occluded, never leave their cell.
-SceneProfile two_cells(int max_bounces) {
-  SceneProfile p;
-  p.max_bounces = max_bounces;
-  p.blocks.resize(2);
-  p.blocks[0].alpha = 0.5;
-  p.blocks[0].beta = 0.5;
-  p.blocks[0].neighbours = {{1, 1.0, 1.0}};
-  p.blocks[1].alpha = 0;
-  p.blocks[1].escape = 1;
-  p.blocks[1].neighbours = {{0, 1.0, 1.0}};
-  p.camera_path = {CameraKey{{{0, 1.0}}, 0}};
-  return p;
-}
 
 // One node; devices given as JSON compute entries; RAM and (optionally) a GPU memory.
 DeviceGraph one_node(const std::string& computes, const std::string& gpu_capacity = "1GiB") {
@@ -81,7 +66,7 @@ TEST(RayFlowExpectation, HandCheckedTwoCells) {
   // Unbounded bounces: visits(0) = 1 + 1/4 + 1/16 + ... = 4/3, visits(1) = 1/2 x 4/3;
   // hits = 1/2 x 4/3 = 2/3 (each shaded, each with a shadow ray visiting cell 0 once);
   // survivors = hits x 1/2 = 1/3; rays shot = 1 + 1/3 + 2/3 = 2.
-  const RayFlowExpectation e = expected_ray_flow(two_cells(200), Fidelity::Markov);
+  const RayFlowExpectation e = expected_ray_flow(rayline::testing::two_cell_profile(200), Fidelity::Markov);
   EXPECT_NEAR(e.intersect[0], 4.0 / 3.0, 1e-12);
   EXPECT_NEAR(e.intersect[1], 2.0 / 3.0, 1e-12);
   EXPECT_NEAR(e.shade[0], 2.0 / 3.0, 1e-12);
@@ -92,7 +77,7 @@ TEST(RayFlowExpectation, HandCheckedTwoCells) {
   EXPECT_NEAR(e.rays_shot(), 2.0, 1e-12);
   EXPECT_NEAR(e.block_visits(), 4.0 / 3.0 + 2.0 / 3.0 + 2.0 / 3.0, 1e-12);
   // One bounce: no survivor (the path ends at max_bounces whatever beta says).
-  const RayFlowExpectation one = expected_ray_flow(two_cells(1), Fidelity::Markov);
+  const RayFlowExpectation one = expected_ray_flow(rayline::testing::two_cell_profile(1), Fidelity::Markov);
   EXPECT_NEAR(one.intersect[0], 1.0, 1e-12);
   EXPECT_NEAR(one.intersect[1], 0.5, 1e-12);
   EXPECT_NEAR(one.secondary, 0.0, 1e-12);

@@ -10,6 +10,7 @@
 #include "sched/io/platform_loader.hpp"
 #include "workload/path_trace_workload.hpp"
 #include "workload/ray_stream.hpp"
+#include "workload/two_cell_profile.hpp"
 #include "workload/warm_start.hpp"
 
 using namespace rayline;
@@ -99,16 +100,7 @@ TEST(WarmStart, UseIsTheExpectedIntersectAndShadowVisits) {
   // Two cells: camera rays enter cell 0 (alpha 0.5, beta 0.5, misses to cell 1); cell 1
   // lets every ray escape; one bounce only. Per camera ray: intersections 1 in cell 0 and
   // 0.5 in cell 1, and 0.5 hits in cell 0, each with a shadow ray ending there.
-  SceneProfile p;
-  p.max_bounces = 1;
-  p.blocks.resize(2);
-  p.blocks[0].alpha = 0.5;
-  p.blocks[0].beta = 0.5;
-  p.blocks[0].neighbours = {{1, 1.0, 1.0}};
-  p.blocks[1].alpha = 0;
-  p.blocks[1].escape = 1;
-  p.blocks[1].neighbours = {{0, 1.0, 1.0}};
-  p.camera_path = {CameraKey{{{0, 1.0}}, 0}};
+  const SceneProfile p = rayline::testing::two_cell_profile(1);
   const std::vector<double> v = expected_block_visits(p);
   ASSERT_EQ(v.size(), 2u);
   EXPECT_NEAR(v[0], 1.5, 1e-12);
