@@ -105,7 +105,7 @@ def peak(c):
                 else:
                     rows = rx.simulate_peak(folder, p, scene, s, duration=dur, timeout=c.timeout * 12,
                                             experiment=c.name, label=LABEL[p])
-                    if rows and rows[0]["status"] == "ok":
+                    if any(r["status"] == "ok" for r in rows):
                         open(done, "w").close()
                 for r in rows:
                     rx.log(r)

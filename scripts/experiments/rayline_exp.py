@@ -127,7 +127,13 @@ def read_peak(out_dir, platform, scene, scheduler, duration="12s", status="ok", 
                    clients=n, duration_s=_seconds(duration), status=status, exit_code=rc,
                    run_wall_s=round(wall, 3) if wall != "" else "",
                    out_dir=os.path.join(out_dir, d))
-        rows.append(read_run(row, os.path.join(out_dir, d)))
+        row = read_run(row, os.path.join(out_dir, d))
+        # Each point's own outcome: a sweep fails as a whole when one point stalls.
+        mpath = os.path.join(out_dir, d, "metrics.json")
+        if os.path.exists(mpath):
+            stalled = json.load(open(mpath)).get("stalled", False)
+            row.update(status="stalled" if stalled else "ok", exit_code=1 if stalled else 0)
+        rows.append(row)
     return rows
 
 
