@@ -94,12 +94,12 @@ def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth
     return read_run(row, out_dir)
 
 
-def simulate_peak(out_dir, platform, scene, scheduler, duration="12s", timeout=1800, extra=(), **labels):
+def simulate_peak(out_dir, platform, scene, scheduler, duration="12s", timeout=1800, extra=(), clients="auto", **labels):
     """The paper's peak (Sec. 6): one `rayline simulate --clients auto` sweep (clients
-    doubled until two counts in a row gain no more than 2 %), warm start. Returns one row
-    per client count; status and exit code are the sweep's."""
+    doubled until two counts in a row gain no more than 2 %; or a fixed list such as
+    "1,2"), warm start. Returns one row per client count."""
     cmd = [rayline_bin(), "simulate", "--platform", platform, "--workload", scene, "--scheduler", scheduler,
-           "--clients", "auto", "--start", "warm", "--duration", str(duration), "--no-progress", "--no-timeline",
+           "--clients", clients, "--start", "warm", "--duration", str(duration), "--no-progress", "--no-timeline",
            "--out", out_dir] + list(extra)
     shutil.rmtree(out_dir, ignore_errors=True)
     status, rc = "ok", 0
