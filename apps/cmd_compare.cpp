@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -37,6 +38,8 @@ struct Row {
   int exit_code = 0;
   double rays = 0, steady = -1, visits = -1, lan = -1, busy = 0, fetching = 0, idle = 0, sched_wall = 0, sched_share = 0, wall = 0;
   double wait_p50 = -1, wait_p95 = -1;  // E-jobs' waits in the queue (s)
+  int clients = 0;        // path tracing: the clients of this run (a sweep: of its peak)
+  std::string run_dir;    // the run's folder under OUT
   std::string parameters;
 };
 
@@ -108,12 +111,12 @@ void report(const std::vector<Row>& rows, const std::string& out, const std::str
   for (const Row& r : rows)
     if (r.scheduler == "gmb") ref = &r;
   auto metric = [](const Row& r) { return r.steady >= 0 ? r.steady : r.rays; };
-  std::printf("\n%-12s %-15s %18s %9s %8s %6s %9s %6s %12s %15s\n", "scheduler", "status", "throughput", "vs gmb", "LAN util",
-              "busy", "fetching", "idle", "sched wall s", "wait p50/p95 s");
+  std::printf("\n%-12s %-15s %18s %7s %9s %8s %6s %9s %6s %12s %15s\n", "scheduler", "status", "throughput", "clients",
+              "vs gmb", "LAN util", "busy", "fetching", "idle", "sched wall s", "wait p50/p95 s");
   std::ostringstream csv;
   csv << "scheduler,status,exit_code,rays_per_second,steady_rays_shot_per_second,lan_utilisation_mean,busy,fetching,true_idle,"
          "scheduler_wall_s,scheduler_share,sim_wall_s,scheduler_parameters,queue_wait_p50_s,queue_wait_p95_s,"
-         "steady_block_visits_per_second\n";
+         "steady_block_visits_per_second,clients\n";
   nlohmann::json js = nlohmann::json::array();
   for (const Row& r : rows) {
     char rel[32] = "-";
@@ -122,26 +125,27 @@ void report(const std::vector<Row>& rows, const std::string& out, const std::str
     if (r.lan >= 0) std::snprintf(lan, sizeof lan, "%.1f%%", 100 * r.lan);
     char wait[48] = "-";
     if (r.wait_p50 >= 0) std::snprintf(wait, sizeof wait, "%.2f/%.2f", r.wait_p50, r.wait_p95);
-    std::printf("%-12s %-15s %18s %9s %8s %5.1f%% %8.1f%% %5.1f%% %12.3f %15s\n", r.scheduler.c_str(), r.status.c_str(),
-                format_rate(metric(r), "rays").c_str(), rel,
+    std::printf("%-12s %-15s %18s %7d %9s %8s %5.1f%% %8.1f%% %5.1f%% %12.3f %15s\n", r.scheduler.c_str(), r.status.c_str(),
+                format_rate(metric(r), "rays").c_str(), r.clients, rel,
                 lan, 100 * r.busy, 100 * r.fetching, 100 * r.idle, r.sched_wall, wait);
     std::string params = r.parameters;
     for (char& c : params)
       if (c == '"') c = '\'';
     csv << r.scheduler << ',' << r.status << ',' << r.exit_code << ',' << r.rays << ',' << r.steady << ',' << r.lan << ','
         << r.busy << ',' << r.fetching << ',' << r.idle << ',' << r.sched_wall << ',' << r.sched_share << ',' << r.wall
-        << ",\"" << params << "\"," << r.wait_p50 << ',' << r.wait_p95 << ',' << r.visits << '\n';
+        << ",\"" << params << "\"," << r.wait_p50 << ',' << r.wait_p95 << ',' << r.visits << ',' << r.clients << '\n';
     js.push_back({{"scheduler", r.scheduler}, {"status", r.status}, {"exit_code", r.exit_code},
                   {"rays_per_second", r.rays}, {"steady_rays_shot_per_second", r.steady}, {"lan_utilisation_mean", r.lan},
                   {"busy", r.busy}, {"fetching", r.fetching}, {"true_idle", r.idle}, {"scheduler_wall_s", r.sched_wall},
                   {"scheduler_share", r.sched_share}, {"sim_wall_s", r.wall}, {"scheduler_parameters", r.parameters},
                   {"queue_wait_p50_s", r.wait_p50}, {"queue_wait_p95_s", r.wait_p95},
-                  {"steady_block_visits_per_second", r.visits}, {"out", out + "/" + r.scheduler}});
+                  {"steady_block_visits_per_second", r.visits}, {"clients", r.clients},
+                  {"out", out + "/" + r.run_dir}});
   }
   for (const Row& r : rows)
     if (r.status == "no rays ended")
       std::printf("%s: no ray ended after the warm-up (why: %s/%s/metrics.json, path_trace.nothing_delivered)\n",
-                  r.scheduler.c_str(), out.c_str(), r.scheduler.c_str());
+                  r.scheduler.c_str(), out.c_str(), r.run_dir.c_str());
   std::printf("throughput: path tracing: rays shot per second in the steady state (each ray once, the paper's unit); ray "
               "stream and job sets: rays intersected in a block per second over the whole run; results in %s/<scheduler>/, "
               "%s/compare.csv, compare.json\n",
@@ -154,8 +158,9 @@ void report(const std::vector<Row>& rows, const std::string& out, const std::str
 
 int run_compare(const CompareOptions& opt) {
   const std::vector<std::string> scheds = scheduler_list(opt.schedulers);
-  if (opt.sim.clients.find(',') != std::string::npos || opt.sim.clients == "auto")
-    throw InputError("--clients", "", "compare takes one client count (use `simulate --clients N1,N2` for a sweep)");
+  // --clients N1,N2,... or auto: each scheduler is swept (OUT/<scheduler>/clients-N/) and
+  // compared at its own peak, as the paper compares methods (Sec. 6).
+  const bool sweep = opt.sim.clients.find(',') != std::string::npos || opt.sim.clients == "auto";
   check_simulate_flags(opt.sim);
   // Each run replaces OUT/<scheduler>, and the results replace OUT: checked for the user's
   // files before the first run.
@@ -173,14 +178,24 @@ int run_compare(const CompareOptions& opt) {
     o.out = opt.out + "/" + s;
     o.no_progress = true;
     const std::string dir = stage.path() + "/" + s;
-    std::string ignored;
-    const int rc = run_in_child([&](int) { return guarded([&] { return run_simulate_into(o, dir); }); }, ignored);
+    int clients = 0;
+    int rc = 0;
+    if (sweep) {
+      std::filesystem::create_directories(dir);
+      rc = guarded([&] { return run_sweep_into(o, dir, clients); });
+    } else {
+      std::string ignored;
+      rc = run_in_child([&](int) { return guarded([&] { return run_simulate_into(o, dir); }); }, ignored);
+      clients = std::atoi(opt.sim.clients.c_str());
+    }
     if (rc == kExitBadInput) return rc;  // the same input is bad for every scheduler
-    rows.push_back(read_row(s, dir, rc));
+    rows.push_back(read_row(s, sweep ? dir + "/clients-" + std::to_string(clients) : dir, rc));
+    rows.back().clients = clients;
+    rows.back().run_dir = sweep ? s + "/clients-" + std::to_string(clients) : s;
   }
   report(rows, opt.out, stage.path());
   for (const Row& r : rows)
-    if (!run_completed(stage.path() + "/" + r.scheduler)) {
+    if (!run_completed(stage.path() + "/" + r.run_dir)) {
       std::fprintf(stderr, "rayline: the %s run failed (exit %d); nothing is published under %s\n", r.scheduler.c_str(),
                    r.exit_code, opt.out.c_str());
       return kExitFailure;

@@ -227,11 +227,20 @@ int sweep_point(const sim::SimulationConfig& cfg, int clients, const std::string
 // point completed (a stalled point completes: its results say so, and the sweep exits 1).
 // With no counts (--clients auto) the sweep finds the peak itself (sim/peak_search.hpp):
 // doubling client counts until two in a row gain no more than 2 %.
-int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, const std::vector<int>& counts) {
-  const auto check = [&] { return check_results_set(opt, opt.out, {"report.html"}, {"clients-*"}); };
-  StagedFolder stage(check(), opt.out, "--out", check);
-  double peak = 0;
+// The points of a sweep written straight into `dir` (clients-N/ each). `complete`: every
+// point wrote its results (a stalled point does, and makes the exit code 1).
+struct SweepResult {
+  int rc = kExitOk;
+  bool complete = false;
   int peak_n = 0;
+  double peak = 0;
+};
+
+SweepResult sweep_into(const SimulateOptions& opt, const sim::SimulationConfig& cfg, const std::vector<int>& counts,
+                       const std::string& dir) {
+  SweepResult res;
+  double& peak = res.peak;
+  int& peak_n = res.peak_n;
   bool stalled = false;
   std::printf("clients,steady_rays_shot_per_second,steady_block_visits_per_second,prediction_accuracy,busy,setup,fetching,idle,frames\n");
   std::fflush(stdout);
@@ -240,12 +249,13 @@ int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, cons
   const auto next = [&] { return counts.empty() ? sim::next_peak_point(points) : k < counts.size() ? counts[k++] : 0; };
   for (int n = next(); n != 0; n = next()) {
     std::string line;  // one process per point
-    const int rc = run_in_child([&](int fd) { return sweep_point(cfg, n, stage.path(), fd); }, line);
-    if (rc != kExitOk && (rc != kExitFailure || !run_completed(stage.path() + "/clients-" + std::to_string(n)))) {
+    const int rc = run_in_child([&](int fd) { return sweep_point(cfg, n, dir, fd); }, line);
+    if (rc != kExitOk && (rc != kExitFailure || !run_completed(dir + "/clients-" + std::to_string(n)))) {
       if (rc != kExitBadInput)
         std::fprintf(stderr, "rayline: the run with %d client(s) failed; nothing is published under %s\n", n,
                      opt.out.c_str());
-      return rc;
+      res.rc = rc;
+      return res;
     }
     stalled = stalled || rc != kExitOk;
     std::printf("%s", line.c_str());
@@ -257,10 +267,20 @@ int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, cons
       peak_n = n;
     }
   }
-  stage.publish();
   std::printf("peak: %s with %d client(s); results in %s/clients-N/\n", format_rate(peak, "rays shot").c_str(), peak_n,
               opt.out.c_str());
-  return stalled ? kExitFailure : kExitOk;
+  res.rc = stalled ? kExitFailure : kExitOk;
+  res.complete = true;
+  return res;
+}
+
+int run_sweep(const SimulateOptions& opt, const sim::SimulationConfig& cfg, const std::vector<int>& counts) {
+  const auto check = [&] { return check_results_set(opt, opt.out, {"report.html"}, {"clients-*"}); };
+  StagedFolder stage(check(), opt.out, "--out", check);
+  const SweepResult r = sweep_into(opt, cfg, counts, stage.path());
+  if (!r.complete) return r.rc;
+  stage.publish();
+  return r.rc;
 }
 
 // One run with opt.clients clients, its results folder written at `dir`; prints the
@@ -288,5 +308,11 @@ int run_simulate(const SimulateOptions& opt) {
 }
 
 int run_simulate_into(const SimulateOptions& opt, const std::string& dir) { return run_one(opt, simulate_config(opt), dir); }
+
+int run_sweep_into(const SimulateOptions& opt, const std::string& dir, int& peak_clients) {
+  const SweepResult r = sweep_into(opt, simulate_config(opt), client_counts(opt.clients), dir);
+  peak_clients = r.peak_n;
+  return r.complete || r.rc == kExitBadInput ? r.rc : kExitFailure;
+}
 
 }  // namespace rayline::cli

@@ -39,6 +39,9 @@ int run_simulate(const SimulateOptions& opt);
 // One run, as run_simulate does it, writing its results folder at `dir` (inside compare's
 // staging folder) while naming opt.out in what it prints. opt.clients is one count.
 int run_simulate_into(const SimulateOptions& opt, const std::string& dir);
+// A client sweep (opt.clients a list, or "auto") into dir/clients-N/; the peak's client
+// count in `peak_clients`. Returns the sweep's exit code.
+int run_sweep_into(const SimulateOptions& opt, const std::string& dir, int& peak_clients);
 // Every flag run_simulate() parses and checks (platform and workload names, the scheduler,
 // durations, the path-tracing options): InputError naming the flag, before anything runs
 // (compare checks once for all its schedulers).

@@ -168,7 +168,10 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
       ->default_val(o.transfer_order)
       ->check(CLI::IsMember({"channel", "resource", "exclusive"}));
   c->add_option("--seed", o.seed, "Workload seed")->default_val(o.seed)->check(kSeed);
-  c->add_option("--clients", o.clients, "Path tracing: clients requesting frames")->default_val(o.clients);
+  c->add_option("--clients", o.clients,
+                "Path tracing: clients requesting frames: N; N1,N2,... or auto to sweep each scheduler and compare "
+                "them at their own peaks (OUT/<scheduler>/clients-N/)")
+      ->default_val(o.clients);
   c->add_option("--prediction-depth", o.prediction_depth, "Path tracing: job prediction depth (GMB only)")->default_val(o.prediction_depth)->check(CLI::Range(0, 16));
   c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);
   c->add_option("--replay", o.replay, "Path tracing: replay log for --fidelity replay")->type_name(kPath);

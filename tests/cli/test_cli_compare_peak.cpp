@@ -1,0 +1,50 @@
+// `rayline compare --clients LIST|auto`: each scheduler swept into OUT/<scheduler>/clients-N/
+// and compared at its own peak (the paper's Sec. 6 measurement), the peak's client count in
+// compare.csv.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "cli_run.hpp"
+#include "scratch_test.hpp"
+
+using rayline::testing::rayline_cli;
+namespace fs = std::filesystem;
+
+namespace {
+class CliComparePeak : public rayline::testing::ScratchTest {};
+
+double steady(const fs::path& run) {
+  std::ifstream in(run / "metrics.json");
+  return nlohmann::json::parse(in)["path_trace"]["steady_rays_shot_per_second"].get<double>();
+}
+}  // namespace
+
+TEST_F(CliComparePeak, EachSchedulerIsComparedAtItsOwnPeak) {
+  const fs::path out = dir_ / "cmp";
+  const auto r = rayline_cli("compare --platform paper-A --workload museum --schedulers gmb,budge --clients 1,2"
+                             " --start warm --duration 3s --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  std::ifstream in(out / "compare.json");
+  const auto rows = nlohmann::json::parse(in);
+  ASSERT_EQ(rows.size(), 2u);
+  for (const auto& row : rows) {
+    const std::string s = row["scheduler"];
+    ASSERT_TRUE(fs::exists(out / s / "clients-1" / "metrics.json")) << s;
+    ASSERT_TRUE(fs::exists(out / s / "clients-2" / "metrics.json")) << s;
+    const double one = steady(out / s / "clients-1"), two = steady(out / s / "clients-2");
+    const int peak = row["clients"];
+    EXPECT_EQ(peak, two > one ? 2 : 1) << s;
+    EXPECT_DOUBLE_EQ(row["steady_rays_shot_per_second"].get<double>(), std::max(one, two)) << s;
+    EXPECT_EQ(row["out"].get<std::string>(), out.string() + "/" + s + "/clients-" + std::to_string(peak));
+  }
+  std::ifstream csv(out / "compare.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_NE(header.find(",clients"), std::string::npos) << header;
+}
