@@ -136,7 +136,9 @@ std::string format_quantity(double value, std::string_view unit) {
     if (value == std::floor(value) && std::abs(value) < 1e15) return fixed(value, 0);
     return with_si(value);
   }
-  return with_si(value) + " " + std::string(unit);
+  // As the command line prints rates (apps/cli_common format_rate): "3.67 M rays/s".
+  const Suffix s = si_suffix(value);
+  return sig3(value / s.divisor) + " " + (*s.name == '\0' ? std::string() : std::string(s.name) + " ") + std::string(unit);
 }
 
 namespace {

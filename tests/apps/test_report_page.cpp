@@ -70,11 +70,11 @@ TEST_F(ReportPage, SimulatePageHasEveryChartAndTheHeader) {
   EXPECT_TRUE(has(page, "<code>rayline simulate --out x &lt;b&gt;</code>"));  // the command, escaped
   EXPECT_TRUE(has(page, "rayline 0.1.0"));
   EXPECT_TRUE(has(page, "<th>LAN utilisation (mean)</th><td>25 %</td>"));
-  EXPECT_TRUE(has(page, "<th>rays/s over the run</th><td>2.5M rays/s</td>"));
+  EXPECT_TRUE(has(page, "<th>rays/s over the run</th><td>2.5 M rays/s</td>"));
   EXPECT_TRUE(has(page, "A.sata, busy: 50 %"));          // channel utilisation from resources[]
   EXPECT_TRUE(has(page, "lan:A-&gt;B (LAN), busy: 12.5 %"));
   EXPECT_TRUE(has(page, "A.gpu0, busy: 75 % (3 s)"));     // device shares
-  EXPECT_TRUE(has(page, "rays/s: 4M rays/s at"));          // the last second of the series
+  EXPECT_TRUE(has(page, "rays/s: 4 M rays/s at"));          // the last second of the series
   EXPECT_TRUE(has(page, ">Throughput: rays traced per simulated second</text>"));
   // Queue waits per type: RayIntersect 1 s; Shade 0 s and 3 s; all three.
   EXPECT_TRUE(has(page, "<tr><td>RayIntersect</td><td class=\"num\">1</td><td class=\"num\">1 s</td>"));
@@ -109,8 +109,8 @@ TEST_F(ReportPage, ComparePageHasTheTableBarsAndASectionPerScheduler) {
   EXPECT_TRUE(has(page, "<section class=\"run\" id=\"run-budge\">"));
   EXPECT_TRUE(has(page, "<td>gmb{k=2s; a, b}</td>"));
   EXPECT_TRUE(has(page, "<td class=\"num\" title=\"1500000\">1.5M</td>"));  // numbers shortened
-  EXPECT_TRUE(has(page, "gmb, rays/s over the run: 3M rays/s"));
-  EXPECT_TRUE(has(page, "budge, steady rays shot/s: 500k rays/s"));
+  EXPECT_TRUE(has(page, "gmb, rays/s over the run: 3 M rays/s"));
+  EXPECT_TRUE(has(page, "budge, steady rays shot/s: 500 k rays/s"));
   expect_self_contained(page);
 }
 
@@ -122,7 +122,7 @@ TEST_F(ReportPage, SweepPageHasThroughputPerClientCountAndASectionPerPoint) {
   EXPECT_EQ(ids[0], "chart-sweep-throughput");
   EXPECT_EQ(ids[1], "clients-2-chart-throughput");
   EXPECT_EQ(ids[10], "clients-10-chart-gantt");
-  EXPECT_TRUE(has(page, "clients-10, rays/s over the run: 2.5M rays/s"));
+  EXPECT_TRUE(has(page, "clients-10, rays/s over the run: 2.5 M rays/s"));
   EXPECT_TRUE(has(page, "<a href=\"#run-clients-2\">clients-2</a>"));
   expect_self_contained(page);
 }
