@@ -1,6 +1,5 @@
 #include "apps/cmd_simulate.hpp"
 
-#include "sim/peak_search.hpp"
 
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +16,7 @@
 #include "common/error.hpp"
 #include "common/output_folder.hpp"
 #include "sim/peak_search.hpp"
+#include "workload/path_trace_graph.hpp"
 #include "sim/simulation.hpp"
 
 namespace rayline::cli {
@@ -45,8 +45,9 @@ std::vector<int> client_counts(const std::string& text) {
     const std::string item = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
     char* end = nullptr;
     const long v = std::strtol(item.c_str(), &end, 10);
-    if (item.empty() || *end != '\0' || v < 1 || v > 1023)
-      throw InputError("--clients", "", "expected N, a list N1,N2,... of integers in [1, 1023], or auto, got '" + text + "'");
+    if (item.empty() || *end != '\0' || v < 1 || v > kMaxPtClients)
+      throw InputError("--clients", "", "expected N, a list N1,N2,... of integers in [1, " + std::to_string(kMaxPtClients) +
+                                            "], or auto, got '" + text + "'");
     out.push_back(static_cast<int>(v));
     if (comma == std::string::npos) break;
     pos = comma + 1;

@@ -8,10 +8,12 @@
 #include <utility>
 #include <vector>
 
+#include "workload/path_trace_graph.hpp"
+
 namespace rayline::sim {
 
 struct PeakSearch {
-  int max_clients = 1023;  // PathTraceWorkload's limit (client ids take 10 bits)
+  int max_clients = kMaxPtClients;  // the path-tracing workload's limit
   double gain = 0.02;
 };
 

@@ -17,10 +17,6 @@ namespace {
 // term for its queue: bytes per record x seconds per byte).
 constexpr std::array<PtJob, 3> kRayJobs = {PtJob::Intersect, PtJob::Shade, PtJob::Shadow};
 
-Bytes record_bytes(const SceneProfile& p, PtJob t) {
-  return t == PtJob::Intersect ? p.ray_bytes : t == PtJob::Shade ? p.hit_bytes : p.shadow_ray_bytes;
-}
-
 const std::vector<double>& work_of(const RayFlowExpectation& e, PtJob t) {
   return t == PtJob::Intersect ? e.intersect : t == PtJob::Shade ? e.shade : e.shadow;
 }
@@ -45,7 +41,7 @@ std::vector<DeviceClass> device_classes(const DeviceGraph& g, const SceneProfile
       const JobTypeId type = g.job_type(std::string(kPtJobTypeNames[static_cast<std::size_t>(kRayJobs[i])]));
       const DeviceId id = static_cast<DeviceId>(d);
       k.cost[i] = type != kNone && g.timing.supports(id, type)
-                      ? static_cast<double>(record_bytes(p, kRayJobs[i])) *
+                      ? static_cast<double>(pt_record_bytes(p, kRayJobs[i])) *
                             g.timing.at(id, type).rate[static_cast<std::size_t>(pt_queue_kind(kRayJobs[i]))]
                       : -1.0;
     }

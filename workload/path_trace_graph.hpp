@@ -20,6 +20,7 @@
 #include <string_view>
 
 #include "sched/core/data_block.hpp"
+#include "workload/scene_profile.hpp"
 
 namespace rayline {
 
@@ -30,6 +31,22 @@ inline constexpr std::array<std::string_view, kPtJobCount> kPtJobTypeNames = {
     "GenerateRays", "RayIntersect", "Shade", "ShadowIntersect", "Accumulate", "AdditiveCompose"};
 
 // The data kind of the queue each job consumes.
+// The most clients a path-tracing run takes: ray keys give the client 10 bits
+// (SplitContext::key in path_trace_model.hpp).
+inline constexpr int kMaxPtClients = 1023;
+
+// Bytes of one record of the queue a job of kind k consumes (a ray, a hit record, a shadow
+// ray, a sample contribution; 1 for the other kinds).
+inline Bytes pt_record_bytes(const SceneProfile& p, PtJob k) {
+  switch (k) {
+    case PtJob::Intersect: return p.ray_bytes;
+    case PtJob::Shade: return p.hit_bytes;
+    case PtJob::Shadow: return p.shadow_ray_bytes;
+    case PtJob::Accumulate: return p.sample_bytes;
+    default: return 1;
+  }
+}
+
 inline DataKind pt_queue_kind(PtJob j) {
   switch (j) {
     case PtJob::Generate: return DataKind::Generic;

@@ -27,7 +27,8 @@ PathTraceWorkload::PathTraceWorkload(const DeviceGraph& g, const SceneProfile& p
       throw InputError(g.source_file, "job_types",
                        "the path-tracing workload needs job type '" + std::string(kPtJobTypeNames[static_cast<std::size_t>(k)]) + "'");
   }
-  if (opt_.clients < 1 || opt_.clients > 1023) throw InputError("--clients", "", "must be in [1, 1023]");
+  if (opt_.clients < 1 || opt_.clients > kMaxPtClients)
+    throw InputError("--clients", "", "must be in [1, " + std::to_string(kMaxPtClients) + "]");
   if (opt_.prediction_depth < 0 || opt_.prediction_depth > 16) throw InputError("--prediction-depth", "", "must be in [0, 16]");
   if (opt_.fidelity == Fidelity::Replay && !opt_.replay)
     throw InputError("--replay", "", "replay fidelity needs a replay log (--replay FILE)");
@@ -75,15 +76,7 @@ PathTraceWorkload::JobInfo& PathTraceWorkload::info(JobId j) {
   return info_[static_cast<std::size_t>(j)];
 }
 
-Bytes PathTraceWorkload::bytes_per(PtJob k) const {
-  switch (k) {
-    case PtJob::Intersect: return p_.ray_bytes;
-    case PtJob::Shade: return p_.hit_bytes;
-    case PtJob::Shadow: return p_.shadow_ray_bytes;
-    case PtJob::Accumulate: return p_.sample_bytes;
-    default: return 1;
-  }
-}
+Bytes PathTraceWorkload::bytes_per(PtJob k) const { return pt_record_bytes(p_, k); }
 
 // A queue block: real (consumed by the job that reads it, moved between memories) or the
 // placeholder output a parent declares for a predicted child (plain data: evictable once

@@ -66,13 +66,9 @@ FIELDS = ["experiment", "label", "platform", "scene", "scheduler", "clients", "h
           "block_visits_per_ray_shot", "cpu_fetching", "gpu_fetching", "sim_speedup", "peak_rss_mb"]
 
 
-def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth=0, fidelity="markov",
-             duration="30s", seed=1, timeout=300, extra=(), **labels):
-    """One `rayline simulate` run; returns a row (dict of FIELDS) whatever happened."""
-    cmd = [rayline_bin(), "simulate", "--platform", platform, "--workload", scene, "--scheduler", scheduler,
-           "--clients", str(clients), "--horizon", str(horizon), "--prediction-depth", str(depth),
-           "--fidelity", fidelity, "--duration", str(duration), "--seed", str(seed), "--no-progress",
-           "--out", out_dir] + list(extra)
+def run_rayline(cmd, out_dir, timeout):
+    """Runs one `rayline` command into a fresh out_dir; returns (status, exit code, wall s).
+    Status: ok, stalled (a job no device can take), failed, or timeout; failures are logged."""
     shutil.rmtree(out_dir, ignore_errors=True)
     t0 = time.monotonic()
     status, rc = "ok", 0
@@ -85,7 +81,17 @@ def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth
     except subprocess.TimeoutExpired:
         status, rc = "timeout", 124
         sys.stderr.write(scrub(f"[timeout after {timeout} s] {' '.join(cmd)}\n"))
-    wall = time.monotonic() - t0
+    return status, rc, time.monotonic() - t0
+
+
+def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth=0, fidelity="markov",
+             duration="30s", seed=1, timeout=300, extra=(), **labels):
+    """One `rayline simulate` run; returns a row (dict of FIELDS) whatever happened."""
+    cmd = [rayline_bin(), "simulate", "--platform", platform, "--workload", scene, "--scheduler", scheduler,
+           "--clients", str(clients), "--horizon", str(horizon), "--prediction-depth", str(depth),
+           "--fidelity", fidelity, "--duration", str(duration), "--seed", str(seed), "--no-progress",
+           "--out", out_dir] + list(extra)
+    status, rc, wall = run_rayline(cmd, out_dir, timeout)
     row = {k: "" for k in FIELDS}
     row.update(labels)
     row.update(platform=os.path.basename(platform).removesuffix(".json"), scene=scene, scheduler=scheduler,
@@ -101,19 +107,8 @@ def simulate_peak(out_dir, platform, scene, scheduler, duration="12s", timeout=1
     cmd = [rayline_bin(), "simulate", "--platform", platform, "--workload", scene, "--scheduler", scheduler,
            "--clients", clients, "--start", "warm", "--duration", str(duration), "--no-progress", "--no-timeline",
            "--out", out_dir] + list(extra)
-    shutil.rmtree(out_dir, ignore_errors=True)
-    status, rc = "ok", 0
-    t0 = time.monotonic()
-    try:
-        p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=timeout)
-        rc = p.returncode
-        if rc != 0:
-            status = "failed"
-            sys.stderr.write(scrub(f"[{status}] {' '.join(cmd)}\n{p.stderr[-2000:]}\n"))
-    except subprocess.TimeoutExpired:
-        status, rc = "timeout", 124
-        sys.stderr.write(scrub(f"[timeout after {timeout} s] {' '.join(cmd)}\n"))
-    return read_peak(out_dir, platform, scene, scheduler, duration, status, rc, time.monotonic() - t0, **labels)
+    status, rc, wall = run_rayline(cmd, out_dir, timeout)
+    return read_peak(out_dir, platform, scene, scheduler, duration, status, rc, wall, **labels)
 
 
 def read_peak(out_dir, platform, scene, scheduler, duration="12s", status="ok", rc=0, wall="", **labels):
@@ -127,21 +122,21 @@ def read_peak(out_dir, platform, scene, scheduler, duration="12s", status="ok", 
                    clients=n, duration_s=_seconds(duration), status=status, exit_code=rc,
                    run_wall_s=round(wall, 3) if wall != "" else "",
                    out_dir=os.path.join(out_dir, d))
-        row = read_run(row, os.path.join(out_dir, d))
-        # Each point's own outcome: a sweep fails as a whole when one point stalls.
-        mpath = os.path.join(out_dir, d, "metrics.json")
-        if os.path.exists(mpath):
-            stalled = json.load(open(mpath)).get("stalled", False)
-            row.update(status="stalled" if stalled else "ok", exit_code=1 if stalled else 0)
-        rows.append(row)
+        # Each point's own outcome (metrics.json "stalled"): a sweep fails as a whole when
+        # one point stalls.
+        rows.append(read_run(row, os.path.join(out_dir, d), outcome_from_metrics=True))
     return rows
 
 
-def read_run(row, out_dir):
-    """Fills a row from a run folder's metrics.json and jobs.csv (when they exist)."""
+def read_run(row, out_dir, outcome_from_metrics=False):
+    """Fills a row from a run folder's metrics.json and jobs.csv (when they exist); with
+    outcome_from_metrics, its status and exit code too (ok, or stalled: exit 1)."""
     mpath = os.path.join(out_dir, "metrics.json")
     if os.path.exists(mpath):  # a stalled run still writes its metrics
         m = json.load(open(mpath))
+        if outcome_from_metrics:
+            stalled = m.get("stalled", False)
+            row.update(status="stalled" if stalled else "ok", exit_code=1 if stalled else 0)
         pt = m.get("path_trace", {})
         ds = m.get("device_summary", {})
         tot = {k: 0.0 for k in ("busy", "fetching", "true_idle")}
