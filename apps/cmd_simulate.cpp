@@ -1,6 +1,5 @@
 #include "apps/cmd_simulate.hpp"
 
-
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
