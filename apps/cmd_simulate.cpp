@@ -1,8 +1,11 @@
 #include "apps/cmd_simulate.hpp"
 
 #include <cstdio>
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
+#include <string_view>
 #include <unistd.h>
 #include <vector>
 
@@ -66,6 +69,10 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
                 format_rate(s.steady_rays_per_second, "block visits").c_str(), static_cast<unsigned long long>(s.frames_delivered),
                 100 * s.busy, 100 * s.setup, 100 * s.fetching, 100 * s.idle);
     if (!s.nothing_delivered.empty()) std::printf("note: %s\n", s.nothing_delivered.c_str());
+    if (!s.steady)
+      std::printf("note: not a steady state: the rays alive grew by %.0f%% of the rays shot after the warm-up (more "
+                  "offered load than the cluster absorbs, or a run too short to fill it); read the rate with care\n",
+                  100 * s.alive_growth_share);
     if (s.prediction_accuracy >= 0)
       std::printf("prediction accuracy %.1f%% (jobs), %.1f%% (rays)\n", 100 * s.prediction_accuracy,
                   100 * s.prediction_ray_accuracy);
@@ -206,9 +213,10 @@ int sweep_point(const sim::SimulationConfig& cfg, int clients, const std::string
     c.progress = ProgressLine::Mode::Off;
     const sim::SimulationSummary s = sim::run_simulation(c);
     char line[512];
-    const int len = std::snprintf(line, sizeof line, "%d,%.6g,%.6g,%.4f,%.4f,%.4f,%.4f,%.4f,%llu\n", clients,
+    const int len = std::snprintf(line, sizeof line, "%d,%.6g,%.6g,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%d,%.4f\n", clients,
                                   s.steady_rays_shot_per_second, s.steady_rays_per_second, s.prediction_accuracy, s.busy,
-                                  s.setup, s.fetching, s.idle, static_cast<unsigned long long>(s.frames_delivered));
+                                  s.setup, s.fetching, s.idle, static_cast<unsigned long long>(s.frames_delivered),
+                                  s.steady ? 1 : 0, s.alive_growth_share);
     if (::write(fd, line, static_cast<std::size_t>(len)) != len) return kExitFailure;
     if (s.stalled) std::fprintf(stderr, "rayline: %d client(s): %s\n", clients, s.stalled_reason.c_str());
     return s.stalled ? kExitFailure : kExitOk;
@@ -242,9 +250,10 @@ SweepResult sweep_into(const SimulateOptions& opt, const sim::SimulationConfig& 
   double& peak = res.peak;
   int& peak_n = res.peak_n;
   bool stalled = false;
-  std::printf("clients,steady_rays_shot_per_second,steady_block_visits_per_second,prediction_accuracy,busy,setup,fetching,idle,frames\n");
+  std::printf("clients,steady_rays_shot_per_second,steady_block_visits_per_second,prediction_accuracy,busy,setup,fetching,idle,"
+              "frames,steady,alive_growth_share\n");
   std::fflush(stdout);
-  std::vector<std::pair<int, double>> points;
+  std::vector<sim::PeakPoint> points;
   std::size_t k = 0;
   const auto next = [&] { return counts.empty() ? sim::next_peak_point(points) : k < counts.size() ? counts[k++] : 0; };
   for (int n = next(); n != 0; n = next()) {
@@ -260,15 +269,24 @@ SweepResult sweep_into(const SimulateOptions& opt, const sim::SimulationConfig& 
     stalled = stalled || rc != kExitOk;
     std::printf("%s", line.c_str());
     std::fflush(stdout);
-    const double r = std::strtod(line.c_str() + line.find(',') + 1, nullptr);
-    points.emplace_back(n, r);
-    if (r > peak) {
-      peak = r;
-      peak_n = n;
+    // The line's 2nd field: rays shot per second; its 10th: steady (1) or not (0).
+    std::vector<std::string_view> f;
+    for (std::size_t a = 0, b; a <= line.size(); a = b + 1) {
+      b = std::min(line.find_first_of(",\n", a), line.size());
+      f.emplace_back(line.data() + a, b - a);
     }
+    const double r = f.size() > 1 ? std::strtod(std::string(f[1]).c_str(), nullptr) : 0.0;
+    const bool steady = f.size() <= 9 || f[9] != "0";
+    points.push_back({n, r, steady});
+    if (!steady)
+      std::printf("note: with %d client(s) the rays alive still grow (path_trace.steady in its metrics.json): not a "
+                  "steady state, not a peak%s\n", n, counts.empty() ? "; the sweep ends here" : "");
   }
-  std::printf("peak: %s with %d client(s); results in %s/clients-N/\n", format_rate(peak, "rays shot").c_str(), peak_n,
-              opt.out.c_str());
+  const sim::PeakPoint best = sim::peak_of(points);
+  peak = best.rate;
+  peak_n = best.clients;
+  std::printf("peak: %s with %d client(s)%s; results in %s/clients-N/\n", format_rate(peak, "rays shot").c_str(), peak_n,
+              best.steady ? "" : " (no steady point)", opt.out.c_str());
   res.rc = stalled ? kExitFailure : kExitOk;
   res.complete = true;
   return res;

@@ -116,7 +116,8 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_flag("--quiet,-q,--no-progress", opt->no_progress, "No progress line on stderr");
   sim->add_option("--clients", opt->clients,
                   "Path tracing: clients requesting frames: N; N1,N2,... for a sweep reporting the peak; or auto, a "
-                  "sweep doubling the clients until two counts in a row gain no more than 2 % (the paper's peak)")
+                  "sweep doubling the clients until two counts in a row gain no more than 2 % or the rays alive keep "
+                  "growing (the paper's peak: the best steady point)")
       ->default_val(opt->clients);
   sim->add_option("--frames-in-flight", opt->frames_in_flight,
                   "Path tracing: frames each client keeps requested at once (the offered load; the paper's clients "

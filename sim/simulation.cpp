@@ -69,7 +69,24 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   // done before it: seconds-long jobs make that several per cent of a short window).
   for (const RaySpan& r : pt.traced()) traced += r.within(warm, end + 1e-9);
   for (const RaySpan& r : pt.ended_series()) ended += r.within(warm, end + 1e-9);
+  double created = 0;
+  for (const RaySpan& r : pt.created_series()) created += r.within(warm, end + 1e-9);
   const double span = std::max(1e-9, end - warm);
+  // Steady state (the paper measures "peak performance", a rate that holds): the rays
+  // alive may not grow by more than kSteadyGrowth of the rays shot inside the window. An
+  // offered load above the cluster's throughput fills the clients' in-flight budgets and
+  // looks fast meanwhile (camera rays that miss end at once, the expensive rest queues).
+  constexpr double kSteadyGrowth = 0.05;
+  const double growth = created - ended;
+  const double growth_share = ended > 0 ? growth / ended : (growth > 0 ? 1.0 : 0.0);
+  const bool steady = growth_share <= kSteadyGrowth;
+  // Rays shot per simulated second [k, k + 1), each job's rays pro rata to its run.
+  std::vector<double> shot_series(static_cast<std::size_t>(std::max(0.0, std::ceil(end - 1e-9))), 0.0);
+  for (const RaySpan& r : pt.ended_series()) {
+    const auto first = static_cast<std::size_t>(std::max(0.0, std::floor(r.start)));
+    for (std::size_t k = first; k < shot_series.size() && static_cast<double>(k) <= r.end; ++k)
+      shot_series[k] += r.within(static_cast<double>(k), static_cast<double>(k + 1));
+  }
   const RayTally& r = pt.tally();
   std::uint64_t exact = 0;
   double latency = 0;
@@ -96,6 +113,11 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   j["steady_block_visits_per_second"] = traced / span;
   j["steady_rays_per_second"] = traced / span;
   j["steady_rays_ended_per_second"] = ended / span;
+  j["rays_shot_per_second_series"] = shot_series;
+  j["steady"] = {{"steady", steady},
+                 {"alive_growth", growth},
+                 {"alive_growth_share_of_shot", growth_share},
+                 {"limit", kSteadyGrowth}};
   j["rays"] = {{"primary", r.primary}, {"secondary", r.secondary}, {"shadow", r.shadow}, {"created", r.created()},
                {"hit", r.hit}, {"escaped", r.escaped}, {"occluded", r.occluded}, {"lit", r.lit}, {"ended", r.ended()},
                {"lost", r.lost}, {"alive_at_end", pt.rays_alive()}};
@@ -124,6 +146,8 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   sum.path_trace = true;
   sum.steady_rays_per_second = traced / span;
   sum.steady_rays_shot_per_second = ended / span;
+  sum.steady = steady;
+  sum.alive_growth_share = growth_share;
   sum.frames_delivered = pt.frames().size();
 }
 

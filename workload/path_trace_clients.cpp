@@ -1,6 +1,7 @@
 #include "workload/path_trace_clients.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace rayline {
 
@@ -43,19 +44,26 @@ void merge_into(RayCounts& into, const RayCounts& add) {
   into.swap(out);
 }
 
-RayCounts next_wave(const SceneProfile& p, std::uint32_t frame_uid, FrameState& f) {
+RayCounts next_wave(const SceneProfile& p, std::uint32_t frame_uid, FrameState& f, bool per_tile) {
   RayCounts w;
   std::uint64_t rays = 0;
   const auto tiles = static_cast<std::uint64_t>(p.tiles());
   while (f.next_unit < f.units_total && (rays == 0 || rays < p.wave_rays)) {
     const int tile = static_cast<int>(f.next_unit % tiles);
     const std::uint64_t n = p.tile_pixels(tile);
-    w.emplace_back(ray_key(frame_uid, tile, 0), n);
+    w.emplace_back(ray_key(frame_uid, per_tile ? tile : 0, 0), n);
     rays += n;
     ++f.next_unit;
   }
   normalize(w);
   return w;
+}
+
+std::uint64_t partial_tiles(std::uint64_t samples, int tiles) {
+  if (samples == 0 || tiles <= 0) return 0;
+  const double t = static_cast<double>(tiles);
+  const double covered = t * -std::expm1(static_cast<double>(samples) * std::log1p(-1.0 / t));
+  return std::min<std::uint64_t>(static_cast<std::uint64_t>(tiles), static_cast<std::uint64_t>(std::ceil(covered - 1e-9)));
 }
 
 }  // namespace rayline

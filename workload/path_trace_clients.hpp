@@ -8,9 +8,13 @@
 //
 // Pixel accounting (conservation without per-ray state): a frame is tiles_x x tiles_y
 // tiles; a frame's primary samples are units (pass s, tile t) of tile_pixels(t) rays, in
-// pass-major order; a wave is a run of consecutive units of about wave_rays rays. Every
-// count the workload carries is per (frame, tile, bounce), so "every pixel gets spp
-// samples" is checked exactly per tile.
+// pass-major order; a wave is a run of consecutive units of about wave_rays rays.
+// Replay fidelity carries every count per (frame, tile, bounce), since its recorded
+// outcomes are per tile, and checks "every pixel gets spp samples" exactly per tile. In
+// the Markov and analytic models a ray's outcome does not depend on its tile, so counts
+// carry (frame, bounce) only (tile 0 in the key: 64x fewer keys on a museum frame) and
+// the check is exact for the frame's total; partial framebuffers are sized from the
+// expected tile coverage of the samples accumulated there (partial_tiles).
 #pragma once
 #include <cstdint>
 #include <map>
@@ -57,7 +61,13 @@ struct ClientState {
   int next_index = 0;         // the next frame along its camera path
 };
 
-// The next wave of a frame: per-tile ray counts at bounce 0, advancing next_unit.
-RayCounts next_wave(const SceneProfile& p, std::uint32_t frame_uid, FrameState& f);
+// The next wave of a frame: ray counts at bounce 0, per tile (per_tile) or one count
+// under tile 0, advancing next_unit.
+RayCounts next_wave(const SceneProfile& p, std::uint32_t frame_uid, FrameState& f, bool per_tile);
+
+// Tiles a partial framebuffer of `samples` samples covers when its samples carry no tile:
+// the expected number of tiles hit by that many samples spread uniformly over the image,
+// tiles * (1 - (1 - 1/tiles)^samples), rounded up, at most `tiles`.
+std::uint64_t partial_tiles(std::uint64_t samples, int tiles);
 
 }  // namespace rayline

@@ -165,7 +165,7 @@ void PathTraceWorkload::top_up(Time now, JobPool& pool, Schedule& s) {
       const auto uid = static_cast<std::uint32_t>(fid);
       FrameState& f = frames_[uid];
       while (f.next_unit < f.units_total && (f.alive == 0 || f.alive + p_.wave_rays <= p_.inflight_rays)) {
-        RayCounts wave = next_wave(p_, uid, f);
+        RayCounts wave = next_wave(p_, uid, f, per_tile());
         const std::uint64_t n = total(wave);
         f.alive += n;
         ++f.generate_pending;
@@ -329,7 +329,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
     return *to[slot];
   };
   RayCounts recs, samples;
-  std::uint64_t ended = 0;
+  std::uint64_t ended = 0, created = 0;
   std::vector<std::uint64_t>& out = scratch_;
   switch (I.kind) {
     case PtJob::Generate: {
@@ -338,6 +338,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
       for (const auto& [key, n] : I.rays) {
         model_.split(context(RayStage::Entry, key, f.keyframe), n, out);
         tally_.primary += n;
+        created += n;
         tally_.escaped += out[0];  // missed every cell: background
         ended += out[0];
         f.alive -= out[0];
@@ -374,6 +375,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
         survived += out[kSurvive];
         tally_.shadow += n;  // next-event estimation: one shadow ray per hit
         tally_.secondary += out[kSurvive];
+        created += n + out[kSurvive];
         FrameState& f = frames_[key_frame(key)];
         f.alive += out[kSurvive];  // n hit records become n shadow rays, plus the survivors
         sample_records(recs, samples, key_frame(key), key_tile(key), out[kTerminate], 0);
@@ -418,9 +420,18 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
         for (std::size_t t = 0; t < tiles.size(); ++t) f.delivered_samples[t] += tiles[t];
       FrameReport r = report_of(f, now);
       r.exact = true;
-      for (int t = 0; t < p_.tiles(); ++t)
-        r.exact = r.exact && f.delivered_samples[static_cast<std::size_t>(t)] ==
-                                 static_cast<std::uint64_t>(p_.spp) * p_.tile_pixels(t);
+      if (per_tile()) {
+        for (int t = 0; t < p_.tiles(); ++t)
+          r.exact = r.exact && f.delivered_samples[static_cast<std::size_t>(t)] ==
+                                   static_cast<std::uint64_t>(p_.spp) * p_.tile_pixels(t);
+      } else {  // counts carry no tile (path_trace_clients.hpp): the frame's total
+        std::uint64_t got = 0, want = 0;
+        for (int t = 0; t < p_.tiles(); ++t) {
+          got += f.delivered_samples[static_cast<std::size_t>(t)];
+          want += static_cast<std::uint64_t>(p_.spp) * p_.tile_pixels(t);
+        }
+        r.exact = got == want;
+      }
       reports_.push_back(r);
       ClientState& cl = clients_[static_cast<std::size_t>(f.client)];
       ++cl.frames_done;
@@ -431,6 +442,7 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
     }
   }
   if (ended) ended_.push_back({started, now, ended});
+  if (created) created_.push_back({started, now, created});
   for (auto& [k, d] : dests) route(j, d, mem, now, pool, s);
   if (predictor_) {  // children it produced nothing for: failed (Sec. 5.2)
     predictor_->finish(j, pool);
@@ -482,8 +494,15 @@ void PathTraceWorkload::check_frames(Time now, JobPool& pool, Schedule& s) {
       job.created = now;
       for (const auto& [m, tiles] : f.partial) {
         Bytes px = 0;
-        for (std::size_t t = 0; t < tiles.size(); ++t)
-          if (tiles[t]) px += p_.tile_pixels(static_cast<int>(t));
+        if (per_tile()) {
+          for (std::size_t t = 0; t < tiles.size(); ++t)
+            if (tiles[t]) px += p_.tile_pixels(static_cast<int>(t));
+        } else {  // all under tile 0: the expected coverage of its samples, in mean tiles
+          std::uint64_t n = 0;
+          for (std::uint64_t x : tiles) n += x;
+          const Bytes frame_px = static_cast<Bytes>(p_.width) * static_cast<Bytes>(p_.height);
+          px = frame_px * partial_tiles(n, p_.tiles()) / static_cast<Bytes>(std::max(1, p_.tiles()));
+        }
         DataBlock fb;
         fb.name = "partial" + std::to_string(pool.block_count());
         fb.kind = DataKind::Framebuffer;

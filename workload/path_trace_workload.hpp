@@ -6,8 +6,9 @@
 //
 // Conservation (tests/sched/test_path_trace_conservation.cpp): rays created (primary +
 // secondary + shadow) = rays ended (hit + escaped + occluded + lit), and every delivered
-// frame has exactly spp samples per pixel (checked per tile: samples summed over the
-// partial framebuffers that AdditiveCompose brings to the client = spp x tile pixels).
+// frame has exactly spp samples per pixel (samples summed over the partial framebuffers
+// that AdditiveCompose brings to the client = spp x pixels: per tile under replay, for the
+// frame otherwise, since the Markov and analytic counts carry no tile; path_trace_clients.hpp).
 #pragma once
 #include <map>
 #include <memory>
@@ -113,6 +114,9 @@ class PathTraceWorkload final : public Workload {
   // that ran inside it: sim/simulation.cpp).
   const std::vector<RaySpan>& traced() const { return traced_; }
   const std::vector<RaySpan>& ended_series() const { return ended_; }
+  // Rays created (primary by GenerateRays, shadow + secondary by Shade), per job, when the
+  // job that created them ended: with ended_series, the growth of the rays alive.
+  const std::vector<RaySpan>& created_series() const { return created_; }
   // Per job: the rays it processed (for replay checks), by JobId; 0 for non-ray jobs.
   std::uint64_t job_rays(JobId j) const;
 
@@ -148,6 +152,9 @@ class PathTraceWorkload final : public Workload {
   void sample_records(RayCounts& recs, RayCounts& samples, std::uint32_t frame, int tile, std::uint64_t completed,
                       std::uint64_t contributions);
   SplitContext context(RayStage stage, std::uint64_t key, int block) const;
+  // Counts carry their tile only where outcomes depend on it (replay, and a recording made
+  // for replay; path_trace_clients.hpp).
+  bool per_tile() const { return opt_.fidelity == Fidelity::Replay || opt_.record != nullptr; }
 
   const DeviceGraph& g_;
   const SceneProfile& p_;
@@ -170,7 +177,7 @@ class PathTraceWorkload final : public Workload {
   Schedule::CancelCount withdrawn_;
   RayTally tally_;
   std::vector<FrameReport> reports_, abandoned_;
-  std::vector<RaySpan> traced_, ended_;
+  std::vector<RaySpan> traced_, ended_, created_;
   std::array<std::uint64_t, kPtJobCount> jobs_by_kind_{};
   std::uint64_t merges_ = 0;
   Time now_ = 0;

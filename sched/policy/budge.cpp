@@ -140,14 +140,21 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   };
   std::vector<std::vector<Queued>> by_node(g.nodes.size() + 1);
   {
+    // Only the buckets an idle device will scan: its node's and "any node" (at a busy
+    // peak one device falls idle per event, while thousands of jobs are queued).
+    std::vector<char> wanted(g.nodes.size() + 1, 0);
+    wanted.back() = 1;
+    for (DeviceId d : idle) wanted[static_cast<std::size_t>(g.computes[d].node)] = 1;
     std::size_t pos = 0;
     for (JobId j : pool.queued()) {
       ++pos;
       const NodeId home = home_of(j);
+      const std::size_t bucket = home == kNone ? g.nodes.size() : static_cast<std::size_t>(home);
+      if (!wanted[bucket]) continue;
       const Inputs& in = inputs_of(j, pool);
       Bytes rays = in.fixed_rays;
       for (BlockId b : in.live) rays += pool.block(b).bytes;
-      by_node[home == kNone ? g.nodes.size() : static_cast<std::size_t>(home)].push_back({j, rays, pos});
+      by_node[bucket].push_back({j, rays, pos});
     }
   }
   for (DeviceId d : idle) {

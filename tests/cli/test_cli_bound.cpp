@@ -44,3 +44,28 @@ TEST_F(CliBound, FreeIoMeetsTheComputeBoundWithoutPassingIt) {
   const double expected = b["per_camera_ray"]["block_visits"].get<double>() / b["per_camera_ray"]["rays_shot"].get<double>();
   EXPECT_NEAR(visits_per_ray, expected, 0.1 * expected);
 }
+
+// The steady-state test (metrics.json path_trace.steady) on both sides of the line: one
+// paper node with the museum's 2 clients absorbs its load (the rays alive do not grow),
+// while Boeing's 64 clients under Budge on the same node fill their in-flight budgets
+// faster than its disk lets the rays end. The per-second rays-shot series adds up to the rays ended.
+TEST_F(CliBound, SteadyStateIsToldFromAnOverload) {
+  const std::string common = " --platform paper-A --start warm --duration 8s --no-progress --no-timeline --out ";
+  const fs::path ok = dir_ / "steady", over = dir_ / "overload";
+  const auto a = rayline_cli("simulate --workload museum --clients 2" + common + ok.string());
+  ASSERT_EQ(a.code, 0) << a.all;
+  const auto b = rayline_cli("simulate --workload boeing --scheduler budge --clients 64" + common + over.string());
+  ASSERT_EQ(b.code, 0) << b.all;
+  const auto s = path_trace(ok), o = path_trace(over);
+  EXPECT_TRUE(s["steady"]["steady"].get<bool>()) << s["steady"].dump();
+  EXPECT_LE(s["steady"]["alive_growth_share_of_shot"].get<double>(), 0.05);
+  EXPECT_FALSE(o["steady"]["steady"].get<bool>()) << o["steady"].dump();
+  EXPECT_GT(o["steady"]["alive_growth_share_of_shot"].get<double>(), 0.05);
+  EXPECT_NE(b.out.find("not a steady state"), std::string::npos) << b.out;
+  for (const auto* pt : {&s, &o}) {
+    double sum = 0;
+    for (const auto& v : (*pt)["rays_shot_per_second_series"]) sum += v.get<double>();
+    EXPECT_EQ((*pt)["rays_shot_per_second_series"].size(), 8u);
+    EXPECT_NEAR(sum, (*pt)["rays"]["ended"].get<double>(), 1e-6 * sum + 1);
+  }
+}

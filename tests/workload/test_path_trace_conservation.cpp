@@ -1,7 +1,8 @@
 // The path-tracing workload under GMB and the exact executor, on the paper's two-node
 // platform: over whole frames, every ray created (primary, secondary, shadow) ends exactly
 // once (hit, escaped, occluded, lit), and every delivered frame has exactly spp samples
-// per pixel (per tile, summed over the partial framebuffers composed at the client) — for
+// per pixel (summed over the partial framebuffers composed at the client: per tile under
+// replay, per frame where counts carry no tile) — for
 // every fidelity level, with job prediction off and on. Replay reproduces a recorded run's
 // per-job ray counts exactly.
 #include <gtest/gtest.h>
@@ -388,4 +389,36 @@ TEST(PathTraceFramesInFlight, ConservationExactWithThreeFramesInFlight) {
     for (const FrameReport& b : wl.frames())
       overlapped = overlapped || (a.client == b.client && a.index + 1 == b.index && b.requested < a.delivered);
   EXPECT_TRUE(overlapped);
+}
+
+// Waves carry their tiles only when asked (replay): otherwise one count under tile 0 with
+// the same total, and the same units consumed.
+TEST(PathTraceClients, WavesCarryTilesOnlyWhenAsked) {
+  const SceneProfile prof = load_scene_profile(kProfile);
+  FrameState a, b;
+  a.units_total = b.units_total = static_cast<std::uint64_t>(prof.spp) * static_cast<std::uint64_t>(prof.tiles());
+  const RayCounts tiled = next_wave(prof, 3, a, true), flat = next_wave(prof, 3, b, false);
+  EXPECT_EQ(a.next_unit, b.next_unit);
+  EXPECT_EQ(total(tiled), total(flat));
+  ASSERT_EQ(flat.size(), 1u);
+  EXPECT_EQ(flat[0].first, ray_key(3, 0, 0));
+  EXPECT_EQ(tiled.size(), std::min<std::uint64_t>(a.next_unit, static_cast<std::uint64_t>(prof.tiles())));
+}
+
+// Expected tiles covered by n uniformly spread samples: 0 for none, 1 for one, never more
+// than the tiles, monotone, and every tile once samples far outnumber tiles.
+TEST(PathTraceClients, PartialTilesIsTheExpectedCoverage) {
+  EXPECT_EQ(partial_tiles(0, 64), 0u);
+  EXPECT_EQ(partial_tiles(1, 64), 1u);
+  EXPECT_EQ(partial_tiles(2, 64), 2u);  // 1.98 rounded up
+  EXPECT_EQ(partial_tiles(64, 64), 41u);  // 64 (1 - (63/64)^64) = 40.6
+  EXPECT_EQ(partial_tiles(100000, 64), 64u);
+  EXPECT_EQ(partial_tiles(5, 1), 1u);
+  std::uint64_t last = 0;
+  for (std::uint64_t n = 0; n < 2000; n += 7) {
+    const std::uint64_t t = partial_tiles(n, 64);
+    EXPECT_GE(t, last);
+    EXPECT_LE(t, 64u);
+    last = t;
+  }
 }
