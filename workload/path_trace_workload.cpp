@@ -193,7 +193,7 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
                                   JobPool& pool, Schedule& s) {
   const std::uint64_t n = kind == PtJob::Accumulate ? total(records) : total(rays);
   if (n == 0) return;
-  const auto key = std::make_tuple(static_cast<int>(kind), block, mem);
+  const std::uint64_t key = queue_key(static_cast<int>(kind), block, mem);
   // Sec. 5.1: rays arriving where a planned job will process a queue of the same kind and
   // block, before it started, join that queue (its E-job then runs for the merged size,
   // exec_scale). Their bytes are not added to the memory device's reservation: the
@@ -474,7 +474,7 @@ void PathTraceWorkload::scan_planned(const Schedule& s, const JobPool& pool) {
     const JobInfo& I = info_[static_cast<std::size_t>(a.job)];
     if (I.kind == PtJob::Generate || I.kind == PtJob::Compose) continue;
     (void)pool;
-    planned_at_[std::make_tuple(static_cast<int>(I.kind), I.block, g_.computes[a.device].memory)] = a.job;
+    planned_at_[queue_key(static_cast<int>(I.kind), I.block, g_.computes[a.device].memory)] = a.job;
   }
 }
 

@@ -12,6 +12,7 @@
 #pragma once
 #include <map>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "sched/core/device_graph.hpp"
@@ -170,8 +171,14 @@ class PathTraceWorkload final : public Workload {
   std::vector<ClientState> clients_;
   std::vector<FrameState> frames_;
   std::vector<JobInfo> info_;
-  std::map<std::tuple<int, int, MemId>, JobId> open_;  // (kind, block, memory) -> queued job holding a queue there
-  std::map<std::tuple<int, int, MemId>, JobId> planned_at_;  // (kind, block, memory) -> latest job planned to run there
+  // (kind, block, memory) packed by queue_key: looked up for every queue a job routes.
+  static std::uint64_t queue_key(int kind, int block, MemId mem) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint8_t>(kind)) << 56) |
+           (static_cast<std::uint64_t>(static_cast<std::uint32_t>(block + 1) & 0xFFFFFFu) << 32) |
+           static_cast<std::uint64_t>(static_cast<std::uint32_t>(mem + 1));
+  }
+  std::unordered_map<std::uint64_t, JobId> open_;        // -> queued job holding a queue there
+  std::unordered_map<std::uint64_t, JobId> planned_at_;  // -> latest job planned to run there
   std::size_t act_cursor_ = 0;
   std::uint64_t merges_planned_ = 0;
   Schedule::CancelCount withdrawn_;

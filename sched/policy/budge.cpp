@@ -137,6 +137,9 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     JobId job;
     Bytes rays;
     std::size_t pos;
+    BlockId scene0;     // its one scene input (kNone: none, or several: see inputs_of)
+    Bytes scene_bytes;  // all its scene inputs
+    bool many_scenes;
   };
   std::vector<std::vector<Queued>> by_node(g.nodes.size() + 1);
   {
@@ -154,7 +157,9 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       const Inputs& in = inputs_of(j, pool);
       Bytes rays = in.fixed_rays;
       for (BlockId b : in.live) rays += pool.block(b).bytes;
-      by_node[bucket].push_back({j, rays, pos});
+      Bytes scene = 0;
+      for (BlockId b : in.scene) scene += pool.block(b).bytes;
+      by_node[bucket].push_back({j, rays, pos, in.scene.size() == 1 ? in.scene[0] : kNone, scene, in.scene.size() > 1});
     }
   }
   for (DeviceId d : idle) {
@@ -175,10 +180,11 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
         const Job& job = pool.job(q.job);
         if (!g.timing.supports(d, job.type)) continue;
         bool resident = true;
-        Bytes scene = 0;
-        for (BlockId b : inputs_of(q.job, pool).scene) {
-          resident = resident && s.copy_at(b, m) != nullptr;
-          scene += pool.block(b).bytes;
+        const Bytes scene = q.scene_bytes;
+        if (q.many_scenes) {
+          for (BlockId b : inputs_of(q.job, pool).scene) resident = resident && s.copy_at(b, m) != nullptr;
+        } else if (q.scene0 != kNone) {
+          resident = s.copy_at(q.scene0, m) != nullptr;
         }
         if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
         cand.push_back({q.job, opt_.resident_first && resident, opt_.largest_queue ? q.rays : 0, q.pos});

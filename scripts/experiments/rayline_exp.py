@@ -63,7 +63,8 @@ FIELDS = ["experiment", "label", "platform", "scene", "scheduler", "clients", "h
           "work_units_done", "ray_jobs", "ray_jobs_gpu", "rays_per_ray_job", "scene_fetch_bytes",
           "scene_bytes_per_ray", "withdrawn_t_jobs", "withdrawn_t_job_bytes", "scheduler_parameters", "out_dir",
           "start", "steady_rays_shot_per_second", "compute_bound_rays_shot_per_second", "share_of_compute_bound",
-          "block_visits_per_ray_shot", "cpu_fetching", "gpu_fetching", "sim_speedup", "peak_rss_mb"]
+          "block_visits_per_ray_shot", "cpu_fetching", "gpu_fetching", "sim_speedup", "peak_rss_mb", "steady",
+          "alive_growth_share"]
 
 
 def run_rayline(cmd, out_dir, timeout):
@@ -167,6 +168,8 @@ def read_run(row, out_dir, outcome_from_metrics=False):
             work_units_done=m.get("work_units_done", 0),
             scheduler_parameters=m.get("scheduler_parameters", ""), start=m.get("start", ""),
             steady_rays_shot_per_second=pt.get("steady_rays_shot_per_second", ""),
+            steady=pt.get("steady", {}).get("steady", ""),
+            alive_growth_share=pt.get("steady", {}).get("alive_growth_share_of_shot", ""),
             compute_bound_rays_shot_per_second=pt.get("bound", {}).get("compute_rays_shot_per_second", ""),
             share_of_compute_bound=pt.get("bound", {}).get("share_of_compute_bound", ""),
             block_visits_per_ray_shot=(pt["steady_block_visits_per_second"] / pt["steady_rays_shot_per_second"]
