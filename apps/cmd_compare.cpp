@@ -160,7 +160,7 @@ int run_compare(const CompareOptions& opt) {
   const std::vector<std::string> scheds = scheduler_list(opt.schedulers);
   // --clients N1,N2,... or auto: each scheduler is swept (OUT/<scheduler>/clients-N/) and
   // compared at its own peak, as the paper compares methods (Sec. 6).
-  const bool sweep = opt.sim.clients.find(',') != std::string::npos || opt.sim.clients == "auto";
+  const bool sweep = opt.sim.clients.find(',') != std::string::npos || opt.sim.clients.starts_with("auto");
   check_simulate_flags(opt.sim);
   // Each run replaces OUT/<scheduler>, and the results replace OUT: checked for the user's
   // files before the first run.

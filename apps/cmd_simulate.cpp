@@ -37,10 +37,27 @@ sim::WorkloadKind workload_kind(const std::string& resolved) {
   return resolved == "ray-stream" ? sim::WorkloadKind::RayStream : sim::WorkloadKind::JobSet;
 }
 
-// --clients: N, a list N1,N2,..., or "auto" (empty: the sweep finds the peak itself).
+// --clients auto:M: the automatic sweep measures at most M clients (default: the
+// workload's limit).
+int auto_max_clients(const std::string& text) {
+  if (!text.starts_with("auto:")) return kMaxPtClients;
+  const std::string item = text.substr(5);
+  char* end = nullptr;
+  const long v = std::strtol(item.c_str(), &end, 10);
+  if (item.empty() || *end != '\0' || v < 1 || v > kMaxPtClients)
+    throw InputError("--clients", "", "expected auto:M with M an integer in [1, " + std::to_string(kMaxPtClients) + "], got '" +
+                                          text + "'");
+  return static_cast<int>(v);
+}
+
+// --clients: N, a list N1,N2,..., "auto" or "auto:M" (empty: the sweep finds the peak itself).
 std::vector<int> client_counts(const std::string& text) {
   std::vector<int> out;
   if (text == "auto") return out;
+  if (text.starts_with("auto:")) {
+    (void)auto_max_clients(text);  // checked
+    return out;
+  }
   std::size_t pos = 0;
   while (pos <= text.size()) {
     const std::size_t comma = text.find(',', pos);
@@ -255,7 +272,9 @@ SweepResult sweep_into(const SimulateOptions& opt, const sim::SimulationConfig& 
   std::fflush(stdout);
   std::vector<sim::PeakPoint> points;
   std::size_t k = 0;
-  const auto next = [&] { return counts.empty() ? sim::next_peak_point(points) : k < counts.size() ? counts[k++] : 0; };
+  sim::PeakSearch search;
+  search.max_clients = auto_max_clients(opt.clients);
+  const auto next = [&] { return counts.empty() ? sim::next_peak_point(points, search) : k < counts.size() ? counts[k++] : 0; };
   for (int n = next(); n != 0; n = next()) {
     std::string line;  // one process per point
     const int rc = run_in_child([&](int fd) { return sweep_point(cfg, n, dir, fd); }, line);

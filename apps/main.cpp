@@ -117,7 +117,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--clients", opt->clients,
                   "Path tracing: clients requesting frames: N; N1,N2,... for a sweep reporting the peak; or auto, a "
                   "sweep doubling the clients until two counts in a row gain no more than 2 % or the rays alive keep "
-                  "growing (the paper's peak: the best steady point)")
+                  "growing (the paper's peak: the best steady point); auto:M measures at most M clients")
       ->default_val(opt->clients);
   sim->add_option("--frames-in-flight", opt->frames_in_flight,
                   "Path tracing: frames each client keeps requested at once (the offered load; the paper's clients "
@@ -170,8 +170,8 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
       ->check(CLI::IsMember({"channel", "resource", "exclusive"}));
   c->add_option("--seed", o.seed, "Workload seed")->default_val(o.seed)->check(kSeed);
   c->add_option("--clients", o.clients,
-                "Path tracing: clients requesting frames: N; N1,N2,... or auto to sweep each scheduler and compare "
-                "them at their own peaks (OUT/<scheduler>/clients-N/)")
+                "Path tracing: clients requesting frames: N; N1,N2,... or auto (auto:M: at most M clients) to sweep "
+                "each scheduler and compare them at their own peaks (OUT/<scheduler>/clients-N/)")
       ->default_val(o.clients);
   c->add_option("--prediction-depth", o.prediction_depth, "Path tracing: job prediction depth (GMB only)")->default_val(o.prediction_depth)->check(CLI::Range(0, 16));
   c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);

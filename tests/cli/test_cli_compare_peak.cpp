@@ -55,3 +55,17 @@ TEST_F(CliComparePeak, EachSchedulerIsComparedAtItsOwnPeak) {
   std::getline(csv, header);
   EXPECT_NE(header.find(",clients"), std::string::npos) << header;
 }
+
+// --clients auto:M caps the automatic sweep at M clients; a cap out of range is bad input.
+TEST_F(CliComparePeak, AutoSweepStopsAtItsCap) {
+  const fs::path out = dir_ / "capped";
+  const auto r = rayline_cli("simulate --platform paper-A --workload museum --clients auto:2 --start warm --duration 2s"
+                             " --no-progress --no-timeline --out " + out.string());
+  ASSERT_TRUE(r.code == 0 || r.code == 1) << r.all;
+  EXPECT_TRUE(fs::exists(out / "clients-1" / "metrics.json"));
+  EXPECT_FALSE(fs::exists(out / "clients-4")) << r.out;
+  const auto bad = rayline_cli("simulate --workload museum --clients auto:0 --out " + (dir_ / "bad").string());
+  EXPECT_EQ(bad.code, 2) << bad.all;
+  EXPECT_NE(bad.all.find("--clients"), std::string::npos) << bad.all;
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
+}
