@@ -30,6 +30,12 @@ class JobPool {
   class Queue;
   Queue queued() const;
   std::size_t queued_count() const { return queue_.size() - holes_; }
+  // A queued job's append number (increasing along the queue; a requeued job gets a new
+  // one), -1 when it is not queued; and the queued jobs appended at or after `number`, in
+  // queue order (a policy that keeps its own view of the queue reads only what is new).
+  std::int64_t queue_number(JobId j) const { return queue_pos_[j]; }
+  Queue queued_since(std::int64_t number) const;
+  std::int64_t appended() const { return appended_; }
 
   void mark_planned(JobId j, ActivityId a);
   void mark_done(JobId j);
@@ -107,5 +113,14 @@ class JobPool::Queue {
 };
 
 inline JobPool::Queue JobPool::queued() const { return {queue_.data(), queue_.data() + queue_.size()}; }
+inline JobPool::Queue JobPool::queued_since(std::int64_t number) const {
+  std::size_t lo = 0, hi = queue_.size();  // the first entry numbered >= number
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (queue_[mid].number < number) lo = mid + 1;
+    else hi = mid;
+  }
+  return {queue_.data() + lo, queue_.data() + queue_.size()};
+}
 
 }  // namespace rayline

@@ -88,6 +88,7 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     bound_ = &s;
     homes_.clear();
     inputs_.clear();
+    by_node_.clear();
   }
   s.set_eviction_policy(opt_.lru ? Schedule::EvictionPolicy::Lru : Schedule::EvictionPolicy::QueueAware);
   const DeviceGraph& g = s.graph();
@@ -131,37 +132,23 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     if (h == kNone) h = home_node(j, pool.job(j), pool, s, opt_.split_by_throughput);
     return h != kNone && s.any_lost() && !node_alive(h) ? kNone : h;
   };
-  // Queued jobs bucketed by home node (the last bucket: any node), in queue order, so each
-  // device scans only its own node's part of the image.
-  struct Queued {
-    JobId job;
-    Bytes rays;
-    std::size_t pos;
-    BlockId scene0;     // its one scene input (kNone: none, or several: see inputs_of)
-    Bytes scene_bytes;  // all its scene inputs
-    bool many_scenes;
-  };
-  std::vector<std::vector<Queued>> by_node(g.nodes.size() + 1);
-  {
-    // Only the buckets an idle device will scan: its node's and "any node" (at a busy
-    // peak one device falls idle per event, while thousands of jobs are queued).
-    std::vector<char> wanted(g.nodes.size() + 1, 0);
-    wanted.back() = 1;
-    for (DeviceId d : idle) wanted[static_cast<std::size_t>(g.computes[d].node)] = 1;
-    std::size_t pos = 0;
-    for (JobId j : pool.queued()) {
-      ++pos;
-      const NodeId home = home_of(j);
-      const std::size_t bucket = home == kNone ? g.nodes.size() : static_cast<std::size_t>(home);
-      if (!wanted[bucket]) continue;
-      const Inputs& in = inputs_of(j, pool);
-      Bytes rays = in.fixed_rays;
-      for (BlockId b : in.live) rays += pool.block(b).bytes;
-      Bytes scene = 0;
-      for (BlockId b : in.scene) scene += pool.block(b).bytes;
-      by_node[bucket].push_back({j, rays, pos, in.scene.size() == 1 ? in.scene[0] : kNone, scene, in.scene.size() > 1});
-    }
+  // The buckets (budge.hpp): the jobs queued since the last call join their home's bucket;
+  // once a device is lost, homes can change at any call, so every queued job is bucketed
+  // again at each.
+  const std::size_t any_bucket = g.nodes.size();
+  if (by_node_.size() != g.nodes.size() + 1 || s.any_lost()) {
+    by_node_.assign(g.nodes.size() + 1, {});
+    bucketed_ = 0;
   }
+  for (JobId j : pool.queued_since(bucketed_)) {
+    const NodeId home = home_of(j);
+    const Inputs& in = inputs_of(j, pool);
+    Bytes scene = 0;
+    for (BlockId b : in.scene) scene += pool.block(b).bytes;
+    by_node_[home == kNone ? any_bucket : static_cast<std::size_t>(home)].push_back(
+        {j, pool.queue_number(j), in.scene.size() == 1 ? in.scene[0] : kNone, scene, in.scene.size() > 1});
+  }
+  bucketed_ = pool.appended();
   for (DeviceId d : idle) {
     const MemId m = g.computes[d].memory;
     const NodeId node = g.computes[d].node;
@@ -174,9 +161,23 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     // checked only in priority order, so the first feasible one is the same pick as the
     // best feasible one: resident first, then the largest queue, then queue order.
     cand.clear();
-    for (const auto* bucket : {&by_node[static_cast<std::size_t>(node)], &by_node.back()})
-      for (const Queued& q : *bucket) {
-        if (pool.state(q.job) != JobState::Queued) continue;  // taken by an earlier device
+    for (const std::size_t k : {static_cast<std::size_t>(node), any_bucket}) {
+      std::vector<Queued>& bucket = by_node_[k];
+      std::size_t keep = 0;  // entries of jobs still queued under the same number, in order
+      for (std::size_t i = 0; i < bucket.size(); ++i) {
+        const Queued& q = bucket[i];
+        if (pool.queue_number(q.job) != q.number) continue;  // planned, or queued again later
+        if (k == any_bucket) {
+          // "Any node" until its inputs say where it belongs (home_of is asked again).
+          if (const NodeId h = home_of(q.job); h != kNone) {
+            by_node_[static_cast<std::size_t>(h)].push_back(q);  // order: `number` decides, not the bucket
+            if (h != node) continue;
+          } else {
+            bucket[keep++] = q;
+          }
+        } else {
+          bucket[keep++] = q;
+        }
         const Job& job = pool.job(q.job);
         if (!g.timing.supports(d, job.type)) continue;
         bool resident = true;
@@ -187,8 +188,16 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
           resident = s.copy_at(q.scene0, m) != nullptr;
         }
         if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
-        cand.push_back({q.job, opt_.resident_first && resident, opt_.largest_queue ? q.rays : 0, q.pos});
+        Bytes rays = 0;
+        if (opt_.largest_queue) {
+          const Inputs& in = inputs_of(q.job, pool);
+          rays = in.fixed_rays;
+          for (BlockId b : in.live) rays += pool.block(b).bytes;
+        }
+        cand.push_back({q.job, opt_.resident_first && resident, rays, static_cast<std::size_t>(q.number)});
       }
+      bucket.resize(keep);
+    }
     // Candidates in priority order until one is feasible: a heap, since usually the first
     // one is (a full sort of thousands of queued jobs per idle device was most of a plan).
     // `pos` is unique, so the order is total and the same as sorting.

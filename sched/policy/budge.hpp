@@ -62,6 +62,19 @@ class BudgeScheduler final : public Scheduler {
   };
   std::vector<Inputs> inputs_;
   const Inputs& inputs_of(JobId j, const JobPool& pool);
+  // Queued jobs bucketed by home node (the last bucket: any node), in queue order, kept
+  // across calls: each call adds the jobs queued since the last one and drops, while
+  // scanning a bucket, entries whose job left the queue (or was queued again: a new
+  // number). After a lost device (homes can change) they are rebuilt at every call.
+  struct Queued {
+    JobId job;
+    std::int64_t number;  // its append number in the queue (the queue order)
+    BlockId scene0;       // its one scene input (kNone: none, or several: see inputs_of)
+    Bytes scene_bytes;    // all its scene inputs
+    bool many_scenes;
+  };
+  std::vector<std::vector<Queued>> by_node_;
+  std::int64_t bucketed_ = 0;  // queue numbers below this are in by_node_
 };
 
 }  // namespace rayline

@@ -579,5 +579,19 @@ TEST(JobPool, QueueKeepsArrivalOrderThroughRemovalsAndRequeues) {
     ASSERT_EQ(std::vector<JobId>(pool.queued().begin(), pool.queued().end()), ref) << "step " << step;
     ASSERT_EQ(pool.queued_demand(b), static_cast<int>(ref.size()));
     ASSERT_EQ(pool.queued_count(), ref.size());
+    // Append numbers: increasing along the queue, -1 off it; queued_since(n) is the tail
+    // of the queue numbered n or more.
+    std::int64_t last = -1;
+    for (JobId j : ref) {
+      ASSERT_GT(pool.queue_number(j), last);
+      last = pool.queue_number(j);
+    }
+    for (JobId j : out) ASSERT_EQ(pool.queue_number(j), -1);
+    const std::int64_t n = ref.empty() ? 0 : pool.queue_number(ref[ref.size() / 2]);
+    std::vector<JobId> tail;
+    for (JobId j : ref)
+      if (pool.queue_number(j) >= n) tail.push_back(j);
+    ASSERT_EQ(std::vector<JobId>(pool.queued_since(n).begin(), pool.queued_since(n).end()), tail);
+    ASSERT_TRUE(pool.queued_since(pool.appended()).begin() == pool.queued_since(pool.appended()).end());
   }
 }
