@@ -5,7 +5,7 @@
                              [--scenes boeing,museum] [--seed 1] [--synthetic]
         writes PROFILES/boeing.profile.json and PROFILES/museum.profile.json (statistics from
         `rayline render --record-profile`), and WORK/NAME-render.profile.json + NAME.replay.log
-    scripts/make_profiles.py stability [--profile-seeds 1,2] [--seeds 1,2,3] [--out out/stability]
+    scripts/make_profiles.py stability [--profile-seeds 1,2] [--seeds 1-6] [--out out/stability] [--reuse]
         makes the profiles once per profile seed into OUT/seed-S/ and writes OUT/stability.csv:
         steady rays shot per second (budge, gmb; paper-cluster, warm start, 8 clients, 12 s) and
         the compute bound of each, and how far the seeds' profiles differ (target: < 5 %)
@@ -727,7 +727,7 @@ def main():
     ap.add_argument("--depth", type=int, default=0, help="fidelity runs: prediction depth")
     ap.add_argument("--prediction-depth", type=int, default=2, help="prediction.csv: depth compared with 0")
     ap.add_argument("--platform", default="paper-cluster")
-    ap.add_argument("--seeds", default=None, help="simulator seeds averaged per point (prediction: 1,2,3; stability: 1)")
+    ap.add_argument("--seeds", default=None, help="simulator seeds averaged per point, e.g. 1,2,5-8 (prediction: 1,2,3; stability: 1-6)")
     ap.add_argument("--profile-seeds", default="1,2", help="stability: the profiles' --seed values compared")
     ap.add_argument("--schedulers", default="budge,gmb", help="stability: schedulers simulated")
     ap.add_argument("--reuse", action="store_true", help="stability: keep profiles already in OUT/seed-S/")
@@ -736,7 +736,7 @@ def main():
     if args.duration is None:
         args.duration = "12s" if args.command == "stability" else "30s"
     if args.seeds is None:
-        args.seeds = "1" if args.command == "stability" else "1,2,3"
+        args.seeds = "1-6" if args.command == "stability" else "1,2,3"
     if args.clients is None:
         args.clients = 8 if args.command == "stability" else 4
     if args.command == "stability" and args.out == DEFAULT_OUT:
