@@ -1,9 +1,14 @@
 #!/usr/bin/env python3
 """Scene profiles for the simulator's path-tracing workload (docs/scene-profiles.md).
 
-    scripts/make_profiles.py [--rayline build/apps/rayline] [--work out/profiles] [--synthetic]
-        writes scenes/boeing.profile.json and scenes/museum.profile.json (statistics from
+    scripts/make_profiles.py [make] [--rayline build/apps/rayline] [--work out/profiles] [--profiles scenes]
+                             [--scenes boeing,museum] [--seed 1] [--synthetic]
+        writes PROFILES/boeing.profile.json and PROFILES/museum.profile.json (statistics from
         `rayline render --record-profile`), and WORK/NAME-render.profile.json + NAME.replay.log
+    scripts/make_profiles.py stability [--profile-seeds 1,2] [--seeds 1-6] [--out out/stability] [--reuse]
+        makes the profiles once per profile seed into OUT/seed-S/ and writes OUT/stability.csv:
+        steady rays shot per second (budge, gmb; paper-cluster, warm start, 8 clients, 12 s) and
+        the compute bound of each, and how far the seeds' profiles differ (target: < 5 %)
     scripts/make_profiles.py fidelity [--rayline ...] [--duration 30s] [--out out/fidelity]
         writes OUT/fidelity.csv: simulator wall time vs throughput error of the three fidelity
         levels on both scenes, error measured against replay of the renderer-recorded logs
@@ -15,17 +20,23 @@
         predictions kept (--cancel-failed off), 1 and --clients clients, on paper-A and --platform,
         means over --seeds (default 1,2,3)
 
-How a profile is made (standard library only; deterministic for --seed):
- 1. `rayline generate boeing-like|museum-like` at --triangles, then `rayline partition` into
-    129 / 65 blocks (the paper's block counts): cell bounds, geometry bounds, triangle
-    counts, block file sizes, face neighbours with shared areas (blocks.json).
+How a profile is made (standard library only; deterministic for --seed; docs/scene-profiles.md):
+ 1. `rayline generate boeing-like|museum-like --seed S` at --triangles (default: Boeing 8M,
+    museum 2M: enough parts and statues that two seeds give the same throughput within a few
+    per cent), then `rayline partition` into 129 / 65 blocks (the paper's block counts,
+    Table 1): cell bounds, geometry bounds, triangle counts, block file sizes, face
+    neighbours with shared areas (blocks.json). The partition is the paper's median split
+    (Sec. 6): each kd-tree node cuts at the quantile of its triangles' centroids, so blocks
+    own equal triangle counts; triangles crossing a plane are stored on both sides.
  2. Sizes are scaled to the paper's footprints (Table 1: 26.5 GiB / 12.3 GiB): block b gets
-    file_bytes(b) * target / sum(file_bytes), so the blocks keep the generated scene's
-    proportions.
+    file_bytes(b) * target / sum(file_bytes), i.e. the median split's even blocks, differing
+    only by the straddling triangles each holds (Boeing 201-220 MiB, museum 190-199 MiB).
  3. THE RENDERER'S KERNELS (default): for each of --keyframes camera keyframes (an orbit
     outside the Boeing-like model, a walk through the museum-like interior) the scene is
     rendered by `rayline render` on that partition at --render-resolution / --render-spp
-    with the profile's max_bounces as --max-depth, with --record-profile (per-cell counts of
+    (default 256x256, 4 spp) with the profile's max_bounces as --max-depth, --seed
+    1000*S+k, --skip-empty off (every cell along a ray is visited, as in the simulator's
+    graph, whose missed rays go to face neighbours), with --record-profile (per-cell counts of
     every ray the kernels traced: hits, continuations, escapes, transitions to each face
     neighbour, shadow rays occluded / lit / going on) and --record-replay (a per-keyframe
     replay log). The counts of all keyframes are summed; per block, alpha, beta, escape,
@@ -54,18 +65,28 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 GIB = 1024 ** 3
+DEFAULT_OUT = os.path.join(ROOT, "out", "fidelity")
 
 SCENES = {
-    "boeing": dict(generator="boeing-like", blocks=129, bytes=26.5 * GIB, width=512, height=512, spp=4,
+    "boeing": dict(generator="boeing-like", triangles="8M", blocks=129, bytes=26.5 * GIB, width=512, height=512, spp=4,
                    tiles=[8, 8], wave_rays=262144, inflight_rays=4000000, max_bounces=5, alpha=0.55, beta=0.5,
                    camera="orbit", description="Boeing 777-like CAD model (rayline generate boeing-like), "
                    "partitioned into the paper's 129 blocks, scaled to 26.5 GiB; 512^2, 4 spp (Table 1)"),
-    "museum": dict(generator="museum-like", blocks=65, bytes=12.3 * GIB, width=2048, height=2048, spp=128,
+    "museum": dict(generator="museum-like", triangles="2M", blocks=65, bytes=12.3 * GIB, width=2048, height=2048, spp=128,
                    tiles=[8, 8], wave_rays=1048576, inflight_rays=8000000, max_bounces=8, alpha=0.7, beta=0.8,
                    camera="walk", description="SponzaMuseum-like interior (rayline generate museum-like), "
                    "partitioned into the paper's 65 blocks, scaled to 12.3 GiB; 2048^2, 128 spp, many diffuse "
                    "bounces (Table 1)"),
 }
+
+
+def seed_list(text):
+    """'1,2,5-8' -> [1, 2, 5, 6, 7, 8]"""
+    out = []
+    for part in text.split(","):
+        a, _, b = part.partition("-")
+        out += list(range(int(a), int(b or a) + 1))
+    return out
 
 
 def run(cmd):
@@ -431,6 +452,10 @@ def keyframe_scene(scene, eye, fwd, width, height):
     return sc
 
 
+def render_seed(args):
+    return args.seed if args.render_seed is None else args.render_seed
+
+
 def render_counts(args, name, cfg, scene_path, blocks_dir, part):
     """Renders every keyframe with --record-profile / --record-replay; returns the summed
     counts, per-keyframe entry counts, and the concatenated replay log's pieces."""
@@ -447,7 +472,7 @@ def render_counts(args, name, cfg, scene_path, blocks_dir, part):
         log = os.path.join(args.work, f"{name}-key{k}.replay.log")
         run([args.rayline, "render", "--scene", key_scene, "--blocks-dir", blocks_dir, "--resolution", f"{w}x{h}",
              "--spp", str(args.render_spp), "--max-depth", str(cfg["max_bounces"]), "--threads", str(args.threads),
-             "--seed", str(args.seed + k), "--gpu", "none", "--record-profile", stats, "--record-replay", log,
+             "--seed", str(1000 * render_seed(args) + k), "--gpu", "none", "--skip-empty", args.skip_empty, "--record-profile", stats, "--record-replay", log,
              "--record-keyframe", str(k), "--record-tiles", "x".join(str(t) for t in cfg["tiles"]),
              "--out", os.path.join(args.work, f"{name}-key{k}.exr"), "-q"])
         with open(stats) as f:
@@ -465,12 +490,16 @@ def render_counts(args, name, cfg, scene_path, blocks_dir, part):
 
 def make(args):
     os.makedirs(args.work, exist_ok=True)
-    for name, cfg in SCENES.items():
+    os.makedirs(args.profiles, exist_ok=True)
+    seconds = {}
+    for name in args.scenes.split(","):
+        cfg = SCENES[name]
         ply = os.path.join(args.work, name + ".ply")
         scene = os.path.join(args.work, name + ".json")
         blocks_dir = os.path.join(args.work, name + "-blocks")
         t0 = time.time()
-        run([args.rayline, "generate", cfg["generator"], "--triangles", args.triangles, "--out", ply,
+        triangles = args.triangles or cfg["triangles"]
+        run([args.rayline, "generate", cfg["generator"], "--triangles", triangles, "--out", ply,
              "--seed", str(args.seed), "-q"])
         if os.path.isdir(blocks_dir):
             shutil.rmtree(blocks_dir)
@@ -478,8 +507,12 @@ def make(args):
         with open(os.path.join(blocks_dir, "blocks.json")) as f:
             index = json.load(f)
         part = Partition(index)
-        base = (f"scripts/make_profiles.py: rayline generate {cfg['generator']} --triangles {args.triangles}, "
-                f"rayline partition --blocks {cfg['blocks']}; block bytes scaled to {cfg['bytes'] / GIB:.1f} GiB; ")
+        total_file = sum(b["bytes"] for b in index["blocks"])
+        mib = sorted(b["bytes"] * cfg["bytes"] / total_file / 2 ** 20 for b in index["blocks"])
+        base = (f"scripts/make_profiles.py --seed {args.seed}: rayline generate {cfg['generator']} --triangles "
+                f"{triangles} --seed {args.seed}, "
+                f"rayline partition --blocks {cfg['blocks']} (median split); {cfg['bytes'] / GIB:.1f} GiB shared in "
+                f"proportion to the block files ({mib[0]:.0f}-{mib[-1]:.0f} MiB per block); ")
         if args.synthetic:
             tr, entry, bg, kappa = trace_scene(part, cfg, args.paths, args.seed)
             prov = base + (f"statistics from a SYNTHETIC tracer ({args.paths} camera paths through the cells, homogeneous "
@@ -491,7 +524,8 @@ def make(args):
             m = tr.mapping
             prov = base + (f"Markov statistics from the renderer's kernels: rayline render --record-profile of "
                            f"{args.keyframes} camera keyframes at {args.render_resolution}, {args.render_spp} spp, "
-                           f"--max-depth {cfg['max_bounces']} ({tr.rays} rays traced; prior {args.prior:g} pseudo-rays "
+                           f"--max-depth {cfg['max_bounces']}, --skip-empty {args.skip_empty}, --seed {1000 * render_seed(args)}+k "
+                           f"({tr.rays} rays traced; prior {args.prior:g} pseudo-rays "
                            f"at the scene mean; shadow rays the renderer did not make counted occluded: "
                            f"{m.get('shadow_not_created', 0)})")
             prof = build_profile(name, index, cfg, tr, entry, bg, prov, prior=args.prior)
@@ -513,11 +547,13 @@ def make(args):
                 f.writelines(pieces)
             os.replace(log + ".partial", log)
             note = f"{tr.rays} rays traced, mapping {m}"
-        out = os.path.join(ROOT, "scenes", name + ".profile.json")
+        out = os.path.join(args.profiles, name + ".profile.json")
         write_compact(out, prof)
         print(f"{out}: {len(prof['blocks'])} blocks, {sum(b['bytes'] for b in prof['blocks']) / GIB:.2f} GiB, "
               f"alpha {prof['analytic']['alpha']:.3f}, beta {prof['analytic']['beta']:.3f}, shadow occlusion "
               f"{prof['analytic']['shadow_occlusion']:.3f}; {note}; {time.time() - t0:.1f} s")
+        seconds[name] = time.time() - t0
+    return seconds
 
 
 def write_csv(path, rows):
@@ -571,13 +607,65 @@ def fidelity(args):
     prediction(args)
 
 
+def stability(args):
+    """How much the simulated throughput depends on the profile's seed: `make` once per seed
+    in --profile-seeds (generator, render and partition inputs all follow --seed) into
+    OUT/seed-S/ (kept and reused with --reuse), then for each scene and --schedulers one
+    `rayline simulate` run per profile and simulator seed in --seeds (same platform, clients
+    and duration), and the spread of the profiles' mean steady rays shot per second and
+    compute bound next to the simulator's own spread over its seeds on each profile
+    (docs/scene-profiles.md, "Stability"). Writes OUT/stability.csv (make_s: 0 when reused)."""
+    seeds = seed_list(args.profile_seeds)
+    scenes = args.scenes.split(",")
+    os.makedirs(args.out, exist_ok=True)
+    make_seconds = {}
+    for seed in seeds:
+        folder = os.path.join(args.out, f"seed-{seed}")
+        if args.reuse and all(os.path.exists(os.path.join(folder, n + ".profile.json")) for n in scenes):
+            continue
+        sub = argparse.Namespace(**vars(args))
+        sub.seed, sub.render_seed, sub.profiles = seed, None, folder
+        sub.work = os.path.join(args.work, f"seed-{seed}")
+        make_seconds.update({(seed, n): s for n, s in make(sub).items()})
+    rows = []
+    for scene in scenes:
+        for sched in args.schedulers.split(","):
+            res, runs = {}, {}
+            for seed in seeds:
+                vals = []
+                for sim_seed in seed_list(args.seeds):
+                    out = os.path.join(args.out, f"run-{scene}-{sched}-profile{seed}-sim{sim_seed}")
+                    run([args.rayline, "simulate", "--platform", args.platform, "--workload",
+                         os.path.join(args.out, f"seed-{seed}", scene + ".profile.json"), "--scheduler", sched,
+                         "--start", "warm", "--clients", str(args.clients), "--duration", args.duration,
+                         "--seed", str(sim_seed), "--no-timeline", "-q", "-o", out])
+                    with open(os.path.join(out, "metrics.json")) as f:
+                        pt = json.load(f)["path_trace"]
+                    vals.append((pt["steady_rays_shot_per_second"], pt["bound"]["compute_rays_shot_per_second"]))
+                res[seed] = [sum(v[i] for v in vals) / len(vals) for i in range(2)]
+                runs[seed] = vals
+            for i, metric in enumerate(("steady_rays_shot_per_second", "bound_compute_rays_shot_per_second")):
+                v = [res[s][i] for s in seeds]
+                mean = sum(v) / len(v)
+                row = {"scene": scene, "scheduler": sched, "metric": metric}
+                row.update({f"profile_seed_{s}": round(x) for s, x in zip(seeds, v)})
+                row["spread"] = round((max(v) - min(v)) / mean, 5) if mean else ""
+                # The simulator's own run-to-run spread on one profile (over --seeds).
+                for s in seeds:
+                    r = [x[i] for x in runs[s]]
+                    row[f"sim_spread_seed_{s}"] = round((max(r) - min(r)) / res[s][i], 5) if res[s][i] else ""
+                row.update({f"make_s_seed_{s}": round(make_seconds.get((s, scene), 0), 1) for s in seeds})
+                rows.append(row)
+    write_csv(os.path.join(args.out, "stability.csv"), rows)
+
+
 def prediction(args):
     """Job prediction (Sec. 5.2) on the committed paper-scale profiles: steady throughput
     without prediction, with it (failed predictions withdrawn with their T-jobs), and with it
     but failed predictions kept (--cancel-failed off), on one node A and on the platform;
     each point is the mean over --seeds (these runs are chaotic: one seed can differ by tens of %)."""
     rows = []
-    seeds = [int(x) for x in args.seeds.split(",")]
+    seeds = seed_list(args.seeds)
     for platform in dict.fromkeys(["paper-A", args.platform]):
         for scene in ("boeing", "museum"):
             for clients in sorted({1, args.clients}):
@@ -617,27 +705,43 @@ def prediction(args):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("command", nargs="?", default="make", choices=["make", "fidelity", "prediction"])
+    ap.add_argument("command", nargs="?", default="make", choices=["make", "fidelity", "prediction", "stability"])
     ap.add_argument("--rayline", default=os.path.join(ROOT, "build", "apps", "rayline"))
     ap.add_argument("--work", default=os.path.join(ROOT, "out", "profiles"))
-    ap.add_argument("--triangles", default="300k")
+    ap.add_argument("--profiles", default=os.path.join(ROOT, "scenes"), help="make: folder of NAME.profile.json")
+    ap.add_argument("--scenes", default="boeing,museum", help="make: which profiles, comma-separated")
+    ap.add_argument("--triangles", default=None, help="make: generated triangles (default: boeing 8M, museum 2M)")
     ap.add_argument("--synthetic", action="store_true", help="fallback: the synthetic tracer instead of the renderer")
     ap.add_argument("--keyframes", type=int, default=8)
-    ap.add_argument("--render-resolution", default="128x128")
-    ap.add_argument("--render-spp", type=int, default=2)
+    ap.add_argument("--render-resolution", default="256x256")
+    ap.add_argument("--render-spp", type=int, default=4)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--skip-empty", default="off", choices=["on", "off"],
+                    help="renderer's empty-space skipping (off: every cell along a ray is visited, as in the simulator)")
     ap.add_argument("--prior", type=float, default=20.0)
     ap.add_argument("--paths", type=int, default=20000)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--duration", default="30s")
-    ap.add_argument("--clients", type=int, default=4)
+    ap.add_argument("--seed", type=int, default=1, help="make: the generator's seed, and the renderer's")
+    ap.add_argument("--render-seed", type=int, default=None, help="make: the renderer's seed (default: --seed)")
+    ap.add_argument("--duration", default=None, help="simulated time (fidelity, prediction: 30s; stability: 12s)")
+    ap.add_argument("--clients", type=int, default=None, help="clients (fidelity, prediction: 4; stability: 8)")
     ap.add_argument("--depth", type=int, default=0, help="fidelity runs: prediction depth")
     ap.add_argument("--prediction-depth", type=int, default=2, help="prediction.csv: depth compared with 0")
     ap.add_argument("--platform", default="paper-cluster")
-    ap.add_argument("--seeds", default="1,2,3", help="prediction: seeds averaged per point")
-    ap.add_argument("--out", default=os.path.join(ROOT, "out", "fidelity"))
+    ap.add_argument("--seeds", default=None, help="simulator seeds averaged per point, e.g. 1,2,5-8 (prediction: 1,2,3; stability: 1-6)")
+    ap.add_argument("--profile-seeds", default="1,2", help="stability: the profiles' --seed values compared")
+    ap.add_argument("--schedulers", default="budge,gmb", help="stability: schedulers simulated")
+    ap.add_argument("--reuse", action="store_true", help="stability: keep profiles already in OUT/seed-S/")
+    ap.add_argument("--out", default=DEFAULT_OUT)
     args = ap.parse_args()
-    {"make": make, "fidelity": fidelity, "prediction": prediction}[args.command](args)
+    if args.duration is None:
+        args.duration = "12s" if args.command == "stability" else "30s"
+    if args.seeds is None:
+        args.seeds = "1-6" if args.command == "stability" else "1,2,3"
+    if args.clients is None:
+        args.clients = 8 if args.command == "stability" else 4
+    if args.command == "stability" and args.out == DEFAULT_OUT:
+        args.out = os.path.join(ROOT, "out", "stability")
+    {"make": make, "fidelity": fidelity, "prediction": prediction, "stability": stability}[args.command](args)
 
 
 if __name__ == "__main__":
