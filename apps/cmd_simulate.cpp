@@ -299,7 +299,8 @@ SweepResult sweep_into(const SimulateOptions& opt, const sim::SimulationConfig& 
     points.push_back({n, r, steady});
     if (!steady)
       std::printf("note: with %d client(s) the rays alive still grow (path_trace.steady in its metrics.json): not a "
-                  "steady state, not a peak%s\n", n, counts.empty() ? "; the sweep ends here" : "");
+                  "steady state, not a peak\n", n);
+    std::fflush(stdout);  // (the next point's child process would print it again)
   }
   const sim::PeakPoint best = sim::peak_of(points);
   peak = best.rate;

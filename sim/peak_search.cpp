@@ -6,16 +6,20 @@ namespace rayline::sim {
 
 int next_peak_point(const std::vector<PeakPoint>& points, const PeakSearch& opt) {
   if (points.empty()) return 1;
-  if (!points.back().steady) return 0;  // overloaded: more clients only fill queues
-  double best = points.front().rate;
+  // A point that is not steady is a miss (its rate is not one that holds), never the best.
+  double best = -1;
   int misses = 0;
-  for (std::size_t i = 1; i < points.size(); ++i) {
-    if (points[i].rate > best * (1 + opt.gain)) {
+  for (const PeakPoint& p : points) {
+    if (!p.steady) {
+      ++misses;
+      continue;
+    }
+    if (best < 0 || p.rate > best * (1 + opt.gain)) {
       misses = 0;
     } else {
       ++misses;
     }
-    if (points[i].rate > best) best = points[i].rate;
+    best = std::max(best, p.rate);
   }
   if (misses >= 2) return 0;
   const int last = points.back().clients;

@@ -1,10 +1,11 @@
 // The paper's measurement (Sec. 6): "we increase the number of clients until each method
 // reaches its peak performance". A client sweep that finds the peak by itself: client
 // counts double from 1; the sweep stops once two points in a row failed to beat the best
-// throughput so far by more than `gain` (2 %), at the first point that is not in a steady
-// state (its rays alive still growing: more clients would only queue more), or at
-// `max_clients` (the workload's limit: a sweep still rising at 512 clients measures 1023
-// last). The peak is the best steady point measured.
+// steady throughput so far by more than `gain` (2 %) — a point that is not in a steady
+// state (its rays alive still growing: an offered load not absorbed, or in-flight budgets
+// still filling) counts as such a failure — or at `max_clients` (the workload's limit: a
+// sweep still rising at 512 clients measures 1023 last). The peak is the best steady
+// point measured.
 #pragma once
 #include <vector>
 

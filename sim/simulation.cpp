@@ -76,10 +76,16 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   // alive may not grow by more than kSteadyGrowth of the rays shot inside the window. An
   // offered load above the cluster's throughput fills the clients' in-flight budgets and
   // looks fast meanwhile (camera rays that miss end at once, the expensive rest queues).
-  constexpr double kSteadyGrowth = 0.05;
+  // A population that fills (nearly: kBudgetFull) the clients' in-flight budgets cannot
+  // grow further: the clients throttle themselves, and what remains of the filling is the
+  // last few per cent of a budget that a short window did not see completed.
+  constexpr double kSteadyGrowth = 0.05, kBudgetFull = 0.9;
   const double growth = created - ended;
   const double growth_share = ended > 0 ? growth / ended : (growth > 0 ? 1.0 : 0.0);
-  const bool steady = growth_share <= kSteadyGrowth;
+  const double budget = static_cast<double>(cfg.clients) * std::max(1, cfg.frames_in_flight) *
+                        static_cast<double>(prof.inflight_rays);
+  const double budget_share = budget > 0 ? static_cast<double>(pt.rays_alive()) / budget : 0.0;
+  const bool steady = growth_share <= kSteadyGrowth || budget_share >= kBudgetFull;
   // Rays shot per simulated second [k, k + 1), each job's rays pro rata to its run.
   std::vector<double> shot_series(static_cast<std::size_t>(std::max(0.0, std::ceil(end - 1e-9))), 0.0);
   for (const RaySpan& r : pt.ended_series()) {
@@ -117,7 +123,9 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   j["steady"] = {{"steady", steady},
                  {"alive_growth", growth},
                  {"alive_growth_share_of_shot", growth_share},
-                 {"limit", kSteadyGrowth}};
+                 {"limit", kSteadyGrowth},
+                 {"alive_share_of_inflight_budget", budget_share},
+                 {"budget_full", kBudgetFull}};
   j["rays"] = {{"primary", r.primary}, {"secondary", r.secondary}, {"shadow", r.shadow}, {"created", r.created()},
                {"hit", r.hit}, {"escaped", r.escaped}, {"occluded", r.occluded}, {"lit", r.lit}, {"ended", r.ended()},
                {"lost", r.lost}, {"alive_at_end", pt.rays_alive()}};

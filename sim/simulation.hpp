@@ -68,7 +68,7 @@ struct SimulationSummary {
   double steady_rays_per_second = 0;    // block visits (rays intersected in a block) per second after the warm-up
   double compute_bound_rays_shot_per_second = 0;  // path tracing: the most any schedule could reach (workload/compute_bound.hpp)
   double steady_rays_shot_per_second = 0;  // the paper's metric: rays traced to completion per second after the warm-up
-  bool steady = true;             // the rays alive grew by at most 5 % of the rays shot in the window
+  bool steady = true;             // the rays alive grew by at most 5 % of the rays shot in the window, or fill 90 % of the in-flight budgets
   double alive_growth_share = 0;  // (rays created - rays ended) / rays ended, in the window
   double prediction_accuracy = -1, prediction_ray_accuracy = -1;  // <0: prediction off
   std::uint64_t frames_delivered = 0;

@@ -66,19 +66,30 @@ TEST(PeakSearch, NoPointsMeansStartAtOneClient) {
 }
 
 // An offered load the cluster cannot absorb: the rays alive grow, and the rate read in a
-// short window is not one that holds. The sweep stops at the first such point and the
-// peak is the best steady one, even when the overloaded point reads higher.
-TEST(PeakSearch, AnUnsteadyPointEndsTheSweepAndIsNotThePeak) {
+// short window is not one that holds. Two such points in a row end the sweep, and the
+// peak is the best steady one, even when the overloaded points read higher.
+TEST(PeakSearch, UnsteadyPointsAreMissesAndNeverThePeak) {
   std::vector<PeakPoint> pts;
   for (int n = next_peak_point(pts); n != 0; n = next_peak_point(pts)) pts.push_back({n, 10.0 * n, n < 16});
-  EXPECT_EQ(clients(pts), (std::vector<int>{1, 2, 4, 8, 16}));
+  EXPECT_EQ(clients(pts), (std::vector<int>{1, 2, 4, 8, 16, 32}));
   EXPECT_EQ(peak_of(pts).clients, 8);
   EXPECT_TRUE(peak_of(pts).steady);
 }
 
+// One unsteady point (in-flight budgets still filling at a low load) does not end the
+// sweep: the next steady point that gains continues it.
+TEST(PeakSearch, OneUnsteadyPointThenARiseKeepsGoing) {
+  std::vector<PeakPoint> pts;
+  for (int n = next_peak_point(pts); n != 0; n = next_peak_point(pts))
+    pts.push_back({n, n <= 16 ? 10.0 * n : 160.0, n != 2});
+  EXPECT_EQ(clients(pts), (std::vector<int>{1, 2, 4, 8, 16, 32, 64}));
+  EXPECT_EQ(peak_of(pts).clients, 16);
+}
+
 TEST(PeakSearch, NoSteadyPointGivesTheBestUnsteadyOne) {
-  const std::vector<PeakPoint> pts{{1, 5.0, false}};
+  const std::vector<PeakPoint> pts{{1, 5.0, false}, {2, 6.0, false}};
+  EXPECT_EQ(next_peak_point({pts[0]}), 2);
   EXPECT_EQ(next_peak_point(pts), 0);
-  EXPECT_EQ(peak_of(pts).clients, 1);
+  EXPECT_EQ(peak_of(pts).clients, 2);
   EXPECT_FALSE(peak_of(pts).steady);
 }
