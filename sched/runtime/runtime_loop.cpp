@@ -197,6 +197,11 @@ RunStats RuntimeLoop::run(Time until) {
   // run is over) or until `until`; every batch it reports may trigger a plan (Sec. 4.2).
   const Executor::Sink sink = [&](std::vector<ExecutorEvent>& events) {
     if (handle(events, st)) plan_and_dispatch(executor_.now(), st);
+    // Nothing in flight any more: an engine bounded by `until` may run its clock on to it
+    // now (SimGrid does), so this is drained()'s moment: the workload may add work, a
+    // policy that plans only for idle devices (Budge) is asked again, and queued jobs that
+    // nothing takes are a stall.
+    if (until != kNever && schedule_.unfinished() == 0 && executor_.now() < until) (void)drained(st);
   };
   for (const Fault& f : faults_) executor_.wake_at(f.at);
   do executor_.run(sink, until);
