@@ -100,7 +100,8 @@ ok = df[df.status == 'ok'].copy()
 # A point whose rays alive kept growing is not a steady state (metrics.json path_trace.steady):
 # the peak is the best steady point, as the sweep itself reports it.
 ok['is_steady'] = ok.steady.astype(str).str.lower().isin(['true', '1'])
-best = ok.sort_values(['is_steady', 'steady_rays_shot_per_second']).groupby(['scene', 'label', 'scheduler']).tail(1).copy()
+best = (ok.sort_values(['is_steady', 'steady_rays_shot_per_second', 'clients'], ascending=[True, True, False])
+        .groupby(['scene', 'label', 'scheduler']).tail(1).copy())  # equal rates: the fewest clients
 best['x'] = best.label.map({l: i for i, l in enumerate(order)})
 bound = ok.groupby(['scene', 'label']).compute_bound_rays_shot_per_second.max().reset_index()
 bound['x'] = bound.label.map({l: i for i, l in enumerate(order)})
