@@ -198,3 +198,53 @@ TEST(Budge, ImageSplitSpreadsRayGenerationOverNodesByThroughput) {
     EXPECT_EQ(g.computes[s.activity(pool.activity(j)).device].node, budge_image_node(j, g, true)) << j;
   EXPECT_NE(bs.describe().find("image_split=by-throughput"), std::string::npos);
 }
+
+namespace {
+// An engine bounded by the run's end that runs its clock on to it once nothing is in
+// flight, as SimGrid does: the loop never sees the executor return early.
+class ClockRunsOn final : public Executor {
+ public:
+  explicit ClockRunsOn(const Schedule& s) : inner_(s) {}
+  void dispatch(ActivityId id, const Activity& a) override { inner_.dispatch(id, a); }
+  Time now() const override { return std::max(inner_.now(), end_); }
+  void run(const Sink& sink, Time until) override {
+    inner_.run(sink, until);
+    end_ = until;
+  }
+  void wake_at(Time t) override { inner_.wake_at(t); }
+  void halt(const std::vector<DeviceId>& c, const std::vector<ChannelId>& ch, std::vector<ExecutorEvent>& e) override {
+    inner_.halt(c, ch, e);
+  }
+  void abort(const std::vector<ActivityId>& ids) override { inner_.abort(ids); }
+
+ private:
+  ExactExecutor inner_;
+  Time end_ = 0;
+};
+}  // namespace
+
+// Budge plans for idle devices only. When the last activity in flight ends with a job
+// still queued that nothing will ever take (its 64 GiB scene block fits no memory a
+// device works from), the loop must find out then, not let the engine idle to the end.
+TEST(Budge, AJobNothingTakesIsAStallEvenWhenTheEngineRunsItsClockOn) {
+  Nodes t(1, false);
+  JobPool pool;
+  Schedule s(t.g, pool);
+  const BlockId sc = rayline::testing::add_block(pool, "scene", DataKind::SceneData, 1'000'000);
+  s.put_initial(sc, t.disk[0]);
+  const BlockId rq = rayline::testing::add_block(pool, "rays", DataKind::RayQueue, 1'000'000);
+  s.put_initial(rq, t.ram[0]);
+  rayline::testing::add_job(pool, "runs", 0, {sc, rq});
+  const BlockId other = rayline::testing::add_block(pool, "rays2", DataKind::RayQueue, 1'000'000);
+  s.put_initial(other, t.ram[0]);
+  const BlockId huge = rayline::testing::add_block(pool, "huge", DataKind::SceneData, Bytes(64) << 30);  // > 8 GiB RAM
+  s.put_initial(huge, t.disk[0]);
+  rayline::testing::add_job(pool, "never", 0, {huge, other});
+  BudgeScheduler bs;
+  ClockRunsOn ex(s);
+  StaticWorkload wl;
+  RuntimeLoop loop(bs, ex, wl, pool, s);
+  const RunStats st = loop.run(100.0);
+  EXPECT_TRUE(st.stalled);
+  EXPECT_EQ(pool.queued_count(), 1u);
+}
