@@ -37,17 +37,22 @@ sim::WorkloadKind workload_kind(const std::string& resolved) {
   return resolved == "ray-stream" ? sim::WorkloadKind::RayStream : sim::WorkloadKind::JobSet;
 }
 
+// One client count of --clients: an integer in [1, kMaxPtClients], else 0.
+int parse_client_count(const std::string& item) {
+  char* end = nullptr;
+  const long v = std::strtol(item.c_str(), &end, 10);
+  return item.empty() || *end != '\0' || v < 1 || v > kMaxPtClients ? 0 : static_cast<int>(v);
+}
+
 // --clients auto:M: the automatic sweep measures at most M clients (default: the
 // workload's limit).
 int auto_max_clients(const std::string& text) {
   if (!text.starts_with("auto:")) return kMaxPtClients;
-  const std::string item = text.substr(5);
-  char* end = nullptr;
-  const long v = std::strtol(item.c_str(), &end, 10);
-  if (item.empty() || *end != '\0' || v < 1 || v > kMaxPtClients)
+  const int v = parse_client_count(text.substr(5));
+  if (v == 0)
     throw InputError("--clients", "", "expected auto:M with M an integer in [1, " + std::to_string(kMaxPtClients) + "], got '" +
                                           text + "'");
-  return static_cast<int>(v);
+  return v;
 }
 
 // --clients: N, a list N1,N2,..., "auto" or "auto:M" (empty: the sweep finds the peak itself).
@@ -61,13 +66,11 @@ std::vector<int> client_counts(const std::string& text) {
   std::size_t pos = 0;
   while (pos <= text.size()) {
     const std::size_t comma = text.find(',', pos);
-    const std::string item = text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
-    char* end = nullptr;
-    const long v = std::strtol(item.c_str(), &end, 10);
-    if (item.empty() || *end != '\0' || v < 1 || v > kMaxPtClients)
+    const int v = parse_client_count(text.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos));
+    if (v == 0)
       throw InputError("--clients", "", "expected N, a list N1,N2,... of integers in [1, " + std::to_string(kMaxPtClients) +
                                             "], or auto, got '" + text + "'");
-    out.push_back(static_cast<int>(v));
+    out.push_back(v);
     if (comma == std::string::npos) break;
     pos = comma + 1;
   }

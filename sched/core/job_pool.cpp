@@ -27,12 +27,15 @@ JobId JobPool::add_job(Job j) {
   return id;
 }
 
-void JobPool::remove_from_queue(JobId j) {
-  if (queue_pos_[j] < 0) return;
-  const std::int64_t number = queue_pos_[j];
+std::size_t JobPool::first_numbered(std::int64_t number) const {
   const auto it = std::lower_bound(queue_.begin(), queue_.end(), number,
                                    [](const Entry& e, std::int64_t n) { return e.number < n; });
-  it->job = kNone;  // a hole: the order of the rest is kept (deterministic, FIFO-fair)
+  return static_cast<std::size_t>(it - queue_.begin());
+}
+
+void JobPool::remove_from_queue(JobId j) {
+  if (queue_pos_[j] < 0) return;
+  queue_[first_numbered(queue_pos_[j])].job = kNone;  // a hole: the order of the rest is kept (deterministic, FIFO-fair)
   queue_pos_[j] = -1;
   for (BlockId i : jobs_[j].inputs) --demand_[i];
   if (++holes_ * 2 > queue_.size() && queue_.size() > 64) {

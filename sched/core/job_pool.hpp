@@ -50,6 +50,7 @@ class JobPool {
 
  private:
   void remove_from_queue(JobId j);
+  std::size_t first_numbered(std::int64_t number) const;  // the first queue entry numbered >= number
   std::vector<DataBlock> blocks_;
   std::vector<JobId> producer_;
   std::vector<int> demand_;
@@ -114,13 +115,7 @@ class JobPool::Queue {
 
 inline JobPool::Queue JobPool::queued() const { return {queue_.data(), queue_.data() + queue_.size()}; }
 inline JobPool::Queue JobPool::queued_since(std::int64_t number) const {
-  std::size_t lo = 0, hi = queue_.size();  // the first entry numbered >= number
-  while (lo < hi) {
-    const std::size_t mid = (lo + hi) / 2;
-    if (queue_[mid].number < number) lo = mid + 1;
-    else hi = mid;
-  }
-  return {queue_.data() + lo, queue_.data() + queue_.size()};
+  return {queue_.data() + first_numbered(number), queue_.data() + queue_.size()};
 }
 
 }  // namespace rayline

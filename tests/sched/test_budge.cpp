@@ -39,6 +39,19 @@ struct Nodes {
   }
 };
 
+// A new scene block on `scene_at` (its only copy) and a ray queue on `rays_at`.
+struct SceneAndRays {
+  BlockId scene, rays;
+};
+SceneAndRays scene_and_rays(JobPool& pool, Schedule& s, const std::string& tag, Bytes scene, MemId scene_at, Bytes rays,
+                            MemId rays_at) {
+  const BlockId sc = rayline::testing::add_block(pool, "scene" + tag, DataKind::SceneData, scene);
+  s.put_initial(sc, scene_at);
+  const BlockId rq = rayline::testing::add_block(pool, "rays" + tag, DataKind::RayQueue, rays);
+  s.put_initial(rq, rays_at);
+  return {sc, rq};
+}
+
 
 }  // namespace
 
@@ -99,10 +112,7 @@ TEST(Budge, IntersectionGoesToTheGpuWhenTheBlockFits) {
   Nodes t(1, true);
   JobPool pool;
   Schedule s(t.g, pool);
-  const BlockId sc = rayline::testing::add_block(pool, "scene", DataKind::SceneData, 200'000'000);
-  s.put_initial(sc, t.disk[0]);
-  const BlockId rq = rayline::testing::add_block(pool, "rays", DataKind::RayQueue, 8'000'000);
-  s.put_initial(rq, t.ram[0]);
+  const auto [sc, rq] = scene_and_rays(pool, s, "", 200'000'000, t.disk[0], 8'000'000, t.ram[0]);
   const JobId j = rayline::testing::add_job(pool, "j", 0, {sc, rq});
   BudgeScheduler bs;
   bs.plan(0, pool, s);
@@ -230,16 +240,10 @@ TEST(Budge, AJobNothingTakesIsAStallEvenWhenTheEngineRunsItsClockOn) {
   Nodes t(1, false);
   JobPool pool;
   Schedule s(t.g, pool);
-  const BlockId sc = rayline::testing::add_block(pool, "scene", DataKind::SceneData, 1'000'000);
-  s.put_initial(sc, t.disk[0]);
-  const BlockId rq = rayline::testing::add_block(pool, "rays", DataKind::RayQueue, 1'000'000);
-  s.put_initial(rq, t.ram[0]);
-  rayline::testing::add_job(pool, "runs", 0, {sc, rq});
-  const BlockId other = rayline::testing::add_block(pool, "rays2", DataKind::RayQueue, 1'000'000);
-  s.put_initial(other, t.ram[0]);
-  const BlockId huge = rayline::testing::add_block(pool, "huge", DataKind::SceneData, Bytes(64) << 30);  // > 8 GiB RAM
-  s.put_initial(huge, t.disk[0]);
-  rayline::testing::add_job(pool, "never", 0, {huge, other});
+  const auto runs = scene_and_rays(pool, s, "", 1'000'000, t.disk[0], 1'000'000, t.ram[0]);
+  rayline::testing::add_job(pool, "runs", 0, {runs.scene, runs.rays});
+  const auto never = scene_and_rays(pool, s, "-huge", Bytes(64) << 30, t.disk[0], 1'000'000, t.ram[0]);  // > 8 GiB RAM
+  rayline::testing::add_job(pool, "never", 0, {never.scene, never.rays});
   BudgeScheduler bs;
   ClockRunsOn ex(s);
   StaticWorkload wl;
