@@ -50,6 +50,8 @@ PathTraceWorkload::PathTraceWorkload(const DeviceGraph& g, const SceneProfile& p
     if (p_.blocks[b].bytes > largest)
       throw InputError(p_.file, "blocks[" + std::to_string(b) + "].bytes",
                        "larger than every memory device a compute device can use in " + g.source_file);
+  open_.assign(queue_slot(kPtJobCount, -1, 0), kNone);
+  planned_at_.assign(open_.size(), kNone);
   model_.set_replay(opt_.replay);
   model_.record_to(opt_.record);
   if (opt_.prediction_depth > 0) {
@@ -193,7 +195,7 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
                                   JobPool& pool, Schedule& s) {
   const std::uint64_t n = kind == PtJob::Accumulate ? total(records) : total(rays);
   if (n == 0) return;
-  const std::uint64_t key = queue_key(static_cast<int>(kind), block, mem);
+  const std::size_t key = queue_slot(static_cast<int>(kind), block, mem);
   // Sec. 5.1: rays arriving where a planned job will process a queue of the same kind and
   // block, before it started, join that queue (its E-job then runs for the merged size,
   // exec_scale). Their bytes are not added to the memory device's reservation: the
@@ -203,8 +205,8 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   const auto held = [&](JobId j) { return kind == PtJob::Accumulate ? total(info(j).records) : total(info(j).rays); };
   const auto fits = [&](JobId j) { return held(j) + n <= merge_cap(kind, block) / std::max<Bytes>(1, bytes_per(kind)); };
   scan_planned(s, pool);
-  if (auto pl = planned_at_.find(key); opt_.merge_planned && pl != planned_at_.end()) {
-    const JobId j = pl->second;
+  if (opt_.merge_planned && planned_at_[key] != kNone) {
+    const JobId j = planned_at_[key];
     JobInfo& I = info(j);
     const Activity* pa = pool.state(j) == JobState::Planned ? &s.activity(pool.activity(j)) : nullptr;
     if (pa && pa->state == ActivityState::Planned && !pa->cancelled && I.resolved && fits(j)) {
@@ -220,9 +222,7 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   }
   const BlockId qb = new_queue(kind, block, n * bytes_per(kind), false, pool);
   s.put_initial(qb, mem, now, false);
-  auto it = open_.find(key);
-  if (it != open_.end() && pool.state(it->second) == JobState::Queued && fits(it->second)) {
-    const JobId j = it->second;
+  if (const JobId j = open_[key]; j != kNone && pool.state(j) == JobState::Queued && fits(j)) {
     JobInfo& I = info(j);
     const std::uint64_t before = held(j);
     pool.add_input(j, qb);
@@ -474,7 +474,7 @@ void PathTraceWorkload::scan_planned(const Schedule& s, const JobPool& pool) {
     const JobInfo& I = info_[static_cast<std::size_t>(a.job)];
     if (I.kind == PtJob::Generate || I.kind == PtJob::Compose) continue;
     (void)pool;
-    planned_at_[queue_key(static_cast<int>(I.kind), I.block, g_.computes[a.device].memory)] = a.job;
+    planned_at_[queue_slot(static_cast<int>(I.kind), I.block, g_.computes[a.device].memory)] = a.job;
   }
 }
 
@@ -535,7 +535,8 @@ void PathTraceWorkload::on_idle(Time now, JobPool& pool, Schedule& s) {
 
 void PathTraceWorkload::on_requeued(Time, const std::vector<JobId>& jobs, JobPool&, Schedule&) {
   // No longer planned: rays arriving later must not count on merging into them there.
-  std::erase_if(planned_at_, [&](const auto& e) { return std::find(jobs.begin(), jobs.end(), e.second) != jobs.end(); });
+  for (JobId& p : planned_at_)
+    if (p != kNone && std::find(jobs.begin(), jobs.end(), p) != jobs.end()) p = kNone;
 }
 
 void PathTraceWorkload::on_lost(Time now, const std::vector<JobId>& jobs, const std::vector<BlockId>& blocks,
@@ -551,8 +552,8 @@ void PathTraceWorkload::on_lost(Time now, const std::vector<JobId>& jobs, const 
   for (JobId j : jobs) {
     if (j < 0 || static_cast<std::size_t>(j) >= info_.size()) continue;
     JobInfo& I = info_[static_cast<std::size_t>(j)];
-    std::erase_if(open_, [j](const auto& e) { return e.second == j; });
-    std::erase_if(planned_at_, [j](const auto& e) { return e.second == j; });
+    std::replace(open_.begin(), open_.end(), j, JobId{kNone});
+    std::replace(planned_at_.begin(), planned_at_.end(), j, JobId{kNone});
     switch (I.kind) {
       case PtJob::Generate: {  // the wave's primary rays are never made: they were counted alive
         FrameState& f = frames_[I.frame];

@@ -12,7 +12,6 @@
 #pragma once
 #include <map>
 #include <memory>
-#include <unordered_map>
 #include <vector>
 
 #include "sched/core/device_graph.hpp"
@@ -171,14 +170,14 @@ class PathTraceWorkload final : public Workload {
   std::vector<ClientState> clients_;
   std::vector<FrameState> frames_;
   std::vector<JobInfo> info_;
-  // (kind, block, memory) packed by queue_key: looked up for every queue a job routes.
-  static std::uint64_t queue_key(int kind, int block, MemId mem) {
-    return (static_cast<std::uint64_t>(static_cast<std::uint8_t>(kind)) << 56) |
-           (static_cast<std::uint64_t>(static_cast<std::uint32_t>(block + 1) & 0xFFFFFFu) << 32) |
-           static_cast<std::uint64_t>(static_cast<std::uint32_t>(mem + 1));
+  // (kind, block, memory) -> a dense slot: looked up for every queue a job routes. block is
+  // -1 for the kinds that have none (Accumulate).
+  std::size_t queue_slot(int kind, int block, MemId mem) const {
+    return (static_cast<std::size_t>(kind) * (p_.blocks.size() + 1) + static_cast<std::size_t>(block + 1)) * g_.memories.size() +
+           static_cast<std::size_t>(mem);
   }
-  std::unordered_map<std::uint64_t, JobId> open_;        // -> queued job holding a queue there
-  std::unordered_map<std::uint64_t, JobId> planned_at_;  // -> latest job planned to run there
+  std::vector<JobId> open_;        // slot -> queued job holding a queue there, or kNone
+  std::vector<JobId> planned_at_;  // slot -> latest job planned to run there, or kNone
   std::size_t act_cursor_ = 0;
   std::uint64_t merges_planned_ = 0;
   Schedule::CancelCount withdrawn_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <unordered_map>
 #include <vector>
 
 #include "sched/core/job_pool.hpp"
@@ -18,9 +19,17 @@ std::string gb(double bytes) {
   return buf;
 }
 
+// Channels leaving each memory device.
+std::vector<std::vector<ChannelId>> out_channels(const DeviceGraph& g) {
+  std::vector<std::vector<ChannelId>> out(g.memories.size());
+  for (std::size_t ci = 0; ci < g.channels.size(); ++ci)
+    out[static_cast<std::size_t>(g.channels[ci].from)].push_back(static_cast<ChannelId>(ci));
+  return out;
+}
+
 // Memory devices a copy of b can reach hop by hop from its holders, each hop's memory
 // device big enough to hold it (Placer::place admits the block on every hop, Sec. 4.4).
-std::vector<bool> reachable(BlockId b, const Schedule& s) {
+std::vector<bool> reachable(BlockId b, const Schedule& s, const std::vector<std::vector<ChannelId>>& out) {
   const DeviceGraph& g = s.graph();
   const double bytes = static_cast<double>(s.pool().block(b).bytes);
   std::vector<bool> seen(g.memories.size(), false);
@@ -33,33 +42,48 @@ std::vector<bool> reachable(BlockId b, const Schedule& s) {
   while (!todo.empty()) {
     const MemId u = todo.back();
     todo.pop_back();
-    for (std::size_t ci = 0; ci < g.channels.size(); ++ci) {
-      const Channel& c = g.channels[ci];
-      const auto v = static_cast<std::size_t>(c.to);
-      if (c.from != u || !s.channel_alive(static_cast<ChannelId>(ci)) || seen[v] || static_cast<double>(g.memories[v].capacity) < bytes) continue;
+    for (const ChannelId ci : out[static_cast<std::size_t>(u)]) {
+      const auto v = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(ci)].to);
+      if (!s.channel_alive(ci) || seen[v] || static_cast<double>(g.memories[v].capacity) < bytes) continue;
       seen[v] = true;
-      todo.push_back(c.to);
+      todo.push_back(static_cast<MemId>(v));
     }
   }
   return seen;
 }
 
-}  // namespace
+// Where each block can get to, per block: first_unplaceable asks for every queued job, and
+// many share their inputs (the scene blocks).
+struct ReachCache {
+  std::vector<std::vector<ChannelId>> out;
+  std::unordered_map<BlockId, std::vector<bool>> memo;
+};
 
-std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
+std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, ReachCache* cache) {
   const DeviceGraph& g = s.graph();
   const Job& job = pool.job(j);
-  const std::string type = g.job_types[static_cast<std::size_t>(job.type)];
+  const std::string& type = g.job_types[static_cast<std::size_t>(job.type)];
   double need = 0;
   for (BlockId b : job.inputs) need += static_cast<double>(pool.block(b).bytes);
   for (BlockId o : job.outputs) need += static_cast<double>(pool.block(o).bytes);
-  // Where each input can get to, once for every device. An input no memory device holds
-  // yet is the output of a job still to run (a DAG): it is no obstacle, left empty.
+  // Where each input can get to, worked out at its first need (most devices hold the
+  // inputs already). An input no memory device holds yet is the output of a job still to
+  // run (a DAG): it is no obstacle, left empty.
   std::vector<std::vector<bool>> reach(job.inputs.size());
-  for (std::size_t i = 0; i < job.inputs.size(); ++i) {
-    reach[i] = reachable(job.inputs[i], s);
+  std::vector<bool> reach_known(job.inputs.size(), false);
+  auto reach_of = [&](std::size_t i) -> const std::vector<bool>& {
+    if (reach_known[i]) return reach[i];
+    reach_known[i] = true;
+    if (!cache) {
+      reach[i] = reachable(job.inputs[i], s, out_channels(g));
+    } else {
+      auto [it, fresh] = cache->memo.try_emplace(job.inputs[i]);
+      if (fresh) it->second = reachable(job.inputs[i], s, cache->out);
+      reach[i] = it->second;
+    }
     if (std::find(reach[i].begin(), reach[i].end(), true) == reach[i].end()) reach[i].clear();
-  }
+    return reach[i];
+  };
   // Reasons by preference: the one of a device whose memory is big enough says more.
   std::string too_small, blocked;
   double largest = -1;
@@ -86,7 +110,7 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
         reason = "input '" + bn + "' may not move (a framebuffer moves only for AdditiveCompose, Sec. 5.1) and is not on " + mem.name;
         break;
       }
-      if (!reach[i].empty() && !reach[i][static_cast<std::size_t>(m)]) {
+      if (const std::vector<bool>& r = reach_of(i); !r.empty() && !r[static_cast<std::size_t>(m)]) {
         reason = "no chain of channels, each hop with room for input '" + bn + "' (" +
                  gb(static_cast<double>(pool.block(b).bytes)) + "), leads from its holders to " + mem.name;
         break;
@@ -101,9 +125,14 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
   return blocked.empty() ? too_small : blocked;
 }
 
+}  // namespace
+
+std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) { return why_unplaceable(j, pool, s, nullptr); }
+
 JobId first_unplaceable(const JobPool& pool, const Schedule& s) {
+  ReachCache cache{out_channels(s.graph()), {}};
   for (JobId j : pool.queued())
-    if (!why_unplaceable(j, pool, s).empty()) return j;
+    if (!why_unplaceable(j, pool, s, &cache).empty()) return j;
   return kNone;
 }
 

@@ -221,7 +221,7 @@ void Schedule::apply_evictions(const Admission& adm, MemId m, ActivityId for_act
     const Eviction& e = evictions_.back();
     Leaving l{e.block, e.mem, {}, adm.victim_surplus};
     for (ActivityId a : e.after)
-      if (acts_[a].state != ActivityState::Done && acts_[a].state != ActivityState::Failed) l.after.push_back(a);
+      if (acts_[a].state != ActivityState::Done && acts_[a].state != ActivityState::Failed) wait_for_end(l, a);
     if (!l.after.empty()) {
       used_[e.mem] += l.bytes;
       leaving_.push_back(std::move(l));
@@ -245,7 +245,7 @@ void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
   ++holders_version_[b];
   forget_holder(b, m);
   leaving_.push_back({b, m, {}, pool_->block(b).bytes, leaving_with, producer, ready});
-  leaving_.back().after.push_back(leaving_with);
+  wait_for_end(leaving_.back(), leaving_with);
 }
 
 
@@ -395,7 +395,7 @@ bool Schedule::withdraw_copy(BlockId b, MemId m, ActivityId producer) {
   ++holders_version_[b];
   forget_holder(b, m);
   leaving_.push_back({b, m, {}, pool_->block(b).bytes});
-  leaving_.back().after.push_back(producer);
+  wait_for_end(leaving_.back(), producer);
   return true;
 }
 
@@ -480,6 +480,7 @@ void Schedule::on_finished(ActivityId id, Time t) {
   a.end = t;
   --unfinished_;
   if (a.kind == ActivityKind::Exec) --device_pending_[a.device];
+  if (static_cast<std::size_t>(id) >= frees_room_.size() || !frees_room_[static_cast<std::size_t>(id)]) return;
   std::size_t w = 0;
   for (std::size_t r = 0; r < leaving_.size(); ++r) {
     Leaving& l = leaving_[r];

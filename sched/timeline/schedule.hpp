@@ -259,6 +259,14 @@ class Schedule {
   };
   Time leaving_at(const Leaving& l) const;
   std::vector<Leaving> leaving_;
+  // Per activity: whether any leaving entry ever waited for it (on_finished walks the
+  // entries only for those; most activities free no room).
+  std::vector<char> frees_room_;
+  void wait_for_end(Leaving& l, ActivityId a) {
+    l.after.push_back(a);
+    if (static_cast<std::size_t>(a) >= frees_room_.size()) frees_room_.resize(static_cast<std::size_t>(a) + 1, 0);
+    frees_room_[static_cast<std::size_t>(a)] = 1;
+  }
   std::vector<Eviction> evictions_;
   // Per producer whose copy was evicted while activities still read it: those readers.
   // Evicting the copy does not make its producer withdrawable (cancel()): they still need
