@@ -1,12 +1,8 @@
 #!/usr/bin/env bash
 # End-to-end renderer benchmark: a generated museum-like scene of TRIANGLES
-# triangles rendered in core and at 25 % and 10 % memory budgets, and the same mesh through
-# Embree's own `pathtracer` tutorial (Debian embree-tools) at the same resolution, spp, path
-# length and camera as the in-core anchor.
-#   * budget runs vs in core: whole wall time of each run (loads included);
-#   * in core vs Embree: tracing time only — ours from the first E-job (the single block
-#     read and its BVH built), Embree's from its "creating Embree objects done" timestamp
-#     (scene parsed, BVH built) to exit.
+# triangles rendered in core and at 25 % and 10 % memory budgets; budget runs against in
+# core by the whole wall time of each run (loads included). In-core speed against Embree's
+# own tutorial: scripts/bench_embree.sh.
 # Usage: scripts/bench_render.sh [TRIANGLES=10000000] [RES=256] [SPP=16] [DEPTH=5]
 # Environment: RAYLINE_BIN (another rayline binary), RENDER_FLAGS (extra render flags, e.g.
 # "--paths 131072 --read-ahead off"), BENCH_DIR (work folder, default out/bench-render),
@@ -56,21 +52,10 @@ run in-core-1 1 ""
 run in-core-16 16 ""
 run budget-25 "$OOC" "$((SCENE_BYTES / 4))B"
 run budget-10 "$OOC" "$((SCENE_BYTES / 10))B"
-LOG="$WORK/embree.log"
-T0=$(date +%s.%N)
-pathtracer -i "$PLY" --vp "$PX" "$PY" "$PZ" --vi "$LX" "$LY" "$LZ" --vu "$UX" "$UY" "$UZ" --fov "$FOV" \
-  --size "$RES" "$RES" --spp "$SPP" --max-path-length "$DEPTH" --threads "$(nproc)" --verbose 1 -o "$WORK/embree.ppm" > "$LOG" 2>&1
-T1=$(date +%s.%N)
-/usr/bin/python3 - "$WORK" "$LOG" "$T0" "$T1" "$RES" "$SPP" <<'PY'
-import json, re, sys
-w, log, t0, t1, res, spp = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), int(sys.argv[5]), int(sys.argv[6])
-ready = max(float(x) for x in re.findall(r"\[\s*([0-9.]+)s,[^\]]*\] creating Embree objects done", open(log).read()))
-emb = res * res * spp / (t1 - t0 - ready)
-print(f"\nEmbree pathtracer tutorial: {t1 - t0:.2f} s in all, tracing {t1 - t0 - ready:.2f} s: {emb/1e3:.1f} k samples/s")
+/usr/bin/python3 - "$WORK" <<'PY'
+import json, sys
+w = sys.argv[1]
 m = {k: json.load(open(f"{w}/{k}.metrics.json")) for k in ("in-core-1", "in-core-16", "budget-25", "budget-10")}
-ours = m["in-core-1"]["samples_per_second_after_first_exec"]
-print(f"ours in core (1 block), tracing {m['in-core-1']['seconds'] - m['in-core-1']['first_exec_start_s']:.2f} s: "
-      f"{ours/1e3:.1f} k samples/s = {ours/emb:.2f}x Embree's tutorial")
 base = m["in-core-1"]["samples_per_second"]
 for k in ("in-core-16", "budget-25", "budget-10"):
     print(f"{k}: {m[k]['samples_per_second']/base:.2f}x in core (1 block), whole runs")

@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# In-core tracing speed against Embree's own `pathtracer` tutorial (Debian embree-tools), with
+# scene loading and BVH builds excluded on both sides in the same way: each side renders the
+# same frame at SPP and at 2*SPP samples per pixel, and the difference of the two wall times
+# is the time of SPP samples per pixel of steady tracing (loading, BVH build and output are
+# in both runs and cancel). The runs alternate, REPS rounds; medians are printed.
+#
+# Same mesh, camera, resolution, path length and threads on both sides. The lights are alike,
+# not equal: Rayline uses the generated scene's overhead area light and environment; the
+# tutorial (which reads only the mesh) gets one directional light from above and an ambient
+# light. Paths therefore differ in length and in shadow rays, so the ratio is indicative;
+# samples per second is compared because the tutorial counts no rays.
+#
+# Usage: scripts/bench_embree.sh [TRIANGLES=1000000] [RES=512] [SPP=16] [DEPTH=5] [REPS=3]
+# Environment: RAYLINE_BIN (another rayline binary), BENCH_DIR (default out/bench-embree),
+# THREADS (default: all hardware threads).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+TRIS="${1:-1000000}"; RES="${2:-512}"; SPP="${3:-16}"; DEPTH="${4:-5}"; REPS="${5:-3}"
+BIN="${RAYLINE_BIN:-build/apps/rayline}"
+[ -x "$BIN" ] || { echo "build first: scripts/setup.sh" >&2; exit 2; }
+command -v pathtracer > /dev/null || { echo "Embree's pathtracer tutorial is missing: apt-get install embree-tools" >&2; exit 2; }
+THREADS="${THREADS:-$(nproc)}"
+WORK="${BENCH_DIR:-out/bench-embree}"
+mkdir -p "$WORK"
+PLY="$WORK/museum-$TRIS.ply"
+SCENE="$WORK/museum-$TRIS.json"
+[ -f "$PLY" ] || "$BIN" generate museum-like -q --triangles "$TRIS" --out "$PLY" > /dev/null
+read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$(/usr/bin/python3 -c "
+import json; c = next(iter(json.load(open('$SCENE'))['cameras'].values()))
+print(*c['position'], *c['look_at'], *c['up'], c['fov_deg'])")"
+[ -f "$WORK/blocks-1/blocks.json" ] || "$BIN" partition -q --scene "$SCENE" --blocks 1 --out "$WORK/blocks-1" > /dev/null
+
+now() { date +%s.%N; }
+ours() {  # spp -> wall seconds of one in-core render
+  local t0; t0=$(now)
+  "$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-1" --resolution "${RES}x${RES}" --spp "$1" \
+    --max-depth "$DEPTH" -j "$THREADS" --out "$WORK/ours-$1.exr" > /dev/null
+  /usr/bin/python3 -c "print($(now) - $t0)"
+}
+theirs() {  # spp -> wall seconds of one tutorial run
+  local t0; t0=$(now)
+  pathtracer -i "$PLY" --vp "$PX" "$PY" "$PZ" --vi "$LX" "$LY" "$LZ" --vu "$UX" "$UY" "$UZ" --fov "$FOV" \
+    --size "$RES" "$RES" --spp "$1" --max-path-length "$DEPTH" --threads "$THREADS" \
+    --directionallight 0 -1 0 8 8 7.5 --ambientlight 0.55 0.65 0.85 -o "$WORK/embree-$1.ppm" > "$WORK/embree.log" 2>&1
+  /usr/bin/python3 -c "print($(now) - $t0)"
+}
+echo "scene: $TRIS triangles, ${RES}x${RES}, $SPP and $((2 * SPP)) spp, max depth $DEPTH, $THREADS threads, $REPS rounds"
+rows=()
+for i in $(seq 1 "$REPS"); do
+  o1=$(ours "$SPP"); e1=$(theirs "$SPP"); o2=$(ours $((2 * SPP))); e2=$(theirs $((2 * SPP)))
+  rows+=("$o1 $o2 $e1 $e2")
+  printf 'round %d: rayline %.2f / %.2f s, tutorial %.2f / %.2f s\n' "$i" "$o1" "$o2" "$e1" "$e2"
+done
+printf '%s\n' "${rows[@]}" | /usr/bin/python3 -c "
+import statistics, sys
+px = $RES * $RES * $SPP
+r = [tuple(map(float, l.split())) for l in sys.stdin if l.strip()]
+ours = [px / (o2 - o1) for o1, o2, _, _ in r]
+emb = [px / (e2 - e1) for _, _, e1, e2 in r]
+ratio = [a / b for a, b in zip(ours, emb)]
+print(f'steady samples/s (difference of {2 * $SPP} and {$SPP} spp): rayline {statistics.median(ours)/1e3:.1f} k, '
+      f'tutorial {statistics.median(emb)/1e3:.1f} k; rayline / tutorial, median of rounds: {statistics.median(ratio):.2f}x '
+      '(' + ', '.join(f'{x:.2f}' for x in ratio) + ')')
+"
