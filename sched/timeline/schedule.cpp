@@ -65,7 +65,17 @@ void Schedule::add_copy(BlockId b, Copy c) {
   used_[c.mem] += pool_->block(b).bytes;
   ++holders_version_[b];
   if (static_cast<std::uint32_t>(c.mem) < 64u) holder_mask_[static_cast<std::size_t>(b)] |= std::uint64_t{1} << c.mem;
+  note_cached(b, c.mem);
   copies_[b].push_back(std::move(c));
+}
+
+void Schedule::note_cached(BlockId b, MemId m) {
+  const DataBlock& blk = pool_->block(b);
+  if (blk.consumed || !blk.movable) return;
+  if (cache_candidates_.size() < graph_->memories.size()) cache_candidates_.resize(graph_->memories.size());
+  auto& v = cache_candidates_[static_cast<std::size_t>(m)];
+  const auto it = std::lower_bound(v.begin(), v.end(), b);
+  if (it == v.end() || *it != b) v.insert(it, b);
 }
 
 void Schedule::put_initial(BlockId b, MemId m, Time ready, bool origin) {
@@ -106,11 +116,18 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
   constexpr std::uint32_t kCopy = ~std::uint32_t{0};
   struct Cand { int value; Time at; Bytes bytes; BlockId block; std::uint32_t leaving; };
   std::vector<Cand> cands;
-  for (std::uint32_t i = 0; i < leaving_.size(); ++i)
-    if (leaving_[i].mem == m) cands.push_back({-1, leaving_at(leaving_[i]), leaving_[i].bytes, leaving_[i].block, i});
-  for (std::size_t b = 0; b < copies_.size(); ++b) {
+  if (static_cast<std::size_t>(m) < leaving_.size()) {
+    const std::vector<Leaving>& lv = leaving_[static_cast<std::size_t>(m)];
+    for (std::uint32_t i = 0; i < lv.size(); ++i)
+      if (!lv[i].after.empty()) cands.push_back({-1, leaving_at(lv[i]), lv[i].bytes, lv[i].block, i});
+  }
+  std::vector<BlockId>* cached = static_cast<std::size_t>(m) < cache_candidates_.size() ? &cache_candidates_[static_cast<std::size_t>(m)] : nullptr;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; cached && i < cached->size(); ++i) {
+    const auto b = static_cast<std::size_t>((*cached)[i]);
+    if (!copy_at(static_cast<BlockId>(b), m)) continue;  // gone: dropped from the list
+    (*cached)[kept++] = static_cast<BlockId>(b);
     const DataBlock& blk = pool_->block(static_cast<BlockId>(b));
-    if (blk.consumed || !blk.movable) continue;
     if (std::find(keep.begin(), keep.end(), static_cast<BlockId>(b)) != keep.end()) continue;
     for (const Copy& c : copies_[b]) {
       if (c.mem != m || c.origin) continue;
@@ -121,6 +138,7 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
       cands.push_back({pool_->queued_demand(static_cast<BlockId>(b)), at, blk.bytes, static_cast<BlockId>(b), kCopy});
     }
   }
+  if (cached) cached->resize(kept);
   const bool lru = eviction_policy_ == EvictionPolicy::Lru;
   std::sort(cands.begin(), cands.end(), [lru](const Cand& a, const Cand& b) {
     if (!lru && a.value != b.value) return a.value < b.value;
@@ -162,7 +180,7 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
     if (c.leaving != kCopy) {
       // Only the bytes needed change hands; the rest of the entry stays reserved until its
       // activities end, so no later admission counts on it without waiting for them too.
-      const Leaving& l = leaving_[c.leaving];
+      const Leaving& l = leaving_[static_cast<std::size_t>(m)][c.leaving];
       adm.wait_for.insert(adm.wait_for.end(), l.after.begin(), l.after.end());
       adm.taken.push_back({c.leaving, c.block, static_cast<Bytes>(std::min<std::int64_t>(need, static_cast<std::int64_t>(c.bytes)))});
     } else {
@@ -208,23 +226,27 @@ void Schedule::apply_evictions(const Admission& adm, MemId m, ActivityId for_act
   // from `adm.at` on, and the activity waits for the ones that free it).
   bool emptied = false;
   for (const Admission::Taken& t : adm.taken) {
-    Leaving& l = leaving_[t.leaving];
+    Leaving& l = leaving_[static_cast<std::size_t>(m)][t.leaving];
     if (l.mem != m || l.block != t.block || l.bytes < t.bytes)
       throw std::logic_error("an admission applied to a schedule that changed since it was made");
     l.bytes -= t.bytes;
     used_[m] -= t.bytes;
     emptied = emptied || l.bytes == 0;
   }
-  if (emptied) std::erase_if(leaving_, [m](const Leaving& l) { return l.mem == m && l.bytes == 0; });
+  if (emptied) {  // (dead entries have no bytes either: they go too)
+    std::erase_if(leaving_[static_cast<std::size_t>(m)], [](const Leaving& l) { return l.bytes == 0; });
+    dead_leaving_[static_cast<std::size_t>(m)] = 0;
+  }
   // The last victim's room beyond the need is free only once its producer and users end.
   if (adm.victim_surplus > 0 && !adm.victims.empty()) {
     const Eviction& e = evictions_.back();
-    Leaving l{e.block, e.mem, {}, adm.victim_surplus};
+    std::vector<ActivityId> after;
     for (ActivityId a : e.after)
-      if (acts_[a].state != ActivityState::Done && acts_[a].state != ActivityState::Failed) wait_for_end(l, a);
-    if (!l.after.empty()) {
-      used_[e.mem] += l.bytes;
-      leaving_.push_back(std::move(l));
+      if (acts_[a].state != ActivityState::Done && acts_[a].state != ActivityState::Failed) after.push_back(a);
+    if (!after.empty()) {
+      used_[e.mem] += adm.victim_surplus;
+      Leaving& added = add_leaving({e.block, e.mem, {}, adm.victim_surplus});
+      for (ActivityId a : after) wait_for_end(added, a);
     }
   }
 }
@@ -244,8 +266,7 @@ void Schedule::drop_copy_later(BlockId b, MemId m, ActivityId leaving_with) {
   v.erase(it);
   ++holders_version_[b];
   forget_holder(b, m);
-  leaving_.push_back({b, m, {}, pool_->block(b).bytes, leaving_with, producer, ready});
-  wait_for_end(leaving_.back(), leaving_with);
+  wait_for_end(add_leaving({b, m, {}, pool_->block(b).bytes, leaving_with, producer, ready}), leaving_with);
 }
 
 
@@ -394,8 +415,7 @@ bool Schedule::withdraw_copy(BlockId b, MemId m, ActivityId producer) {
   v.erase(it);
   ++holders_version_[b];
   forget_holder(b, m);
-  leaving_.push_back({b, m, {}, pool_->block(b).bytes});
-  wait_for_end(leaving_.back(), producer);
+  wait_for_end(add_leaving({b, m, {}, pool_->block(b).bytes}), producer);
   return true;
 }
 
@@ -480,21 +500,44 @@ void Schedule::on_finished(ActivityId id, Time t) {
   a.end = t;
   --unfinished_;
   if (a.kind == ActivityKind::Exec) --device_pending_[a.device];
-  if (static_cast<std::size_t>(id) >= frees_room_.size() || !frees_room_[static_cast<std::size_t>(id)]) return;
-  std::size_t w = 0;
-  for (std::size_t r = 0; r < leaving_.size(); ++r) {
-    Leaving& l = leaving_[r];
-    if (std::find(l.after.begin(), l.after.end(), id) != l.after.end()) {
-      l.after.erase(id);
-      if (l.after.empty()) {  // every activity it waited for has ended: the room is free
-        used_[l.mem] -= l.bytes;
-        continue;
-      }
+  if (static_cast<std::size_t>(id) >= wait_head_.size()) return;
+  for (std::int32_t n = wait_head_[static_cast<std::size_t>(id)]; n >= 0; n = wait_nodes_[static_cast<std::size_t>(n)].next) {
+    const WaitNode& w = wait_nodes_[static_cast<std::size_t>(n)];
+    std::vector<Leaving>& lv = leaving_[static_cast<std::size_t>(w.mem)];
+    const auto it = std::lower_bound(lv.begin(), lv.end(), w.serial, [](const Leaving& l, std::uint64_t x) { return l.serial < x; });
+    if (it == lv.end() || it->serial != w.serial || it->after.empty()) continue;  // gone (fail(), a handover)
+    Leaving& l = *it;
+    if (std::find(l.after.begin(), l.after.end(), id) == l.after.end()) continue;
+    l.after.erase(id);
+    if (!l.after.empty()) continue;
+    used_[l.mem] -= l.bytes;  // every activity it waited for has ended: the room is free
+    l.bytes = 0;
+    std::size_t& dead = dead_leaving_[static_cast<std::size_t>(w.mem)];
+    if (++dead * 2 > lv.size()) {
+      std::erase_if(lv, [](const Leaving& e) { return e.after.empty(); });
+      dead = 0;
     }
-    if (w != r) leaving_[w] = std::move(l);
-    ++w;
   }
-  leaving_.resize(w);
+  wait_head_[static_cast<std::size_t>(id)] = -1;
+}
+
+Schedule::Leaving& Schedule::add_leaving(Leaving l) {
+  if (leaving_.size() < graph_->memories.size()) {
+    leaving_.resize(graph_->memories.size());
+    dead_leaving_.resize(graph_->memories.size(), 0);
+  }
+  l.serial = next_leaving_serial_++;
+  std::vector<Leaving>& lv = leaving_[static_cast<std::size_t>(l.mem)];
+  lv.push_back(std::move(l));
+  return lv.back();
+}
+
+void Schedule::wait_for_end(Leaving& l, ActivityId a) {
+  l.after.push_back(a);
+  if (static_cast<std::size_t>(a) >= wait_head_.size()) wait_head_.resize(static_cast<std::size_t>(a) + 1, -1);
+  std::int32_t& head = wait_head_[static_cast<std::size_t>(a)];
+  wait_nodes_.push_back({l.mem, l.serial, head});
+  head = static_cast<std::int32_t>(wait_nodes_.size() - 1);
 }
 
 void Schedule::reproject(Time now) {

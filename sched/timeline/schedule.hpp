@@ -234,6 +234,11 @@ class Schedule {
   void resource_busy_raised(ResourceId r, Time t);
   std::vector<std::uint64_t> resource_version_, holders_version_;
   std::vector<std::vector<Copy>> copies_;          // per block (grows with the pool)
+  // Per memory device: the blocks that may be cache there (neither consumed nor pinned) and
+  // had a copy there, ascending; admission() reads only these and drops the ones gone
+  // (every block of a long run was hundreds of thousands to walk per eviction).
+  mutable std::vector<std::vector<BlockId>> cache_candidates_;
+  void note_cached(BlockId b, MemId m);
   static inline const std::vector<Copy> no_copies_{};
   // Per block: bit m set iff a copy is on memory device m < 64 (copy_at's quick miss; a
   // device >= 64 is always looked up).
@@ -256,17 +261,26 @@ class Schedule {
     ActivityId dropped_by = kNone;
     ActivityId producer = kNone;
     Time ready = 0;  // the copy's ready time (producer kNone)
+    std::uint64_t serial = 0;  // increasing in the order entries are made
   };
   Time leaving_at(const Leaving& l) const;
-  std::vector<Leaving> leaving_;
-  // Per activity: whether any leaving entry ever waited for it (on_finished walks the
-  // entries only for those; most activities free no room).
-  std::vector<char> frees_room_;
-  void wait_for_end(Leaving& l, ActivityId a) {
-    l.after.push_back(a);
-    if (static_cast<std::size_t>(a) >= frees_room_.size()) frees_room_.resize(static_cast<std::size_t>(a) + 1, 0);
-    frees_room_[static_cast<std::size_t>(a)] = 1;
-  }
+  // Per memory device, in the order they were made (admission() reads only its device's).
+  // An entry whose activities have all ended is dead (`after` empty, no bytes) until the
+  // next compaction of its device's list (when the dead are half of it).
+  std::vector<std::vector<Leaving>> leaving_;
+  std::vector<std::size_t> dead_leaving_;  // per memory device
+  std::uint64_t next_leaving_serial_ = 0;
+  Leaving& add_leaving(Leaving l);
+  // Per activity, the entries that wait for it (a list through wait_nodes_, head per
+  // activity): on_finished visits those alone, not every entry of the run.
+  struct WaitNode {
+    MemId mem;
+    std::uint64_t serial;
+    std::int32_t next;
+  };
+  std::vector<WaitNode> wait_nodes_;
+  std::vector<std::int32_t> wait_head_;
+  void wait_for_end(Leaving& l, ActivityId a);
   std::vector<Eviction> evictions_;
   // Per producer whose copy was evicted while activities still read it: those readers.
   // Evicting the copy does not make its producer withdrawable (cancel()): they still need

@@ -83,38 +83,44 @@ Schedule::Failure Schedule::fail(Time now, const std::vector<ActivityId>& seeds,
   // Leaving entries: a copy an aborted activity was to consume or move away is still there
   // (back in the plan, as present, or as arriving from its producer); other entries stop
   // waiting for aborted activities, and those left waiting for nothing are free.
-  std::vector<Leaving> kept;
-  kept.reserve(leaving_.size());
-  for (Leaving& l : leaving_) {
-    if (is_aborted(l.dropped_by)) {
-      const BlockId b = l.block;
-      if (!memory_alive(l.mem)) {
-        if (l.producer == kNone || acts_[l.producer].state == ActivityState::Done) physical_loss[b] = 1;
+  for (std::vector<Leaving>& lv : leaving_) {
+    std::vector<Leaving> kept;
+    kept.reserve(lv.size());
+    for (Leaving& l : lv) {
+      if (l.after.empty()) continue;  // dead: its room was freed already
+      if (is_aborted(l.dropped_by)) {
+        const BlockId b = l.block;
+        if (!memory_alive(l.mem)) {
+          if (l.producer == kNone || acts_[l.producer].state == ActivityState::Done) physical_loss[b] = 1;
+          continue;
+        }
+        if (is_aborted(l.producer) || copy_at(b, l.mem)) continue;
+        Copy c;
+        c.mem = l.mem;
+        if (l.producer != kNone && acts_[l.producer].state == ActivityState::Done) {
+          c.initial_ready = acts_[l.producer].end;
+        } else {
+          c.producer = l.producer;
+          c.initial_ready = l.ready;
+        }
+        note_cached(b, c.mem);
+        copies_[b].push_back(std::move(c));
+        touched.push_back(b);
         continue;
       }
-      if (is_aborted(l.producer) || copy_at(b, l.mem)) continue;
-      Copy c;
-      c.mem = l.mem;
-      if (l.producer != kNone && acts_[l.producer].state == ActivityState::Done) {
-        c.initial_ready = acts_[l.producer].end;
-      } else {
-        c.producer = l.producer;
-        c.initial_ready = l.ready;
-      }
-      copies_[b].push_back(std::move(c));
-      touched.push_back(b);
-      continue;
+      l.after.erase_if(is_aborted);
+      if (!l.after.empty()) kept.push_back(std::move(l));
     }
-    l.after.erase_if(is_aborted);
-    if (!l.after.empty()) kept.push_back(std::move(l));
+    lv = std::move(kept);
   }
-  leaving_ = std::move(kept);
+  std::fill(dead_leaving_.begin(), dead_leaving_.end(), std::size_t{0});
 
   // Reservations recomputed from what is left: every copy and every leaving entry.
   std::fill(used_.begin(), used_.end(), Bytes{0});
   for (std::size_t b = 0; b < copies_.size(); ++b)
     for (const Copy& c : copies_[b]) used_[c.mem] += pool_->block(static_cast<BlockId>(b)).bytes;
-  for (const Leaving& l : leaving_) used_[l.mem] += l.bytes;
+  for (const std::vector<Leaving>& lv : leaving_)
+    for (const Leaving& l : lv) used_[l.mem] += l.bytes;
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   for (BlockId b : touched) {
