@@ -140,12 +140,22 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
   }
   if (cached) cached->resize(kept);
   const bool lru = eviction_policy_ == EvictionPolicy::Lru;
-  std::sort(cands.begin(), cands.end(), [lru](const Cand& a, const Cand& b) {
+  // The order (ties, rare, by the order the candidates were listed in): only its first
+  // candidates are needed, so they are drawn from a heap rather than sorting all of them
+  // (a full device under a long plan lists thousands).
+  const auto first = [&](std::uint32_t x, std::uint32_t y) {
+    const Cand& a = cands[x];
+    const Cand& b = cands[y];
     if (!lru && a.value != b.value) return a.value < b.value;
     if (lru && (a.value < 0) != (b.value < 0)) return a.value < 0;  // leaving bytes are free either way
     if (a.at != b.at) return a.at < b.at;
-    return a.block < b.block;
-  });
+    if (a.block != b.block) return a.block < b.block;
+    return x < y;
+  };
+  const auto later = [&](std::uint32_t x, std::uint32_t y) { return first(y, x); };
+  std::vector<std::uint32_t> heap(cands.size());
+  for (std::uint32_t i = 0; i < heap.size(); ++i) heap[i] = i;
+  std::make_heap(heap.begin(), heap.end(), later);
   const auto free0 = static_cast<std::int64_t>(cap) - static_cast<std::int64_t>(used_[m]);
   const auto want = static_cast<std::int64_t>(bytes);
   // Candidates in that order until the room suffices, then those no longer needed dropped,
@@ -153,7 +163,9 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
   // suffices would only delay the incoming data.
   std::vector<std::uint32_t> chosen;
   std::int64_t free = free0;
-  for (std::uint32_t i = 0; i < cands.size() && free < want; ++i) {
+  for (auto end = heap.end(); end != heap.begin() && free < want; --end) {
+    std::pop_heap(heap.begin(), end, later);
+    const std::uint32_t i = *(end - 1);
     free += static_cast<std::int64_t>(cands[i].bytes);
     chosen.push_back(i);
   }
