@@ -206,9 +206,16 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       if (a.rays != b.rays) return a.rays < b.rays;
       return a.pos > b.pos;
     };
-    std::make_heap(cand.begin(), cand.end(), after);
+    // The first in that order is usually feasible: found by one pass, the heap only if not.
     JobId best = kNone;
-    for (auto end = cand.end(); end != cand.begin(); --end) {
+    if (!cand.empty()) {
+      std::size_t top = 0;
+      for (std::size_t i = 1; i < cand.size(); ++i)
+        if (after(cand[top], cand[i])) top = i;
+      if (placer_->earliest_start(cand[top].job, d, now, s) != kNever) best = cand[top].job;
+    }
+    if (best == kNone) std::make_heap(cand.begin(), cand.end(), after);
+    for (auto end = cand.end(); best == kNone && end != cand.begin(); --end) {
       std::pop_heap(cand.begin(), end, after);
       const Cand& c = *(end - 1);
       if (placer_->earliest_start(c.job, d, now, s) != kNever) {
