@@ -118,6 +118,7 @@ void check_no_path_trace_flags(const SimulateOptions& opt) {
   flag(counts.size() != 1 || counts[0] != 1, "--clients");
   flag(opt.prediction_depth != 0, "--prediction-depth");
   flag(opt.frames_in_flight != 1, "--frames-in-flight");
+  flag(opt.frames != 0, "--frames");
   flag(opt.fidelity != "markov", "--fidelity");
   flag(!opt.replay.empty(), "--replay");
   flag(opt.record_replay, "--record-replay");
@@ -134,6 +135,7 @@ void check_no_path_trace_flags(const SimulateOptions& opt) {
 void path_trace_config(const SimulateOptions& opt, sim::SimulationConfig& cfg) {
   cfg.prediction_depth = opt.prediction_depth;
   cfg.frames_in_flight = opt.frames_in_flight;
+  cfg.frames_per_client = opt.frames;
   cfg.merge_planned = opt.merge_planned == "on";
   cfg.cancel_failed = opt.cancel_failed == "on";
   cfg.retime_merged = opt.retime_merged == "on";

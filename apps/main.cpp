@@ -124,6 +124,11 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                   "feed requests frame by frame)")
       ->default_val(opt->frames_in_flight)
       ->check(CLI::Range(1, 64));
+  sim->add_option("--frames", opt->frames,
+                  "Path tracing: frames each client renders, then the run ends when the last is delivered (its "
+                  "makespan); --duration caps it. 0 = frame after frame until --duration")
+      ->default_val(opt->frames)
+      ->check(CLI::Range(0, 1000000));
   sim->add_option("--prediction-depth", opt->prediction_depth, "Path tracing: job prediction depth (Sec. 5.2; 0 = off)")->default_val(opt->prediction_depth)->check(CLI::Range(0, 16));
   sim->add_option("--merge-planned", opt->merge_planned,
                   "Path tracing: on = arriving rays may join a planned, not yet started job (its E-job grows, see "

@@ -106,6 +106,7 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   j["fidelity"] = to_string(pt.model().fidelity());
   j["clients"] = cfg.clients;
   j["frames_in_flight"] = cfg.frames_in_flight;
+  j["frames_per_client"] = cfg.frames_per_client;
   j["prediction_depth"] = cfg.prediction_depth;
   j["merge_planned"] = cfg.merge_planned;
   j["retime_merged"] = cfg.retime_merged;
@@ -215,6 +216,7 @@ std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
     pto.cancel_failed = cfg.cancel_failed;
     pto.warm = cfg.warm;
     pto.frames_in_flight = cfg.frames_in_flight;
+    pto.frames_per_client = cfg.frames_per_client;
     pto.retime_merged = cfg.retime_merged;
     pto.seed = cfg.seed;
     if (cfg.record_replay) pto.record = &in->recording;
@@ -395,6 +397,12 @@ Outcome run_engine(const SimulationConfig& cfg, Engine& e) {
   e.loop.on_progress = nullptr;
   progress.done();
   o.end = cfg.runs_for_duration() ? cfg.duration : o.stats.makespan;
+  // --frames: the run ends with its last frame (the makespan), if that came before --duration.
+  if (e.path_trace && cfg.frames_per_client > 0 && e.path_trace->finished()) {
+    Time last = 0;
+    for (const FrameReport& f : e.path_trace->frames()) last = std::max(last, f.delivered);
+    if (last > 0) o.end = std::min(o.end, last);
+  }
   return o;
 }
 

@@ -39,6 +39,7 @@ struct SimulationConfig {
   // Path-tracing workload (a scene profile; docs/scene-profiles.md).
   int clients = 1;
   int frames_in_flight = 1;             // frames each client keeps requested at once
+  int frames_per_client = 0;            // >0: the run ends when each client has these (the makespan)
   int prediction_depth = 0;             // Sec. 5.2; 0: off
   bool merge_planned = true;            // queues may join planned jobs
   bool retime_merged = true;            // planned jobs that rays joined are re-timed

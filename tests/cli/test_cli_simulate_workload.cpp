@@ -99,6 +99,37 @@ TEST(CliSimulateWorkload, RecordThenReplay) {
   fs::remove_all(rep);
 }
 
+// --frames N: each client renders N frames and the run ends with the last one, its span the
+// makespan (not --duration); every activity of the run ended by then.
+TEST(CliSimulateWorkload, FramesEndTheRunAtTheLastDelivery) {
+  const fs::path out = scratch("frames");
+  const auto r = rayline_cli("simulate --workload " + kData + "/profiles/small.profile.json --platform paper-A --clients 2 "
+                             "--frames 3 --duration 60s --no-progress --no-timeline --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto m = metrics(out);
+  EXPECT_EQ(m["path_trace"]["frames_per_client"], 3);
+  EXPECT_EQ(m["path_trace"]["frames"]["delivered"], 6);
+  EXPECT_EQ(m["path_trace"]["frames"]["exact"], 6);
+  const double span = m["simulated_s"].get<double>();
+  EXPECT_GT(span, 0.0);
+  EXPECT_LT(span, 60.0);
+  EXPECT_EQ(m["path_trace"]["rays"]["alive_at_end"], 0);
+  std::ifstream jobs(out / "jobs.csv");
+  std::string line, last_end;
+  double latest = 0;
+  std::getline(jobs, line);  // header: ...,actual_start,actual_end,state,created
+  while (std::getline(jobs, line)) {
+    std::vector<std::string> f;
+    std::size_t at = 0;
+    for (std::size_t c; (c = line.find(',', at)) != std::string::npos; at = c + 1) f.push_back(line.substr(at, c - at));
+    f.push_back(line.substr(at));
+    ASSERT_GE(f.size(), 13u) << line;
+    if (!f[10].empty()) latest = std::max(latest, std::stod(f[10]));
+  }
+  EXPECT_NEAR(latest, span, 1e-6);  // the last activity is the last frame's AdditiveCompose
+  fs::remove_all(out);
+}
+
 // A replay log that does not fit the profile (here a shading outcome category that does
 // not exist) is refused before the simulation starts: exit 2, file and line named, no
 // output. It used to fail mid-run and, through SimGrid, crash.
@@ -157,7 +188,7 @@ TEST(CliSimulateWorkload, BadFlagsExit2) {
   // Every path-tracing flag is refused for a ray stream (--warmup and the on/off switches
   // used to be ignored without a word), and the message names each one given.
   for (const std::string args : {"--warmup 5s", "--merge-planned off", "--retime-merged off", "--cancel-failed off",
-                                 "--prediction-depth 1", "--fidelity analytic", "--record-replay"}) {
+                                 "--prediction-depth 1", "--fidelity analytic", "--record-replay", "--frames 1"}) {
     const auto r = rayline_cli("simulate --duration 2s --no-progress --out " + out.string() + " " + args);
     EXPECT_EQ(r.code, 2) << args << ": " << r.all;
     EXPECT_NE(r.err.find(args.substr(0, args.find(' ')) + " applies only to path tracing"), std::string::npos) << r.err;
