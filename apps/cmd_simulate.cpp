@@ -181,6 +181,10 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
   cfg.progress = ProgressLine::for_stderr(opt.no_progress);
   if (!opt.warmup.empty()) cfg.warmup = duration_flag("--warmup", opt.warmup);
   cfg.faults = opt.fail;  // (checked against the platform when it is loaded)
+  if (!opt.memory_budget.empty()) {
+    cfg.host_memory = size_flag("--memory-budget", opt.memory_budget);
+    if (cfg.host_memory == 0) throw InputError("--memory-budget", "", "must be more than 0 bytes");
+  }
   cfg.warm = opt.start == "warm";
   if (cfg.warm && cfg.workload_kind == sim::WorkloadKind::JobSet)
     throw InputError("--start", "", "warm applies to the ray stream and to path tracing; a job set says where its data starts");

@@ -34,6 +34,7 @@ struct SimulateOptions {
   std::vector<std::string> fail;    // --fail DEVICE@TIME, repeatable (docs/faults.md)
   std::string start = "cold";       // --start cold|warm
   int frames_in_flight = 1;         // --frames-in-flight (path tracing)
+  std::string memory_budget;        // --memory-budget: every node's host RAM (empty: the platform's)
   int frames = 0;                   // --frames: frames per client, then the run ends (0: until --duration)
 };
 int run_simulate(const SimulateOptions& opt);

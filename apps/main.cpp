@@ -124,6 +124,10 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                   "feed requests frame by frame)")
       ->default_val(opt->frames_in_flight)
       ->check(CLI::Range(1, 64));
+  sim->add_option("--memory-budget", opt->memory_budget,
+                  "Host RAM of every node (each host memory device) for scene blocks and ray queues, e.g. 2GiB, as "
+                  "render's --memory-budget (default: the platform file's capacities)")
+      ->type_name("SIZE");
   sim->add_option("--frames", opt->frames,
                   "Path tracing: frames each client renders, then the run ends when the last is delivered (its "
                   "makespan); --duration caps it. 0 = frame after frame until --duration")
@@ -182,6 +186,8 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--fidelity", o.fidelity, "Path tracing: analytic, markov or replay")->default_val(o.fidelity);
   c->add_option("--replay", o.replay, "Path tracing: replay log for --fidelity replay")->type_name(kPath);
   c->add_option("--warmup", o.warmup, "Path tracing: steady state starts here (default: a third of --duration)")->type_name(kDuration);
+  c->add_option("--memory-budget", o.memory_budget, "Host RAM of every node, e.g. 2GiB (default: the platform file's)")
+      ->type_name("SIZE");
   c->add_option("--frames-in-flight", o.frames_in_flight, "Path tracing: frames each client keeps requested at once")
       ->default_val(o.frames_in_flight)
       ->check(CLI::Range(1, 64));

@@ -201,6 +201,11 @@ struct Inputs {
 std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
   auto in = std::make_unique<Inputs>();  // (path_trace.record points into it)
   in->graph = load_platform(cfg.platform_file);
+  if (cfg.host_memory > 0) {  // --memory-budget: the RAM of every node, as a render's budget
+    for (MemoryDevice& m : in->graph.memories)
+      if (m.kind == MemoryKind::Host) m.capacity = static_cast<Bytes>(cfg.host_memory);
+    in->graph.source_file += " (host memory from --memory-budget)";
+  }
   for (const std::string& f : cfg.faults) in->faults.push_back(parse_fault(f, in->graph));
   std::stable_sort(in->faults.begin(), in->faults.end(), [](const Fault& a, const Fault& b) { return a.at < b.at; });
   if (cfg.workload_kind == WorkloadKind::JobSet) in->set = std::make_unique<JobSet>(load_job_set(cfg.workload, in->graph));
@@ -642,6 +647,7 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
     m["rayline"] = {{"version", invocation_version()}, {"command", invocation_command()}};
   m["platform"] = in.graph.name;
   m["platform_file"] = cfg.platform_file;
+  if (cfg.host_memory > 0) m["host_memory_bytes"] = cfg.host_memory;
   m["workload"] = cfg.workload;
   m["scheduler"] = std::string(scheduler_name(cfg.scheduler.kind));
   m["scheduler_parameters"] = e.scheduler->describe();

@@ -32,6 +32,7 @@ struct SimulationConfig {
   double exec_noise = 0.0;              // actual E-job time = predicted x U[1-n, 1+n], n in [0, 1)
   TransferOrder transfer_order = TransferOrder::Channel;  // T-jobs on channels that share a medium
   int blocks = 129;                     // scene blocks of the ray stream
+  std::uint64_t host_memory = 0;        // >0: every host memory device's capacity (--memory-budget)
   std::string out_dir = "out/simulate";
   bool paje = false;                    // SimGrid's own trace as OUT/simgrid.trace
   bool timeline = true;                 // OUT/timeline.json (Chrome trace)

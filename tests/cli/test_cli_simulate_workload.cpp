@@ -130,6 +130,45 @@ TEST(CliSimulateWorkload, FramesEndTheRunAtTheLastDelivery) {
   fs::remove_all(out);
 }
 
+namespace {
+// Scene blocks read from a disk into RAM, from a run's jobs.csv.
+int scene_loads(const fs::path& dir) {
+  std::ifstream jobs(dir / "jobs.csv");
+  std::string line;
+  int n = 0;
+  while (std::getline(jobs, line)) n += line.find("disk->ram") != std::string::npos && line.find(",scene") != std::string::npos;
+  return n;
+}
+}  // namespace
+
+// --memory-budget sets every node's RAM, as a render's budget does: with room for 2 of the
+// 8 blocks of 100 MB instead of 8 GiB, blocks are read again; a budget no block fits in
+// stalls the run with the reason; a bad size exits 2.
+TEST(CliSimulateWorkload, MemoryBudgetIsTheHostRam) {
+  const fs::path full = scratch("ram-full"), small = scratch("ram-small"), bad = scratch("ram-bad");
+  const std::string base = "simulate --workload " + kData + "/profiles/small.profile.json --platform paper-A --clients 2 "
+                           "--frames 2 --duration 60s --no-progress --no-timeline ";
+  ASSERT_EQ(rayline_cli(base + "--out " + full.string()).code, 0);
+  const auto r = rayline_cli(base + "--memory-budget 300MB --out " + small.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_EQ(metrics(small)["host_memory_bytes"], 300000000u);
+  EXPECT_FALSE(metrics(full).contains("host_memory_bytes"));
+  EXPECT_EQ(metrics(small)["path_trace"]["frames"]["delivered"], 4);
+  EXPECT_EQ(scene_loads(full), 8);  // each block once
+  EXPECT_GT(scene_loads(small), 8);
+  const auto stall = rayline_cli(base + "--memory-budget 50MB --out " + bad.string());
+  EXPECT_EQ(stall.code, 1) << stall.all;
+  EXPECT_NE(stall.err.find("room for input 'scene"), std::string::npos) << stall.err;
+  for (const std::string v : {"0", "lots", "-5MB"}) {
+    const auto b = rayline_cli(base + "--memory-budget " + v + " --out " + bad.string() + "-2");
+    EXPECT_EQ(b.code, 2) << v << ": " << b.all;
+    EXPECT_NE(b.err.find("--memory-budget"), std::string::npos) << b.err;
+  }
+  fs::remove_all(full);
+  fs::remove_all(small);
+  fs::remove_all(bad);
+}
+
 // A replay log that does not fit the profile (here a shading outcome category that does
 // not exist) is refused before the simulation starts: exit 2, file and line named, no
 // output. It used to fail mid-run and, through SimGrid, crash.
