@@ -11,6 +11,7 @@
 #include "apps/cli_common.hpp"
 #include "apps/cli_reference.hpp"
 #include "common/invocation.hpp"
+#include "apps/huge_pages.hpp"
 #include "apps/interrupt.hpp"
 #include "apps/cmd_compare.hpp"
 #include "apps/cmd_generate.hpp"
@@ -161,7 +162,12 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--fail", opt->fail,
                   "DEVICE@TIME: a node, memory or compute device fails at TIME (e.g. B3@10s); its work is re-planned "
                   "on the devices left, lost data made again where the workload can (repeatable; docs/faults.md)")->type_name(kFault);
-  sim->callback([opt, &action] { action = [opt] { return run_simulate(*opt); }; });
+  sim->callback([opt, &action] {
+    action = [opt] {
+      use_huge_pages_for_large_allocations();  // apps/huge_pages.hpp
+      return run_simulate(*opt);
+    };
+  });
 }
 
 void add_compare(CLI::App& app, std::function<int()>& action) {
@@ -195,7 +201,12 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
       ->default_val(o.start)
       ->check(CLI::IsMember({"cold", "warm"}));
   c->add_option("--out,-o", opt->out, "Output folder: OUT/<scheduler>/ per run (replaced only if it holds nothing but a run's files), OUT/compare.csv, compare.json")->type_name(kFolder)->default_val(opt->out);
-  c->callback([opt, &action] { action = [opt] { return run_compare(*opt); }; });
+  c->callback([opt, &action] {
+    action = [opt] {
+      use_huge_pages_for_large_allocations();  // apps/huge_pages.hpp
+      return run_compare(*opt);
+    };
+  });
 }
 #endif  // RAYLINE_WITH_SIM
 
