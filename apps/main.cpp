@@ -285,7 +285,8 @@ void add_render(CLI::App& app, std::function<int()>& action) {
       ->check(CLI::IsMember({"on", "off"}));
   r->add_option("--skip-empty", opt->skip_empty,
                 "on = a ray goes past a cell whose occupancy grid (blocks.json) its segment misses, without a "
-                "visit or a load; off = every cell along the ray is visited; the image is the same")
+                "visit or a load (not with a single block: nothing to skip to); off = every cell along the ray is "
+                "visited; the image is the same")
       ->default_val(opt->skip_empty)
       ->check(CLI::IsMember({"on", "off"}));
   r->add_option("--loaders", opt->loaders,
