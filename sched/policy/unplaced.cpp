@@ -19,17 +19,9 @@ std::string gb(double bytes) {
   return buf;
 }
 
-// Channels leaving each memory device.
-std::vector<std::vector<ChannelId>> out_channels(const DeviceGraph& g) {
-  std::vector<std::vector<ChannelId>> out(g.memories.size());
-  for (std::size_t ci = 0; ci < g.channels.size(); ++ci)
-    out[static_cast<std::size_t>(g.channels[ci].from)].push_back(static_cast<ChannelId>(ci));
-  return out;
-}
-
 // Memory devices a copy of b can reach hop by hop from its holders, each hop's memory
 // device big enough to hold it (Placer::place admits the block on every hop, Sec. 4.4).
-std::vector<bool> reachable(BlockId b, const Schedule& s, const std::vector<std::vector<ChannelId>>& out) {
+std::vector<bool> reachable(BlockId b, const Schedule& s) {
   const DeviceGraph& g = s.graph();
   const double bytes = static_cast<double>(s.pool().block(b).bytes);
   std::vector<bool> seen(g.memories.size(), false);
@@ -42,7 +34,7 @@ std::vector<bool> reachable(BlockId b, const Schedule& s, const std::vector<std:
   while (!todo.empty()) {
     const MemId u = todo.back();
     todo.pop_back();
-    for (const ChannelId ci : out[static_cast<std::size_t>(u)]) {
+    for (const ChannelId ci : g.out_channels(u)) {
       const auto v = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(ci)].to);
       if (!s.channel_alive(ci) || seen[v] || static_cast<double>(g.memories[v].capacity) < bytes) continue;
       seen[v] = true;
@@ -54,12 +46,9 @@ std::vector<bool> reachable(BlockId b, const Schedule& s, const std::vector<std:
 
 // Where each block can get to, per block: first_unplaceable asks for every queued job, and
 // many share their inputs (the scene blocks).
-struct ReachCache {
-  std::vector<std::vector<ChannelId>> out;
-  std::unordered_map<BlockId, std::vector<bool>> memo;
-};
+using ReachCache = std::unordered_map<BlockId, std::vector<bool>>;
 
-std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, ReachCache* cache) {
+std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, ReachCache& cache) {
   const DeviceGraph& g = s.graph();
   const Job& job = pool.job(j);
   const std::string& type = g.job_types[static_cast<std::size_t>(job.type)];
@@ -74,13 +63,9 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, Rea
   auto reach_of = [&](std::size_t i) -> const std::vector<bool>& {
     if (reach_known[i]) return reach[i];
     reach_known[i] = true;
-    if (!cache) {
-      reach[i] = reachable(job.inputs[i], s, out_channels(g));
-    } else {
-      auto [it, fresh] = cache->memo.try_emplace(job.inputs[i]);
-      if (fresh) it->second = reachable(job.inputs[i], s, cache->out);
-      reach[i] = it->second;
-    }
+    auto [it, fresh] = cache.try_emplace(job.inputs[i]);
+    if (fresh) it->second = reachable(job.inputs[i], s);
+    reach[i] = it->second;
     if (std::find(reach[i].begin(), reach[i].end(), true) == reach[i].end()) reach[i].clear();
     return reach[i];
   };
@@ -127,12 +112,15 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, Rea
 
 }  // namespace
 
-std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) { return why_unplaceable(j, pool, s, nullptr); }
+std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
+  ReachCache cache;
+  return why_unplaceable(j, pool, s, cache);
+}
 
 JobId first_unplaceable(const JobPool& pool, const Schedule& s) {
-  ReachCache cache{out_channels(s.graph()), {}};
+  ReachCache cache;
   for (JobId j : pool.queued())
-    if (!why_unplaceable(j, pool, s, &cache).empty()) return j;
+    if (!why_unplaceable(j, pool, s, cache).empty()) return j;
   return kNone;
 }
 
