@@ -87,6 +87,21 @@ write("paper-cluster.json", cluster("paper-cluster", ALL,
 for label, n in [("A", 1), ("2A", 2), ("3A", 3), ("4A", 4), ("4A+B", 5), ("4A+B+C", 6), ("4A+B+C+D", 7)]:
     write(f"paper-{label}.json", cluster(f"paper-{label}", ALL[:n], f"Fig. 8 scaling subset {label} of the paper cluster"))
 
+# Scale studies (docs/performance.md, "Scaling"): N type-A nodes in racks of 32 on a
+# backbone. 1 Gb/s NICs, a 10 Gb/s uplink per rack (32 Gb/s of NICs: 3.2:1 oversubscribed),
+# and a core as fast as all the uplinks together.
+RACK = 32
+for n in (64, 256, 1024):
+    racks = n // RACK
+    p = cluster(f"scale-{n}", [(f"A{i}", "A") for i in range(n)],
+                f"{n} type-A nodes (8 hw threads + 1 GPU each) in {racks} racks of {RACK} on a backbone")
+    net = p["networks"][0]
+    net["bandwidth"] = "1Gb/s"
+    net["backbone"] = {"bandwidth": f"{10 * racks}Gb/s", "latency": "5us"}
+    net["racks"] = [{"name": f"r{r}", "uplink": "10Gb/s"} for r in range(racks)]
+    net["members"] = [{"node": f"A{i}", "rack": f"r{i // RACK}"} for i in range(n)]
+    write(f"scale-{n}.json", p)
+
 ws_gpus = 4
 ws = {
     "name": "workstation-4gpu",

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -95,54 +96,177 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
   m.engine = std::make_unique<sg4::Engine>("rayline");
   configure_engine(options);
 
-  // Memory hosts, relays and every link live in one full zone (routes are explicit, one
-  // per channel). Compute hosts never communicate and sit in an empty sibling zone, which
-  // keeps the full zone's N x N route table to the memory hosts. The root has no routes
-  // (a zone with children needs gateways for every route it holds).
+  // Zones, linear in the platform's size (sim/README.md, "Platform model"):
+  //  * point-to-point channels (a node's own, or any a test builds by hand): one full zone
+  //    per connected group of memory devices, one explicit route per channel;
+  //  * a network: a star zone with one relay host per member (its racks: star zones
+  //    inside it, each behind a router host). SimGrid composes a route from the members'
+  //    NIC links, the racks' uplinks and the backbone, so a network of N members holds
+  //    O(N) links and routes instead of one per ordered pair;
+  //  * compute hosts: an empty zone (they never communicate).
+  // Every route stays inside one zone; the root holds none (a zone with children needs
+  // gateways for every route it holds).
   sg4::NetZone* root = sg4::create_empty_zone("rayline");
-  sg4::NetZone* net = sg4::create_full_zone("rayline.net");
-  net->set_parent(root);
   sg4::NetZone* cpu = sg4::create_empty_zone("rayline.compute");
   cpu->set_parent(root);
 
-  for (const MemoryDevice& md : g.memories) m.memory_hosts.push_back(net->create_host(md.name, 1.0));
+  // Groups of memory devices joined by point-to-point channels (union-find).
+  std::vector<MemId> group(g.memories.size());
+  for (std::size_t i = 0; i < group.size(); ++i) group[i] = static_cast<MemId>(i);
+  auto find = [&](MemId x) {
+    while (group[x] != x) x = group[x] = group[group[x]];
+    return x;
+  };
+  for (const Channel& c : g.channels)
+    if (c.network == kNone) group[find(c.from)] = find(c.to);
+  std::vector<sg4::NetZone*> group_zone(g.memories.size(), nullptr);
+  std::vector<sg4::NetZone*> zones{cpu};
+  for (std::size_t i = 0; i < g.memories.size(); ++i) {
+    sg4::NetZone*& z = group_zone[find(static_cast<MemId>(i))];
+    if (!z) {
+      z = sg4::create_full_zone("rayline.mem." + g.memories[i].name);
+      z->set_parent(root);
+      zones.push_back(z);
+    }
+    m.memory_hosts.push_back(z->create_host(g.memories[i].name, 1.0));
+  }
   for (const ComputeDevice& cd : g.computes) m.compute_hosts.push_back(cpu->create_host(cd.name, 1.0));
 
-  for (std::size_t r = 0; r < g.resources.size(); ++r)
-    m.resource_links.push_back(make_link(net, "res[" + std::to_string(r) + "]:" + g.resources[r].name,
-                                         g.resources[r].bandwidth));
+  // Resource links live in the zone of their first user (a link may serve routes of any
+  // zone; only its name must be unique).
+  m.resource_links.assign(g.resources.size(), nullptr);
+  auto resource_link = [&](ResourceId r, sg4::NetZone* z) {
+    if (!m.resource_links[r])
+      m.resource_links[r] = make_link(z, "res[" + std::to_string(r) + "]:" + g.resources[r].name, g.resources[r].bandwidth);
+    return m.resource_links[r];
+  };
+
+  // A channel needs its own link only when it is slower than its slowest resource: every
+  // flow on it crosses all of them, so otherwise that link's constraint is implied.
+  m.channel_links.assign(g.channels.size(), nullptr);
+  m.channel_route.resize(g.channels.size());
+  m.channel_src.resize(g.channels.size());
+  m.channel_dst.resize(g.channels.size());
+  auto needs_own_link = [&](const Channel& c) {
+    double slowest = std::numeric_limits<double>::infinity();
+    for (ResourceId r : c.resources) slowest = std::min(slowest, g.resources[r].bandwidth);
+    return c.bandwidth < slowest * (1 - 1e-12);
+  };
+  auto own_link = [&](ChannelId i, sg4::NetZone* z) -> sg4::Link* {
+    const Channel& c = g.channels[i];
+    if (!needs_own_link(c)) return nullptr;
+    sg4::Link* own = make_link(z, "chan[" + std::to_string(i) + "]:" + c.name, c.bandwidth);
+    m.channel_links[i] = own;
+    m.channel_route[i].push_back(m.channel_link_index(i));
+    return own;
+  };
 
   std::map<std::pair<MemId, MemId>, int> pair_uses;
   for (std::size_t i = 0; i < g.channels.size(); ++i) {
     const Channel& c = g.channels[i];
-    sg4::Link* own = make_link(net, "chan[" + std::to_string(i) + "]:" + c.name, c.bandwidth);
-    m.channel_links.push_back(own);
-
-    std::vector<sg4::LinkInRoute> route{sg4::LinkInRoute(own)};
+    if (c.network != kNone) continue;
+    sg4::NetZone* z = group_zone[find(c.from)];
+    std::vector<sg4::LinkInRoute> route;
+    if (sg4::Link* own = own_link(static_cast<ChannelId>(i), z)) route.emplace_back(own);
     std::vector<ResourceId> res;  // in the channel's order; a resource listed twice is used once
     for (ResourceId r : c.resources)
       if (std::find(res.begin(), res.end(), r) == res.end()) res.push_back(r);
-    std::vector<std::int32_t>& used = m.channel_route.emplace_back();
-    used.push_back(m.channel_link_index(static_cast<ChannelId>(i)));
     for (ResourceId r : res) {
-      route.emplace_back(m.resource_links[r]);
-      used.push_back(m.resource_link_index(r));
+      route.emplace_back(resource_link(r, z));
+      m.channel_route[i].push_back(m.resource_link_index(r));
     }
-
     sg4::Host* src = m.memory_hosts[c.from];
     if (pair_uses[{c.from, c.to}]++ > 0)  // a second channel between the same pair
-      src = net->create_host(g.memories[c.from].name + "~relay" + std::to_string(i), 1.0);
+      src = z->create_host(g.memories[c.from].name + "~relay" + std::to_string(i), 1.0);
     sg4::Host* dst = m.memory_hosts[c.to];
-    net->add_route(src->get_netpoint(), dst->get_netpoint(), nullptr, nullptr, route, /*symmetrical=*/false);
-    m.channel_src.push_back(src);
-    m.channel_dst.push_back(dst);
+    z->add_route(src->get_netpoint(), dst->get_netpoint(), nullptr, nullptr, route, /*symmetrical=*/false);
+    m.channel_src[i] = src;
+    m.channel_dst[i] = dst;
   }
-  net->seal();
-  cpu->seal();
+
+  // Networks. A member's relay sends and receives its traffic: up through its NIC-out
+  // (then, without racks, the backbone), down through its NIC-in; between racks, a rack
+  // zone goes up through its uplink and the backbone and down through its downlink.
+  std::vector<std::vector<sg4::Host*>> relay(g.networks.size());
+  std::vector<std::vector<std::int32_t>> member_at(g.networks.size());  // [network][MemId]: member index
+  for (std::size_t n = 0; n < g.networks.size(); ++n) {
+    const Network& net = g.networks[n];
+    sg4::NetZone* nz = sg4::create_star_zone("rayline.net." + net.name);
+    nz->set_parent(root);
+    zones.push_back(nz);
+    auto links = [](std::initializer_list<sg4::Link*> ls) {
+      std::vector<sg4::LinkInRoute> r;
+      for (sg4::Link* l : ls)
+        if (l) r.emplace_back(l);
+      return r;
+    };
+    sg4::Link* backbone = net.backbone == kNone ? nullptr : resource_link(net.backbone, nz);
+    std::vector<sg4::NetZone*> rack_zone;
+    std::vector<sg4::Host*> router;
+    for (std::size_t r = 0; r < net.racks.size(); ++r) {
+      sg4::NetZone* rz = sg4::create_star_zone("rayline.net." + net.name + "." + net.racks[r].name);
+      rz->set_parent(nz);
+      zones.push_back(rz);
+      sg4::Host* gw = rz->create_host(net.name + "." + net.racks[r].name + "~router", 1.0);
+      nz->add_route(rz->get_netpoint(), nullptr, gw->get_netpoint(), nullptr,
+                    links({resource_link(net.racks[r].up, nz), backbone}), false);
+      nz->add_route(nullptr, rz->get_netpoint(), nullptr, gw->get_netpoint(),
+                    links({resource_link(net.racks[r].down, nz)}), false);
+      rack_zone.push_back(rz);
+      router.push_back(gw);
+    }
+    for (const NetworkMember& mb : net.members) {
+      sg4::NetZone* z = mb.rack == kNone ? nz : rack_zone[static_cast<std::size_t>(mb.rack)];
+      sg4::Host* h = z->create_host(g.memories[mb.memory].name + "~" + net.name, 1.0);
+      sg4::Link* bb = mb.rack == kNone ? backbone : nullptr;
+      z->add_route(h->get_netpoint(), nullptr, nullptr, nullptr, links({resource_link(mb.out, z), bb}), false);
+      z->add_route(nullptr, h->get_netpoint(), nullptr, nullptr, links({resource_link(mb.in, z)}), false);
+      relay[n].push_back(h);
+      member_at[n].resize(g.memories.size(), kNone);
+      member_at[n][static_cast<std::size_t>(mb.memory)] = static_cast<std::int32_t>(relay[n].size() - 1);
+    }
+  }
+  for (std::size_t i = 0; i < g.channels.size(); ++i) {
+    const Channel& c = g.channels[i];
+    if (c.network == kNone) continue;
+    const Network& net = g.networks[static_cast<std::size_t>(c.network)];
+    auto member_of = [&](MemId mem) {
+      const auto& at = member_at[static_cast<std::size_t>(c.network)];
+      if (at.empty() || at[static_cast<std::size_t>(mem)] == kNone)
+        throw InputError(g.source_file, "channels[" + c.name + "]",
+                         "joins a memory device that is no member of network '" + net.name + "'");
+      return static_cast<std::size_t>(at[static_cast<std::size_t>(mem)]);
+    };
+    const std::size_t a = member_of(c.from), b = member_of(c.to);
+    // The channel's resources must be exactly the route SimGrid composes (checked, as a
+    // hand-built graph could say otherwise).
+    std::vector<ResourceId> want{net.members[a].out};
+    const std::int32_t ra = net.members[a].rack, rb = net.members[b].rack;
+    if (ra != rb) want.push_back(net.racks[static_cast<std::size_t>(ra)].up);
+    if (net.backbone != kNone && (ra != rb || net.racks.empty())) want.push_back(net.backbone);
+    if (ra != rb) want.push_back(net.racks[static_cast<std::size_t>(rb)].down);
+    want.push_back(net.members[b].in);
+    if (c.resources != want)
+      throw InputError(g.source_file, "channels[" + c.name + "].resources",
+                       "differ from the route of network '" + net.name + "' between its two members");
+    if (needs_own_link(c))
+      throw InputError(g.source_file, "channels[" + c.name + "].bandwidth",
+                       "is below its slowest resource; a network channel runs at its slowest resource's bandwidth");
+    std::vector<ResourceId> res;
+    for (ResourceId r : c.resources)
+      if (std::find(res.begin(), res.end(), r) == res.end()) res.push_back(r);
+    for (ResourceId r : res) m.channel_route[i].push_back(m.resource_link_index(r));
+    m.channel_src[i] = relay[static_cast<std::size_t>(c.network)][a];
+    m.channel_dst[i] = relay[static_cast<std::size_t>(c.network)][b];
+  }
+  // Resources no channel uses still get a link (their byte counter reads 0).
+  for (std::size_t r = 0; r < g.resources.size(); ++r) resource_link(static_cast<ResourceId>(r), cpu);
+  for (auto it = zones.rbegin(); it != zones.rend(); ++it) (*it)->seal();
   root->seal();
 
   const std::size_t nlinks = g.resources.size() + g.channels.size();
   m.link_bytes.assign(nlinks, 0.0);
+  m.channel_done_bytes.assign(g.channels.size(), 0.0);
   m.link_active.assign(nlinks, 0);
   m.link_listed.assign(nlinks, 0);
   m.device_work_s.assign(g.computes.size(), 0.0);
@@ -232,6 +356,7 @@ void SgPlatform::Impl::launch_comm(SgActivityId id, Bytes bytes) {
   sg4::CommPtr comm = sg4::Comm::sendto_async(channel_src[p.channel], channel_dst[p.channel], bytes);
   by_activity[comm.get()] = id;
   p.activity = comm;
+  p.bytes = bytes;
   use_channel_links(p.channel, +1);
 }
 
@@ -241,26 +366,59 @@ void SgPlatform::Impl::complete(SgActivityId id, Time finish_s, bool ok) {
   Pending p = std::move(it->second);
   pending.erase(it);
   if (p.activity) {
+    if (p.channel != kNone && !channel_links[p.channel])
+      channel_done_bytes[p.channel] += ok ? static_cast<double>(p.bytes) : static_cast<double>(p.bytes) - p.activity->get_remaining();
     graveyard.push_back(std::move(p.activity));  // SimGrid still uses it after this signal
     if (p.channel != kNone) use_channel_links(p.channel, -1);
     if (p.device != kNone) mark_device(p.device, -1);
   }
   if (stopped || !p.done) return;
-  try {
-    p.done(SgCompletion{p.id, p.start_s, finish_s, ok});
-  } catch (...) {
-    // Unwinding through SimGrid's loop would strand half-processed activities, and
-    // cancelling them from inside this signal crashes SimGrid 3.32 when other activities
-    // end at the same instant: their cancelled actions wait for the engine's next round,
-    // by which time the activities are freed (EngineImpl::handle_ended_actions; found by
-    // fuzzing the replay log, test ExceptionFromACallbackAmongSimultaneousCompletions).
-    // Stop starting anything now, cancel the rest from a timer at this instant (outside
-    // the signal), and rethrow from run().
-    if (!error) {
-      error = std::current_exception();
-      stopped = true;
-      Impl* self = this;
-      simgrid::kernel::timer::Timer::set(sg4::Engine::get_clock(), [self] { self->stop_all(); });
+  // Callbacks are not called from here: activities that end at the same instant reach
+  // SimGrid's signal in an order of its own (its heaps, its zones), and the workload and
+  // the scheduler react to the order they hear of them. They are collected and called in
+  // start order (SgActivityId) from a timer at this instant, which runs once SimGrid has
+  // handled everything ending now (or when run() / run_until() returns).
+  due.push_back({SgCompletion{p.id, p.start_s, finish_s, ok}, std::move(p.done)});
+  if (!flush_timer) {
+    Impl* self = this;
+    flush_timer = simgrid::kernel::timer::Timer::set(sg4::Engine::get_clock(), [self] {
+      self->flush_timer = nullptr;
+      self->flush_due();
+    });
+  }
+}
+
+void SgPlatform::Impl::flush_now() {
+  if (flush_timer) {
+    flush_timer->remove();
+    flush_timer = nullptr;
+  }
+  flush_due();
+}
+
+void SgPlatform::Impl::flush_due() {
+  std::vector<Due> now_due;
+  now_due.swap(due);
+  std::sort(now_due.begin(), now_due.end(), [](const Due& a, const Due& b) { return a.c.id < b.c.id; });
+  for (Due& d : now_due) {
+    if (stopped) return;
+    try {
+      d.done(d.c);
+    } catch (...) {
+      // Unwinding through SimGrid's loop would strand half-processed activities, and
+      // cancelling them from inside a signal crashes SimGrid 3.32 when other activities
+      // end at the same instant: their cancelled actions wait for the engine's next round,
+      // by which time the activities are freed (EngineImpl::handle_ended_actions; found by
+      // fuzzing the replay log, test ExceptionFromACallbackAmongSimultaneousCompletions).
+      // Stop starting anything now, cancel the rest from a timer at this instant, and
+      // rethrow from run().
+      if (!error) {
+        error = std::current_exception();
+        stopped = true;
+        Impl* self = this;
+        simgrid::kernel::timer::Timer::set(sg4::Engine::get_clock(), [self] { self->stop_all(); });
+      }
+      return;
     }
   }
 }
@@ -371,7 +529,11 @@ void SgPlatform::cancel(SgActivityId id) {
   Impl::Pending p = std::move(it->second);
   m.pending.erase(it);  // complete() ignores it from now on; a latency timer finds nothing to do
   if (!p.activity) return;
-  if (p.channel != kNone) m.use_channel_links(p.channel, -1);
+  if (p.channel != kNone) {
+    m.use_channel_links(p.channel, -1);
+    if (!m.channel_links[p.channel])
+      m.channel_done_bytes[p.channel] += static_cast<double>(p.bytes) - p.activity->get_remaining();
+  }
   if (p.device != kNone) m.mark_device(p.device, -1);
   sg4::ActivityPtr a = p.activity;
   m.graveyard.push_back(a);
@@ -382,6 +544,10 @@ void SgPlatform::cancel(SgActivityId id) {
 
 void SgPlatform::run() {
   impl_->engine->run();
+  while (!impl_->due.empty() && !impl_->stopped) {  // completions at the very end
+    impl_->flush_now();
+    impl_->engine->run();
+  }
   impl_->graveyard.clear();
   rethrow_callback_error();
 }
@@ -397,6 +563,7 @@ void SgPlatform::run_until(Time t) {
   while (now() < t) {
     const Time before = now();
     impl_->engine->run_until(t);
+    if (!impl_->due.empty() && !impl_->stopped) impl_->flush_now();  // completions where it stopped
     impl_->graveyard.clear();
     rethrow_callback_error();
     if (!(now() > before)) break;
@@ -412,7 +579,12 @@ double SgPlatform::resource_bytes(ResourceId r) const { return impl_->link_bytes
 double SgPlatform::channel_bytes(ChannelId c) const {
   if (c < 0 || c >= static_cast<ChannelId>(impl_->graph.channels.size()))
     throw std::out_of_range("SgPlatform::channel_bytes: unknown channel " + std::to_string(c));
-  return impl_->link_bytes[impl_->channel_link_index(c)];
+  const Impl& m = *impl_;
+  if (m.channel_links[c]) return m.link_bytes[m.channel_link_index(c)];
+  double bytes = m.channel_done_bytes[c];  // a channel without its own link: its transfers' bytes
+  for (const auto& [id, p] : m.pending)
+    if (p.channel == c && p.activity) bytes += static_cast<double>(p.bytes) - p.activity->get_remaining();
+  return bytes;
 }
 
 double SgPlatform::device_busy_s(DeviceId d) const { return impl_->device_work_s.at(d); }
@@ -421,7 +593,10 @@ const DeviceGraph& SgPlatform::graph() const { return impl_->graph; }
 
 std::string SgPlatform::resource_link_name(ResourceId r) const { return impl_->resource_links.at(r)->get_name(); }
 
-std::string SgPlatform::channel_link_name(ChannelId c) const { return impl_->channel_links.at(c)->get_name(); }
+std::string SgPlatform::channel_link_name(ChannelId c) const {
+  const sg4::Link* l = impl_->channel_links.at(c);
+  return l ? l->get_name() : std::string();
+}
 
 std::vector<std::string> SgPlatform::route_links(ChannelId c) const {
   std::vector<sg4::Link*> links;

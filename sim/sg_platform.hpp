@@ -9,15 +9,18 @@
 //    latency(c) + bytes / bandwidth(c).
 //  * Hosts: one per memory device (named as the device) and one per compute device
 //    (named as the device, speed 1 flop/s, 1 core): an exec of T seconds is T flops.
-//  * Links, all SHARED and with zero latency: one per Resource (its bandwidth) and one
-//    per Channel (the channel's bandwidth), so a channel slower than its resources (a LAN
-//    channel limited by the slower NIC) is exact, and per-channel bytes are exact too.
-//    The route of channel c is [channel link, resource links...].
+//  * Links, all SHARED and with zero latency: one per Resource (its bandwidth), and one
+//    per Channel only when the channel is slower than its slowest resource (otherwise its
+//    constraint is implied). The route of channel c is [channel link if any, resource
+//    links...]. Networks are star zones (racks: stars inside), so a network of N members
+//    costs O(N) links and routes, not N^2.
 //  * Latency is paid by a kernel timer before the Comm starts, not by SimGrid links:
 //    CM02 weights a flow's share by its route latency (RTT-unfair), so flows of channels
 //    with different latencies on one resource would not share it equally. With zero-
 //    latency links every flow has the same weight and max-min sharing is equal. During
 //    the latency phase a flow consumes no bandwidth, exactly as in CM02.
+//  * Activities ending at the same instant are reported in start order (SgActivityId),
+//    whatever order SimGrid's heaps hold them in.
 //  * Several channels between the same (from, to) pair: the first uses the route
 //    from-host -> to-host, each further one sends from its own relay host
 //    "<from>~relay<c>" (a SimGrid route is unique per host pair).

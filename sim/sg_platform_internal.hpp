@@ -21,13 +21,14 @@ struct SgPlatform::Impl {
   std::vector<simgrid::s4u::Host*> memory_hosts;   // by MemId
   std::vector<simgrid::s4u::Host*> compute_hosts;  // by DeviceId
   std::vector<simgrid::s4u::Link*> resource_links;  // by ResourceId
-  std::vector<simgrid::s4u::Link*> channel_links;   // by ChannelId
+  std::vector<simgrid::s4u::Link*> channel_links;   // by ChannelId; null when its resources imply it
   std::vector<simgrid::s4u::Host*> channel_src;     // by ChannelId: memory host, or a relay
-  std::vector<simgrid::s4u::Host*> channel_dst;     // by ChannelId: memory host
+  std::vector<simgrid::s4u::Host*> channel_dst;     // by ChannelId: memory host, or a network relay
   std::vector<std::vector<std::int32_t>> channel_route;  // by ChannelId: link indices of its route
 
   // Exact integrals, by link index (resources first, then channels) and by DeviceId.
   std::vector<double> link_bytes;
+  std::vector<double> channel_done_bytes;  // by ChannelId, channels without a link: finished transfers' bytes
   std::vector<double> device_work_s;
   std::vector<int> link_active, device_active;  // running SimGrid activities using it
   std::vector<std::int32_t> active_links, active_devices;  // indices with active > 0 (lazily pruned)
@@ -38,6 +39,7 @@ struct SgPlatform::Impl {
     Time start_s = 0;
     ChannelId channel = kNone;  // transfer, or
     DeviceId device = kNone;    // exec
+    Bytes bytes = 0;            // a transfer's payload, once its Comm started
     SgCallback done;
     simgrid::s4u::ActivityPtr activity;  // null during the latency phase
   };
@@ -48,6 +50,13 @@ struct SgPlatform::Impl {
   // last reference is dropped at the next time step (or after run()).
   std::vector<simgrid::s4u::ActivityPtr> graveyard;
   SgActivityId next_id = 1;
+  // Completions not yet reported (see complete()), called in SgActivityId order.
+  struct Due {
+    SgCompletion c;
+    SgCallback done;
+  };
+  std::vector<Due> due;
+  simgrid::kernel::timer::Timer* flush_timer = nullptr;  // calls flush_due() at this instant
   // Set once a callback threw (or on destruction): every pending activity is cancelled,
   // no callback fires any more, start_* refuses; run() rethrows `error`.
   bool stopped = false;
@@ -56,7 +65,9 @@ struct SgPlatform::Impl {
   void launch_comm(SgActivityId id, Bytes bytes);           // latency paid: start the Comm
   void set_timer(SgActivityId id, Time date, bool launch, Bytes bytes);
   void stop_all();                                          // cancel everything pending
-  void complete(SgActivityId id, Time finish_s, bool ok);  // bookkeeping, then the user callback
+  void complete(SgActivityId id, Time finish_s, bool ok);  // bookkeeping; the user callback is due
+  void flush_due();                                         // call due callbacks in start order
+  void flush_now();                                         // the same from maestro, timer withdrawn
   void on_time_advance(double delta);                      // integrate link/host usage
   void use_channel_links(ChannelId c, int delta_count);
   void mark_active(std::int32_t link, int delta_count);

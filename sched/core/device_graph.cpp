@@ -35,8 +35,22 @@ void DeviceGraph::finalize() {
     for (ResourceId r : c.resources)
       if (r < 0 || r >= static_cast<ResourceId>(resources.size()))
         throw InputError(source_file, field, "unknown resource");
+    if (c.network != kNone && (c.network < 0 || c.network >= static_cast<std::int32_t>(networks.size())))
+      throw InputError(source_file, field + ".network", "unknown network");
     out_[c.from].push_back(static_cast<ChannelId>(i));
     in_[c.to].push_back(static_cast<ChannelId>(i));
+  }
+  const auto resource_ok = [&](ResourceId r) { return r >= 0 && r < static_cast<ResourceId>(resources.size()); };
+  for (const Network& n : networks) {
+    const std::string field = "networks[" + n.name + "]";
+    if (n.backbone != kNone && !resource_ok(n.backbone)) throw InputError(source_file, field + ".backbone", "unknown resource");
+    for (const Rack& r : n.racks)
+      if (!resource_ok(r.up) || !resource_ok(r.down))
+        throw InputError(source_file, field + ".racks[" + r.name + "]", "unknown resource");
+    for (const NetworkMember& m : n.members)
+      if (m.memory < 0 || m.memory >= static_cast<MemId>(nm) || !resource_ok(m.out) || !resource_ok(m.in) ||
+          (m.rack != kNone && (m.rack < 0 || m.rack >= static_cast<std::int32_t>(n.racks.size()))))
+        throw InputError(source_file, field + ".members", "a member names an unknown memory device, resource or rack");
   }
   for (std::size_t d = 0; d < computes.size(); ++d) {
     const ComputeDevice& cd = computes[d];

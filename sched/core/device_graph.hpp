@@ -58,6 +58,32 @@ struct Channel {
   Time latency = 0;        // T_LAT, seconds
   double bandwidth = 0;    // T_BW, bytes/s
   std::vector<ResourceId> resources;
+  std::int32_t network = kNone;  // the Network it joins two members of; kNone: a point-to-point channel
+};
+
+// A switched network as the platform file describes it, kept beside the channels it
+// expands to so that a simulator can build it once (a switch, racks, a backbone) instead
+// of one route per ordered pair of members. Each channel of the network (Channel::network)
+// uses the sender's NIC-out, then, between racks, the sender's rack uplink, the backbone
+// and the receiver's rack downlink, then the receiver's NIC-in; without racks, the backbone
+// (if any) between the two NICs.
+struct NetworkMember {
+  NodeId node = kNone;
+  MemId memory = kNone;         // the memory device its NIC attaches to
+  ResourceId out = kNone, in = kNone;  // NIC resources (the same one when half duplex)
+  std::int32_t rack = kNone;    // index into Network::racks; kNone without racks
+};
+
+struct Rack {
+  std::string name;
+  ResourceId up = kNone, down = kNone;  // uplink to the backbone (the same one when half duplex)
+};
+
+struct Network {
+  std::string name;
+  std::vector<NetworkMember> members;
+  std::vector<Rack> racks;
+  ResourceId backbone = kNone;  // shared by all traffic between racks (all traffic without racks)
 };
 
 class DeviceGraph {
@@ -69,6 +95,7 @@ class DeviceGraph {
   std::vector<ComputeDevice> computes;
   std::vector<Resource> resources;
   std::vector<Channel> channels;
+  std::vector<Network> networks;
   std::vector<std::string> job_types;  // JobTypeId -> name
   TimingModel timing;                  // per compute device x job type (Eq. 2)
 

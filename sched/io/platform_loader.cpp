@@ -326,17 +326,19 @@ class PlatformReader {
     return static_cast<ResourceId>(g_.resources.size() - 1);
   }
 
-  // A network member: the node's memory device on the network and its NIC resources.
+  // A network member: the node's memory device on the network, its NIC resources and
+  // its rack (kNone without racks).
   struct Member {
     std::string node;
     MemId mem;
     double bw;
     ResourceId out, in;
+    std::int32_t rack = kNone;
   };
 
   Member member(const JsonField& f, const std::string& network, Duplex dup, std::optional<double> default_bw,
-                std::set<std::string>& seen) {
-    f.only_keys({"node", "memory", "bandwidth"});
+                const std::map<std::string, std::int32_t>& racks, std::set<std::string>& seen) {
+    f.only_keys({"node", "memory", "bandwidth", "rack"});
     const std::string node = f.at("node").non_empty_string();
     if (!node_mem_.count(node)) f.at("node").fail("unknown node '" + node + "'");
     if (!seen.insert(node).second) f.at("node").fail("node '" + node + "' is listed twice");
@@ -345,21 +347,35 @@ class PlatformReader {
       f.fail_at("memory", "unknown memory device '" + mem + "' on node '" + node + "'");
     if (!f.has("bandwidth") && !default_bw)
       f.fail_at("bandwidth", "missing (NIC speed; or give the network a bandwidth)");
+    std::int32_t rack = kNone;
+    if (racks.empty()) {
+      if (f.has("rack")) f.at("rack").fail("the network lists no racks");
+    } else {
+      if (!f.has("rack")) f.fail_at("rack", "missing (the network has racks: every member names one)");
+      const std::string r = f.at("rack").non_empty_string();
+      const auto it = racks.find(r);
+      if (it == racks.end()) f.at("rack").fail("unknown rack '" + r + "'");
+      rack = it->second;
+    }
     const double bw = f.has("bandwidth") ? f.at("bandwidth").quantity(JsonUnit::bandwidth) : *default_bw;
     const std::string base = node + "." + network;
     if (dup == Duplex::Full) {
       const ResourceId out = add_resource(base + ".out", bw);
-      return {node, node_mem_[node][mem], bw, out, add_resource(base + ".in", bw)};
+      return {node, node_mem_[node][mem], bw, out, add_resource(base + ".in", bw), rack};
     }
     const ResourceId nic = add_resource(base + ".nic", bw);
-    return {node, node_mem_[node][mem], bw, nic, nic};
+    return {node, node_mem_[node][mem], bw, nic, nic, rack};
   }
 
   // Networks: a switched LAN; every member contributes one memory device and its NIC.
-  // A channel joins every ordered pair of members at min(NIC_src, NIC_dst) and occupies
-  // the sender's outgoing and the receiver's incoming NIC (one shared NIC if half duplex).
+  // A channel joins every ordered pair of members and occupies the sender's outgoing and
+  // the receiver's incoming NIC (one shared NIC if half duplex); between racks also the
+  // sender rack's uplink, the backbone and the receiver rack's downlink; without racks
+  // the backbone, if there is one. Its bandwidth is the least of those resources' and its
+  // latency the network's, plus the backbone's when it crosses it. A rack switch (or the
+  // switch of a network without backbone) is non-blocking.
   void network(const JsonField& f) {
-    f.only_keys({"name", "kind", "latency", "duplex", "bandwidth", "members", "description"});
+    f.only_keys({"name", "kind", "latency", "duplex", "bandwidth", "members", "backbone", "racks", "description"});
     const std::string name = f.at("name").non_empty_string();
     if (!net_names_.insert(name).second) f.at("name").fail("duplicate network name '" + name + "'");
     const std::string kind = optional_name(f, "kind", "lan");
@@ -367,11 +383,62 @@ class PlatformReader {
     const Duplex dup = duplex(f);
     std::optional<double> default_bw;
     if (f.has("bandwidth")) default_bw = f.at("bandwidth").quantity(JsonUnit::bandwidth);
+    Network net;
+    net.name = name;
+    const auto net_id = static_cast<std::int32_t>(g_.networks.size());
+    double backbone_lat = 0;
+    if (const auto bb = f.find("backbone")) {
+      bb->object().only_keys({"bandwidth", "latency"});
+      net.backbone = add_resource(name + ".backbone", bb->at("bandwidth").quantity(JsonUnit::bandwidth));
+      if (bb->has("latency")) backbone_lat = bb->at("latency").quantity(JsonUnit::duration);
+    }
+    // Racks: names first (members refer to them), uplinks once the members are known.
+    std::map<std::string, std::int32_t> rack_ids;
+    std::vector<JsonField> rack_fields;
+    if (const auto racks = f.find("racks")) {
+      const JsonField list = racks->array();
+      if (list.size() == 0) list.fail("a network with racks lists at least one");
+      for (const JsonField& r : list.elements()) {
+        r.only_keys({"name", "uplink", "oversubscription"});
+        const std::string rn = r.at("name").non_empty_string();
+        if (!rack_ids.emplace(rn, static_cast<std::int32_t>(rack_fields.size())).second)
+          r.at("name").fail("duplicate rack name '" + rn + "'");
+        if (r.has("uplink") == r.has("oversubscription"))
+          r.fail_at("uplink", "give either \"uplink\" (a bandwidth) or \"oversubscription\" (the rack's NIC total / uplink)");
+        rack_fields.push_back(r);
+      }
+    }
     const JsonField members = f.at("members").array();
     if (members.size() < 2) members.fail("a network joins at least two nodes");
     std::vector<Member> ms;
     std::set<std::string> seen;
-    for (const JsonField& m : members.elements()) ms.push_back(member(m, name, dup, default_bw, seen));
+    for (const JsonField& m : members.elements()) ms.push_back(member(m, name, dup, default_bw, rack_ids, seen));
+    for (std::size_t r = 0; r < rack_fields.size(); ++r) {
+      const JsonField& rf = rack_fields[r];
+      double nics = 0;
+      for (const Member& m : ms)
+        if (m.rack == static_cast<std::int32_t>(r)) nics += m.bw;
+      const std::string rn = rf.at("name").non_empty_string();
+      if (nics == 0) rf.at("name").fail("rack '" + rn + "' has no member");
+      double bw;
+      if (rf.has("uplink")) {
+        bw = rf.at("uplink").quantity(JsonUnit::bandwidth);
+      } else {
+        const JsonField x = rf.at("oversubscription");
+        if (!x.json().is_number() || !(x.json().get<double>() > 0)) x.fail("expected a number > 0 (e.g. 4 for 4:1)");
+        bw = nics / x.json().get<double>();
+      }
+      Rack rack{rn, kNone, kNone};
+      const std::string base = name + "." + rn;
+      if (dup == Duplex::Full) {
+        rack.up = add_resource(base + ".up", bw);
+        rack.down = add_resource(base + ".down", bw);
+      } else {
+        rack.up = rack.down = add_resource(base + ".uplink", bw);
+      }
+      net.racks.push_back(std::move(rack));
+    }
+    for (const Member& a : ms) net.members.push_back({g_.memories[static_cast<std::size_t>(a.mem)].node, a.mem, a.out, a.in, a.rack});
     for (const Member& a : ms)
       for (const Member& b : ms) {
         if (a.node == b.node) continue;
@@ -380,11 +447,19 @@ class PlatformReader {
         c.kind = kind;
         c.from = a.mem;
         c.to = b.mem;
-        c.latency = lat;
-        c.bandwidth = std::min(a.bw, b.bw);  // the slower NIC limits the pair
-        c.resources = {a.out, b.in};
+        c.network = net_id;
+        c.resources = {a.out};
+        const bool between_racks = a.rack != b.rack;  // (both kNone without racks)
+        if (between_racks) c.resources.push_back(net.racks[static_cast<std::size_t>(a.rack)].up);
+        if (net.backbone != kNone && (between_racks || net.racks.empty())) c.resources.push_back(net.backbone);
+        if (between_racks) c.resources.push_back(net.racks[static_cast<std::size_t>(b.rack)].down);
+        c.resources.push_back(b.in);
+        c.latency = lat + (net.backbone != kNone && (between_racks || net.racks.empty()) ? backbone_lat : 0);
+        c.bandwidth = kNever;
+        for (ResourceId r : c.resources) c.bandwidth = std::min(c.bandwidth, g_.resources[r].bandwidth);
         g_.channels.push_back(std::move(c));
       }
+    g_.networks.push_back(std::move(net));
   }
 
   // Eq. 2 coefficients. A throughput X B/s of an input kind becomes rate = 1/X s per byte;

@@ -13,21 +13,7 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
     lat_[k] = std::min(lat_[k], c.latency);
     inv_bw_[k] = std::min(inv_bw_[k], 1.0 / c.bandwidth);
   }
-  // Floyd-Warshall, twice (rows that cannot reach k yet are skipped: min(x, inf) = x; and
-  // d[i][k] does not change while row i is relaxed through k, as d[k][k] = 0).
-  auto relax = [n = n_](std::vector<double>& d) {
-    for (std::size_t k = 0; k < n; ++k) {
-      const double* dk = d.data() + k * n;
-      for (std::size_t i = 0; i < n; ++i) {
-        double* di = d.data() + i * n;
-        const double dik = di[k];
-        if (dik == kNever || i == k) continue;
-        for (std::size_t j = 0; j < n; ++j) di[j] = std::min(di[j], dik + dk[j]);
-      }
-    }
-  };
-  relax(lat_);
-  relax(inv_bw_);
+  all_pairs_minima(g);
   relay_in_.resize(n_);
   own_in_.resize(n_);
   direct_to_.assign(n_ * n_, kNone);
@@ -47,6 +33,73 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
       lat_to_[j * n_ + i] = lat_[i * n_ + j];
       inv_bw_to_[j * n_ + i] = inv_bw_[i * n_ + j];
     }
+}
+
+// L and W (see the header) by Floyd-Warshall, with leaves peeled first: a memory device
+// whose channels all lead to and come from one other device u (a disk or a GPU memory
+// hanging off its node's RAM) is no intermediate of any shortest path (entering and
+// leaving it is a cycle through u), so the search runs over the devices left, and a
+// peeled device's row and column follow from u's: d(v, x) = d(v, u) + d(u, x),
+// d(x, v) = d(x, u) + d(u, v). Peeling repeats (a device may become a leaf once its own
+// leaves are gone). On a cluster this leaves one device per node: O(nodes^3), not
+// O(devices^3).
+void FetchBound::all_pairs_minima(const DeviceGraph& g) {
+  const std::size_t n = n_;
+  std::vector<std::vector<std::size_t>> nbr(n);  // distinct neighbours, either direction
+  for (const Channel& c : g.channels) {
+    const auto a = static_cast<std::size_t>(c.from), b = static_cast<std::size_t>(c.to);
+    if (std::find(nbr[a].begin(), nbr[a].end(), b) == nbr[a].end()) nbr[a].push_back(b);
+    if (std::find(nbr[b].begin(), nbr[b].end(), a) == nbr[b].end()) nbr[b].push_back(a);
+  }
+  std::vector<char> gone(n, 0);
+  std::vector<std::size_t> degree(n), peeled, via(n, n);
+  for (std::size_t v = 0; v < n; ++v) degree[v] = nbr[v].size();
+  std::vector<std::size_t> leaves;
+  for (std::size_t v = 0; v < n; ++v)
+    if (degree[v] == 1) leaves.push_back(v);
+  while (!leaves.empty()) {
+    const std::size_t v = leaves.back();
+    leaves.pop_back();
+    if (gone[v] || degree[v] != 1) continue;
+    std::size_t u = n;
+    for (std::size_t x : nbr[v])
+      if (!gone[x]) u = x;
+    if (degree[u] == 1) continue;  // the last two of a component: keep both in the search
+    gone[v] = 1;
+    via[v] = u;
+    peeled.push_back(v);
+    if (--degree[u] == 1) leaves.push_back(u);
+  }
+  std::vector<std::size_t> core;
+  for (std::size_t v = 0; v < n; ++v)
+    if (!gone[v]) core.push_back(v);
+
+  for (std::vector<double>* d : {&lat_, &inv_bw_}) {
+    std::vector<double>& D = *d;
+    // Floyd-Warshall over the core (rows that cannot reach k are skipped: min(x, inf) = x;
+    // D[i][k] does not change while row i is relaxed through k, as D[k][k] = 0).
+    for (std::size_t k : core) {
+      const double* dk = D.data() + k * n;
+      for (std::size_t i : core) {
+        double* di = D.data() + i * n;
+        const double dik = di[k];
+        if (dik == kNever || i == k) continue;
+        for (std::size_t j : core) di[j] = std::min(di[j], dik + dk[j]);
+      }
+    }
+    // Peeled devices in reverse order: each against every device present when it was peeled.
+    std::vector<std::size_t> present = core;
+    for (auto it = peeled.rbegin(); it != peeled.rend(); ++it) {
+      const std::size_t v = *it, u = via[v];
+      const double vu = D[v * n + u], uv = D[u * n + v];
+      for (std::size_t x : present) {
+        if (x == u) continue;
+        D[v * n + x] = vu + D[u * n + x];
+        D[x * n + v] = D[x * n + u] + uv;
+      }
+      present.push_back(v);
+    }
+  }
 }
 
 void FetchBound::add_slot(BlockId b) const {

@@ -85,6 +85,7 @@ class FetchBound {
   Time lower_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now, bool memoised_holders,
                             ChannelId* arg = nullptr) const;
   std::uint64_t channel_stamp(const Schedule& s, ChannelId c) const;
+  void all_pairs_minima(const DeviceGraph& g);
 
   std::size_t n_;
   std::vector<double> lat_, inv_bw_;  // n x n, +inf where unreachable

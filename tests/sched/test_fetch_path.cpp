@@ -440,6 +440,63 @@ TEST(FetchBound, MemoisedLowerBoundEqualsFreshOne) {
   }
 }
 
+// FetchBound's all-pairs minima L and W (computed with leaves peeled off before
+// Floyd-Warshall) equal a plain Floyd-Warshall over every device, on random graphs with
+// leaves (both ways, one way only, parallel channels), chains of leaves and components of
+// two devices.
+TEST(FetchBound, AllPairsMinimaWithLeavesPeeledEqualPlainFloydWarshall) {
+  std::mt19937 rng(2024);
+  std::uniform_real_distribution<double> bw(10e6, 500e6), lat(0, 0.01), u(0, 1);
+  int leaves = 0;
+  for (int inst = 0; inst < 300; ++inst) {
+    rayline::testing::DcgBuilder b;
+    std::vector<MemId> m;
+    const int core = 1 + inst % 6;
+    for (int i = 0; i < core; ++i) m.push_back(b.mem("c" + std::to_string(i)));
+    for (int i = 0; i < core; ++i)
+      for (int j = 0; j < core; ++j)
+        if (i != j && u(rng) < 0.6) b.channel(m[static_cast<std::size_t>(i)], m[static_cast<std::size_t>(j)], bw(rng), lat(rng));
+    const int extra = inst % 7;
+    for (int k = 0; k < extra; ++k) {  // a leaf on any device so far (chains when on a leaf)
+      const MemId v = b.mem("l" + std::to_string(k));
+      const MemId to = m[std::uniform_int_distribution<std::size_t>(0, m.size() - 1)(rng)];
+      const double r = u(rng);
+      if (r < 0.8) b.channel(v, to, bw(rng), lat(rng));
+      if (r > 0.2) b.channel(to, v, bw(rng), lat(rng));
+      if (u(rng) < 0.2) b.channel(to, v, bw(rng), lat(rng));  // a parallel channel
+      m.push_back(v);
+      ++leaves;
+    }
+    const DeviceGraph g = b.build();
+    const std::size_t n = g.memories.size();
+    std::vector<double> L(n * n, kNever), W(n * n, kNever);
+    for (std::size_t i = 0; i < n; ++i) L[i * n + i] = W[i * n + i] = 0;
+    for (const Channel& c : g.channels) {
+      const std::size_t k = static_cast<std::size_t>(c.from) * n + static_cast<std::size_t>(c.to);
+      L[k] = std::min(L[k], c.latency);
+      W[k] = std::min(W[k], 1.0 / c.bandwidth);
+    }
+    for (std::vector<double>* d : {&L, &W})
+      for (std::size_t k = 0; k < n; ++k)
+        for (std::size_t i = 0; i < n; ++i)
+          for (std::size_t j = 0; j < n; ++j) (*d)[i * n + j] = std::min((*d)[i * n + j], (*d)[i * n + k] + (*d)[k * n + j]);
+    const FetchBound fb(g);
+    for (std::size_t to = 0; to < n; ++to)
+      for (std::size_t from = 0; from < n; ++from) {
+        const double l = fb.latency_to(static_cast<MemId>(to))[from], w = fb.inv_bw_to(static_cast<MemId>(to))[from];
+        const double lw = L[from * n + to], ww = W[from * n + to];
+        if (lw == kNever) {
+          EXPECT_EQ(l, kNever) << "instance " << inst << " " << from << "->" << to;
+          EXPECT_EQ(w, kNever) << "instance " << inst << " " << from << "->" << to;
+          continue;
+        }
+        EXPECT_NEAR(l, lw, 1e-12 * lw + 1e-15) << "instance " << inst << " " << from << "->" << to;
+        EXPECT_NEAR(w, ww, 1e-12 * ww + 1e-24) << "instance " << inst << " " << from << "->" << to;
+      }
+  }
+  EXPECT_GT(leaves, 500);
+}
+
 // FetchBound::last_hop_floor() (the pre-search cut of arrival_within) never exceeds the
 // SDC arrival, bit for bit (no tolerance: it is the last hop's Eq. 3 with max(l, F) >= F),
 // on random graphs with shared resources, small memories, several holders (some of them

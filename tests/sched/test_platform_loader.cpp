@@ -380,6 +380,96 @@ TEST(PlatformLoader, BadInputNamesTheField) {
   }
 }
 
+// Four nodes in two racks on a backbone: within a rack a channel uses the two NICs; between
+// racks also the sender rack's uplink, the backbone and the receiver rack's downlink, and
+// runs at the slowest of them, with the backbone's latency added.
+json racked() {
+  json j = base();
+  j["nodes"] = {{{"name", "n0"}, {"type", "N"}}, {{"name", "n1"}, {"type", "N"}},
+                {{"name", "n2"}, {"type", "N"}}, {{"name", "n3"}, {"type", "N"}}};
+  j["networks"][0] = json::parse(R"({"name": "lan", "latency": "100us", "duplex": "full", "bandwidth": "1Gb/s",
+    "backbone": {"bandwidth": "400Mb/s", "latency": "20us"},
+    "racks": [{"name": "r0", "uplink": "800Mb/s"}, {"name": "r1", "oversubscription": 4}],
+    "members": [{"node": "n0", "rack": "r0"}, {"node": "n1", "rack": "r0"},
+                {"node": "n2", "rack": "r1"}, {"node": "n3", "rack": "r1", "bandwidth": "200Mb/s"}]})");
+  return j;
+}
+
+std::vector<std::string> resource_names(const DeviceGraph& g, const Channel& c) {
+  std::vector<std::string> names;
+  for (ResourceId r : c.resources) names.push_back(g.resources[r].name);
+  return names;
+}
+
+TEST(PlatformLoader, RacksAndBackboneGiveInterRackChannelsTheirUplinks) {
+  const DeviceGraph g = parse(racked());
+  ASSERT_EQ(g.networks.size(), 1u);
+  const Network& net = g.networks[0];
+  ASSERT_EQ(net.racks.size(), 2u);
+  ASSERT_EQ(net.members.size(), 4u);
+  EXPECT_EQ(net.members[3].rack, 1);
+  EXPECT_DOUBLE_EQ(g.resources[net.backbone].bandwidth, 50e6);
+  EXPECT_DOUBLE_EQ(g.resources[net.racks[0].up].bandwidth, 100e6);
+  EXPECT_DOUBLE_EQ(g.resources[net.racks[1].down].bandwidth, (125e6 + 25e6) / 4);  // NIC total / 4
+  const Channel& inside = g.channels[find_channel(g, "lan:n0->n1")];
+  EXPECT_EQ(resource_names(g, inside), (std::vector<std::string>{"n0.lan.out", "n1.lan.in"}));
+  EXPECT_DOUBLE_EQ(inside.bandwidth, 125e6);
+  EXPECT_DOUBLE_EQ(inside.latency, 100e-6);
+  const Channel& across = g.channels[find_channel(g, "lan:n1->n2")];
+  EXPECT_EQ(resource_names(g, across),
+            (std::vector<std::string>{"n1.lan.out", "lan.r0.up", "lan.backbone", "lan.r1.down", "n2.lan.in"}));
+  EXPECT_DOUBLE_EQ(across.bandwidth, 37.5e6);  // r1's downlink, the slowest
+  EXPECT_DOUBLE_EQ(across.latency, 120e-6);
+  EXPECT_EQ(across.network, 0);
+  EXPECT_EQ(g.channels[find_channel(g, "n0.sata:disk->ram")].network, kNone);
+  for (const Channel& c : g.channels)
+    if (c.network == 0) EXPECT_EQ(c.resources.size(), c.name == "lan:n0->n1" || c.name == "lan:n1->n0" ||
+                                                          c.name == "lan:n2->n3" || c.name == "lan:n3->n2" ? 2u : 5u)
+        << c.name;
+}
+
+TEST(PlatformLoader, BackboneWithoutRacksCarriesEveryPair) {
+  json j = base();
+  j["networks"][0]["backbone"] = {{"bandwidth", "50Mb/s"}};
+  j["networks"][0]["duplex"] = "half";
+  const DeviceGraph g = parse(j);
+  const Channel& c = g.channels[find_channel(g, "lan:n0->n1")];
+  EXPECT_EQ(resource_names(g, c), (std::vector<std::string>{"n0.lan.nic", "lan.backbone", "n1.lan.nic"}));
+  EXPECT_DOUBLE_EQ(c.bandwidth, 6.25e6);
+  EXPECT_DOUBLE_EQ(c.latency, 100e-6);
+}
+
+TEST(PlatformLoader, BadRacksNameTheField) {
+  const std::vector<Bad> cases = {
+      {"member without rack", [](json& j) { j["networks"][0]["members"][2].erase("rack"); },
+       "networks[0].members[2].rack", "missing"},
+      {"unknown rack", [](json& j) { j["networks"][0]["members"][2]["rack"] = "r9"; },
+       "networks[0].members[2].rack", "unknown rack 'r9'"},
+      {"rack on a network without racks", [](json& j) { j["networks"][0].erase("racks"); },
+       "networks[0].members[0].rack", "no racks"},
+      {"duplicate rack", [](json& j) { j["networks"][0]["racks"][1]["name"] = "r0"; },
+       "networks[0].racks[1].name", "duplicate"},
+      {"uplink and oversubscription", [](json& j) { j["networks"][0]["racks"][0]["oversubscription"] = 2; },
+       "networks[0].racks[0].uplink", "either"},
+      {"neither uplink nor oversubscription", [](json& j) { j["networks"][0]["racks"][0].erase("uplink"); },
+       "networks[0].racks[0].uplink", "either"},
+      {"oversubscription not positive", [](json& j) { j["networks"][0]["racks"][1]["oversubscription"] = 0; },
+       "networks[0].racks[1].oversubscription", "> 0"},
+      {"empty rack", [](json& j) { j["networks"][0]["racks"].push_back({{"name", "r2"}, {"uplink", "1Gb/s"}}); },
+       "networks[0].racks[2].name", "no member"},
+      {"backbone without bandwidth", [](json& j) { j["networks"][0]["backbone"].erase("bandwidth"); },
+       "networks[0].backbone.bandwidth", "missing"},
+      {"backbone key typo", [](json& j) { j["networks"][0]["backbone"]["bandwith"] = "1Gb/s"; },
+       "networks[0].backbone.bandwith", "unknown key"},
+  };
+  for (const Bad& c : cases) {
+    SCOPED_TRACE(c.what);
+    json j = racked();
+    c.edit(j);
+    expect_error(j.dump(), c.field, c.message);
+  }
+}
+
 TEST(PlatformLoader, InvalidJsonReportsLineAndColumn) {
   expect_error("{\n  \"name\": \"x\",\n  \"nodes\": [,]\n}", "", "line 3");
   expect_error("", "", "invalid JSON");
