@@ -335,6 +335,32 @@ print(df[['label', 'platform', 'scheduler', 'clients', 'horizon_s', 'status', 's
 ]
 
 
+NB["08_scale"] = [
+"""df = load('scale')
+df['nodes'] = df.label.astype(int)
+if 'simgrid_s' in df.columns:
+    df['simgrid_share_of_wall'] = pd.to_numeric(df.simgrid_s, errors='coerce') / df.sim_wall_s
+fig, axes = plt.subplots(2, 3, figsize=(15, 7.5))
+for row, scene in zip(axes, ['boeing', 'ray-stream']):
+    d = df[df.scene == scene]
+    for s in schedulers_in(d):
+        r = d[(d.scheduler == s) & (d.status == 'ok')].sort_values('nodes')
+        row[0].plot(r.nodes, r.sim_speedup, 'o-', color=COLORS[s], label=NAMES[s])
+        row[1].plot(r.nodes, 100 * r.scheduler_share, 'o-', color=COLORS[s])
+        row[2].plot(r.nodes, r.peak_rss_mb, 'o-', color=COLORS[s])
+    row[0].axhline(1, color='k', lw=0.8, ls=':'); row[0].set_ylabel(f'{scene}: simulated / wall')
+    row[1].set_ylabel('scheduler wall, % of simulated time'); row[2].set_ylabel('peak RSS (MB)')
+    for ax in row:
+        ax.set_xscale('log', base=2); ax.set_yscale('log'); ax.grid(alpha=.3); ax.set_xlabel('nodes')
+axes[0][0].legend(fontsize=8)
+savefig(fig, 'scale.png')
+cols = ['scene', 'nodes', 'scheduler', 'status', 'sim_wall_s', 'sim_speedup', 'scheduler_share', 'peak_rss_mb',
+        'steady_rays_shot_per_second', 'steady_rays_per_second']
+cols += [c for c in ['simgrid_share_of_wall'] if c in df.columns]
+print(df.sort_values(['scene', 'scheduler', 'nodes'])[cols].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+]
+
+
 def prose(name):
     path = os.path.join(HERE, "prose", name + ".md")
     if not os.path.exists(path):

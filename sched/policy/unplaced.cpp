@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <map>
 #include <unordered_map>
 #include <vector>
 
@@ -19,18 +20,17 @@ std::string gb(double bytes) {
   return buf;
 }
 
-// Memory devices a copy of b can reach hop by hop from its holders, each hop's memory
-// device big enough to hold it (Placer::place admits the block on every hop, Sec. 4.4).
-std::vector<bool> reachable(BlockId b, const Schedule& s) {
+// Memory devices a copy of a block of `bytes` can reach hop by hop from `holders`, each
+// hop's memory device big enough to hold it (Placer::place admits the block on every hop,
+// Sec. 4.4).
+std::vector<bool> reachable(const std::vector<MemId>& holders, double bytes, const Schedule& s) {
   const DeviceGraph& g = s.graph();
-  const double bytes = static_cast<double>(s.pool().block(b).bytes);
   std::vector<bool> seen(g.memories.size(), false);
   std::vector<MemId> todo;
-  for (std::size_t m = 0; m < g.memories.size(); ++m)
-    if (s.copy_at(b, static_cast<MemId>(m))) {
-      seen[m] = true;
-      todo.push_back(static_cast<MemId>(m));
-    }
+  for (MemId m : holders) {
+    seen[static_cast<std::size_t>(m)] = true;
+    todo.push_back(m);
+  }
   while (!todo.empty()) {
     const MemId u = todo.back();
     todo.pop_back();
@@ -44,9 +44,39 @@ std::vector<bool> reachable(BlockId b, const Schedule& s) {
   return seen;
 }
 
-// Where each block can get to, per block: first_unplaceable asks for every queued job, and
-// many share their inputs (the scene blocks).
-using ReachCache = std::unordered_map<BlockId, std::vector<bool>>;
+// Where blocks can get to. first_unplaceable asks for every queued job; many share their
+// inputs (the scene blocks), and many more share where their input is and which memory
+// devices are big enough for it (every ray queue held by one RAM): the answer depends only
+// on the holders and on how many of the platform's distinct capacities are too small, so
+// it is kept per (holders, capacity class), found per block once.
+class ReachCache {
+ public:
+  explicit ReachCache(const Schedule& s) : s_(s) {
+    for (const MemoryDevice& m : s.graph().memories) capacities_.push_back(static_cast<double>(m.capacity));
+    std::sort(capacities_.begin(), capacities_.end());
+    capacities_.erase(std::unique(capacities_.begin(), capacities_.end()), capacities_.end());
+  }
+  const std::vector<bool>& of(BlockId b) {
+    auto [it, fresh] = by_block_.try_emplace(b, nullptr);
+    if (!fresh) return *it->second;
+    const double bytes = static_cast<double>(s_.pool().block(b).bytes);
+    Key key;
+    for (const Copy& c : s_.copies(b)) key.first.push_back(c.mem);
+    std::sort(key.first.begin(), key.first.end());
+    key.second = std::lower_bound(capacities_.begin(), capacities_.end(), bytes) - capacities_.begin();
+    auto [r, new_key] = by_key_.try_emplace(std::move(key));
+    if (new_key) r->second = reachable(r->first.first, bytes, s_);
+    it->second = &r->second;
+    return r->second;
+  }
+
+ private:
+  using Key = std::pair<std::vector<MemId>, std::ptrdiff_t>;
+  const Schedule& s_;
+  std::vector<double> capacities_;  // distinct, ascending
+  std::map<Key, std::vector<bool>> by_key_;
+  std::unordered_map<BlockId, const std::vector<bool>*> by_block_;
+};
 
 std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, ReachCache& cache) {
   const DeviceGraph& g = s.graph();
@@ -63,9 +93,7 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, Rea
   auto reach_of = [&](std::size_t i) -> const std::vector<bool>& {
     if (reach_known[i]) return reach[i];
     reach_known[i] = true;
-    auto [it, fresh] = cache.try_emplace(job.inputs[i]);
-    if (fresh) it->second = reachable(job.inputs[i], s);
-    reach[i] = it->second;
+    reach[i] = cache.of(job.inputs[i]);
     if (std::find(reach[i].begin(), reach[i].end(), true) == reach[i].end()) reach[i].clear();
     return reach[i];
   };
@@ -73,10 +101,13 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, Rea
   std::string too_small, blocked;
   double largest = -1;
   bool any_device = false;
+  std::vector<char> memory_checked(g.memories.size(), 0);  // devices on one memory device share the answer
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
     if (!g.timing.supports(static_cast<DeviceId>(d), job.type) || !s.compute_alive(static_cast<DeviceId>(d))) continue;
     any_device = true;
     const MemId m = g.computes[d].memory;
+    if (memory_checked[static_cast<std::size_t>(m)]) continue;
+    memory_checked[static_cast<std::size_t>(m)] = 1;
     const MemoryDevice& mem = g.memories[static_cast<std::size_t>(m)];
     if (need > static_cast<double>(mem.capacity)) {
       if (static_cast<double>(mem.capacity) > largest) {
@@ -113,12 +144,12 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, Rea
 }  // namespace
 
 std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s) {
-  ReachCache cache;
+  ReachCache cache(s);
   return why_unplaceable(j, pool, s, cache);
 }
 
 JobId first_unplaceable(const JobPool& pool, const Schedule& s) {
-  ReachCache cache;
+  ReachCache cache(s);
   for (JobId j : pool.queued())
     if (!why_unplaceable(j, pool, s, cache).empty()) return j;
   return kNone;

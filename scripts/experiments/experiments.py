@@ -9,6 +9,7 @@
   horizon     horizon k 0.2..10 s, prediction depth 0..3, scheduling-overhead share
   accuracy    fidelity levels: simulator wall time vs throughput error; scheduler cost vs k
   stability   tiny k, memory below the working set, 10x slower LAN, fast GPU + slow CPUs, many clients
+  scale       clusters of 8 to 128 type-A nodes in racks: simulator wall time, SimGrid and scheduler shares, RSS
 
   experiments.py NAME [--mode full|reduced] [--out DIR]
 
@@ -296,6 +297,19 @@ def stability(c):
             c.run(f"clients{n}-{s}", "paper-4A", "museum", s, clients=n, label="clients")
 
 
+def scale(c):
+    """Clusters of type-A nodes in racks of 32 (platforms/scale-*.json's layout) against node
+    count, for each method: the simulator's wall time, its share in SimGrid and in the
+    scheduler, peak RSS and throughput. Boeing with one client per node, and the ray stream."""
+    sizes = [4, 16] if c.reduced else [8, 16, 32, 64, 128]
+    for n in sizes:
+        plat = rx.save_platform(rx.scale_cluster(n), c.variants, f"scale-{n}")
+        for s in SCHEDULERS:
+            for scene, clients in (("boeing", n), ("ray-stream", 1)):
+                c.run(f"{scene}-{s}-n{n}", plat, scene, s, clients=clients, label=str(n),
+                      duration="2s" if c.reduced else "10s", extra=["--no-timeline"])
+
+
 def _write(path, rows):
     if not rows:
         open(path, "w").close()
@@ -309,7 +323,7 @@ def _write(path, rows):
 
 
 EXPERIMENTS = {"scaling": scaling, "peak": peak, "central": central, "workstation": workstation, "horizon": horizon,
-               "accuracy": accuracy, "stability": stability}
+               "accuracy": accuracy, "stability": stability, "scale": scale}
 
 
 def main():

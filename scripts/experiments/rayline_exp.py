@@ -63,7 +63,7 @@ FIELDS = ["experiment", "label", "platform", "scene", "scheduler", "clients", "h
           "work_units_done", "ray_jobs", "ray_jobs_gpu", "rays_per_ray_job", "scene_fetch_bytes",
           "scene_bytes_per_ray", "withdrawn_t_jobs", "withdrawn_t_job_bytes", "scheduler_parameters", "out_dir",
           "start", "steady_rays_shot_per_second", "compute_bound_rays_shot_per_second", "share_of_compute_bound",
-          "block_visits_per_ray_shot", "cpu_fetching", "gpu_fetching", "sim_speedup", "peak_rss_mb", "steady",
+          "block_visits_per_ray_shot", "cpu_fetching", "gpu_fetching", "sim_speedup", "peak_rss_mb", "simgrid_s", "steady",
           "alive_growth_share"]
 
 
@@ -176,7 +176,8 @@ def read_run(row, out_dir, outcome_from_metrics=False):
                                        if pt.get("steady_rays_shot_per_second") else ""),
             cpu_fetching=ds.get("cpu", {}).get("fetching", ""), gpu_fetching=ds.get("gpu", {}).get("fetching", ""),
             sim_speedup=m["simulator"].get("speedup_vs_simulated", ""),
-            peak_rss_mb=m["simulator"].get("peak_rss_mb", ""))
+            peak_rss_mb=m["simulator"].get("peak_rss_mb", ""),
+            simgrid_s=m["simulator"].get("simgrid_s", ""))
         row.update(job_diagnostics(os.path.join(out_dir, "jobs.csv"), float(m.get("work_units_done", 0))))
     return row
 
@@ -274,6 +275,20 @@ def slower_lan(p, factor):
         for m in net["members"]:
             if "bandwidth" in m:
                 m["bandwidth"] = scale_quantity(m["bandwidth"], factor)
+    return p
+
+
+def scale_cluster(n, rack=32):
+    """n type-A nodes in racks of `rack` (fewer: one rack) on a backbone as fast as all rack
+    uplinks together: platforms/scale-64.json's layout at any size."""
+    p = copy.deepcopy(load_platform("scale-64"))
+    racks = max(1, (n + rack - 1) // rack)
+    net = p["networks"][0]
+    p["nodes"] = [{"name": f"A{i}", "type": "A"} for i in range(n)]
+    net["backbone"] = {"bandwidth": f"{10 * racks}Gb/s", "latency": "5us"}
+    net["racks"] = [{"name": f"r{r}", "uplink": "10Gb/s"} for r in range(racks)]
+    net["members"] = [{"node": f"A{i}", "rack": f"r{i // rack}"} for i in range(n)]
+    p["description"] = f"{n} type-A nodes in {racks} rack(s) of up to {rack} on a backbone"
     return p
 
 
