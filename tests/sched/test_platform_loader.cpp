@@ -273,6 +273,16 @@ void expect_error(const std::string& text, const std::string& field, const std::
   }
 }
 
+// Each case edits a fresh copy of the platform `make` returns; every one must fail at its field.
+void expect_errors(json (*make)(), const std::vector<Bad>& cases) {
+  for (const Bad& c : cases) {
+    SCOPED_TRACE(c.what);
+    json j = make();
+    c.edit(j);
+    expect_error(j.dump(), c.field, c.message);
+  }
+}
+
 TEST(PlatformLoader, BadInputNamesTheField) {
   const std::vector<Bad> cases = {
       {"missing name", [](json& j) { j.erase("name"); }, "name", "missing"},
@@ -372,12 +382,7 @@ TEST(PlatformLoader, BadInputNamesTheField) {
        },
        "nodes", "disk"},
   };
-  for (const Bad& c : cases) {
-    SCOPED_TRACE(c.what);
-    json j = base();
-    c.edit(j);
-    expect_error(j.dump(), c.field, c.message);
-  }
+  expect_errors(base, cases);
 }
 
 // Four nodes in two racks on a backbone: within a rack a channel uses the two NICs; between
@@ -462,12 +467,7 @@ TEST(PlatformLoader, BadRacksNameTheField) {
       {"backbone key typo", [](json& j) { j["networks"][0]["backbone"]["bandwith"] = "1Gb/s"; },
        "networks[0].backbone.bandwith", "unknown key"},
   };
-  for (const Bad& c : cases) {
-    SCOPED_TRACE(c.what);
-    json j = racked();
-    c.edit(j);
-    expect_error(j.dump(), c.field, c.message);
-  }
+  expect_errors(racked, cases);
 }
 
 TEST(PlatformLoader, InvalidJsonReportsLineAndColumn) {
