@@ -427,10 +427,11 @@ TEST(PlatformLoader, RacksAndBackboneGiveInterRackChannelsTheirUplinks) {
   EXPECT_DOUBLE_EQ(across.latency, 120e-6);
   EXPECT_EQ(across.network, 0);
   EXPECT_EQ(g.channels[find_channel(g, "n0.sata:disk->ram")].network, kNone);
-  for (const Channel& c : g.channels)
-    if (c.network == 0) EXPECT_EQ(c.resources.size(), c.name == "lan:n0->n1" || c.name == "lan:n1->n0" ||
-                                                          c.name == "lan:n2->n3" || c.name == "lan:n3->n2" ? 2u : 5u)
-        << c.name;
+  for (const Channel& c : g.channels) {
+    if (c.network != 0) continue;
+    const bool same_rack = c.name == "lan:n0->n1" || c.name == "lan:n1->n0" || c.name == "lan:n2->n3" || c.name == "lan:n3->n2";
+    EXPECT_EQ(c.resources.size(), same_rack ? 2u : 5u) << c.name;
+  }
 }
 
 TEST(PlatformLoader, BackboneWithoutRacksCarriesEveryPair) {
