@@ -77,6 +77,14 @@ void check_bandwidths(const DeviceGraph& g) {
   }
 }
 
+// A channel's resources in its order, a resource listed twice used once.
+std::vector<ResourceId> distinct_resources(const Channel& c) {
+  std::vector<ResourceId> res;
+  for (ResourceId r : c.resources)
+    if (std::find(res.begin(), res.end(), r) == res.end()) res.push_back(r);
+  return res;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -168,10 +176,7 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
     sg4::NetZone* z = group_zone[find(c.from)];
     std::vector<sg4::LinkInRoute> route;
     if (sg4::Link* own = own_link(static_cast<ChannelId>(i), z)) route.emplace_back(own);
-    std::vector<ResourceId> res;  // in the channel's order; a resource listed twice is used once
-    for (ResourceId r : c.resources)
-      if (std::find(res.begin(), res.end(), r) == res.end()) res.push_back(r);
-    for (ResourceId r : res) {
+    for (ResourceId r : distinct_resources(c)) {
       route.emplace_back(resource_link(r, z));
       m.channel_route[i].push_back(m.resource_link_index(r));
     }
@@ -191,6 +196,7 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
   std::vector<std::vector<std::int32_t>> member_at(g.networks.size());  // [network][MemId]: member index
   for (std::size_t n = 0; n < g.networks.size(); ++n) {
     const Network& net = g.networks[n];
+    member_at[n].assign(g.memories.size(), kNone);
     sg4::NetZone* nz = sg4::create_star_zone("rayline.net." + net.name);
     nz->set_parent(root);
     zones.push_back(nz);
@@ -222,7 +228,6 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
       z->add_route(h->get_netpoint(), nullptr, nullptr, nullptr, links({resource_link(mb.out, z), bb}), false);
       z->add_route(nullptr, h->get_netpoint(), nullptr, nullptr, links({resource_link(mb.in, z)}), false);
       relay[n].push_back(h);
-      member_at[n].resize(g.memories.size(), kNone);
       member_at[n][static_cast<std::size_t>(mb.memory)] = static_cast<std::int32_t>(relay[n].size() - 1);
     }
   }
@@ -232,7 +237,7 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
     const Network& net = g.networks[static_cast<std::size_t>(c.network)];
     auto member_of = [&](MemId mem) {
       const auto& at = member_at[static_cast<std::size_t>(c.network)];
-      if (at.empty() || at[static_cast<std::size_t>(mem)] == kNone)
+      if (at[static_cast<std::size_t>(mem)] == kNone)
         throw InputError(g.source_file, "channels[" + c.name + "]",
                          "joins a memory device that is no member of network '" + net.name + "'");
       return static_cast<std::size_t>(at[static_cast<std::size_t>(mem)]);
@@ -240,22 +245,13 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
     const std::size_t a = member_of(c.from), b = member_of(c.to);
     // The channel's resources must be exactly the route SimGrid composes (checked, as a
     // hand-built graph could say otherwise).
-    std::vector<ResourceId> want{net.members[a].out};
-    const std::int32_t ra = net.members[a].rack, rb = net.members[b].rack;
-    if (ra != rb) want.push_back(net.racks[static_cast<std::size_t>(ra)].up);
-    if (net.backbone != kNone && (ra != rb || net.racks.empty())) want.push_back(net.backbone);
-    if (ra != rb) want.push_back(net.racks[static_cast<std::size_t>(rb)].down);
-    want.push_back(net.members[b].in);
-    if (c.resources != want)
+    if (c.resources != net.route(a, b))
       throw InputError(g.source_file, "channels[" + c.name + "].resources",
                        "differ from the route of network '" + net.name + "' between its two members");
     if (needs_own_link(c))
       throw InputError(g.source_file, "channels[" + c.name + "].bandwidth",
                        "is below its slowest resource; a network channel runs at its slowest resource's bandwidth");
-    std::vector<ResourceId> res;
-    for (ResourceId r : c.resources)
-      if (std::find(res.begin(), res.end(), r) == res.end()) res.push_back(r);
-    for (ResourceId r : res) m.channel_route[i].push_back(m.resource_link_index(r));
+    for (ResourceId r : distinct_resources(c)) m.channel_route[i].push_back(m.resource_link_index(r));
     m.channel_src[i] = relay[static_cast<std::size_t>(c.network)][a];
     m.channel_dst[i] = relay[static_cast<std::size_t>(c.network)][b];
   }
@@ -351,6 +347,10 @@ void SgPlatform::Impl::on_time_advance(double delta) {
   graveyard.clear();
 }
 
+double SgPlatform::Impl::moved_bytes(const Pending& p, bool finished) {
+  return static_cast<double>(p.bytes) - (finished ? 0.0 : p.activity->get_remaining());
+}
+
 void SgPlatform::Impl::launch_comm(SgActivityId id, Bytes bytes) {
   Pending& p = pending.at(id);
   sg4::CommPtr comm = sg4::Comm::sendto_async(channel_src[p.channel], channel_dst[p.channel], bytes);
@@ -366,8 +366,7 @@ void SgPlatform::Impl::complete(SgActivityId id, Time finish_s, bool ok) {
   Pending p = std::move(it->second);
   pending.erase(it);
   if (p.activity) {
-    if (p.channel != kNone && !channel_links[p.channel])
-      channel_done_bytes[p.channel] += ok ? static_cast<double>(p.bytes) : static_cast<double>(p.bytes) - p.activity->get_remaining();
+    if (p.channel != kNone && !channel_links[p.channel]) channel_done_bytes[p.channel] += moved_bytes(p, ok);
     graveyard.push_back(std::move(p.activity));  // SimGrid still uses it after this signal
     if (p.channel != kNone) use_channel_links(p.channel, -1);
     if (p.device != kNone) mark_device(p.device, -1);
@@ -531,8 +530,7 @@ void SgPlatform::cancel(SgActivityId id) {
   if (!p.activity) return;
   if (p.channel != kNone) {
     m.use_channel_links(p.channel, -1);
-    if (!m.channel_links[p.channel])
-      m.channel_done_bytes[p.channel] += static_cast<double>(p.bytes) - p.activity->get_remaining();
+    if (!m.channel_links[p.channel]) m.channel_done_bytes[p.channel] += Impl::moved_bytes(p, false);
   }
   if (p.device != kNone) m.mark_device(p.device, -1);
   sg4::ActivityPtr a = p.activity;
@@ -583,7 +581,7 @@ double SgPlatform::channel_bytes(ChannelId c) const {
   if (m.channel_links[c]) return m.link_bytes[m.channel_link_index(c)];
   double bytes = m.channel_done_bytes[c];  // a channel without its own link: its transfers' bytes
   for (const auto& [id, p] : m.pending)
-    if (p.channel == c && p.activity) bytes += static_cast<double>(p.bytes) - p.activity->get_remaining();
+    if (p.channel == c && p.activity) bytes += Impl::moved_bytes(p, false);
   return bytes;
 }
 

@@ -43,6 +43,8 @@ struct SgPlatform::Impl {
     SgCallback done;
     simgrid::s4u::ActivityPtr activity;  // null during the latency phase
   };
+  // Bytes a transfer's Comm has moved: all of them once it finished, else what it has sent.
+  static double moved_bytes(const Pending& p, bool finished);
   std::unordered_map<SgActivityId, Pending> pending;
   std::unordered_map<const simgrid::s4u::Activity*, SgActivityId> by_activity;
   std::unordered_map<SgActivityId, simgrid::kernel::timer::Timer*> timers;  // latency phases, 0-cost items

@@ -63,6 +63,16 @@ void DeviceGraph::finalize() {
     timing.resize(static_cast<int>(computes.size()), static_cast<int>(job_types.size()));
 }
 
+std::vector<ResourceId> Network::route(std::size_t a, std::size_t b) const {
+  const std::int32_t ra = members[a].rack, rb = members[b].rack;  // (both kNone without racks)
+  std::vector<ResourceId> r{members[a].out};
+  if (ra != rb) r.push_back(racks[static_cast<std::size_t>(ra)].up);
+  if (crosses_backbone(a, b)) r.push_back(backbone);
+  if (ra != rb) r.push_back(racks[static_cast<std::size_t>(rb)].down);
+  r.push_back(members[b].in);
+  return r;
+}
+
 JobTypeId DeviceGraph::job_type(std::string_view n) const {
   for (std::size_t i = 0; i < job_types.size(); ++i)
     if (job_types[i] == n) return static_cast<JobTypeId>(i);

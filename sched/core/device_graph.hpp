@@ -84,6 +84,14 @@ struct Network {
   std::vector<NetworkMember> members;
   std::vector<Rack> racks;
   ResourceId backbone = kNone;  // shared by all traffic between racks (all traffic without racks)
+
+  // Whether a transfer from members[a] to members[b] crosses the backbone.
+  bool crosses_backbone(std::size_t a, std::size_t b) const {
+    return backbone != kNone && (racks.empty() || members[a].rack != members[b].rack);
+  }
+  // The resources that transfer occupies, in route order: NIC-out, [rack uplink,]
+  // [backbone,] [rack downlink,] NIC-in.
+  std::vector<ResourceId> route(std::size_t a, std::size_t b) const;
 };
 
 class DeviceGraph {

@@ -439,22 +439,17 @@ class PlatformReader {
       net.racks.push_back(std::move(rack));
     }
     for (const Member& a : ms) net.members.push_back({g_.memories[static_cast<std::size_t>(a.mem)].node, a.mem, a.out, a.in, a.rack});
-    for (const Member& a : ms)
-      for (const Member& b : ms) {
-        if (a.node == b.node) continue;
+    for (std::size_t a = 0; a < ms.size(); ++a)
+      for (std::size_t b = 0; b < ms.size(); ++b) {
+        if (a == b) continue;
         Channel c;
-        c.name = name + ":" + a.node + "->" + b.node;  // "lan:A0->B"
+        c.name = name + ":" + ms[a].node + "->" + ms[b].node;  // "lan:A0->B"
         c.kind = kind;
-        c.from = a.mem;
-        c.to = b.mem;
+        c.from = ms[a].mem;
+        c.to = ms[b].mem;
         c.network = net_id;
-        c.resources = {a.out};
-        const bool between_racks = a.rack != b.rack;  // (both kNone without racks)
-        if (between_racks) c.resources.push_back(net.racks[static_cast<std::size_t>(a.rack)].up);
-        if (net.backbone != kNone && (between_racks || net.racks.empty())) c.resources.push_back(net.backbone);
-        if (between_racks) c.resources.push_back(net.racks[static_cast<std::size_t>(b.rack)].down);
-        c.resources.push_back(b.in);
-        c.latency = lat + (net.backbone != kNone && (between_racks || net.racks.empty()) ? backbone_lat : 0);
+        c.resources = net.route(a, b);
+        c.latency = lat + (net.crosses_backbone(a, b) ? backbone_lat : 0);
         c.bandwidth = kNever;
         for (ResourceId r : c.resources) c.bandwidth = std::min(c.bandwidth, g_.resources[r].bandwidth);
         g_.channels.push_back(std::move(c));

@@ -45,12 +45,16 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
 // O(devices^3).
 void FetchBound::all_pairs_minima(const DeviceGraph& g) {
   const std::size_t n = n_;
-  std::vector<std::vector<std::size_t>> nbr(n);  // distinct neighbours, either direction
+  std::vector<std::pair<std::size_t, std::size_t>> edges;  // both directions, then made distinct
+  edges.reserve(2 * g.channels.size());
   for (const Channel& c : g.channels) {
-    const auto a = static_cast<std::size_t>(c.from), b = static_cast<std::size_t>(c.to);
-    if (std::find(nbr[a].begin(), nbr[a].end(), b) == nbr[a].end()) nbr[a].push_back(b);
-    if (std::find(nbr[b].begin(), nbr[b].end(), a) == nbr[b].end()) nbr[b].push_back(a);
+    edges.emplace_back(static_cast<std::size_t>(c.from), static_cast<std::size_t>(c.to));
+    edges.emplace_back(static_cast<std::size_t>(c.to), static_cast<std::size_t>(c.from));
   }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::vector<std::vector<std::size_t>> nbr(n);  // distinct neighbours, either direction
+  for (const auto& [a, b] : edges) nbr[a].push_back(b);
   std::vector<char> gone(n, 0);
   std::vector<std::size_t> degree(n), peeled, via(n, n);
   for (std::size_t v = 0; v < n; ++v) degree[v] = nbr[v].size();
