@@ -64,7 +64,7 @@ void add_plan(CLI::App& app, std::function<int()>& action) {
   auto* plan = app.add_subcommand("plan", "Plan a static job set (GMB by default) and report makespan and utilisation");
   plan->add_option("--platform", opt->platform, "Platform JSON (default: platforms/paper-cluster.json)")->type_name(kPath);
   plan->add_option("--jobs", opt->jobs, "Job-set JSON (default: a synthetic ray-batching job set)")->type_name(kPath);
-  plan->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014) or budge (Budge 2009)")->default_val(opt->scheduler);
+  plan->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014), budge (Budge 2009) or rayline (Rayline's own, docs/rayline-policy.md)")->default_val(opt->scheduler);
   plan->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->type_name(kDuration)->default_val(opt->horizon);
   plan->add_option("--aging", opt->aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->type_name(kAging)->default_val(opt->aging);
   plan->add_option("--trace", opt->trace, "Write timelines as Chrome trace JSON (open in Perfetto)")->type_name(kPath);
@@ -96,7 +96,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   auto* sim = app.add_subcommand("simulate", "Run a schedule on the SimGrid virtual platform and measure it");
   sim->add_option("--platform", opt->platform, "Platform JSON or built-in name (default: paper-cluster)")->type_name(kPath);
   sim->add_option("--workload", opt->workload, "'ray-stream', a job-set JSON file, or path tracing on a scene profile: boeing, museum or FILE.profile.json")->default_val(opt->workload);
-  sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014) or budge (Budge 2009)")->default_val(opt->scheduler);
+  sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014), budge (Budge 2009) or rayline (Rayline's own, docs/rayline-policy.md)")->default_val(opt->scheduler);
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->type_name(kDuration)->default_val(opt->horizon);
   sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->type_name(kAging)->default_val(opt->aging);
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->type_name(kDuration)->default_val(opt->duration);
@@ -174,7 +174,7 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   auto opt = std::make_shared<CompareOptions>();
   SimulateOptions& o = opt->sim;
   auto* c = app.add_subcommand("compare", "Simulate the same platform and workload under several schedulers and compare them");
-  c->add_option("--schedulers", opt->schedulers, "Comma-separated: gmb, gmb-ca, budge, loadanyonce")->default_val(opt->schedulers);
+  c->add_option("--schedulers", opt->schedulers, "Comma-separated: gmb, gmb-ca, budge, loadanyonce, rayline")->default_val(opt->schedulers);
   c->add_option("--platform", o.platform, "Platform JSON or built-in name (default: paper-cluster)")->type_name(kPath);
   c->add_option("--workload", o.workload, "'ray-stream', a job-set JSON file, or boeing, museum, FILE.profile.json")->default_val(o.workload);
   c->add_option("--horizon,-k", o.horizon, "GMB horizon k (Sec. 4.2)")->type_name(kDuration)->default_val(o.horizon);
@@ -251,7 +251,7 @@ void add_render(CLI::App& app, std::function<int()>& action) {
       ->check(CLI::Range(1, 1 << 20));
   r->add_option("--platform", opt->platform, "auto, or a platform file written by `rayline calibrate`")->type_name(kPath)
       ->default_val(opt->platform);
-  r->add_option("--scheduler", opt->scheduler, "gmb | gmb-ca | budge | loadanyonce")
+  r->add_option("--scheduler", opt->scheduler, "gmb | gmb-ca | budge | loadanyonce | rayline")
       ->default_val(opt->scheduler)
       ->check(CLI::IsMember(scheduler_name_list()));
   r->add_option("--spp", opt->spp, "Samples per pixel (default: the scene's)")->check(CLI::Range(1, 1 << 20));

@@ -220,6 +220,11 @@ std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
     pto.merge_planned = cfg.merge_planned;
     pto.cancel_failed = cfg.cancel_failed;
     pto.warm = cfg.warm;
+    if (cfg.warm) {  // the policy's own steady-state placement, where it has one
+      std::vector<Bytes> bytes;
+      for (const ProfileBlock& b : in->profile->blocks) bytes.push_back(b.bytes);
+      pto.warm_start.placement = warm_placement(cfg.scheduler, in->graph, bytes);
+    }
     pto.frames_in_flight = cfg.frames_in_flight;
     pto.frames_per_client = cfg.frames_per_client;
     pto.retime_merged = cfg.retime_merged;

@@ -21,9 +21,12 @@ namespace rayline {
 struct WarmStart {
   double host_share = 0.75;  // of host RAM: the rest stays free for ray queues
   double gpu_share = 0.75;   // of GPU memory
+  // A policy's own steady state (scheduler_factory.hpp, warm_placement): per scene block,
+  // the memories that hold it. Empty: the placement above (most used first, everywhere).
+  std::vector<std::vector<MemId>> placement;
 };
 
-// Puts the copies; `use[i]` weighs scene block `blocks[i]` (higher: used more). Returns the
+// Puts the copies (`opt.placement` when given, still within the shares); `use[i]` weighs scene block `blocks[i]` (higher: used more). Returns the
 // number of copies placed. Never exceeds a capacity: used(m) <= share x capacity after it,
 // counting what m held already.
 std::size_t warm_start(Schedule& s, const JobPool& pool, const std::vector<BlockId>& blocks, const std::vector<double>& use,

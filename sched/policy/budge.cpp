@@ -1,5 +1,7 @@
 #include "sched/policy/budge.hpp"
 
+#include "sched/policy/image_split.hpp"
+
 #include <algorithm>
 #include <chrono>
 
@@ -13,39 +15,15 @@ std::string BudgeScheduler::describe() const {
 }
 
 NodeId budge_image_node(JobId j, const DeviceGraph& g, bool split_by_throughput) {
-  // Weight of a node: its devices' peak RayIntersect throughput on ray queues (bytes/s,
-  // 1 / rate), or 1 for an equal split; nodes without compute devices get nothing.
-  const JobTypeId ri = g.job_type("RayIntersect");
-  std::vector<double> w(g.nodes.size(), 0.0);
-  for (std::size_t d = 0; d < g.computes.size(); ++d) {
-    const NodeId n = g.computes[d].node;
-    if (n < 0 || static_cast<std::size_t>(n) >= w.size()) continue;
-    if (!split_by_throughput || ri == kNone) {
-      w[static_cast<std::size_t>(n)] = 1.0;
-      continue;
-    }
-    if (!g.timing.supports(static_cast<DeviceId>(d), ri)) continue;
-    const double rate = g.timing.at(static_cast<DeviceId>(d), ri).rate[static_cast<std::size_t>(DataKind::RayQueue)];
-    if (rate > 0) w[static_cast<std::size_t>(n)] += 1.0 / rate;
+  // Weight of a node: its devices' peak RayIntersect throughput, or 1 per node with a
+  // compute device for an equal split; nodes without compute devices get nothing.
+  std::vector<double> w = node_ray_throughput(g);
+  if (!split_by_throughput || g.job_type("RayIntersect") == kNone) {
+    w.assign(g.nodes.size(), 0.0);
+    for (const ComputeDevice& c : g.computes)
+      if (c.node >= 0 && static_cast<std::size_t>(c.node) < w.size()) w[static_cast<std::size_t>(c.node)] = 1.0;
   }
-  double total = 0;
-  for (double x : w) total += x;
-  if (total <= 0) return kNone;
-  // A fixed, well-mixed point in [0, 1) per job id (like a tile's place in the image).
-  std::uint64_t h = static_cast<std::uint64_t>(j) + 0x9e3779b97f4a7c15ull;
-  h = (h ^ (h >> 30)) * 0xbf58476d1ce4e5b9ull;
-  h = (h ^ (h >> 27)) * 0x94d049bb133111ebull;
-  h ^= h >> 31;
-  const double u = static_cast<double>(h >> 11) * 0x1.0p-53 * total;
-  double acc = 0;
-  NodeId last = kNone;
-  for (std::size_t n = 0; n < w.size(); ++n) {
-    if (w[n] <= 0) continue;
-    acc += w[n];
-    last = static_cast<NodeId>(n);
-    if (u < acc) return last;
-  }
-  return last;
+  return static_cast<NodeId>(weighted_pick(static_cast<std::uint64_t>(j), w));
 }
 
 namespace {
@@ -65,20 +43,6 @@ NodeId home_node(JobId j, const Job& job, const JobPool& pool, const Schedule& s
   return kNone;  // scene-only job: any node
 }
 }  // namespace
-
-const BudgeScheduler::Inputs& BudgeScheduler::inputs_of(JobId j, const JobPool& pool) {
-  if (inputs_.size() < pool.job_count()) inputs_.resize(pool.job_count());
-  Inputs& in = inputs_[static_cast<std::size_t>(j)];
-  const std::vector<BlockId>& all = pool.job(j).inputs;  // only ever appended to
-  for (; in.seen < all.size(); ++in.seen) {
-    const BlockId b = all[in.seen];
-    const DataBlock& blk = pool.block(b);
-    if (blk.kind == DataKind::SceneData) in.scene.push_back(b);
-    else if (blk.consumed) in.fixed_rays += blk.bytes;
-    else in.live.push_back(b);
-  }
-  return in;
-}
 
 PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -142,7 +106,7 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   }
   for (JobId j : pool.queued_since(bucketed_)) {
     const NodeId home = home_of(j);
-    const Inputs& in = inputs_of(j, pool);
+    const InputSummaries::Summary& in = inputs_.of(j, pool);
     Bytes scene = 0;
     for (BlockId b : in.scene) scene += pool.block(b).bytes;
     by_node_[home == kNone ? any_bucket : static_cast<std::size_t>(home)].push_back(
@@ -183,16 +147,14 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
         bool resident = true;
         const Bytes scene = q.scene_bytes;
         if (q.many_scenes) {
-          for (BlockId b : inputs_of(q.job, pool).scene) resident = resident && s.copy_at(b, m) != nullptr;
+          for (BlockId b : inputs_.of(q.job, pool).scene) resident = resident && s.copy_at(b, m) != nullptr;
         } else if (q.scene0 != kNone) {
           resident = s.copy_at(q.scene0, m) != nullptr;
         }
         if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
         Bytes rays = 0;
         if (opt_.largest_queue) {
-          const Inputs& in = inputs_of(q.job, pool);
-          rays = in.fixed_rays;
-          for (BlockId b : in.live) rays += pool.block(b).bytes;
+          rays = inputs_.rays(q.job, pool);
         }
         cand.push_back({q.job, opt_.resident_first && resident, rays, static_cast<std::size_t>(q.number)});
       }

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "sched/policy/input_summary.hpp"
 #include "sched/policy/placer.hpp"
 #include "sched/policy/scheduler.hpp"
 
@@ -51,17 +52,7 @@ class BudgeScheduler final : public Scheduler {
   const Schedule* bound_ = nullptr;
   std::unique_ptr<Placer> placer_;
   std::vector<NodeId> homes_;  // per job: its node under the image-space decomposition
-  // Per job, what its inputs say, kept up to date as merges append inputs (a queued job of
-  // a long run can hold thousands of merged ray queues): its scene blocks, the bytes of its
-  // consumed (real) queues, which never change, and the other inputs, whose bytes can
-  // (a prediction's placeholder is rescaled), summed at each use.
-  struct Inputs {
-    std::size_t seen = 0;
-    Bytes fixed_rays = 0;
-    std::vector<BlockId> scene, live;
-  };
-  std::vector<Inputs> inputs_;
-  const Inputs& inputs_of(JobId j, const JobPool& pool);
+  InputSummaries inputs_;  // per job: its scene blocks and ray bytes
   // Queued jobs bucketed by home node (the last bucket: any node), in queue order, kept
   // across calls: each call adds the jobs queued since the last one and drops, while
   // scanning a bucket, entries whose job left the queue (or was queued again: a new
@@ -69,7 +60,7 @@ class BudgeScheduler final : public Scheduler {
   struct Queued {
     JobId job;
     std::int64_t number;  // its append number in the queue (the queue order)
-    BlockId scene0;       // its one scene input (kNone: none, or several: see inputs_of)
+    BlockId scene0;       // its one scene input (kNone: none, or several: see inputs_)
     Bytes scene_bytes;    // all its scene inputs
     bool many_scenes;
   };

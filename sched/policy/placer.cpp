@@ -8,6 +8,20 @@ bool Placer::may_fetch_framebuffer(const Job& j, const Schedule& s) {
   return s.graph().job_types[static_cast<std::size_t>(j.type)] == "AdditiveCompose";
 }
 
+Time Placer::exec_estimate(JobId j, DeviceId d, const Schedule& s) {
+  const JobPool& pool = s.pool();
+  const Job& job = pool.job(j);
+  const ExecCoefficients& k = s.graph().timing.at(d, job.type);
+  double exec = 0;
+  bool any = false;
+  for (BlockId b : job.inputs) {
+    const DataBlock& blk = pool.block(b);
+    exec += k.rate[static_cast<int>(blk.kind)] * static_cast<double>(blk.bytes);
+    any = any || blk.bytes > 0;
+  }
+  return any ? exec + k.setup : 0;  // Eq. 2
+}
+
 Time Placer::earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s) {
   const MemId m = s.graph().computes[d].memory;
   Time arrive = s.after_deps_ready(j);

@@ -24,6 +24,9 @@ class Placer {
   }
   static bool may_fetch_framebuffer(const Job& j, const Schedule& s);
 
+  // Eq. 2 for j on d with its inputs' current sizes (0 when it has no bytes to process).
+  static Time exec_estimate(JobId j, DeviceId d, const Schedule& s);
+
   // Earliest time job j could start on d if the device is free from `ready` (kNever if an
   // input cannot reach d's memory device or a job it follows is not planned).
   Time earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s);

@@ -6,6 +6,7 @@
 #include "sched/policy/budge.hpp"
 #include "sched/policy/gmb/gmb_scheduler.hpp"
 #include "sched/policy/load_any_once.hpp"
+#include "sched/policy/rayline/rayline_scheduler.hpp"
 
 namespace rayline {
 
@@ -33,8 +34,15 @@ std::unique_ptr<Scheduler> make_scheduler(const SchedulerChoice& c) {
                                                        .completion_aware = c.kind == SchedulerKind::GmbCompletionAware});
     case SchedulerKind::Budge: return std::make_unique<BudgeScheduler>();
     case SchedulerKind::LoadAnyOnce: return std::make_unique<LoadAnyOnceScheduler>();
+    case SchedulerKind::Rayline: return std::make_unique<RaylineScheduler>(RaylineOptions{.horizon = c.horizon});
   }
   throw std::logic_error("make_scheduler: no such scheduler kind");
+}
+
+std::vector<std::vector<MemId>> warm_placement(const SchedulerChoice& c, const DeviceGraph& g,
+                                               const std::vector<Bytes>& scene_bytes) {
+  if (c.kind != SchedulerKind::Rayline) return {};
+  return ownership_warm_placement(plan_ownership(g, scene_bytes), g, scene_bytes);
 }
 
 std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon, Time aging, bool adaptive_aging) {

@@ -1,21 +1,22 @@
 // The schedulers by name, for every engine (sim and render) and the command line:
 // "gmb" (the paper, Sec. 4.2-4.3), "gmb-ca" (completion-aware GMB), "budge" (Budge 2009),
-// "loadanyonce" (Navrátil 2014). The names are known here and nowhere else: callers parse
+// "loadanyonce" (Navrátil 2014), "rayline" (Rayline's own, docs/rayline-policy.md). The names are known here and nowhere else: callers parse
 // a name into a SchedulerChoice (and report an unknown one in their own terms).
 #pragma once
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "sched/policy/scheduler.hpp"
 
 namespace rayline {
 
-enum class SchedulerKind : std::uint8_t { Gmb, GmbCompletionAware, Budge, LoadAnyOnce };
+enum class SchedulerKind : std::uint8_t { Gmb, GmbCompletionAware, Budge, LoadAnyOnce, Rayline };
 
-// Every kind's name, in the factory's order ("gmb, gmb-ca, budge, loadanyonce").
-inline constexpr std::string_view kSchedulerNames[] = {"gmb", "gmb-ca", "budge", "loadanyonce"};
+// Every kind's name, in the factory's order ("gmb, gmb-ca, budge, loadanyonce, rayline").
+inline constexpr std::string_view kSchedulerNames[] = {"gmb", "gmb-ca", "budge", "loadanyonce", "rayline"};
 std::string_view scheduler_name(SchedulerKind kind);
 std::optional<SchedulerKind> scheduler_kind(std::string_view name);
 // The names joined with `separator` (for help texts and error messages).
@@ -23,7 +24,8 @@ std::string scheduler_names(std::string_view separator = ", ");
 
 // What to plan with. `horizon` is k (Sec. 4.2) and `aging` the seconds a job may wait
 // before it jumps the queue (Sec. 4.3; < 0: GMB's default, 5k and at least 1 s; kNever:
-// off); `adaptive_aging` is GmbOptions::adaptive_aging. The baselines use none of them.
+// off); `adaptive_aging` is GmbOptions::adaptive_aging. Rayline's policy plans up to the
+// same horizon; the baselines use none of them.
 struct SchedulerChoice {
   SchedulerKind kind = SchedulerKind::Gmb;
   Time horizon = 2.0;
@@ -31,6 +33,11 @@ struct SchedulerChoice {
   bool adaptive_aging = false;
 };
 std::unique_ptr<Scheduler> make_scheduler(const SchedulerChoice& choice);
+// Warm start (docs/simulator.md): where the policy's steady state keeps the scene blocks,
+// per block (in id order, `scene_bytes` their sizes) the memories holding a copy; empty
+// for the policies whose caches converge to the blocks used most (the default placement).
+std::vector<std::vector<MemId>> warm_placement(const SchedulerChoice& choice, const DeviceGraph& g,
+                                               const std::vector<Bytes>& scene_bytes);
 // By name (the renderer's options): InputError for a name not listed above.
 std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon, Time aging = -1,
                                           bool adaptive_aging = false);

@@ -23,10 +23,15 @@ struct DcgBuilder {
   }
   MemId mem(const std::string& n, Bytes cap = Bytes(1) << 40, MemoryKind k = MemoryKind::Host, NodeId node = 0) {
     g.memories.push_back({n, k, cap, node});
+    if (node >= 0 && static_cast<std::size_t>(node) < g.nodes.size())
+      g.nodes[static_cast<std::size_t>(node)].memories.push_back(static_cast<MemId>(g.memories.size() - 1));
     return static_cast<MemId>(g.memories.size() - 1);
   }
   DeviceId dev(const std::string& n, MemId m, ComputeKind k = ComputeKind::Cpu) {
     g.computes.push_back({n, n, k, m, g.memories[m].node});
+    const NodeId node = g.memories[m].node;
+    if (node >= 0 && static_cast<std::size_t>(node) < g.nodes.size())
+      g.nodes[static_cast<std::size_t>(node)].computes.push_back(static_cast<DeviceId>(g.computes.size() - 1));
     return static_cast<DeviceId>(g.computes.size() - 1);
   }
   ResourceId resource(const std::string& n, double bw) {
@@ -62,6 +67,38 @@ struct DcgBuilder {
   DeviceGraph build() {
     g.finalize();
     return g;
+  }
+};
+
+// n nodes of the paper's type A in miniature: a disk (150 MB/s SATA, half duplex), 8 GiB of
+// RAM with one CPU device, optionally a 6 GiB GPU memory (12 GB/s PCIe) with a GPU, and a
+// LAN channel between every two RAMs at the slower of the two nodes' `lan` speeds (125 MB/s
+// each by default), 100 us. Every device runs job type 0 on ray queues at 32 MB/s, 5 us.
+struct Cluster {
+  DeviceGraph g;
+  std::vector<MemId> disk, ram, gpu;
+  std::vector<DeviceId> cpu, gpudev;
+  explicit Cluster(int n, bool with_gpu, std::vector<double> lan = {}) {
+    lan.resize(static_cast<std::size_t>(n), 125e6);
+    DcgBuilder b;
+    for (int i = 0; i < n; ++i) {
+      const std::string p = "n" + std::to_string(i);
+      const NodeId nd = b.node(p);
+      disk.push_back(b.mem(p + ".disk", Bytes(1) << 40, MemoryKind::Disk, nd));
+      ram.push_back(b.mem(p + ".ram", Bytes(8) << 30, MemoryKind::Host, nd));
+      b.half_duplex(disk.back(), ram.back(), 150e6, 0.01);
+      cpu.push_back(b.dev(p + ".cpu0", ram.back()));
+      if (with_gpu) {
+        gpu.push_back(b.mem(p + ".gpumem", Bytes(6) << 30, MemoryKind::Gpu, nd));
+        b.full_duplex(ram.back(), gpu.back(), 12e9, 1e-5);
+        gpudev.push_back(b.dev(p + ".gpu", gpu.back(), ComputeKind::Gpu));
+      }
+    }
+    for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i)
+      for (std::size_t j = 0; j < static_cast<std::size_t>(n); ++j)
+        if (i != j) b.channel(ram[i], ram[j], std::min(lan[i], lan[j]), 1e-4);
+    b.timing(0, DataKind::RayQueue, 32e6, 5e-6);
+    g = b.build();
   }
 };
 

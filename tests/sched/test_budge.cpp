@@ -12,32 +12,7 @@
 using namespace rayline;
 
 namespace {
-struct Nodes {
-  DeviceGraph g;
-  std::vector<MemId> disk, ram, gpu;
-  std::vector<DeviceId> cpu, gpudev;
-  explicit Nodes(int n, bool with_gpu) {
-    rayline::testing::DcgBuilder b;
-    for (int i = 0; i < n; ++i) {
-      const std::string p = "n" + std::to_string(i);
-      const NodeId nd = b.node(p);
-      disk.push_back(b.mem(p + ".disk", Bytes(1) << 40, MemoryKind::Disk, nd));
-      ram.push_back(b.mem(p + ".ram", Bytes(8) << 30, MemoryKind::Host, nd));
-      b.half_duplex(disk.back(), ram.back(), 150e6, 0.01);
-      cpu.push_back(b.dev(p + ".cpu0", ram.back()));
-      if (with_gpu) {
-        gpu.push_back(b.mem(p + ".gpumem", Bytes(6) << 30, MemoryKind::Gpu, nd));
-        b.full_duplex(ram.back(), gpu.back(), 12e9, 1e-5);
-        gpudev.push_back(b.dev(p + ".gpu", gpu.back(), ComputeKind::Gpu));
-      }
-    }
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j)
-        if (i != j) b.channel(ram[static_cast<std::size_t>(i)], ram[static_cast<std::size_t>(j)], 125e6, 1e-4);
-    b.timing(0, DataKind::RayQueue, 32e6, 5e-6);
-    g = b.build();
-  }
-};
+using Nodes = rayline::testing::Cluster;
 
 // A new scene block on `scene_at` (its only copy) and a ray queue on `rays_at`.
 struct SceneAndRays {

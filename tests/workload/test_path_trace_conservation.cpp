@@ -15,6 +15,7 @@
 #include "common/error.hpp"
 #include "sched/runtime/exact_executor.hpp"
 #include "sched/policy/gmb/gmb_scheduler.hpp"
+#include "sched/policy/scheduler_factory.hpp"
 #include "workload/path_trace_workload.hpp"
 #include "sched/io/platform_loader.hpp"
 #include "sched/runtime/runtime_loop.hpp"
@@ -43,8 +44,13 @@ using Inspect = std::function<void(const DeviceGraph&, const JobPool&, const Sch
 
 Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr, ReplayLog* record = nullptr,
         int clients = 2, int frames = 2, std::uint64_t seed = 7, bool merge_planned = true, bool cancel_failed = true,
-        bool retime_merged = true, const Inspect& inspect = {}) {
-  const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
+        bool retime_merged = true, const Inspect& inspect = {}, const std::string& scheduler = "gmb",
+        Bytes host_capacity = 0, Bytes gpu_capacity = 0) {
+  DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
+  for (MemoryDevice& m : g.memories) {  // smaller memories: a scene that no node holds alone
+    if (m.kind == MemoryKind::Host && host_capacity > 0) m.capacity = host_capacity;
+    if (m.kind == MemoryKind::Gpu && gpu_capacity > 0) m.capacity = gpu_capacity;
+  }
   const SceneProfile prof = load_scene_profile(kProfile);
   PathTraceOptions o;
   o.clients = clients;
@@ -60,9 +66,9 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   JobPool pool;
   Schedule s(g, pool);
   PathTraceWorkload wl(g, prof, o);
-  GmbScheduler gmb;
+  const std::unique_ptr<Scheduler> sched = make_scheduler(scheduler, 2.0);
   ExactExecutor ex(s);
-  RuntimeLoop loop(gmb, ex, wl, pool, s);
+  RuntimeLoop loop(*sched, ex, wl, pool, s);
   const RunStats st = loop.run();
   if (inspect) inspect(g, pool, s, wl);
   Outcome r;
@@ -154,6 +160,28 @@ TEST(PathTraceConservation, NoMergesIntoPlannedJobs) {
   const Outcome off_pred = run(Fidelity::Markov, 2, nullptr, nullptr, 2, 2, 7, false);
   expect_conserved(off_pred, 2, 2);
   EXPECT_EQ(off_pred.merges_into_planned, 0u);
+}
+
+// Rayline's policy: scene replicated (the platform's memories hold it), and split over the
+// two nodes (host 500 MB, GPU 200 MB: 800 MB of scene fits no node), rays crossing the LAN
+// to their block's owner.
+TEST(PathTraceConservation, RaylinePolicyReplicatedAndSplit) {
+  expect_conserved(run(Fidelity::Markov, 0, nullptr, nullptr, 2, 2, 7, true, true, true, {}, "rayline"), 2, 2);
+  std::size_t lan_queues = 0;
+  const Inspect lan = [&](const DeviceGraph& g, const JobPool& pool, const Schedule& s, const PathTraceWorkload&) {
+    for (std::size_t i = 0; i < s.activity_count(); ++i) {
+      const Activity& a = s.activity(static_cast<ActivityId>(i));
+      if (a.kind != ActivityKind::Transfer) continue;
+      const Channel& c = g.channels[a.channel];
+      if (g.memories[c.from].node == g.memories[c.to].node) continue;
+      EXPECT_NE(pool.block(a.block).kind, DataKind::SceneData) << "scene data crossed the LAN";
+      lan_queues += pool.block(a.block).kind == DataKind::RayQueue || pool.block(a.block).kind == DataKind::ShadowRayQueue;
+    }
+  };
+  expect_conserved(run(Fidelity::Markov, 0, nullptr, nullptr, 2, 2, 7, true, true, true, lan, "rayline", 500'000'000,
+                       200'000'000),
+                   2, 2);
+  EXPECT_GT(lan_queues, 0u) << "split ownership moves ray queues to their owners";
 }
 
 TEST(PathTraceConservation, OneClientManyFrames) { expect_conserved(run(Fidelity::Markov, 1, nullptr, nullptr, 1, 4), 1, 4); }

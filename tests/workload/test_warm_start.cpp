@@ -87,7 +87,7 @@ TEST(WarmStart, RandomPlatformsNeverExceedACapacity) {
       use.push_back(std::uniform_real_distribution<double>(0, 1)(rng));
     }
     const double share = std::uniform_real_distribution<double>(0, 1)(rng);
-    warm_start(s, pool, blocks, use, WarmStart{share, share});
+    warm_start(s, pool, blocks, use, WarmStart{share, share, {}});
     for (std::size_t m = 0; m < g.memories.size(); ++m)
       if (g.memories[m].kind == MemoryKind::Host) {
         EXPECT_LE(static_cast<double>(s.used(static_cast<MemId>(m))), share * static_cast<double>(g.memories[m].capacity))

@@ -54,17 +54,8 @@ Time GmbScheduler::aging_threshold() const {
   return std::max(1.0, 5 * opt_.horizon);
 }
 
-Time GmbScheduler::exec_estimate(JobId j, DeviceId d, const JobPool& pool, const Schedule& s) {
-  const Job& job = pool.job(j);
-  const ExecCoefficients& k = s.graph().timing.at(d, job.type);
-  double exec = 0;
-  bool any = false;
-  for (BlockId b : job.inputs) {
-    const DataBlock& blk = pool.block(b);
-    exec += k.rate[static_cast<int>(blk.kind)] * static_cast<double>(blk.bytes);
-    any = any || blk.bytes > 0;
-  }
-  return any ? exec + k.setup : 0;  // Eq. 2
+Time GmbScheduler::exec_estimate(JobId j, DeviceId d, const JobPool&, const Schedule& s) {
+  return Placer::exec_estimate(j, d, s);
 }
 
 GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Time now, const JobPool& pool,

@@ -1,0 +1,277 @@
+#include "sched/policy/rayline/rayline_scheduler.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "sched/policy/image_split.hpp"
+
+namespace rayline {
+
+std::string RaylineScheduler::describe() const {
+  return "rayline{horizon=" + std::to_string(opt_.horizon) + "s; ownership=" + (opt_.ownership ? "1" : "0") +
+         "; completion_aware=" + (opt_.completion_aware ? "1" : "0") +
+         "; min_remote_bytes=" + std::to_string(opt_.min_remote_bytes) + "; hold=" + std::to_string(opt_.hold) + "s; groups=" + std::to_string(own_.groups.size()) +
+         "}";
+}
+
+// Rule 1's input: the scene blocks, in id order, as they appear in the pool.
+void RaylineScheduler::update_scene(const JobPool& pool, const DeviceGraph& g) {
+  bool changed = own_.groups.empty();
+  if (scene_index_.size() < pool.block_count()) scene_index_.resize(pool.block_count(), -1);
+  for (; blocks_seen_ < pool.block_count(); ++blocks_seen_) {
+    const auto b = static_cast<BlockId>(blocks_seen_);
+    if (pool.block(b).kind != DataKind::SceneData) continue;
+    scene_index_[blocks_seen_] = static_cast<std::int32_t>(scene_.size());
+    scene_.push_back(b);
+    changed = true;
+  }
+  if (!changed) return;
+  std::vector<Bytes> bytes;
+  for (BlockId b : scene_) bytes.push_back(pool.block(b).bytes);
+  own_ = plan_ownership(g, bytes);
+  const std::vector<double>& w = own_.weight;
+  group_weight_.assign(own_.groups.size(), 0.0);
+  node_weight_.assign(own_.groups.size(), {});
+  for (std::size_t k = 0; k < own_.groups.size(); ++k)
+    for (NodeId n : own_.groups[k]) {
+      group_weight_[k] += w[static_cast<std::size_t>(n)];
+      node_weight_[k].push_back(w[static_cast<std::size_t>(n)]);
+    }
+  homes_.assign(homes_.size(), kNone);  // owners moved
+  by_node_.clear();
+}
+
+NodeId RaylineScheduler::home(JobId j, const JobPool& pool, const Schedule& s) {
+  if (homes_.size() < pool.job_count()) homes_.resize(pool.job_count(), kNone);
+  if (rays_at_.size() < pool.job_count()) rays_at_.resize(pool.job_count(), kNone);
+  NodeId& h = homes_[static_cast<std::size_t>(j)];
+  const DeviceGraph& g = s.graph();
+  auto runs_it = [&](NodeId n) {  // some live device of n runs j's type
+    for (DeviceId d : g.nodes[static_cast<std::size_t>(n)].computes)
+      if (s.compute_alive(d) && g.timing.supports(d, pool.job(j).type)) return true;
+    return false;
+  };
+  if (h != kNone) return !s.any_lost() || runs_it(h) ? h : kNone;
+  const Job& job = pool.job(j);
+  NodeId at = kNone;  // where its rays (or other non-scene inputs) are
+  bool generic_only = !job.inputs.empty();
+  for (BlockId b : job.inputs) {
+    const DataBlock& blk = pool.block(b);
+    generic_only = generic_only && blk.kind == DataKind::Generic;
+    if (blk.kind == DataKind::SceneData || s.copies(b).empty()) continue;
+    const NodeId n = g.memories[s.copies(b).front().mem].node;
+    if (!blk.movable) {  // pinned (a client's framebuffer): the job goes to it
+      at = n;
+      break;
+    }
+    if (at == kNone) at = n;
+  }
+  rays_at_[static_cast<std::size_t>(j)] = at;
+  NodeId pick = at;
+  const InputSummaries::Summary& in = inputs_.of(j, pool);
+  if (generic_only && g.job_types[static_cast<std::size_t>(job.type)] == "GenerateRays" && !own_.groups.empty()) {
+    // Rule 2: an image split, group first, then a node of the group (another hash of the id).
+    const int k = weighted_pick(static_cast<std::uint64_t>(j), group_weight_);
+    if (k >= 0) {
+      const int i = weighted_pick(static_cast<std::uint64_t>(j) ^ 0x6a09e667f3bcc909ull, node_weight_[static_cast<std::size_t>(k)]);
+      if (i >= 0) pick = own_.groups[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)];
+    }
+  } else if (opt_.ownership && in.scene.size() == 1 && at != kNone) {
+    // Rule 1: the owner of its block in the group its rays are in.
+    const int k = own_.group_of_node[static_cast<std::size_t>(at)];
+    const std::int32_t i = scene_index_[static_cast<std::size_t>(in.scene[0])];
+    if (k >= 0 && i >= 0) pick = own_.owner[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)];
+  }
+  if (pick != kNone && !runs_it(pick)) pick = kNone;
+  h = pick;
+  return h;
+}
+
+PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PlanStats st;
+  auto done = [&] {
+    st.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return st;
+  };
+  if (bound_ != &s || !placer_) {
+    placer_ = std::make_unique<Placer>(s);
+    bound_ = &s;
+    own_ = {};
+    scene_.clear();
+    scene_index_.clear();
+    blocks_seen_ = 0;
+    inputs_.clear();
+    homes_.clear();
+    rays_at_.clear();
+    by_node_.clear();
+    fresh_.clear();
+    recheck_.clear();
+    reprojected_ = -kNever;
+  }
+  s.set_eviction_policy(Schedule::EvictionPolicy::QueueAware);
+  if (pool.queued_count() == 0) return done();
+  const DeviceGraph& g = s.graph();
+  // Rule 6: a node is planned once one of its live devices has less than half the horizon.
+  auto wants_work = [&](std::size_t n) {
+    for (DeviceId d : g.nodes[n].computes)
+      if (s.compute_alive(d) && std::max(now, s.device_timeline(d).busy_until) < now + 0.5 * opt_.horizon) return true;
+    return false;
+  };
+  auto idle = [&](std::size_t n) {  // a live device with nothing planned
+    for (DeviceId d : g.nodes[n].computes)
+      if (s.compute_alive(d) && s.device_timeline(d).busy_until <= now) return true;
+    return false;
+  };
+  bool any = false;
+  for (std::size_t n = 0; n < g.nodes.size() && !any; ++n) any = wants_work(n);
+  if (!any) return done();
+  update_scene(pool, g);
+  // Queued jobs by home node, kept across calls (as Budge's buckets: new jobs join, stale
+  // entries drop out while scanned); all again after a lost device (homes can change).
+  if (by_node_.size() != g.nodes.size() + 1 || s.any_lost()) {
+    by_node_.assign(g.nodes.size() + 1, {});
+    bucketed_ = 0;
+  }
+  if (fresh_.size() != g.nodes.size() + 1) fresh_.assign(g.nodes.size() + 1, true);
+  if (recheck_.size() != g.nodes.size()) recheck_.assign(g.nodes.size(), -kNever);
+  for (JobId j : pool.queued_since(bucketed_)) {
+    const NodeId h = home(j, pool, s);
+    const std::size_t k = h == kNone ? g.nodes.size() : static_cast<std::size_t>(h);
+    by_node_[k].push_back({j, pool.queue_number(j)});
+    fresh_[k] = true;
+  }
+  bucketed_ = pool.appended();
+  // A node is planned when a device wants work and it has jobs: new ones, or held ones
+  // whose recheck time came (a pass that left jobs queued looks again after `hold` / 4).
+  const std::size_t any_bucket = g.nodes.size();
+  std::vector<std::size_t>& todo = todo_;
+  todo.clear();
+  for (std::size_t n = 0; n < g.nodes.size(); ++n) {
+    if (by_node_[n].empty() && by_node_[any_bucket].empty()) continue;
+    if (!fresh_[n] && !fresh_[any_bucket] && now < recheck_[n] && !idle(n)) continue;
+    if (wants_work(n)) todo.push_back(n);
+  }
+  if (todo.empty()) return done();
+  // Reality into the timelines (Schedule::reproject walks every unfinished activity): at
+  // most once per hundredth of the horizon; in between, plans use the last projection.
+  if (now >= reprojected_ + 0.01 * opt_.horizon || now < reprojected_) {
+    s.reproject(now);
+    reprojected_ = now;
+  }
+  placer_->finder().clear();
+  placer_->finder().set_now(now);
+  placer_->finder().set_scene_from_origin_or_local(true);  // rule 1: no scene data between nodes
+  for (std::size_t n : todo) {
+    fresh_[n] = false;
+    plan_node(n, now, pool, s, st);
+    recheck_[n] = now + 0.25 * opt_.hold;
+  }
+  fresh_[any_bucket] = false;
+  return done();
+}
+
+void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedule& s, PlanStats& st) {
+  const DeviceGraph& g = s.graph();
+  const Time limit = now + opt_.horizon;
+  devices_.clear();
+  for (DeviceId d : g.nodes[n].computes)
+    if (s.compute_alive(d)) devices_.push_back({std::max(now, s.device_timeline(d).busy_until), d});
+  std::sort(devices_.begin(), devices_.end());
+  // Rule 4 holds rays back only while the node has other work: an idle device takes them.
+  const bool idle = !devices_.empty() && devices_.front().first <= now;
+  cand_.clear();
+  const std::size_t any_bucket = g.nodes.size();
+  for (const std::size_t k : {n, any_bucket}) {
+    std::vector<Queued>& bucket = by_node_[k];
+    std::size_t keep = 0;
+    for (std::size_t i = 0; i < bucket.size(); ++i) {
+      const Queued q = bucket[i];
+      if (pool.queue_number(q.job) != q.number) continue;  // planned, or queued again later
+      if (k == any_bucket) {
+        if (const NodeId h = home(q.job, pool, s); h != kNone) {
+          by_node_[static_cast<std::size_t>(h)].push_back(q);
+          if (static_cast<std::size_t>(h) != n) continue;
+        } else {
+          bucket[keep++] = q;
+        }
+      } else {
+        bucket[keep++] = q;
+      }
+      bool resident = true;  // every scene input on one of this node's working memories
+      for (BlockId b : inputs_.of(q.job, pool).scene) {
+        bool here = false;
+        for (MemId m : g.nodes[n].memories)
+          if (g.memories[m].kind != MemoryKind::Disk && s.copy_at(b, m)) here = true;
+        resident = resident && here;
+      }
+      const Bytes rays = inputs_.rays(q.job, pool);
+      // Rule 4: rays on another node wait to be worth a transfer.
+      const NodeId at = rays_at_[static_cast<std::size_t>(q.job)];
+      if (!idle && at != kNone && static_cast<std::size_t>(at) != n && rays < opt_.min_remote_bytes &&
+          now - pool.job(q.job).created < opt_.hold)
+        continue;
+      cand_.push_back({q.job, resident, rays, q.number});
+    }
+    bucket.resize(keep);
+  }
+  // Rule 3's order: resident first, then the most rays, then queue order (a heap: the
+  // horizon usually fills long before the candidates run out).
+  auto after = [](const Cand& a, const Cand& b) {
+    if (a.resident != b.resident) return b.resident;
+    if (a.rays != b.rays) return a.rays < b.rays;
+    return a.number > b.number;
+  };
+  std::make_heap(cand_.begin(), cand_.end(), after);
+  // Rule 3: the device that finishes j first (kNone: none can run it).
+  struct Pick {
+    DeviceId d = kNone;
+    Time ready = 0, start = kNever, key = kNever, exec = 0;
+  };
+  auto pick = [&](JobId j) {
+    Pick best;
+    const JobTypeId type = pool.job(j).type;
+    for (std::size_t i = 0; i < devices_.size(); ++i) {
+      const auto [ready, d] = devices_[i];
+      if (ready >= limit || !g.timing.supports(d, type)) continue;
+      // A sibling thread (same memory, same model) ready no later answers the same, sooner.
+      bool shadowed = false;
+      for (std::size_t o = 0; o < i && !shadowed; ++o) {
+        const DeviceId e = devices_[o].second;
+        shadowed = g.computes[e].memory == g.computes[d].memory && g.computes[e].model == g.computes[d].model &&
+                   g.timing.supports(e, type);
+      }
+      if (shadowed) continue;
+      const Time start = placer_->earliest_start(j, d, ready, s);
+      if (start == kNever) continue;
+      const Time exec = Placer::exec_estimate(j, d, s);
+      const Time key = opt_.completion_aware ? start + exec : ready;
+      if (key < best.key) best = {d, ready, start, key, exec};
+    }
+    return best;
+  };
+  auto commit = [&](JobId j, const Pick& p) {
+    if (!placer_->place(j, p.d, p.ready, now, pool, s, st)) return;
+    for (auto& [ready, d] : devices_)
+      if (d == p.d) ready = std::max(now, s.device_timeline(d).busy_until);
+    std::sort(devices_.begin(), devices_.end());
+  };
+  waiting_.clear();
+  for (auto end = cand_.end(); end != cand_.begin(); --end) {
+    if (devices_.empty() || devices_.front().first >= limit) return;
+    std::pop_heap(cand_.begin(), end, after);
+    const Pick p = pick((end - 1)->job);
+    if (p.d == kNone) continue;
+    if (opt_.slack != kNever && p.start - p.ready > std::max(opt_.slack, p.exec)) {
+      waiting_.push_back(*(end - 1));  // rule 5: after the jobs that start at once
+      continue;
+    }
+    commit((end - 1)->job, p);
+  }
+  for (const Cand& c : waiting_) {
+    if (devices_.empty() || devices_.front().first >= limit) return;
+    if (const Pick p = pick(c.job); p.d != kNone) commit(c.job, p);
+  }
+}
+
+}  // namespace rayline

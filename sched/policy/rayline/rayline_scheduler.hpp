@@ -1,0 +1,90 @@
+// Rayline's own policy (docs/rayline-policy.md): GMB's timelines, timing model, Placer and
+// SDC fetch paths, with data placement made part of the plan. Rule by rule:
+//   1. ownership (ownership.hpp): each scene block has an owner node per replica group; a
+//      ray job runs on the owner of its block in the group its rays are in, so rays move
+//      to resident data and scene blocks never cross the LAN (a block a node lacks comes
+//      from its own disk);
+//   2. generation: a frame's rays are generated on nodes picked by an image split in
+//      proportion to peak ray throughput (group first, then node in the group);
+//   3. completion-aware placement: a node's jobs, in priority order (scene block already
+//      resident on the node first, then the most rays, then queue order), each go to the
+//      node's device that would *finish* it first (Eq. 2 and the SDC arrival of its
+//      inputs), so a GPU is not left idle behind CPU threads nor a CPU thread handed a
+//      job a GPU would finish sooner;
+//   4. batching: a job whose rays would cross the LAN waits until they are worth a
+//      transfer (`min_remote_bytes`, so the link's latency is not paid per handful of
+//      rays) or until it has waited `hold`;
+//   5. no waiting in line: a job that would leave its device waiting for data longer than
+//      its own run (and than `slack`) is taken only after the jobs that can start at once,
+//      so a slow transfer does not hold up the device's timeline;
+//   6. look-ahead: each device is planned up to now + horizon, so ray queues travel to
+//      their owner while the device still works, and a node is planned again only once
+//      one of its devices has less than half the horizon left.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sched/policy/input_summary.hpp"
+#include "sched/policy/placer.hpp"
+#include "sched/policy/rayline/ownership.hpp"
+#include "sched/policy/scheduler.hpp"
+
+namespace rayline {
+
+struct RaylineOptions {
+  Time horizon = 0.5;            // rule 4, seconds
+  bool ownership = true;         // rule 1 (off: a ray job runs where its rays are, as in Budge)
+  bool completion_aware = true;  // rule 3 (off: the device whose timeline ends first)
+  Bytes min_remote_bytes = 256 << 10;  // rule 4 (0: off)
+  Time hold = 0.1;                     // rule 4, seconds
+  Time slack = 1e-3;                   // rule 5, seconds (kNever: off)
+};
+
+class RaylineScheduler final : public Scheduler {
+ public:
+  explicit RaylineScheduler(RaylineOptions o = {}) : opt_(o) {}
+  std::string name() const override { return "rayline"; }
+  std::string describe() const override;
+  PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
+  const Ownership& ownership() const { return own_; }
+  // The node job j belongs to (kNone: any node); exposed for tests.
+  NodeId home(JobId j, const JobPool& pool, const Schedule& s);
+
+ private:
+  void update_scene(const JobPool& pool, const DeviceGraph& g);
+  void plan_node(std::size_t n, Time now, JobPool& pool, Schedule& s, PlanStats& st);
+
+  RaylineOptions opt_;
+  const Schedule* bound_ = nullptr;
+  std::unique_ptr<Placer> placer_;
+  Ownership own_;
+  std::vector<BlockId> scene_;             // scene blocks in id order
+  std::vector<std::int32_t> scene_index_;  // per block id: its index in scene_, or -1
+  std::size_t blocks_seen_ = 0;
+  std::vector<double> group_weight_;
+  std::vector<std::vector<double>> node_weight_;  // per group: its nodes' weights
+  InputSummaries inputs_;
+  std::vector<NodeId> homes_;  // per job, once known (kNone: not yet, or any node)
+  std::vector<NodeId> rays_at_;  // per job: the node its rays are on (merged queues share it)
+  struct Queued {
+    JobId job;
+    std::int64_t number;  // append number in the queue (queue order; stale once it differs)
+  };
+  std::vector<std::vector<Queued>> by_node_;  // last: any node
+  std::int64_t bucketed_ = 0;
+  std::vector<bool> fresh_;    // per bucket: jobs joined since its node was last planned
+  std::vector<Time> recheck_;  // per node: when held jobs are looked at again
+  std::vector<std::size_t> todo_;
+  Time reprojected_ = -kNever;
+  struct Cand {
+    JobId job;
+    bool resident;
+    Bytes rays;
+    std::int64_t number;
+  };
+  std::vector<Cand> cand_, waiting_;
+  std::vector<std::pair<Time, DeviceId>> devices_;
+};
+
+}  // namespace rayline

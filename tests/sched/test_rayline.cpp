@@ -1,0 +1,239 @@
+// Rayline's policy (sched/policy/rayline/): block ownership pinned on hand-built platforms
+// and checked as properties over random ones; the scheduler's rules on hand-built states;
+// the schedule invariants on random instances.
+#include <gtest/gtest.h>
+
+#include <numeric>
+#include <random>
+
+#include "dcg_fixture.hpp"
+#include "sched/policy/rayline/ownership.hpp"
+#include "sched/policy/rayline/rayline_scheduler.hpp"
+#include "sched/runtime/exact_executor.hpp"
+#include "sched/runtime/runtime_loop.hpp"
+
+using namespace rayline;
+using rayline::testing::Cluster;
+
+namespace {
+constexpr Bytes kMB = 1'000'000;
+
+// Every group owns every block, each node of a group one run of consecutive blocks.
+void expect_runs(const Ownership& o, std::size_t blocks) {
+  ASSERT_EQ(o.owner.size(), o.groups.size());
+  for (std::size_t k = 0; k < o.groups.size(); ++k) {
+    ASSERT_EQ(o.owner[k].size(), blocks);
+    std::vector<NodeId> seen;
+    for (std::size_t b = 0; b < blocks; ++b) {
+      const NodeId n = o.owner[k][b];
+      ASSERT_NE(std::find(o.groups[k].begin(), o.groups[k].end(), n), o.groups[k].end()) << "block " << b;
+      if (b > 0 && n == o.owner[k][b - 1]) continue;
+      EXPECT_EQ(std::find(seen.begin(), seen.end(), n), seen.end()) << "node " << n << " owns two runs";
+      seen.push_back(n);
+    }
+  }
+}
+
+// A scene block on every disk (Sec. 6.1) and a ray queue for it on `rays_at`.
+JobId ray_job(JobPool& pool, Schedule& s, const Cluster& c, BlockId scene, Bytes rays, MemId rays_at,
+              const std::string& tag, Time created = 0) {
+  const BlockId q = rayline::testing::add_block(pool, "rays" + tag, DataKind::RayQueue, rays);
+  s.put_initial(q, rays_at, created, false);
+  (void)c;
+  return rayline::testing::add_job(pool, "job" + tag, 0, {scene, q}, {}, created);
+}
+
+BlockId scene_block(JobPool& pool, Schedule& s, const Cluster& c, Bytes bytes, const std::string& tag) {
+  const BlockId b = rayline::testing::add_block(pool, "scene" + tag, DataKind::SceneData, bytes);
+  for (MemId d : c.disk) s.put_initial(b, d);
+  return b;
+}
+}  // namespace
+
+TEST(RaylineOwnership, ReplicatedWhenEveryNodeHoldsTheScene) {
+  const Cluster c(3, true);
+  const std::vector<Bytes> bytes(10, 500 * kMB);  // 5 GB: fits 8 GiB of RAM + 6 GiB of GPU memory
+  const Ownership o = plan_ownership(c.g, bytes);
+  EXPECT_TRUE(o.replicated());
+  ASSERT_EQ(o.groups.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k)
+    for (NodeId n : o.owner[k]) EXPECT_EQ(n, o.groups[k][0]);
+  EXPECT_TRUE(ownership_warm_placement(o, c.g, bytes).empty()) << "replicated: the default warm start";
+}
+
+TEST(RaylineOwnership, SplitRunsStayWithinCapacityAndFollowThroughput) {
+  for (int seed = 0; seed < 40; ++seed) {
+    std::mt19937 rng(4100 + seed);
+    const int n = 2 + seed % 5;
+    const bool gpu = seed % 2 == 0;
+    Cluster c(n, gpu);
+    std::vector<Bytes> bytes(static_cast<std::size_t>(20 + seed % 30));
+    for (Bytes& b : bytes) b = std::uniform_int_distribution<Bytes>(300 * kMB, 1500 * kMB)(rng);
+    const double scene = static_cast<double>(std::accumulate(bytes.begin(), bytes.end(), Bytes{0}));
+    const double whole = gpu ? 14.0 * (1 << 30) : 8.0 * (1 << 30);
+    if (scene <= whole) continue;  // replicated (the case above)
+    const Ownership o = plan_ownership(c.g, bytes);
+    ASSERT_FALSE(o.groups.empty()) << seed;
+    EXPECT_FALSE(o.replicated()) << seed;
+    expect_runs(o, bytes.size());
+    const double cap = 0.75 * 8.0 * (1 << 30) + (gpu ? 0.75 * 6.0 * (1 << 30) : 0.0);
+    const Bytes largest = *std::max_element(bytes.begin(), bytes.end());
+    for (std::size_t k = 0; k < o.groups.size(); ++k) {
+      const double group_cap = cap * static_cast<double>(o.groups[k].size());
+      EXPECT_TRUE(group_cap >= scene || o.groups.size() == 1) << "seed " << seed << ": a group that cannot hold the scene";
+      std::vector<double> owned(c.g.nodes.size(), 0.0);
+      for (std::size_t b = 0; b < bytes.size(); ++b) owned[static_cast<std::size_t>(o.owner[k][b])] += static_cast<double>(bytes[b]);
+      // Equal nodes: equal shares (to a block at each end of the run), within capacity
+      // (to one block) whenever the group can hold the scene.
+      const double share = scene / static_cast<double>(o.groups[k].size());
+      for (NodeId m : o.groups[k]) {
+        EXPECT_NEAR(owned[static_cast<std::size_t>(m)], std::min(share, group_cap >= scene ? cap : share),
+                    static_cast<double>(2 * largest) + 1)
+            << "seed " << seed;
+        if (group_cap >= scene) {
+          EXPECT_LE(owned[static_cast<std::size_t>(m)], cap + static_cast<double>(largest)) << "seed " << seed;
+        }
+      }
+    }
+    // Warm placement: owners only, within the shares, and every block once per group when
+    // the memories can hold the scene.
+    const std::vector<std::vector<MemId>> at = ownership_warm_placement(o, c.g, bytes);
+    ASSERT_EQ(at.size(), bytes.size());
+    std::vector<double> used(c.g.memories.size(), 0.0);
+    for (std::size_t b = 0; b < bytes.size(); ++b) {
+      for (MemId m : at[b]) {
+        used[static_cast<std::size_t>(m)] += static_cast<double>(bytes[b]);
+        bool owner = false;
+        for (const auto& ow : o.owner) owner = owner || ow[b] == c.g.memories[static_cast<std::size_t>(m)].node;
+        EXPECT_TRUE(owner) << "seed " << seed << ": block " << b << " warm on a node that does not own it";
+      }
+    }
+    for (std::size_t m = 0; m < used.size(); ++m)
+      EXPECT_LE(used[m], 0.75 * static_cast<double>(c.g.memories[m].capacity) + 1) << "seed " << seed;
+  }
+}
+
+TEST(RaylineOwnership, ANodeOnASlowLinkOwnsNothing) {
+  // Node 2's link (1 MB/s) carries less than a tenth of its ray throughput (32 + 32 MB/s
+  // at lan_reuse 4): it takes part in no group; the other two own everything.
+  const Cluster c(3, true, {125e6, 125e6, 1e6});
+  const std::vector<Bytes> bytes(20, 1000 * kMB);
+  const Ownership o = plan_ownership(c.g, bytes);
+  EXPECT_EQ(o.group_of_node[2], -1);
+  EXPECT_EQ(o.weight[2], 0.0);
+  for (const auto& owner : o.owner)
+    for (NodeId n : owner) EXPECT_NE(n, 2);
+  // At 125 MB/s x 4 the others keep their full throughput, 64 MB/s each.
+  EXPECT_DOUBLE_EQ(o.weight[0], 64e6);
+  const std::vector<double> lan = node_lan_bandwidth(c.g);
+  EXPECT_DOUBLE_EQ(lan[0], 125e6);
+  EXPECT_DOUBLE_EQ(lan[2], 1e6);
+}
+
+TEST(Rayline, RayJobsRunOnTheirBlocksOwnerAndSceneDataNeverCrossesTheLan) {
+  const Cluster c(2, false);
+  JobPool pool;
+  Schedule s(c.g, pool);
+  std::vector<BlockId> scene;
+  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));  // 12 GB
+  // Rays for every block on node 0: the ones for node 1's blocks cross the LAN.
+  for (int b = 0; b < 8; ++b) ray_job(pool, s, c, scene[static_cast<std::size_t>(b)], 4 * kMB, c.ram[0], std::to_string(b));
+  RaylineScheduler rs;
+  ExactExecutor ex(s);
+  StaticWorkload wl;
+  RuntimeLoop loop(rs, ex, wl, pool, s);
+  ASSERT_FALSE(loop.run().stalled);
+  const Ownership& o = rs.ownership();
+  ASSERT_FALSE(o.replicated());
+  int crossed = 0;
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.kind == ActivityKind::Exec) {
+      const std::size_t b = static_cast<std::size_t>(a.job);  // job i reads scene[i]
+      EXPECT_EQ(c.g.computes[a.device].node, o.owner[0][b]) << "job " << a.job;
+      continue;
+    }
+    const Channel& ch = c.g.channels[a.channel];
+    if (c.g.memories[ch.from].node == c.g.memories[ch.to].node) continue;
+    EXPECT_EQ(pool.block(a.block).kind, DataKind::RayQueue);
+    ++crossed;
+  }
+  EXPECT_EQ(crossed, 4);  // node 1 owns the second half
+  for (JobId j = 0; j < static_cast<JobId>(pool.job_count()); ++j) EXPECT_EQ(pool.state(j), JobState::Done);
+  const auto chk = rayline::testing::check_schedule(s, pool);
+  for (const auto& e : chk.errors) ADD_FAILURE() << e;
+}
+
+TEST(Rayline, CompletionAwareChoiceTakesTheDeviceThatFinishesFirst) {
+  for (const bool completion_aware : {true, false}) {
+    Cluster c(1, true);
+    c.g.timing.at(c.gpudev[0], 0).rate[static_cast<int>(DataKind::RayQueue)] = 1.0 / 640e6;  // 20x the CPU
+    JobPool pool;
+    Schedule s(c.g, pool);
+    const BlockId sc = scene_block(pool, s, c, 100 * kMB, "0");
+    s.put_initial(sc, c.ram[0], 0, false);
+    s.put_initial(sc, c.gpu[0], 0, false);
+    const JobId j = ray_job(pool, s, c, sc, 64 * kMB, c.ram[0], "0");
+    RaylineScheduler rs(RaylineOptions{.completion_aware = completion_aware});
+    rs.plan(0, pool, s);
+    ASSERT_EQ(pool.state(j), JobState::Planned);
+    // Both idle at 0: the GPU finishes 2 s of CPU work in 0.1 s (+ 5 ms over PCIe); without
+    // the rule, the device whose timeline ends first (a tie, the lower id: the CPU).
+    EXPECT_EQ(s.activity(pool.activity(j)).device, completion_aware ? c.gpudev[0] : c.cpu[0]);
+  }
+}
+
+TEST(Rayline, RemoteRaysWaitUntilWorthATransferUnlessTheNodeIsIdle) {
+  const Cluster c(2, false);
+  JobPool pool;
+  Schedule s(c.g, pool);
+  std::vector<BlockId> scene;
+  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));
+  for (int b = 5; b < 8; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[1], 0, false);  // warm
+  RaylineScheduler rs;  // horizon 0.5 s, min_remote_bytes 256 KiB, hold 0.1 s
+  // Node 1 busy for 0.2 s with rays already there (6.4 MB at 32 MB/s).
+  const JobId local = ray_job(pool, s, c, scene[7], 6'400'000, c.ram[1], "local");
+  rs.plan(0, pool, s);
+  ASSERT_EQ(pool.state(local), JobState::Planned);
+  ASSERT_EQ(rs.ownership().owner[0][7], 1);
+  // A few remote rays for node 1's block wait while node 1 is busy; a large queue goes.
+  const JobId few = ray_job(pool, s, c, scene[6], 64'000, c.ram[0], "few", 0.01);
+  const JobId many = ray_job(pool, s, c, scene[5], 1 * kMB, c.ram[0], "many", 0.01);
+  rs.plan(0.01, pool, s);
+  EXPECT_EQ(pool.state(few), JobState::Queued);
+  EXPECT_EQ(pool.state(many), JobState::Planned);
+  rs.plan(0.05, pool, s);
+  EXPECT_EQ(pool.state(few), JobState::Queued) << "held for 0.1 s";
+  rs.plan(0.12, pool, s);
+  EXPECT_EQ(pool.state(few), JobState::Planned) << "held no longer than 0.1 s";
+}
+
+TEST(Rayline, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
+  for (int seed = 0; seed < 30; ++seed) {
+    std::mt19937 rng(5200 + seed);
+    const bool split = seed % 3 != 0;  // scenes too large for one node, or small ones
+    Cluster c(1 + seed % 4, seed % 2 == 0, {125e6, 12.5e6, 125e6, 1e6});
+    JobPool pool;
+    Schedule s(c.g, pool);
+    std::vector<BlockId> scene;
+    for (int b = 0; b < 3 + seed % 8; ++b)
+      scene.push_back(scene_block(pool, s, c,
+                                  split ? std::uniform_int_distribution<Bytes>(1500 * kMB, 3000 * kMB)(rng)
+                                        : std::uniform_int_distribution<Bytes>(10 * kMB, 400 * kMB)(rng),
+                                  std::to_string(b)));
+    for (int q = 0; q < 5 + seed % 20; ++q) {
+      const MemId at = c.ram[std::uniform_int_distribution<std::size_t>(0, c.ram.size() - 1)(rng)];
+      ray_job(pool, s, c, scene[std::uniform_int_distribution<std::size_t>(0, scene.size() - 1)(rng)],
+              std::uniform_int_distribution<Bytes>(10'000, 40 * kMB)(rng), at, std::to_string(q),
+              std::uniform_real_distribution<Time>(0, 0.05)(rng));
+    }
+    RaylineScheduler rs;
+    ExactExecutor ex(s);
+    StaticWorkload wl;
+    RuntimeLoop loop(rs, ex, wl, pool, s);
+    ASSERT_FALSE(loop.run().stalled) << seed;
+    for (std::size_t j = 0; j < pool.job_count(); ++j) EXPECT_EQ(pool.state(static_cast<JobId>(j)), JobState::Done) << seed;
+    const auto chk = rayline::testing::check_schedule(s, pool);
+    for (const auto& e : chk.errors) ADD_FAILURE() << "seed " << seed << ": " << e;
+  }
+}
