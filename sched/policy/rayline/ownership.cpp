@@ -100,28 +100,34 @@ Ownership plan_ownership(const DeviceGraph& g, const std::vector<Bytes>& block_b
     nodes.push_back(static_cast<NodeId>(n));
   }
   const double scene = static_cast<double>(std::accumulate(block_bytes.begin(), block_bytes.end(), Bytes{0}));
-  const bool each_holds_all =
-      std::all_of(nodes.begin(), nodes.end(), [&](NodeId n) { return whole[static_cast<std::size_t>(n)] >= scene; });
+  // Nodes whose memories hold (nearly) the whole scene replicate it: a group each.
+  std::vector<bool> alone(nn, false);
+  std::vector<NodeId> pooled;
   o.weight.assign(nn, 0.0);
-  if (each_holds_all) {
-    for (NodeId n : nodes) {
+  for (NodeId n : nodes) {
+    const auto i = static_cast<std::size_t>(n);
+    alone[i] = whole[i] >= opt.replicate_fraction * scene;
+    if (alone[i]) {
       o.groups.push_back({n});
-      o.weight[static_cast<std::size_t>(n)] = w[static_cast<std::size_t>(n)];
+      o.weight[i] = w[i];
+    } else {
+      pooled.push_back(n);
     }
-  } else {
-    // Split: weights capped by the LAN; a node left with too little of its throughput
-    // takes part in no group.
+  }
+  if (!pooled.empty()) {
+    // The others split the scene: weights capped by the LAN; a node left with too little
+    // of its throughput takes part in no group.
     const std::vector<double> lan = node_lan_bandwidth(g);
     std::vector<NodeId> owners;
-    for (NodeId n : nodes) {
+    for (NodeId n : pooled) {
       const auto i = static_cast<std::size_t>(n);
       o.weight[i] = std::min(w[i], opt.lan_reuse * lan[i]);
       if (o.weight[i] >= opt.min_lan_fraction * w[i]) owners.push_back(n);
       else o.weight[i] = 0;
     }
-    if (owners.empty()) {  // every link too slow: by throughput alone
-      owners = nodes;
-      for (NodeId n : nodes) o.weight[static_cast<std::size_t>(n)] = w[static_cast<std::size_t>(n)];
+    if (owners.empty() && o.groups.empty()) {  // every link too slow, and no replica: by throughput alone
+      owners = pooled;
+      for (NodeId n : pooled) o.weight[static_cast<std::size_t>(n)] = w[static_cast<std::size_t>(n)];
     }
     // As many groups as the memories allow: nodes by decreasing room, each to the group
     // with the least room so far; fewer groups until every group holds the scene.
@@ -131,7 +137,7 @@ Ownership plan_ownership(const DeviceGraph& g, const std::vector<Bytes>& block_b
     for (NodeId n : owners) room += cap[static_cast<std::size_t>(n)];
     std::size_t count = scene > 0 ? static_cast<std::size_t>(room / scene) : owners.size();
     count = std::clamp<std::size_t>(count, 1, std::max<std::size_t>(1, owners.size()));
-    for (;; --count) {
+    for (; !owners.empty(); --count) {
       std::vector<std::vector<NodeId>> groups(count);
       std::vector<double> held(count, 0.0);
       for (NodeId n : owners) {
@@ -140,8 +146,10 @@ Ownership plan_ownership(const DeviceGraph& g, const std::vector<Bytes>& block_b
         held[k] += cap[static_cast<std::size_t>(n)];
       }
       if (count == 1 || *std::min_element(held.begin(), held.end()) >= scene) {
-        for (auto& gr : groups) std::sort(gr.begin(), gr.end());
-        o.groups = std::move(groups);
+        for (auto& gr : groups) {
+          std::sort(gr.begin(), gr.end());
+          o.groups.push_back(std::move(gr));
+        }
         break;
       }
     }
@@ -152,7 +160,7 @@ Ownership plan_ownership(const DeviceGraph& g, const std::vector<Bytes>& block_b
       const auto i = static_cast<std::size_t>(n);
       o.group_of_node[i] = static_cast<int>(k);
       gw.push_back(o.weight[i]);
-      gc.push_back(o.groups[k].size() == 1 && each_holds_all ? scene : cap[i]);
+      gc.push_back(alone[i] ? scene : cap[i]);
     }
     o.owner.push_back(split_blocks(o.groups[k], gw, gc, block_bytes));
   }

@@ -4,9 +4,10 @@
 //   * replica groups: nodes are split into groups that each hold the whole scene in their
 //     host memories; every group renders its own share of the image (rays never leave
 //     their group);
-//   * a node whose memories (host RAM and GPU memory together) can hold the whole scene is
-//     a group of its own: the scene is replicated and rays stay on their node;
-//   * otherwise the scene is split over the group's nodes: each owns a run of consecutive
+//   * a node whose memories (host RAM and GPU memory together) hold `replicate_fraction`
+//     of the scene is a group of its own: the scene is replicated and rays stay on their
+//     node (what does not fit is streamed from its disk);
+//   * the other nodes split the scene within their groups: each owns a run of consecutive
 //     blocks (a median-split partition numbers its blocks along the split tree, so a run
 //     is a compact region and most rays leaving a block stay on the node), in proportion
 //     to the node's weight, never more than `host_share` of its host memory plus
@@ -30,6 +31,7 @@ struct OwnershipOptions {
   // then mostly visit its neighbouring blocks there).
   double lan_reuse = 4.0;
   double min_lan_fraction = 0.1;
+  double replicate_fraction = 0.9;
 };
 
 struct Ownership {

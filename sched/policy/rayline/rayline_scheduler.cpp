@@ -107,7 +107,9 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     by_node_.clear();
     fresh_.clear();
     recheck_.clear();
+    planned_at_.clear();
     reprojected_ = -kNever;
+    long_wait_until_.clear();
   }
   s.set_eviction_policy(Schedule::EvictionPolicy::QueueAware);
   if (pool.queued_count() == 0) return done();
@@ -135,6 +137,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   }
   if (fresh_.size() != g.nodes.size() + 1) fresh_.assign(g.nodes.size() + 1, true);
   if (recheck_.size() != g.nodes.size()) recheck_.assign(g.nodes.size(), -kNever);
+  if (planned_at_.size() != g.nodes.size()) planned_at_.assign(g.nodes.size(), -kNever);
   for (JobId j : pool.queued_since(bucketed_)) {
     const NodeId h = home(j, pool, s);
     const std::size_t k = h == kNone ? g.nodes.size() : static_cast<std::size_t>(h);
@@ -149,7 +152,9 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   todo.clear();
   for (std::size_t n = 0; n < g.nodes.size(); ++n) {
     if (by_node_[n].empty() && by_node_[any_bucket].empty()) continue;
-    if (!fresh_[n] && !fresh_[any_bucket] && now < recheck_[n] && !idle(n)) continue;
+    // New jobs are looked at no more than once per `slack` unless a device is idle.
+    const bool due = (fresh_[n] || fresh_[any_bucket]) ? now >= planned_at_[n] + opt_.slack : now >= recheck_[n];
+    if (!due && !idle(n)) continue;
     if (wants_work(n)) todo.push_back(n);
   }
   if (todo.empty()) return done();
@@ -164,6 +169,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   placer_->finder().set_scene_from_origin_or_local(true);  // rule 1: no scene data between nodes
   for (std::size_t n : todo) {
     fresh_[n] = false;
+    planned_at_[n] = now;
     plan_node(n, now, pool, s, st);
     recheck_[n] = now + 0.25 * opt_.hold;
   }
@@ -228,18 +234,28 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
     DeviceId d = kNone;
     Time ready = 0, start = kNever, key = kNever, exec = 0;
   };
+  auto holds_scene = [&](JobId j, DeviceId d) {
+    for (BlockId b : inputs_.of(j, pool).scene)
+      if (!s.copy_at(b, g.computes[d].memory)) return false;
+    return true;
+  };
   auto pick = [&](JobId j) {
     Pick best;
     const JobTypeId type = pool.job(j).type;
+    // Rule 3: among the devices whose memory holds the job's scene blocks when one can
+    // take it (moving a block inside the node evicts another, which may then have to come
+    // back from the disk), else among all.
+    bool holder = false;
+    for (const auto& [ready, d] : devices_) holder = holder || (ready < limit && g.timing.supports(d, type) && holds_scene(j, d));
     for (std::size_t i = 0; i < devices_.size(); ++i) {
       const auto [ready, d] = devices_[i];
-      if (ready >= limit || !g.timing.supports(d, type)) continue;
+      if (ready >= limit || !g.timing.supports(d, type) || (holder && !holds_scene(j, d))) continue;
       // A sibling thread (same memory, same model) ready no later answers the same, sooner.
       bool shadowed = false;
       for (std::size_t o = 0; o < i && !shadowed; ++o) {
         const DeviceId e = devices_[o].second;
         shadowed = g.computes[e].memory == g.computes[d].memory && g.computes[e].model == g.computes[d].model &&
-                   g.timing.supports(e, type);
+                   g.timing.supports(e, type) && devices_[o].first < limit;
       }
       if (shadowed) continue;
       const Time start = placer_->earliest_start(j, d, ready, s);
@@ -260,17 +276,39 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   for (auto end = cand_.end(); end != cand_.begin(); --end) {
     if (devices_.empty() || devices_.front().first >= limit) return;
     std::pop_heap(cand_.begin(), end, after);
+    if (!(end - 1)->resident) {  // its scene block comes from the disk: a long wait (below)
+      waiting_.push_back(*(end - 1));
+      continue;
+    }
     const Pick p = pick((end - 1)->job);
     if (p.d == kNone) continue;
     if (opt_.slack != kNever && p.start - p.ready > std::max(opt_.slack, p.exec)) {
       waiting_.push_back(*(end - 1));  // rule 5: after the jobs that start at once
+      waiting_.back().device = p.d;
+      waiting_.back().ready = p.ready;
       continue;
     }
     commit((end - 1)->job, p);
   }
+  // Waiting jobs, in the same order. One that cannot start within the horizon (a block
+  // from the disk) only when the node's last such wait is over: each holds its device.
+  if (long_wait_until_.size() != g.nodes.size()) long_wait_until_.assign(g.nodes.size(), -kNever);
   for (const Cand& c : waiting_) {
     if (devices_.empty() || devices_.front().first >= limit) return;
-    if (const Pick p = pick(c.job); p.d != kNone) commit(c.job, p);
+    if (!c.resident && now < long_wait_until_[n]) continue;
+    // The first pass's pick stands while its device's timeline is as it was then.
+    Pick p;
+    if (c.device != kNone) {
+      for (const auto& [ready, d] : devices_)
+        if (d == c.device && ready == c.ready && ready < limit) p = {d, ready, ready, ready, 0};
+    }
+    if (p.d == kNone) p = pick(c.job);
+    if (p.d == kNone) continue;
+    if (p.start >= limit) {
+      if (now < long_wait_until_[n]) continue;
+      long_wait_until_[n] = p.start;
+    }
+    commit(c.job, p);
   }
 }
 

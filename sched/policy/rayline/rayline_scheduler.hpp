@@ -10,13 +10,16 @@
 //      resident on the node first, then the most rays, then queue order), each go to the
 //      node's device that would *finish* it first (Eq. 2 and the SDC arrival of its
 //      inputs), so a GPU is not left idle behind CPU threads nor a CPU thread handed a
-//      job a GPU would finish sooner;
+//      job a GPU would finish sooner; among the devices whose memory already holds the
+//      job's scene block when one of them can take it within the horizon;
 //   4. batching: a job whose rays would cross the LAN waits until they are worth a
 //      transfer (`min_remote_bytes`, so the link's latency is not paid per handful of
 //      rays) or until it has waited `hold`;
 //   5. no waiting in line: a job that would leave its device waiting for data longer than
 //      its own run (and than `slack`) is taken only after the jobs that can start at once,
-//      so a slow transfer does not hold up the device's timeline;
+//      so a slow transfer does not hold up the device's timeline; and one that cannot
+//      start within the horizon (its block comes from the disk) only once the node's
+//      previous such job has started;
 //   6. look-ahead: each device is planned up to now + horizon, so ray queues travel to
 //      their owner while the device still works, and a node is planned again only once
 //      one of its devices has less than half the horizon left.
@@ -75,13 +78,17 @@ class RaylineScheduler final : public Scheduler {
   std::int64_t bucketed_ = 0;
   std::vector<bool> fresh_;    // per bucket: jobs joined since its node was last planned
   std::vector<Time> recheck_;  // per node: when held jobs are looked at again
+  std::vector<Time> planned_at_;  // per node: its last plan
   std::vector<std::size_t> todo_;
   Time reprojected_ = -kNever;
+  std::vector<Time> long_wait_until_;  // per node: the start of its last job placed beyond the horizon
   struct Cand {
     JobId job;
     bool resident;
     Bytes rays;
     std::int64_t number;
+    DeviceId device = kNone;  // waiting: the device the first pass picked, at `ready`
+    Time ready = 0;
   };
   std::vector<Cand> cand_, waiting_;
   std::vector<std::pair<Time, DeviceId>> devices_;
