@@ -20,16 +20,17 @@ REPO = os.path.dirname(HERE)
 REDUCED = os.environ.get("RAYLINE_NB_REDUCED", "") not in ("", "0")
 OUT = os.environ.get("RAYLINE_NB_OUT", os.path.join(REPO, "out", "notebooks-reduced")) if REDUCED else os.path.join(HERE, "results")
 SCRIPT = os.path.join(REPO, "scripts", "experiments", "experiments.py")
-COLORS = {"gmb": "tab:blue", "budge": "tab:orange", "loadanyonce": "tab:green", "gmb-ca": "tab:cyan"}
+COLORS = {"gmb": "tab:blue", "budge": "tab:orange", "loadanyonce": "tab:green", "gmb-ca": "tab:cyan",
+          "rayline": "tab:red"}
 NAMES = {"gmb": "GMB (paper)", "budge": "Budge 2009", "loadanyonce": "Navratil 2014 (LoadAnyOnce)",
-         "gmb-ca": "GMB completion-aware (Rayline)"}
-SHORT = {"gmb": "GMB", "budge": "Budge", "loadanyonce": "LAO", "gmb-ca": "GMB-CA"}
+         "gmb-ca": "GMB completion-aware (Rayline)", "rayline": "Rayline's policy"}
+SHORT = {"gmb": "GMB", "budge": "Budge", "loadanyonce": "LAO", "gmb-ca": "GMB-CA", "rayline": "Rayline"}
 SCHEDULERS = ["gmb", "budge", "loadanyonce"]
 
 
 def schedulers_in(df):
-    """The three of the paper, then any extra series the results hold (gmb-ca)."""
-    return SCHEDULERS + [s for s in ["gmb-ca"] if s in set(df.scheduler)]
+    """The three of the paper, then any extra series the results hold (gmb-ca, rayline)."""
+    return SCHEDULERS + [s for s in ["gmb-ca", "rayline"] if s in set(df.scheduler)]
 
 
 def load(name, extra=None):

@@ -109,7 +109,7 @@ fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
 for ax, scene in zip(axes, ['boeing', 'museum']):
     b = bound[bound.scene == scene].sort_values('x')
     ax.plot(b.x, b.compute_bound_rays_shot_per_second, 'k--', lw=1.2, label='compute bound (platform + profile)')
-    for s in SCHEDULERS:
+    for s in schedulers_in(ok):
         r = best[(best.scene == scene) & (best.scheduler == s)].sort_values('x')
         ax.plot(r.x, r.steady_rays_shot_per_second, 'o-', color=COLORS[s], label=NAMES[s])
     ax.axhline(50e6, color='0.6', ls=':', lw=1)
@@ -127,7 +127,7 @@ print(tab.to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
 cl = ok[ok.label == top]
 fig, axes = plt.subplots(1, 2, figsize=(12, 3.8))
 for ax, scene in zip(axes, ['boeing', 'museum']):
-    for s in SCHEDULERS:
+    for s in schedulers_in(ok):
         r = cl[(cl.scene == scene) & (cl.scheduler == s)].sort_values('clients')
         ax.plot(r.clients, r.steady_rays_shot_per_second, '-', color=COLORS[s], label=NAMES[s])
         ax.plot(r.clients[r.is_steady], r.steady_rays_shot_per_second[r.is_steady], 'o', color=COLORS[s])
@@ -145,7 +145,7 @@ for (scene, s), r in b8.iterrows():
     rows.append({'scene': scene, 'scheduler': s, 'peak clients': r.clients, 'M rays shot/s': r.steady_rays_shot_per_second / 1e6,
                  'of bound': r.share_of_compute_bound, 'CPU busy': r.cpu_busy, 'GPU busy': r.gpu_busy,
                  'CPU fetching': r.cpu_fetching, 'GPU fetching': r.gpu_fetching,
-                 'LAN % (paper)': f"{100 * float(r.lan_utilisation_mean or 0):.1f} ({paper_lan[s]})",
+                 'LAN % (paper)': f"{100 * float(r.lan_utilisation_mean or 0):.1f} ({paper_lan.get(s, '-')})",
                  'scene B/visit': r.scene_bytes_per_ray})
 print(pd.DataFrame(rows).to_string(index=False, float_format=lambda v: f'{v:.3g}'))
 free = ok[ok.label.astype(str).str.endswith('free I/O')][['scene', 'scheduler', 'clients', 'steady_rays_shot_per_second',

@@ -4,6 +4,7 @@
 
   scaling     Fig. 8: peak rays/s of gmb, budge, loadanyonce on A .. 4A+B+C+D+R, both scenes (cold)
   peak        Fig. 8 warm: each method's peak over clients (--clients auto), rays shot/s, compute bound
+              (gmb, budge, loadanyonce and Rayline's policy)
   central     Fig. 9 (cold): only node D holds the scene; rays shot over time, slave-to-slave share
   workstation one multi-GPU workstation (platforms/workstation-4gpu.json)
   horizon     horizon k 0.2..10 s, prediction depth 0..3, scheduling-overhead share
@@ -101,7 +102,7 @@ def peak(c):
         # time (GMB's plan grows with the queued jobs) and its frames still do not finish.
         sweep = "1,2" if c.reduced else ("auto:256" if scene == "boeing" else "auto")
         for p in plats:
-            for s in SCHEDULERS:
+            for s in SCHEDULERS + ["rayline"]:  # the paper's three, then Rayline's policy
                 folder = os.path.join(c.runs, f"{scene}-{p}-{s}")
                 done = os.path.join(folder, "sweep.done")
                 if os.path.exists(done):

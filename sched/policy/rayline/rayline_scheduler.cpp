@@ -109,20 +109,24 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     recheck_.clear();
     planned_at_.clear();
     reprojected_ = -kNever;
-    long_wait_until_.clear();
+    long_wait_job_.clear();
   }
   s.set_eviction_policy(Schedule::EvictionPolicy::QueueAware);
   if (pool.queued_count() == 0) return done();
   const DeviceGraph& g = s.graph();
   // Rule 6: a node is planned once one of its live devices has less than half the horizon.
+  // (A device with nothing unfinished is free now whatever its last projection says: the
+  // timelines are re-projected only now and then, below.)
   auto wants_work = [&](std::size_t n) {
     for (DeviceId d : g.nodes[n].computes)
-      if (s.compute_alive(d) && std::max(now, s.device_timeline(d).busy_until) < now + 0.5 * opt_.horizon) return true;
+      if (s.compute_alive(d) &&
+          (s.unfinished_on_device(d) == 0 || std::max(now, s.device_timeline(d).busy_until) < now + 0.5 * opt_.horizon))
+        return true;
     return false;
   };
-  auto idle = [&](std::size_t n) {  // a live device with nothing planned
+  auto idle = [&](std::size_t n) {  // a live device with nothing unfinished
     for (DeviceId d : g.nodes[n].computes)
-      if (s.compute_alive(d) && s.device_timeline(d).busy_until <= now) return true;
+      if (s.compute_alive(d) && (s.unfinished_on_device(d) == 0 || s.device_timeline(d).busy_until <= now)) return true;
     return false;
   };
   bool any = false;
@@ -182,7 +186,8 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   const Time limit = now + opt_.horizon;
   devices_.clear();
   for (DeviceId d : g.nodes[n].computes)
-    if (s.compute_alive(d)) devices_.push_back({std::max(now, s.device_timeline(d).busy_until), d});
+    if (s.compute_alive(d))
+      devices_.push_back({s.unfinished_on_device(d) == 0 ? now : std::max(now, s.device_timeline(d).busy_until), d});
   std::sort(devices_.begin(), devices_.end());
   // Rule 4 holds rays back only while the node has other work: an idle device takes them.
   const bool idle = !devices_.empty() && devices_.front().first <= now;
@@ -291,11 +296,16 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
     commit((end - 1)->job, p);
   }
   // Waiting jobs, in the same order. One that cannot start within the horizon (a block
-  // from the disk) only when the node's last such wait is over: each holds its device.
-  if (long_wait_until_.size() != g.nodes.size()) long_wait_until_.assign(g.nodes.size(), -kNever);
+  // from the disk) only once the node's previous such job has started: each holds its
+  // device while the disk works.
+  if (long_wait_job_.size() != g.nodes.size()) long_wait_job_.assign(g.nodes.size(), kNone);
+  auto disk_free = [&] {
+    const JobId w = long_wait_job_[n];
+    return w == kNone || pool.state(w) != JobState::Planned || s.activity(pool.activity(w)).state != ActivityState::Planned;
+  };
   for (const Cand& c : waiting_) {
     if (devices_.empty() || devices_.front().first >= limit) return;
-    if (!c.resident && now < long_wait_until_[n]) continue;
+    if (!c.resident && !disk_free()) continue;
     // The first pass's pick stands while its device's timeline is as it was then.
     Pick p;
     if (c.device != kNone) {
@@ -305,8 +315,8 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
     if (p.d == kNone) p = pick(c.job);
     if (p.d == kNone) continue;
     if (p.start >= limit) {
-      if (now < long_wait_until_[n]) continue;
-      long_wait_until_[n] = p.start;
+      if (!disk_free()) continue;
+      long_wait_job_[n] = c.job;
     }
     commit(c.job, p);
   }

@@ -81,7 +81,7 @@ class RaylineScheduler final : public Scheduler {
   std::vector<Time> planned_at_;  // per node: its last plan
   std::vector<std::size_t> todo_;
   Time reprojected_ = -kNever;
-  std::vector<Time> long_wait_until_;  // per node: the start of its last job placed beyond the horizon
+  std::vector<JobId> long_wait_job_;  // per node: its last job placed beyond the horizon
   struct Cand {
     JobId job;
     bool resident;
