@@ -24,8 +24,8 @@ std::string scheduler_names(std::string_view separator = ", ");
 
 // What to plan with. `horizon` is k (Sec. 4.2) and `aging` the seconds a job may wait
 // before it jumps the queue (Sec. 4.3; < 0: GMB's default, 5k and at least 1 s; kNever:
-// off); `adaptive_aging` is GmbOptions::adaptive_aging. Rayline's policy plans up to the
-// same horizon; the baselines use none of them.
+// off); `adaptive_aging` is GmbOptions::adaptive_aging. Rayline's policy plans k/4 ahead;
+// the baselines use none of them.
 struct SchedulerChoice {
   SchedulerKind kind = SchedulerKind::Gmb;
   Time horizon = 2.0;

@@ -10,8 +10,8 @@ namespace rayline {
 std::string RaylineScheduler::describe() const {
   return "rayline{horizon=" + std::to_string(opt_.horizon) + "s; ownership=" + (opt_.ownership ? "1" : "0") +
          "; completion_aware=" + (opt_.completion_aware ? "1" : "0") +
-         "; min_remote_bytes=" + std::to_string(opt_.min_remote_bytes) + "; hold=" + std::to_string(opt_.hold) + "s; groups=" + std::to_string(own_.groups.size()) +
-         "}";
+         "; min_remote_bytes=" + std::to_string(opt_.min_remote_bytes) + "; hold=" + std::to_string(opt_.hold) +
+         "s; slack=" + std::to_string(opt_.slack) + "s; groups=" + std::to_string(own_.groups.size()) + "}";
 }
 
 // Rule 1's input: the scene blocks, in id order, as they appear in the pool.
