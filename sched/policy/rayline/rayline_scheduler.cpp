@@ -244,7 +244,25 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       if (!s.copy_at(b, g.computes[d].memory)) return false;
     return true;
   };
-  auto pick = [&](JobId j) {
+  // Would bringing j's scene blocks into d's memory evict a scene block that no other
+  // memory of the node holds (so that it would have to come back from the disk)?
+  auto drops_last_copy = [&](JobId j, DeviceId d) {
+    const MemId m = g.computes[d].memory;
+    Bytes need = 0;
+    for (BlockId b : inputs_.of(j, pool).scene)
+      if (!s.copy_at(b, m)) need += pool.block(b).bytes;
+    if (need == 0) return false;
+    const Schedule::Admission adm = s.admission(m, need, pool.job(j).inputs);
+    for (const auto& [vb, vm] : adm.victims) {
+      if (pool.block(vb).kind != DataKind::SceneData) continue;
+      bool elsewhere = false;
+      for (MemId o : g.nodes[n].memories)
+        elsewhere = elsewhere || (o != vm && g.memories[o].kind != MemoryKind::Disk && s.copy_at(vb, o));
+      if (!elsewhere) return true;
+    }
+    return false;
+  };
+  auto pick = [&](JobId j, bool resident) {
     Pick best;
     const JobTypeId type = pool.job(j).type;
     // Rule 3: among the devices whose memory holds the job's scene blocks when one can
@@ -263,6 +281,9 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
                    g.timing.supports(e, type) && devices_[o].first < limit;
       }
       if (shadowed) continue;
+      // A block already on the node moves inside it only if that keeps every block the
+      // node holds in some memory of it.
+      if (resident && !holds_scene(j, d) && drops_last_copy(j, d)) continue;
       const Time start = placer_->earliest_start(j, d, ready, s);
       if (start == kNever) continue;
       const Time exec = Placer::exec_estimate(j, d, s);
@@ -285,7 +306,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       waiting_.push_back(*(end - 1));
       continue;
     }
-    const Pick p = pick((end - 1)->job);
+    const Pick p = pick((end - 1)->job, true);
     if (p.d == kNone) continue;
     if (opt_.slack != kNever && p.start - p.ready > std::max(opt_.slack, p.exec)) {
       waiting_.push_back(*(end - 1));  // rule 5: after the jobs that start at once
@@ -312,7 +333,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       for (const auto& [ready, d] : devices_)
         if (d == c.device && ready == c.ready && ready < limit) p = {d, ready, ready, ready, 0};
     }
-    if (p.d == kNone) p = pick(c.job);
+    if (p.d == kNone) p = pick(c.job, c.resident);
     if (p.d == kNone) continue;
     if (p.start >= limit) {
       if (!disk_free()) continue;
