@@ -240,3 +240,26 @@ TEST(Rayline, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
     for (const auto& e : chk.errors) ADD_FAILURE() << "seed " << seed << ": " << e;
   }
 }
+
+// Rule 6 re-projects the timelines only now and then. A device whose work ended earlier than
+// planned (reality won) is free at once all the same: a job queued then is planned, not
+// left waiting for a projection (which, with nothing else running, never comes).
+TEST(Rayline, ADeviceThatFinishedEarlyIsFreeBeforeTheNextProjection) {
+  const Cluster c(1, false);
+  JobPool pool;
+  Schedule s(c.g, pool);
+  const BlockId sc = scene_block(pool, s, c, 100 * kMB, "0");
+  s.put_initial(sc, c.ram[0], 0, false);
+  const JobId first = ray_job(pool, s, c, sc, 32 * kMB, c.ram[0], "first");  // 1 s at 32 MB/s
+  RaylineScheduler rs;
+  rs.plan(0, pool, s);
+  ASSERT_EQ(pool.state(first), JobState::Planned);
+  const ActivityId a = pool.activity(first);
+  ASSERT_GT(s.device_timeline(c.cpu[0]).busy_until, 0.9);
+  s.on_started(a, 0);
+  s.on_finished(a, 0.001);  // far sooner than planned
+  pool.mark_done(first);
+  const JobId next = ray_job(pool, s, c, sc, 1 * kMB, c.ram[0], "next", 0.001);
+  rs.plan(0.002, pool, s);  // within a hundredth of the look-ahead of the last projection
+  EXPECT_EQ(pool.state(next), JobState::Planned);
+}
