@@ -35,11 +35,10 @@ void expect_runs(const Ownership& o, std::size_t blocks) {
 }
 
 // A scene block on every disk (Sec. 6.1) and a ray queue for it on `rays_at`.
-JobId ray_job(JobPool& pool, Schedule& s, const Cluster& c, BlockId scene, Bytes rays, MemId rays_at,
-              const std::string& tag, Time created = 0) {
+JobId ray_job(JobPool& pool, Schedule& s, BlockId scene, Bytes rays, MemId rays_at, const std::string& tag,
+              Time created = 0) {
   const BlockId q = rayline::testing::add_block(pool, "rays" + tag, DataKind::RayQueue, rays);
   s.put_initial(q, rays_at, created, false);
-  (void)c;
   return rayline::testing::add_job(pool, "job" + tag, 0, {scene, q}, {}, created);
 }
 
@@ -140,7 +139,7 @@ TEST(Rayline, RayJobsRunOnTheirBlocksOwnerAndSceneDataNeverCrossesTheLan) {
   std::vector<BlockId> scene;
   for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));  // 12 GB
   // Rays for every block on node 0: the ones for node 1's blocks cross the LAN.
-  for (int b = 0; b < 8; ++b) ray_job(pool, s, c, scene[static_cast<std::size_t>(b)], 4 * kMB, c.ram[0], std::to_string(b));
+  for (int b = 0; b < 8; ++b) ray_job(pool, s, scene[static_cast<std::size_t>(b)], 4 * kMB, c.ram[0], std::to_string(b));
   RaylineScheduler rs;
   ExactExecutor ex(s);
   StaticWorkload wl;
@@ -176,7 +175,7 @@ TEST(Rayline, CompletionAwareChoiceTakesTheDeviceThatFinishesFirst) {
     const BlockId sc = scene_block(pool, s, c, 100 * kMB, "0");
     s.put_initial(sc, c.ram[0], 0, false);
     s.put_initial(sc, c.gpu[0], 0, false);
-    const JobId j = ray_job(pool, s, c, sc, 64 * kMB, c.ram[0], "0");
+    const JobId j = ray_job(pool, s, sc, 64 * kMB, c.ram[0], "0");
     RaylineScheduler rs(RaylineOptions{.completion_aware = completion_aware});
     rs.plan(0, pool, s);
     ASSERT_EQ(pool.state(j), JobState::Planned);
@@ -195,13 +194,13 @@ TEST(Rayline, RemoteRaysWaitUntilWorthATransferUnlessTheNodeIsIdle) {
   for (int b = 5; b < 8; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[1], 0, false);  // warm
   RaylineScheduler rs;  // horizon 0.5 s, min_remote_bytes 256 KiB, hold 0.1 s
   // Node 1 busy for 0.2 s with rays already there (6.4 MB at 32 MB/s).
-  const JobId local = ray_job(pool, s, c, scene[7], 6'400'000, c.ram[1], "local");
+  const JobId local = ray_job(pool, s, scene[7], 6'400'000, c.ram[1], "local");
   rs.plan(0, pool, s);
   ASSERT_EQ(pool.state(local), JobState::Planned);
   ASSERT_EQ(rs.ownership().owner[0][7], 1);
   // A few remote rays for node 1's block wait while node 1 is busy; a large queue goes.
-  const JobId few = ray_job(pool, s, c, scene[6], 64'000, c.ram[0], "few", 0.01);
-  const JobId many = ray_job(pool, s, c, scene[5], 1 * kMB, c.ram[0], "many", 0.01);
+  const JobId few = ray_job(pool, s, scene[6], 64'000, c.ram[0], "few", 0.01);
+  const JobId many = ray_job(pool, s, scene[5], 1 * kMB, c.ram[0], "many", 0.01);
   rs.plan(0.01, pool, s);
   EXPECT_EQ(pool.state(few), JobState::Queued);
   EXPECT_EQ(pool.state(many), JobState::Planned);
@@ -226,7 +225,7 @@ TEST(Rayline, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
                                   std::to_string(b)));
     for (int q = 0; q < 5 + seed % 20; ++q) {
       const MemId at = c.ram[std::uniform_int_distribution<std::size_t>(0, c.ram.size() - 1)(rng)];
-      ray_job(pool, s, c, scene[std::uniform_int_distribution<std::size_t>(0, scene.size() - 1)(rng)],
+      ray_job(pool, s, scene[std::uniform_int_distribution<std::size_t>(0, scene.size() - 1)(rng)],
               std::uniform_int_distribution<Bytes>(10'000, 40 * kMB)(rng), at, std::to_string(q),
               std::uniform_real_distribution<Time>(0, 0.05)(rng));
     }
@@ -250,7 +249,7 @@ TEST(Rayline, ADeviceThatFinishedEarlyIsFreeBeforeTheNextProjection) {
   Schedule s(c.g, pool);
   const BlockId sc = scene_block(pool, s, c, 100 * kMB, "0");
   s.put_initial(sc, c.ram[0], 0, false);
-  const JobId first = ray_job(pool, s, c, sc, 32 * kMB, c.ram[0], "first");  // 1 s at 32 MB/s
+  const JobId first = ray_job(pool, s, sc, 32 * kMB, c.ram[0], "first");  // 1 s at 32 MB/s
   RaylineScheduler rs;
   rs.plan(0, pool, s);
   ASSERT_EQ(pool.state(first), JobState::Planned);
@@ -259,7 +258,7 @@ TEST(Rayline, ADeviceThatFinishedEarlyIsFreeBeforeTheNextProjection) {
   s.on_started(a, 0);
   s.on_finished(a, 0.001);  // far sooner than planned
   pool.mark_done(first);
-  const JobId next = ray_job(pool, s, c, sc, 1 * kMB, c.ram[0], "next", 0.001);
+  const JobId next = ray_job(pool, s, sc, 1 * kMB, c.ram[0], "next", 0.001);
   rs.plan(0.002, pool, s);  // within a hundredth of the look-ahead of the last projection
   EXPECT_EQ(pool.state(next), JobState::Planned);
 }

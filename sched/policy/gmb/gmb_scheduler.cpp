@@ -54,10 +54,6 @@ Time GmbScheduler::aging_threshold() const {
   return std::max(1.0, 5 * opt_.horizon);
 }
 
-Time GmbScheduler::exec_estimate(JobId j, DeviceId d, const JobPool&, const Schedule& s) {
-  return Placer::exec_estimate(j, d, s);
-}
-
 GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Time now, const JobPool& pool,
                                             const Schedule& s) {
   Choice c;
@@ -73,7 +69,7 @@ GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Tim
   const Time aging = aging_now_;
   c.aged = aging != kNever && now - job.created >= aging;
   if (opt_.granularity_tiebreak) {
-    const Time exec = exec_estimate(j, d, pool, s);
+    const Time exec = Placer::exec_estimate(j, d, s);
     c.granularity = exec > 0 ? s.graph().timing.setup_time(d, job.type) / exec : 0;
   }
   return c;
@@ -251,7 +247,7 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
       c.created = job.created;
       c.aged = aging != kNever && now - job.created >= aging;
       if (opt_.granularity_tiebreak) {
-        const Time exec = exec_estimate(j, d, pool, s);
+        const Time exec = Placer::exec_estimate(j, d, s);
         c.granularity = exec > 0 ? g.timing.setup_time(d, job.type) / exec : 0;
       }
       if (prefer(c, best)) best = c;
@@ -321,7 +317,7 @@ void GmbScheduler::build_classes(const Schedule& s) {
 
 double GmbScheduler::granularity(JobId j, DeviceId d, const JobPool& pool, const Schedule& s) {
   if (!opt_.granularity_tiebreak) return 0;
-  const Time exec = exec_estimate(j, d, pool, s);
+  const Time exec = Placer::exec_estimate(j, d, s);
   return exec > 0 ? s.graph().timing.setup_time(d, pool.job(j).type) / exec : 0;
 }
 
@@ -599,14 +595,14 @@ void GmbScheduler::after_commit(std::size_t activities_before, std::size_t evict
 // is free and when the inputs could reach it?
 bool GmbScheduler::better_elsewhere(const Choice& c, DeviceId d, const JobPool& pool, const Schedule& s) {
   if (c.aged) return false;
-  const Time finish_here = c.start + exec_estimate(c.job, d, pool, s);
+  const Time finish_here = c.start + Placer::exec_estimate(c.job, d, s);
   const DeviceGraph& g = s.graph();
   const Job& job = pool.job(c.job);
   for (std::size_t o = 0; o < g.computes.size(); ++o) {
     const auto od = static_cast<DeviceId>(o);
     if (od == d || !g.timing.supports(od, job.type) || !s.compute_alive(od)) continue;
     const Time ready_o = std::max(now_, s.device_timeline(od).busy_until);
-    const Time exec_o = exec_estimate(c.job, od, pool, s);
+    const Time exec_o = Placer::exec_estimate(c.job, od, s);
     if (ready_o + exec_o >= finish_here) continue;  // cheap prunes first,
     Time lb = ready_o;
     for (BlockId b : job.inputs) lb = std::max(lb, bound_time_->lower_bound(s, b, g.computes[od].memory, now_));

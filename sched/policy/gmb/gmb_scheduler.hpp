@@ -78,7 +78,6 @@ class GmbScheduler final : public Scheduler {
   Choice select(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
   Choice evaluate(JobId j, DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
   bool better_elsewhere(const Choice& c, DeviceId d, const JobPool& pool, const Schedule& s);
-  Time exec_estimate(JobId j, DeviceId d, const JobPool& pool, const Schedule& s);
   bool commit(const Choice& c, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s, PlanStats& st);
 
   GmbOptions opt_;

@@ -87,6 +87,12 @@ NodeId RaylineScheduler::home(JobId j, const JobPool& pool, const Schedule& s) {
   return h;
 }
 
+// A device with nothing unfinished is free now whatever its last projection says (the
+// timelines are re-projected only now and then: rule 6).
+Time RaylineScheduler::free_at(DeviceId d, Time now, const Schedule& s) {
+  return s.unfinished_on_device(d) == 0 ? now : std::max(now, s.device_timeline(d).busy_until);
+}
+
 PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   const auto t0 = std::chrono::steady_clock::now();
   PlanStats st;
@@ -115,18 +121,14 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   if (pool.queued_count() == 0) return done();
   const DeviceGraph& g = s.graph();
   // Rule 6: a node is planned once one of its live devices has less than half the horizon.
-  // (A device with nothing unfinished is free now whatever its last projection says: the
-  // timelines are re-projected only now and then, below.)
   auto wants_work = [&](std::size_t n) {
     for (DeviceId d : g.nodes[n].computes)
-      if (s.compute_alive(d) &&
-          (s.unfinished_on_device(d) == 0 || std::max(now, s.device_timeline(d).busy_until) < now + 0.5 * opt_.horizon))
-        return true;
+      if (s.compute_alive(d) && free_at(d, now, s) < now + 0.5 * opt_.horizon) return true;
     return false;
   };
-  auto idle = [&](std::size_t n) {  // a live device with nothing unfinished
+  auto idle = [&](std::size_t n) {  // a live device free now
     for (DeviceId d : g.nodes[n].computes)
-      if (s.compute_alive(d) && (s.unfinished_on_device(d) == 0 || s.device_timeline(d).busy_until <= now)) return true;
+      if (s.compute_alive(d) && free_at(d, now, s) <= now) return true;
     return false;
   };
   bool any = false;
@@ -186,8 +188,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   const Time limit = now + opt_.horizon;
   devices_.clear();
   for (DeviceId d : g.nodes[n].computes)
-    if (s.compute_alive(d))
-      devices_.push_back({s.unfinished_on_device(d) == 0 ? now : std::max(now, s.device_timeline(d).busy_until), d});
+    if (s.compute_alive(d)) devices_.push_back({free_at(d, now, s), d});
   std::sort(devices_.begin(), devices_.end());
   // Rule 4 holds rays back only while the node has other work: an idle device takes them.
   const bool idle = !devices_.empty() && devices_.front().first <= now;
@@ -295,7 +296,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   auto commit = [&](JobId j, const Pick& p) {
     if (!placer_->place(j, p.d, p.ready, now, pool, s, st)) return;
     for (auto& [ready, d] : devices_)
-      if (d == p.d) ready = std::max(now, s.device_timeline(d).busy_until);
+      if (d == p.d) ready = free_at(d, now, s);
     std::sort(devices_.begin(), devices_.end());
   };
   waiting_.clear();

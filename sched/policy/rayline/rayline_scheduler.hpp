@@ -57,6 +57,7 @@ class RaylineScheduler final : public Scheduler {
  private:
   void update_scene(const JobPool& pool, const DeviceGraph& g);
   void plan_node(std::size_t n, Time now, JobPool& pool, Schedule& s, PlanStats& st);
+  static Time free_at(DeviceId d, Time now, const Schedule& s);  // when d can start new work
 
   RaylineOptions opt_;
   const Schedule* bound_ = nullptr;
