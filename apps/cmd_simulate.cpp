@@ -152,6 +152,7 @@ void path_trace_config(const SimulateOptions& opt, sim::SimulationConfig& cfg) {
 // runtime's order of T-jobs on shared media).
 void engine_config(const SimulateOptions& opt, Time horizon, const AgingSetting& aging, sim::SimulationConfig& cfg) {
   cfg.scheduler = scheduler_choice(opt.scheduler, horizon, aging);
+  cfg.scheduler.rayline_off = rayline_rules_flag(opt.rayline_off, cfg.scheduler.kind);
   // Shorter than a microsecond nothing can happen (the shortest latency modelled is ~1 us),
   // and per-second rates and shares of such a run run to hundreds of digits.
   if (!(cfg.duration >= 1e-6)) throw InputError("--duration", "", "must be at least 1us");

@@ -12,6 +12,7 @@ struct SimulateOptions {
   std::string scheduler = "gmb";
   std::string horizon = "2s";
   std::string aging = "auto";      // GMB (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration
+  std::string rayline_off;         // Rayline's rules switched off, comma-separated (ablation)
   std::string duration = "60s";
   std::uint64_t seed = 1;
   double exec_noise = 0.0;

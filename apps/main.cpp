@@ -99,6 +99,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014), budge (Budge 2009) or rayline (Rayline's own, docs/rayline-policy.md)")->default_val(opt->scheduler);
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->type_name(kDuration)->default_val(opt->horizon);
   sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->type_name(kAging)->default_val(opt->aging);
+  sim->add_option("--rayline-off", opt->rayline_off, "Rayline's rules to switch off, comma-separated, for an ablation: ownership, image-split, completion, batching, no-waiting (docs/rayline-policy.md)")->type_name("RULES");
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->type_name(kDuration)->default_val(opt->duration);
   sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed)->check(kSeed);
   sim->add_option("--exec-noise", opt->exec_noise, "Actual E-job time = predicted x U[1-n,1+n]")->default_val(opt->exec_noise);

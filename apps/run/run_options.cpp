@@ -4,6 +4,7 @@
 
 #include "apps/cli_common.hpp"
 #include "common/error.hpp"
+#include "sched/policy/rayline/rayline_scheduler.hpp"
 
 namespace rayline::cli {
 
@@ -41,6 +42,16 @@ SchedulerChoice scheduler_choice(const std::string& name, Time horizon, const Ag
   c.aging = aging.aging;
   c.adaptive_aging = aging.adaptive;
   return c;
+}
+
+unsigned rayline_rules_flag(const std::string& list, SchedulerKind kind) {
+  if (list.empty()) return 0;
+  std::string names;
+  for (std::string_view n : kRaylineRuleNames) (names.empty() ? names : names.append(", ")).append(n);
+  const std::optional<unsigned> mask = rayline_rules_off(list);
+  if (!mask) throw InputError("--rayline-off", "", "unknown rule in '" + list + "' (rules: " + names + ")");
+  if (kind != SchedulerKind::Rayline) throw InputError("--rayline-off", "", "applies to --scheduler rayline only");
+  return *mask;
 }
 
 }  // namespace rayline::cli

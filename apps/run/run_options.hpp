@@ -31,4 +31,8 @@ AgingSetting parse_aging(const std::string& text, const std::string& flag);
 // seconds (> 0, Sec. 4.2) and --aging.
 SchedulerChoice scheduler_choice(const std::string& name, Time horizon, const AgingSetting& aging);
 
+// --rayline-off: Rayline's rules to switch off (SchedulerChoice::rayline_off), for an
+// ablation; only with the rayline scheduler (given with another `kind`: InputError).
+unsigned rayline_rules_flag(const std::string& list, SchedulerKind kind);
+
 }  // namespace rayline::cli

@@ -24,13 +24,14 @@ std::string scheduler_names(std::string_view separator = ", ");
 
 // What to plan with. `horizon` is k (Sec. 4.2) and `aging` the seconds a job may wait
 // before it jumps the queue (Sec. 4.3; < 0: GMB's default, 5k and at least 1 s; kNever:
-// off); `adaptive_aging` is GmbOptions::adaptive_aging. Rayline's policy plans k/4 ahead;
-// the baselines use none of them.
+// off); `adaptive_aging` is GmbOptions::adaptive_aging. Rayline's policy plans k/4 ahead,
+// without the rules in `rayline_off`; the baselines use none of them.
 struct SchedulerChoice {
   SchedulerKind kind = SchedulerKind::Gmb;
   Time horizon = 2.0;
   Time aging = -1;
   bool adaptive_aging = false;
+  unsigned rayline_off = 0;  // Rayline's rules switched off (rayline_rules_off)
 };
 std::unique_ptr<Scheduler> make_scheduler(const SchedulerChoice& choice);
 // Warm start (docs/simulator.md): where the policy's steady state keeps the scene blocks,

@@ -199,7 +199,7 @@ TEST(CliSimulate, BadInputExitsTwoAndLeavesNoOutputDirectory) {
   for (const std::string args : {"--scheduler teleport", "--duration 0s", "--duration 1e-300s", "--horizon -1s", "--workload /nonexistent/jobs.json",
                                  "--platform /nonexistent.json", "--exec-noise 2", "--exec-noise nan", "--blocks 1", "--aging soon",
                                  "--aging -2s", "--transfer-order fifo", "--seed -1", "--seed 18446744073709551616",
-                                 "--seed 1e3"}) {
+                                 "--seed 1e3", "--rayline-off ownership", "--scheduler rayline --rayline-off teleport"}) {
     const auto r = rayline_cli("simulate --no-progress --out " + out.string() + " " + args);
     EXPECT_EQ(r.code, 2) << args << ": " << r.all;
     EXPECT_FALSE(fs::exists(out)) << args;

@@ -262,3 +262,59 @@ TEST(Rayline, ADeviceThatFinishedEarlyIsFreeBeforeTheNextProjection) {
   rs.plan(0.002, pool, s);  // within a hundredth of the look-ahead of the last projection
   EXPECT_EQ(pool.state(next), JobState::Planned);
 }
+
+TEST(RaylineRules, NamesSwitchOffTheirRule) {
+  EXPECT_EQ(rayline_rules_off(""), 0u);
+  EXPECT_EQ(rayline_rules_off("ownership,batching"), 1u | 8u);
+  EXPECT_EQ(rayline_rules_off("no-waiting,,completion"), 16u | 4u);
+  EXPECT_FALSE(rayline_rules_off("ownership,teleport").has_value());
+  const RaylineOptions all = rayline_options(0.5, 0);
+  EXPECT_TRUE(all.ownership && all.image_split && all.completion_aware && all.no_waiting);
+  EXPECT_GT(all.min_remote_bytes, 0u);
+  const RaylineOptions none = rayline_options(0.25, *rayline_rules_off("ownership,image-split,completion,batching,no-waiting"));
+  EXPECT_FALSE(none.ownership || none.image_split || none.completion_aware || none.no_waiting);
+  EXPECT_EQ(none.min_remote_bytes, 0u);
+  EXPECT_EQ(none.horizon, 0.25);
+}
+
+TEST(RaylineRules, WithoutOwnershipRaysStayAndTheSceneComesToThem) {
+  const Cluster c(2, false);
+  JobPool pool;
+  Schedule s(c.g, pool);
+  std::vector<BlockId> scene;
+  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));
+  for (int b = 0; b < 8; ++b) ray_job(pool, s, scene[static_cast<std::size_t>(b)], 4 * kMB, c.ram[0], std::to_string(b));
+  RaylineScheduler rs(rayline_options(0.5, *rayline_rules_off("ownership")));
+  ExactExecutor ex(s);
+  StaticWorkload wl;
+  RuntimeLoop loop(rs, ex, wl, pool, s);
+  ASSERT_FALSE(loop.run().stalled);
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.kind == ActivityKind::Exec) {
+      EXPECT_EQ(c.g.computes[a.device].node, 0) << "job " << a.job << " runs where its rays are";
+    } else {
+      const Channel& ch = c.g.channels[a.channel];
+      EXPECT_EQ(c.g.memories[ch.from].node, c.g.memories[ch.to].node) << "nothing crosses the LAN";
+    }
+  }
+  for (JobId j = 0; j < static_cast<JobId>(pool.job_count()); ++j) EXPECT_EQ(pool.state(j), JobState::Done);
+  const auto chk = rayline::testing::check_schedule(s, pool);
+  for (const auto& e : chk.errors) ADD_FAILURE() << e;
+}
+
+TEST(RaylineRules, WithoutBatchingRemoteRaysGoAtOnce) {
+  const Cluster c(2, false);
+  JobPool pool;
+  Schedule s(c.g, pool);
+  std::vector<BlockId> scene;
+  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));
+  for (int b = 5; b < 8; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[1], 0, false);
+  RaylineScheduler rs(rayline_options(0.5, *rayline_rules_off("batching")));
+  const JobId local = ray_job(pool, s, scene[7], 6'400'000, c.ram[1], "local");
+  rs.plan(0, pool, s);
+  ASSERT_EQ(pool.state(local), JobState::Planned);
+  const JobId few = ray_job(pool, s, scene[6], 64'000, c.ram[0], "few", 0.01);
+  rs.plan(0.01, pool, s);
+  EXPECT_EQ(pool.state(few), JobState::Planned) << "the rule that held it (previous test) is off";
+}

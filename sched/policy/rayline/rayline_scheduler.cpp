@@ -7,11 +7,36 @@
 
 namespace rayline {
 
+std::optional<unsigned> rayline_rules_off(std::string_view list) {
+  unsigned mask = 0;
+  while (!list.empty()) {
+    const std::size_t comma = list.find(',');
+    const std::string_view name = list.substr(0, comma);
+    list = comma == std::string_view::npos ? std::string_view{} : list.substr(comma + 1);
+    if (name.empty()) continue;
+    const auto* it = std::find(std::begin(kRaylineRuleNames), std::end(kRaylineRuleNames), name);
+    if (it == std::end(kRaylineRuleNames)) return std::nullopt;
+    mask |= 1u << (it - std::begin(kRaylineRuleNames));
+  }
+  return mask;
+}
+
+RaylineOptions rayline_options(Time horizon, unsigned off) {
+  RaylineOptions o{.horizon = horizon};
+  o.ownership = !(off & 1u);
+  o.image_split = !(off & 2u);
+  o.completion_aware = !(off & 4u);
+  if (off & 8u) o.min_remote_bytes = 0;
+  o.no_waiting = !(off & 16u);
+  return o;
+}
+
 std::string RaylineScheduler::describe() const {
   return "rayline{horizon=" + std::to_string(opt_.horizon) + "s; ownership=" + (opt_.ownership ? "1" : "0") +
-         "; completion_aware=" + (opt_.completion_aware ? "1" : "0") +
+         "; image_split=" + (opt_.image_split ? "1" : "0") + "; completion_aware=" + (opt_.completion_aware ? "1" : "0") +
          "; min_remote_bytes=" + std::to_string(opt_.min_remote_bytes) + "; hold=" + std::to_string(opt_.hold) +
-         "s; slack=" + std::to_string(opt_.slack) + "s; groups=" + std::to_string(own_.groups.size()) + "}";
+         "s; no_waiting=" + (opt_.no_waiting ? "1" : "0") + "; slack=" + std::to_string(opt_.slack) +
+         "s; groups=" + std::to_string(own_.groups.size()) + "}";
 }
 
 // Rule 1's input: the scene blocks, in id order, as they appear in the pool.
@@ -69,7 +94,8 @@ NodeId RaylineScheduler::home(JobId j, const JobPool& pool, const Schedule& s) {
   rays_at_[static_cast<std::size_t>(j)] = at;
   NodeId pick = at;
   const InputSummaries::Summary& in = inputs_.of(j, pool);
-  if (generic_only && g.job_types[static_cast<std::size_t>(job.type)] == "GenerateRays" && !own_.groups.empty()) {
+  if (opt_.image_split && generic_only && g.job_types[static_cast<std::size_t>(job.type)] == "GenerateRays" &&
+      !own_.groups.empty()) {
     // Rule 2: an image split, group first, then a node of the group (another hash of the id).
     const int k = weighted_pick(static_cast<std::uint64_t>(j), group_weight_);
     if (k >= 0) {
@@ -114,6 +140,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     fresh_.clear();
     recheck_.clear();
     planned_at_.clear();
+    idle_after_.clear();
     reprojected_ = -kNever;
     long_wait_job_.clear();
   }
@@ -126,10 +153,10 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       if (s.compute_alive(d) && free_at(d, now, s) < now + 0.5 * opt_.horizon) return true;
     return false;
   };
-  auto idle = [&](std::size_t n) {  // a live device free now
-    for (DeviceId d : g.nodes[n].computes)
-      if (s.compute_alive(d) && free_at(d, now, s) <= now) return true;
-    return false;
+  auto idle = [&](std::size_t n) {  // live devices free now
+    std::size_t k = 0;
+    for (DeviceId d : g.nodes[n].computes) k += s.compute_alive(d) && free_at(d, now, s) <= now ? 1 : 0;
+    return k;
   };
   bool any = false;
   for (std::size_t n = 0; n < g.nodes.size() && !any; ++n) any = wants_work(n);
@@ -144,6 +171,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   if (fresh_.size() != g.nodes.size() + 1) fresh_.assign(g.nodes.size() + 1, true);
   if (recheck_.size() != g.nodes.size()) recheck_.assign(g.nodes.size(), -kNever);
   if (planned_at_.size() != g.nodes.size()) planned_at_.assign(g.nodes.size(), -kNever);
+  if (idle_after_.size() != g.nodes.size()) idle_after_.assign(g.nodes.size(), 0);
   for (JobId j : pool.queued_since(bucketed_)) {
     const NodeId h = home(j, pool, s);
     const std::size_t k = h == kNone ? g.nodes.size() : static_cast<std::size_t>(h);
@@ -154,13 +182,16 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   // A node is planned when a device wants work and it has jobs: new ones, or held ones
   // whose recheck time came (a pass that left jobs queued looks again after `hold` / 4).
   const std::size_t any_bucket = g.nodes.size();
+  const bool drained = s.unfinished() == 0;
   std::vector<std::size_t>& todo = todo_;
   todo.clear();
   for (std::size_t n = 0; n < g.nodes.size(); ++n) {
     if (by_node_[n].empty() && by_node_[any_bucket].empty()) continue;
-    // New jobs are looked at no more than once per `slack` unless a device is idle.
+    // New jobs are looked at no more than once per `slack` unless a device fell idle since
+    // the node's last pass (one that pass left idle, finding nothing it could take, waits),
+    // or nothing at all is in flight (no later event would call again).
     const bool due = (fresh_[n] || fresh_[any_bucket]) ? now >= planned_at_[n] + opt_.slack : now >= recheck_[n];
-    if (!due && !idle(n)) continue;
+    if (!due && !drained && idle(n) <= idle_after_[n]) continue;
     if (wants_work(n)) todo.push_back(n);
   }
   if (todo.empty()) return done();
@@ -178,6 +209,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     planned_at_[n] = now;
     plan_node(n, now, pool, s, st);
     recheck_[n] = now + 0.25 * opt_.hold;
+    idle_after_[n] = idle(n);
   }
   fresh_[any_bucket] = false;
   return done();
@@ -247,19 +279,30 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   };
   // Would bringing j's scene blocks into d's memory evict a scene block that no other
   // memory of the node holds (so that it would have to come back from the disk)?
+  // Victims come in the same order whatever the room asked for, so once some room drops a
+  // last copy any larger room does too: remembered per memory until a commit moves data
+  // into it (a node whose threads are all busy would otherwise ask again for each of its
+  // queues). A heuristic: a commit elsewhere may change the queued demand that orders victims.
+  drop_floor_.resize(g.memories.size(), kNoFloor);
+  for (MemId m : g.nodes[n].memories) drop_floor_[static_cast<std::size_t>(m)] = kNoFloor;
   auto drops_last_copy = [&](JobId j, DeviceId d) {
     const MemId m = g.computes[d].memory;
     Bytes need = 0;
     for (BlockId b : inputs_.of(j, pool).scene)
       if (!s.copy_at(b, m)) need += pool.block(b).bytes;
     if (need == 0) return false;
+    Bytes& floor = drop_floor_[static_cast<std::size_t>(m)];
+    if (need >= floor) return true;
     const Schedule::Admission adm = s.admission(m, need, pool.job(j).inputs);
     for (const auto& [vb, vm] : adm.victims) {
       if (pool.block(vb).kind != DataKind::SceneData) continue;
       bool elsewhere = false;
       for (MemId o : g.nodes[n].memories)
         elsewhere = elsewhere || (o != vm && g.memories[o].kind != MemoryKind::Disk && s.copy_at(vb, o));
-      if (!elsewhere) return true;
+      if (!elsewhere) {
+        floor = need;
+        return true;
+      }
     }
     return false;
   };
@@ -295,6 +338,10 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   };
   auto commit = [&](JobId j, const Pick& p) {
     if (!placer_->place(j, p.d, p.ready, now, pool, s, st)) return;
+    // Its transfers land in its device's memory and the node's host memory: another GPU's
+    // memory keeps what it found.
+    for (MemId m : g.nodes[n].memories)
+      if (m == g.computes[p.d].memory || g.memories[m].kind != MemoryKind::Gpu) drop_floor_[static_cast<std::size_t>(m)] = kNoFloor;
     for (auto& [ready, d] : devices_)
       if (d == p.d) ready = free_at(d, now, s);
     std::sort(devices_.begin(), devices_.end());
@@ -303,13 +350,13 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   for (auto end = cand_.end(); end != cand_.begin(); --end) {
     if (devices_.empty() || devices_.front().first >= limit) return;
     std::pop_heap(cand_.begin(), end, after);
-    if (!(end - 1)->resident) {  // its scene block comes from the disk: a long wait (below)
+    if (opt_.no_waiting && !(end - 1)->resident) {  // its scene block comes from the disk: a long wait (below)
       waiting_.push_back(*(end - 1));
       continue;
     }
     const Pick p = pick((end - 1)->job, true);
     if (p.d == kNone) continue;
-    if (opt_.slack != kNever && p.start - p.ready > std::max(opt_.slack, p.exec)) {
+    if (opt_.no_waiting && p.start - p.ready > std::max(opt_.slack, p.exec)) {
       waiting_.push_back(*(end - 1));  // rule 5: after the jobs that start at once
       waiting_.back().device = p.d;
       waiting_.back().ready = p.ready;
@@ -322,6 +369,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   // device while the disk works.
   if (long_wait_job_.size() != g.nodes.size()) long_wait_job_.assign(g.nodes.size(), kNone);
   auto disk_free = [&] {
+    if (!opt_.no_waiting) return true;
     const JobId w = long_wait_job_[n];
     return w == kNone || pool.state(w) != JobState::Planned || s.activity(pool.activity(w)).state != ActivityState::Planned;
   };

@@ -25,7 +25,9 @@
 //      one of its devices has less than half the horizon left.
 #pragma once
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "sched/policy/input_summary.hpp"
@@ -36,13 +38,23 @@
 namespace rayline {
 
 struct RaylineOptions {
-  Time horizon = 0.5;            // rule 4, seconds
+  Time horizon = 0.5;            // rule 6, seconds
   bool ownership = true;         // rule 1 (off: a ray job runs where its rays are, as in Budge)
+  bool image_split = true;       // rule 2 (off: rays are generated on their client's node)
   bool completion_aware = true;  // rule 3 (off: the device whose timeline ends first)
   Bytes min_remote_bytes = 256 << 10;  // rule 4 (0: off)
   Time hold = 0.1;                     // rule 4, seconds
-  Time slack = 1e-3;                   // rule 5, seconds (kNever: off)
+  bool no_waiting = true;              // rule 5 (off: jobs in priority order, whatever they wait for)
+  Time slack = 1e-3;                   // rule 5, seconds; also the least time between two plans of a node
 };
+
+// The rules that can be switched off (docs/rayline-policy.md), for the ablation: bit i is
+// rule kRaylineRuleNames[i]. rayline_rules_off("ownership,batching") gives their mask;
+// std::nullopt names an unknown rule.
+inline constexpr std::string_view kRaylineRuleNames[] = {"ownership", "image-split", "completion", "batching",
+                                                         "no-waiting"};
+std::optional<unsigned> rayline_rules_off(std::string_view list);
+RaylineOptions rayline_options(Time horizon, unsigned rules_off);
 
 class RaylineScheduler final : public Scheduler {
  public:
@@ -80,6 +92,7 @@ class RaylineScheduler final : public Scheduler {
   std::vector<bool> fresh_;    // per bucket: jobs joined since its node was last planned
   std::vector<Time> recheck_;  // per node: when held jobs are looked at again
   std::vector<Time> planned_at_;  // per node: its last plan
+  std::vector<std::size_t> idle_after_;  // per node: devices its last pass left idle
   std::vector<std::size_t> todo_;
   Time reprojected_ = -kNever;
   std::vector<JobId> long_wait_job_;  // per node: its last job placed beyond the horizon
@@ -93,6 +106,8 @@ class RaylineScheduler final : public Scheduler {
   };
   std::vector<Cand> cand_, waiting_;
   std::vector<std::pair<Time, DeviceId>> devices_;
+  static constexpr Bytes kNoFloor = ~Bytes{0};
+  std::vector<Bytes> drop_floor_;  // per memory: the least room found to drop a last copy
 };
 
 }  // namespace rayline
