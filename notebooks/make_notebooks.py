@@ -152,6 +152,37 @@ free = ok[ok.label.astype(str).str.endswith('free I/O')][['scene', 'scheduler', 
                                       'compute_bound_rays_shot_per_second', 'share_of_compute_bound']]
 print('\\nThe bound checked against runs: I/O made free, warm')
 print(free.to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+"""ab = load('ablation')
+ab['steady_rays_shot_per_second'] = pd.to_numeric(ab.steady_rays_shot_per_second, errors='coerce').fillna(0)
+ab = ab[ab.status == 'ok'].copy()
+ab['is_steady'] = ab.steady.astype(str).str.lower().isin(['true', '1'])
+variants = [v for v in ['every rule', 'without ownership', 'without image-split', 'without completion', 'without batching',
+                        'without no-waiting'] if v in set(ab.label)]
+bestab = (ab[ab.is_steady].sort_values(['steady_rays_shot_per_second', 'clients'], ascending=[True, False])
+          .groupby(['scene', 'label']).tail(1).set_index(['scene', 'label']))
+fig, axes = plt.subplots(1, 2, figsize=(12, 3.6))
+rows = []
+for ax, scene in zip(axes, ['museum', 'boeing']):
+    if scene not in set(ab.scene): continue
+    full = bestab.steady_rays_shot_per_second.get((scene, 'every rule'), float('nan'))
+    vals = [bestab.steady_rays_shot_per_second.get((scene, v), 0.0) for v in variants]
+    bars = ax.barh(range(len(variants)), [v / 1e6 for v in vals], color=[COLORS['rayline']] + ['0.6'] * (len(variants) - 1))
+    ax.bar_label(bars, labels=[f'{v / 1e6:.2f} M ({v / full:.2f}x)' if full > 0 else f'{v / 1e6:.2f} M' for v in vals], fontsize=7, padding=2)
+    ax.set_yticks(range(len(variants))); ax.set_yticklabels(variants, fontsize=8); ax.invert_yaxis()
+    ax.set_xlabel('peak rays shot / s (M), steady'); ax.set_title(f'{scene}, {ab[ab.scene == scene].platform.iloc[0]}: each rule off in turn', fontsize=9)
+    ax.set_xlim(0, max(vals) / 1e6 * 1.35 if max(vals) > 0 else 1)
+    for v in variants:
+        r = bestab.loc[(scene, v)] if (scene, v) in bestab.index else None
+        rows.append({'scene': scene, 'variant': v, 'peak clients': r.clients if r is not None else '-',
+                     'M rays shot/s': r.steady_rays_shot_per_second / 1e6 if r is not None else float('nan'),
+                     'vs every rule': r.steady_rays_shot_per_second / full if r is not None and full > 0 else float('nan'),
+                     'CPU busy': r.cpu_busy if r is not None else float('nan'), 'GPU busy': r.gpu_busy if r is not None else float('nan'),
+                     'GPU fetching': r.gpu_fetching if r is not None else float('nan'),
+                     'LAN %': 100 * float(r.lan_utilisation_mean or 0) if r is not None else float('nan'),
+                     'scheduler share': r.scheduler_share if r is not None else float('nan')})
+fig.tight_layout()
+savefig(fig, 'rayline_ablation.png')
+print(pd.DataFrame(rows).to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
 ]
 
 NB["02_central_database"] = [
@@ -164,7 +195,7 @@ clients = int(df.clients.max())
 fig, axes = plt.subplots(1, len(labels), figsize=(6 * len(labels), 4), squeeze=False, sharey=True); axes = axes[0]
 rows = []
 for label, ax in zip(labels, axes):
-    for s in SCHEDULERS:
+    for s in schedulers_in(series):
         r = series[(series.label == label) & (series.scheduler == s)].sort_values('t_s')
         if r.empty: continue
         burst = r.rays_shot_per_second.iloc[0]  # second 1: camera rays that leave the scene without visiting a block
@@ -193,16 +224,17 @@ print(t90.to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
 ws = [w for w in (10, 30, 60, 120) if f'slave_to_slave_share_{w}s' in links.columns]
 fig, axes = plt.subplots(1, len(cen), figsize=(7 * len(cen), 3.4), squeeze=False); axes = axes[0]
 for ax, lab in zip(axes, cen):
-    l = links[links.label == lab].set_index('scheduler').reindex(SCHEDULERS)
+    ss = schedulers_in(links)
+    l = links[links.label == lab].set_index('scheduler').reindex(ss)
     for j, w in enumerate(ws):
-        bars = ax.bar(np.arange(3) + (j - (len(ws) - 1) / 2) * 0.8 / len(ws), 100 * l[f'slave_to_slave_share_{w}s'].fillna(0), 0.8 / len(ws),
-                      color=[COLORS[s] for s in SCHEDULERS], alpha=0.3 + 0.7 * j / max(1, len(ws) - 1), edgecolor='k', label=f'first {w} s')
+        bars = ax.bar(np.arange(len(ss)) + (j - (len(ws) - 1) / 2) * 0.8 / len(ws), 100 * l[f'slave_to_slave_share_{w}s'].fillna(0), 0.8 / len(ws),
+                      color=[COLORS[s] for s in ss], alpha=0.3 + 0.7 * j / max(1, len(ws) - 1), edgecolor='k', label=f'first {w} s')
         ax.bar_label(bars, labels=[f'{w}s: {100 * v:.0f}%' for v in l[f'slave_to_slave_share_{w}s'].fillna(0)],
                      fontsize=6, rotation=90, padding=2)
     if not (l[[f'slave_to_slave_share_{w}s' for w in ws]].fillna(0).to_numpy() > 0).any():
-        ax.text(1, 60, 'no scene bytes went slave to slave,\\nfor any method, in any window', ha='center', fontsize=9, color='0.3')
-    ax.axhline(31, color='k', ls=':', lw=1); ax.text(2.4, 32, 'paper, GMB, first 10 s: 31 %', ha='right', fontsize=8)
-    ax.set_xticks(range(3)); ax.set_xticklabels([NAMES[s] for s in SCHEDULERS], fontsize=8); ax.legend(fontsize=7)
+        ax.text((len(ss) - 1) / 2, 60, 'no scene bytes went slave to slave,\\nfor any method, in any window', ha='center', fontsize=9, color='0.3')
+    ax.axhline(31, color='k', ls=':', lw=1); ax.text(len(ss) - 0.6, 32, 'paper, GMB, first 10 s: 31 %', ha='right', fontsize=8)
+    ax.set_xticks(range(len(ss))); ax.set_xticklabels([SHORT[s] for s in ss], fontsize=8); ax.legend(fontsize=7)
     ax.set_ylim(0, 100); ax.set_ylabel('% of LAN scene bytes'); ax.set_title(lab + ': slave-to-slave share', fontsize=9)
 savefig(fig, 'fig9_slave_to_slave.png')
 gb = links[links.label.str.startswith('central')].set_index(['label', 'scheduler'])
@@ -295,7 +327,7 @@ NB["06_stability"] = [
 def pan(ax, rows, xcol, title, xlabel, logx=False, xticks=None):
     pos = rows.steady_rays_per_second[rows.steady_rays_per_second > 0]
     floor = max(1.0, pos.min() / 5) if len(pos) else 1.0
-    for s in SCHEDULERS:
+    for s in schedulers_in(rows):
         r = rows[rows.scheduler == s].sort_values(xcol)
         if r.empty: continue
         ok = r[(r.status == 'ok') & (r.steady_rays_per_second > 0)]
@@ -307,8 +339,8 @@ def pan(ax, rows, xcol, title, xlabel, logx=False, xticks=None):
 fig, axes = plt.subplots(2, 3, figsize=(18, 9)); axes = axes.ravel(); axes[5].axis('off')
 fig.subplots_adjust(hspace=0.35, wspace=0.25)
 tk = df[df.label == 'tiny k'].copy()
-gk = tk[tk.scheduler == 'gmb']
-pan(axes[0], gk, 'horizon_s', 'tiny k: GMB starvation? (A, museum)', 'k (s)', logx=True)
+gk = tk[tk.scheduler.isin(['gmb', 'rayline'])]
+pan(axes[0], gk, 'horizon_s', 'tiny k: starvation? (A, museum)', 'k (s)', logx=True)
 for s in ['budge', 'loadanyonce']:
     r = tk[tk.scheduler == s]
     if len(r) and r.iloc[0].status == 'ok' and r.iloc[0].steady_rays_per_second > 0:
@@ -325,13 +357,13 @@ cl = df[df.label == 'clients']
 pan(axes[4], cl, 'clients', 'many clients (4A, museum)', 'clients', logx=True)
 axes[0].legend(fontsize=7, loc='lower right'); axes[0].set_ylabel('steady rays/s'); axes[3].set_ylabel('steady rays/s')
 from matplotlib.lines import Line2D
-key = [Line2D([], [], color=COLORS[s], marker='o', label=NAMES[s]) for s in SCHEDULERS]
+key = [Line2D([], [], color=COLORS[s], marker='o', label=NAMES[s]) for s in schedulers_in(df)]
 key.append(Line2D([], [], color='0.5', marker='X', markeredgecolor='red', markersize=10, ls='',
                   label='a run that stalled, failed or traced no rays\\nafter its warm-up (drawn at the floor)'))
 axes[5].legend(handles=key, loc='center', fontsize=10, frameon=False, title='every panel')
 savefig(fig, 'stability.png')
 print(df[['label', 'platform', 'scheduler', 'clients', 'horizon_s', 'status', 'steady_rays_per_second', 'busy', 'fetching',
-          'true_idle', 'queued_at_end', 'run_wall_s']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+          'true_idle', 'queued_at_end', 'queue_wait_p95_s', 'oldest_queued_s', 'sim_wall_s']].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
 ]
 
 

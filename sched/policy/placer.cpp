@@ -27,13 +27,17 @@ Time Placer::earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s) 
   Time arrive = s.after_deps_ready(j);
   if (arrive == kNever) return kNever;
   const Job& job = s.pool().job(j);
+  arrive = std::max(ready, arrive);
+  const auto never_lost = [](Time) { return false; };
   for (BlockId b : job.inputs) {
     const Copy* c = s.copy_at(b, m);
     if (!c && !may_fetch(job, b, s)) return kNever;
-    arrive = std::max(arrive, c ? s.copy_ready(*c) : finder_.arrival(b, m));
+    // Only max(arrive, SDC arrival) matters: arrival_within answers "by then" without a
+    // full search when it can, and the exact arrival (arrival()'s value) otherwise.
+    arrive = std::max(arrive, c ? s.copy_ready(*c) : finder_.arrival_within(b, m, arrive, never_lost));
     if (arrive == kNever) return kNever;
   }
-  return std::max(ready, arrive);
+  return arrive;
 }
 
 bool Placer::place(JobId j, DeviceId d, Time ready, Time now, JobPool& pool, Schedule& s, PlanStats& st) {

@@ -5,6 +5,7 @@
   scaling     Fig. 8: peak rays/s of gmb, budge, loadanyonce on A .. 4A+B+C+D+R, both scenes (cold)
   peak        Fig. 8 warm: each method's peak over clients (--clients auto), rays shot/s, compute bound
               (gmb, budge, loadanyonce and Rayline's policy)
+  ablation    Rayline's policy with each rule off in turn, 8 warm nodes, both scenes
   central     Fig. 9 (cold): only node D holds the scene; rays shot over time, slave-to-slave share
   workstation one multi-GPU workstation (platforms/workstation-4gpu.json)
   horizon     horizon k 0.2..10 s, prediction depth 0..3, scheduling-overhead share
@@ -141,6 +142,34 @@ def peak(c):
                   label=LABEL[base] + " free I/O", duration=dur, extra=["--start", "warm", "--no-timeline"])
 
 
+RAYLINE_RULES = ["ownership", "image-split", "completion", "batching", "no-waiting"]  # docs/rayline-policy.md
+
+
+def ablation(c):
+    """Rayline's policy with each rule switched off in turn (`--rayline-off RULE`), on the
+    8 warm nodes, each variant at its best of a short client sweep around the full policy's
+    peak (museum 16-64 clients, Boeing 64-256), 12 s as `peak` measures Fig. 8. Reduced:
+    one node, 1 and 2 clients, 4 s."""
+    plat = "paper-A" if c.reduced else "paper-cluster"
+    dur = "4s" if c.reduced else "12s"
+    for scene, sweep in [("museum", "1,2" if c.reduced else "16,32,64"), ("boeing", "1,2" if c.reduced else "64,128,256")]:
+        for rule in [""] + RAYLINE_RULES:
+            folder = os.path.join(c.runs, f"{scene}-{plat}-{rule or 'every-rule'}")
+            done = os.path.join(folder, "sweep.done")
+            label = f"without {rule}" if rule else "every rule"
+            if os.path.exists(done):
+                rows = rx.read_peak(folder, plat, scene, "rayline", duration=dur, experiment=c.name, label=label)
+            else:
+                rows = rx.simulate_peak(folder, plat, scene, "rayline", duration=dur, timeout=c.timeout * 12,
+                                        clients=sweep, extra=["--rayline-off", rule] if rule else [],
+                                        experiment=c.name, label=label)
+                if any(r["status"] == "ok" for r in rows):
+                    open(done, "w").close()
+            for r in rows:
+                rx.log(r)
+            c.rows.extend(rows)
+
+
 def central(c):
     """Fig. 9, cold: only node D holds the Boeing scene (blocks start on D's disk only). Paper
     NICs (D on 100 Mb/s: one 210 MB block takes 17 s to leave D), the same with every NIC at
@@ -159,14 +188,14 @@ def central(c):
     settings = [(central, "central database on D"), (central_1g, "central database on D, 1 Gb/s NICs"),
                 ("paper-cluster", "full copy on every disk")]
     for plat, label in settings[:2] if c.reduced else settings:
-        for s in SCHEDULERS:
+        for s in SCHEDULERS + ["rayline"]:
             row = c.run(f"{os.path.basename(plat).removesuffix('.json')}-{s}-c{clients}", plat, "boeing", s,
                         clients=clients, duration=dur, extra=["--start", "cold", "--warmup", "5s", "--no-timeline"],
                         label=label)
             for w in windows:
                 row.update({f"{k}_{w}s": v for k, v in _central_metrics(row["out_dir"], "D", float(w)).items()})
     # The peak each method is measured against: warm, full copy, same clients, 12 s (Fig. 8's sense).
-    for s in SCHEDULERS:
+    for s in SCHEDULERS + ["rayline"]:
         c.run(f"warm-paper-cluster-{s}-c{clients}", "paper-cluster", "boeing", s, clients=clients,
               duration="4s" if c.reduced else "12s", extra=["--start", "warm", "--no-timeline"],
               label="full copy, warm: reference peak")
@@ -269,32 +298,38 @@ def accuracy(c):
 
 
 def stability(c):
+    """Where methods fail: tiny k, memory below the working set, a 10x slower LAN, one fast
+    GPU among slow CPUs, many clients; the paper's three and Rayline's policy (docs/rayline-policy.md),
+    with each run's queue wait (p95, max, the oldest job still queued)."""
     red = c.reduced
-    # tiny k: starvation (GMB only; the baselines have no horizon: one run each as reference)
+    scheds = SCHEDULERS + ["rayline"]
+    # tiny k: starvation (GMB and Rayline's policy, which plans k/4 ahead; the baselines have
+    # no horizon: one run each as reference)
     for k in (["0.01s", "2s"] if red else ["0.005s", "0.02s", "0.05s", "0.2s", "2s"]):
         c.run(f"tinyk-{k}", "paper-A", "museum", "gmb", clients=8, horizon=k, label="tiny k")
+        c.run(f"tinyk-rayline-{k}", "paper-A", "museum", "rayline", clients=8, horizon=k, label="tiny k")
     for s in ["budge", "loadanyonce"]:
         c.run(f"tinyk-{s}", "paper-A", "museum", s, clients=8, label="tiny k")
     # memory below the working set (museum 12.3 GiB; a node has 8 GiB RAM + 6 GiB GPU)
     base = rx.load_platform("paper-A")
     for f in ([1.0, 0.05] if red else [1.0, 0.25, 0.1, 0.05, 0.025]):
         plat = rx.save_platform(rx.scaled_memory(base, f), c.variants, f"paper-A-mem{f:g}")
-        for s in SCHEDULERS:
+        for s in scheds:
             c.run(f"mem{f:g}-{s}", plat, "museum", s, clients=8, label=f"memory x{f:g}")
     # 10x slower LAN
     cl = rx.load_platform("paper-4A+B+C+D" if red else "paper-cluster")
     for f in [1.0, 0.1]:
         plat = rx.save_platform(rx.slower_lan(cl, f), c.variants, f"{cl['name']}-lan{f:g}")
-        for s in SCHEDULERS:
+        for s in scheds:
             c.run(f"lan{f:g}-{s}", plat, "museum", s, clients=8, label=f"LAN x{f:g}")
     # one very fast GPU among slow CPUs
     for gf, cf in ([(1, 1), (10, 0.1)] if red else [(1, 1), (4, 0.25), (10, 0.1), (30, 0.05)]):
         plat = rx.save_platform(rx.fast_gpu_slow_cpus(gf, cf), c.variants, f"paper-A-gpu{gf:g}-cpu{cf:g}")
-        for s in SCHEDULERS:
+        for s in scheds:
             c.run(f"gpu{gf:g}-{s}", plat, "museum", s, clients=8, label=f"GPU x{gf:g}, CPU x{cf:g}")
     # many clients: overload
     for n in ([1, 32] if red else [1, 4, 16, 64]):
-        for s in SCHEDULERS:
+        for s in scheds:
             c.run(f"clients{n}-{s}", "paper-4A", "museum", s, clients=n, label="clients")
 
 
@@ -323,7 +358,7 @@ def _write(path, rows):
     os.replace(path + ".tmp", path)
 
 
-EXPERIMENTS = {"scaling": scaling, "peak": peak, "central": central, "workstation": workstation, "horizon": horizon,
+EXPERIMENTS = {"scaling": scaling, "peak": peak, "ablation": ablation, "central": central, "workstation": workstation, "horizon": horizon,
                "accuracy": accuracy, "stability": stability, "scale": scale}
 
 
