@@ -47,6 +47,36 @@ BlockId scene_block(JobPool& pool, Schedule& s, const Cluster& c, Bytes bytes, c
   for (MemId d : c.disk) s.put_initial(b, d);
   return b;
 }
+
+// Eight 1.5 GB scene blocks (12 GB: more than one node of Cluster holds, so two nodes split them).
+std::vector<BlockId> eight_blocks(JobPool& pool, Schedule& s, const Cluster& c) {
+  std::vector<BlockId> scene;
+  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));
+  return scene;
+}
+
+// Two nodes, the eight blocks, and rays for every block on node 0 (job i reads block i),
+// run to the end under Rayline's policy with `o`.
+struct EightQueuesOnNode0 {
+  Cluster c{2, false};
+  JobPool pool;
+  Schedule s{c.g, pool};
+  RaylineScheduler rs;
+  explicit EightQueuesOnNode0(RaylineOptions o) : rs(o) {
+    const std::vector<BlockId> scene = eight_blocks(pool, s, c);
+    for (int b = 0; b < 8; ++b) ray_job(pool, s, scene[static_cast<std::size_t>(b)], 4 * kMB, c.ram[0], std::to_string(b));
+    ExactExecutor ex(s);
+    StaticWorkload wl;
+    RuntimeLoop loop(rs, ex, wl, pool, s);
+    stalled = loop.run().stalled;
+  }
+  bool stalled = true;
+  void expect_done_and_valid() {
+    for (JobId j = 0; j < static_cast<JobId>(pool.job_count()); ++j) EXPECT_EQ(pool.state(j), JobState::Done);
+    const auto chk = rayline::testing::check_schedule(s, pool);
+    for (const auto& e : chk.errors) ADD_FAILURE() << e;
+  }
+};
 }  // namespace
 
 TEST(RaylineOwnership, ReplicatedWhenEveryNodeHoldsTheScene) {
@@ -133,37 +163,25 @@ TEST(RaylineOwnership, ANodeOnASlowLinkOwnsNothing) {
 }
 
 TEST(Rayline, RayJobsRunOnTheirBlocksOwnerAndSceneDataNeverCrossesTheLan) {
-  const Cluster c(2, false);
-  JobPool pool;
-  Schedule s(c.g, pool);
-  std::vector<BlockId> scene;
-  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));  // 12 GB
-  // Rays for every block on node 0: the ones for node 1's blocks cross the LAN.
-  for (int b = 0; b < 8; ++b) ray_job(pool, s, scene[static_cast<std::size_t>(b)], 4 * kMB, c.ram[0], std::to_string(b));
-  RaylineScheduler rs;
-  ExactExecutor ex(s);
-  StaticWorkload wl;
-  RuntimeLoop loop(rs, ex, wl, pool, s);
-  ASSERT_FALSE(loop.run().stalled);
-  const Ownership& o = rs.ownership();
+  EightQueuesOnNode0 r{RaylineOptions{}};  // node 1's blocks: their rays cross the LAN
+  ASSERT_FALSE(r.stalled);
+  const Ownership& o = r.rs.ownership();
   ASSERT_FALSE(o.replicated());
   int crossed = 0;
-  for (std::size_t i = 0; i < s.activity_count(); ++i) {
-    const Activity& a = s.activity(static_cast<ActivityId>(i));
+  for (std::size_t i = 0; i < r.s.activity_count(); ++i) {
+    const Activity& a = r.s.activity(static_cast<ActivityId>(i));
     if (a.kind == ActivityKind::Exec) {
       const std::size_t b = static_cast<std::size_t>(a.job);  // job i reads scene[i]
-      EXPECT_EQ(c.g.computes[a.device].node, o.owner[0][b]) << "job " << a.job;
+      EXPECT_EQ(r.c.g.computes[a.device].node, o.owner[0][b]) << "job " << a.job;
       continue;
     }
-    const Channel& ch = c.g.channels[a.channel];
-    if (c.g.memories[ch.from].node == c.g.memories[ch.to].node) continue;
-    EXPECT_EQ(pool.block(a.block).kind, DataKind::RayQueue);
+    const Channel& ch = r.c.g.channels[a.channel];
+    if (r.c.g.memories[ch.from].node == r.c.g.memories[ch.to].node) continue;
+    EXPECT_EQ(r.pool.block(a.block).kind, DataKind::RayQueue);
     ++crossed;
   }
   EXPECT_EQ(crossed, 4);  // node 1 owns the second half
-  for (JobId j = 0; j < static_cast<JobId>(pool.job_count()); ++j) EXPECT_EQ(pool.state(j), JobState::Done);
-  const auto chk = rayline::testing::check_schedule(s, pool);
-  for (const auto& e : chk.errors) ADD_FAILURE() << e;
+  r.expect_done_and_valid();
 }
 
 TEST(Rayline, CompletionAwareChoiceTakesTheDeviceThatFinishesFirst) {
@@ -186,28 +204,34 @@ TEST(Rayline, CompletionAwareChoiceTakesTheDeviceThatFinishesFirst) {
 }
 
 TEST(Rayline, RemoteRaysWaitUntilWorthATransferUnlessTheNodeIsIdle) {
-  const Cluster c(2, false);
-  JobPool pool;
-  Schedule s(c.g, pool);
-  std::vector<BlockId> scene;
-  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));
-  for (int b = 5; b < 8; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[1], 0, false);  // warm
-  RaylineScheduler rs;  // horizon 0.5 s, min_remote_bytes 256 KiB, hold 0.1 s
-  // Node 1 busy for 0.2 s with rays already there (6.4 MB at 32 MB/s).
-  const JobId local = ray_job(pool, s, scene[7], 6'400'000, c.ram[1], "local");
-  rs.plan(0, pool, s);
-  ASSERT_EQ(pool.state(local), JobState::Planned);
-  ASSERT_EQ(rs.ownership().owner[0][7], 1);
-  // A few remote rays for node 1's block wait while node 1 is busy; a large queue goes.
-  const JobId few = ray_job(pool, s, scene[6], 64'000, c.ram[0], "few", 0.01);
-  const JobId many = ray_job(pool, s, scene[5], 1 * kMB, c.ram[0], "many", 0.01);
-  rs.plan(0.01, pool, s);
-  EXPECT_EQ(pool.state(few), JobState::Queued);
-  EXPECT_EQ(pool.state(many), JobState::Planned);
-  rs.plan(0.05, pool, s);
-  EXPECT_EQ(pool.state(few), JobState::Queued) << "held for 0.1 s";
-  rs.plan(0.12, pool, s);
-  EXPECT_EQ(pool.state(few), JobState::Planned) << "held no longer than 0.1 s";
+  for (const bool batching : {true, false}) {
+    const Cluster c(2, false);
+    JobPool pool;
+    Schedule s(c.g, pool);
+    const std::vector<BlockId> scene = eight_blocks(pool, s, c);
+    for (int b = 5; b < 8; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[1], 0, false);  // warm
+    // Horizon 0.5 s, min_remote_bytes 256 KiB, hold 0.1 s (rule 4), or without rule 4.
+    RaylineScheduler rs(rayline_options(0.5, batching ? 0u : *rayline_rules_off("batching")));
+    // Node 1 busy for 0.2 s with rays already there (6.4 MB at 32 MB/s).
+    const JobId local = ray_job(pool, s, scene[7], 6'400'000, c.ram[1], "local");
+    rs.plan(0, pool, s);
+    ASSERT_EQ(pool.state(local), JobState::Planned);
+    ASSERT_EQ(rs.ownership().owner[0][7], 1);
+    // A few remote rays for node 1's block wait while node 1 is busy; a large queue goes.
+    const JobId few = ray_job(pool, s, scene[6], 64'000, c.ram[0], "few", 0.01);
+    const JobId many = ray_job(pool, s, scene[5], 1 * kMB, c.ram[0], "many", 0.01);
+    rs.plan(0.01, pool, s);
+    EXPECT_EQ(pool.state(many), JobState::Planned);
+    if (!batching) {
+      EXPECT_EQ(pool.state(few), JobState::Planned) << "without rule 4, at once";
+      continue;
+    }
+    EXPECT_EQ(pool.state(few), JobState::Queued);
+    rs.plan(0.05, pool, s);
+    EXPECT_EQ(pool.state(few), JobState::Queued) << "held for 0.1 s";
+    rs.plan(0.12, pool, s);
+    EXPECT_EQ(pool.state(few), JobState::Planned) << "held no longer than 0.1 s";
+  }
 }
 
 TEST(Rayline, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
@@ -278,43 +302,16 @@ TEST(RaylineRules, NamesSwitchOffTheirRule) {
 }
 
 TEST(RaylineRules, WithoutOwnershipRaysStayAndTheSceneComesToThem) {
-  const Cluster c(2, false);
-  JobPool pool;
-  Schedule s(c.g, pool);
-  std::vector<BlockId> scene;
-  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));
-  for (int b = 0; b < 8; ++b) ray_job(pool, s, scene[static_cast<std::size_t>(b)], 4 * kMB, c.ram[0], std::to_string(b));
-  RaylineScheduler rs(rayline_options(0.5, *rayline_rules_off("ownership")));
-  ExactExecutor ex(s);
-  StaticWorkload wl;
-  RuntimeLoop loop(rs, ex, wl, pool, s);
-  ASSERT_FALSE(loop.run().stalled);
-  for (std::size_t i = 0; i < s.activity_count(); ++i) {
-    const Activity& a = s.activity(static_cast<ActivityId>(i));
+  EightQueuesOnNode0 r{rayline_options(0.5, *rayline_rules_off("ownership"))};
+  ASSERT_FALSE(r.stalled);
+  for (std::size_t i = 0; i < r.s.activity_count(); ++i) {
+    const Activity& a = r.s.activity(static_cast<ActivityId>(i));
     if (a.kind == ActivityKind::Exec) {
-      EXPECT_EQ(c.g.computes[a.device].node, 0) << "job " << a.job << " runs where its rays are";
+      EXPECT_EQ(r.c.g.computes[a.device].node, 0) << "job " << a.job << " runs where its rays are";
     } else {
-      const Channel& ch = c.g.channels[a.channel];
-      EXPECT_EQ(c.g.memories[ch.from].node, c.g.memories[ch.to].node) << "nothing crosses the LAN";
+      const Channel& ch = r.c.g.channels[a.channel];
+      EXPECT_EQ(r.c.g.memories[ch.from].node, r.c.g.memories[ch.to].node) << "nothing crosses the LAN";
     }
   }
-  for (JobId j = 0; j < static_cast<JobId>(pool.job_count()); ++j) EXPECT_EQ(pool.state(j), JobState::Done);
-  const auto chk = rayline::testing::check_schedule(s, pool);
-  for (const auto& e : chk.errors) ADD_FAILURE() << e;
-}
-
-TEST(RaylineRules, WithoutBatchingRemoteRaysGoAtOnce) {
-  const Cluster c(2, false);
-  JobPool pool;
-  Schedule s(c.g, pool);
-  std::vector<BlockId> scene;
-  for (int b = 0; b < 8; ++b) scene.push_back(scene_block(pool, s, c, 1500 * kMB, std::to_string(b)));
-  for (int b = 5; b < 8; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[1], 0, false);
-  RaylineScheduler rs(rayline_options(0.5, *rayline_rules_off("batching")));
-  const JobId local = ray_job(pool, s, scene[7], 6'400'000, c.ram[1], "local");
-  rs.plan(0, pool, s);
-  ASSERT_EQ(pool.state(local), JobState::Planned);
-  const JobId few = ray_job(pool, s, scene[6], 64'000, c.ram[0], "few", 0.01);
-  rs.plan(0.01, pool, s);
-  EXPECT_EQ(pool.state(few), JobState::Planned) << "the rule that held it (previous test) is off";
+  r.expect_done_and_valid();
 }
