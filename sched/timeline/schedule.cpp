@@ -176,11 +176,13 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
   if (chosen.size() > 1) {
     std::vector<std::uint32_t> by_late(chosen);
     std::stable_sort(by_late.begin(), by_late.end(), [&](std::uint32_t a, std::uint32_t b) { return cands[a].at > cands[b].at; });
+    std::vector<char> dropped(cands.size(), 0);
     for (std::uint32_t i : by_late)
       if (free - static_cast<std::int64_t>(cands[i].bytes) >= want) {
         free -= static_cast<std::int64_t>(cands[i].bytes);
-        std::erase(chosen, i);
+        dropped[i] = 1;
       }
+    std::erase_if(chosen, [&](std::uint32_t i) { return dropped[i] != 0; });  // one pass, order kept
   }
   // Every candidate left is needed, so only the last one can free more than the need.
   free = free0;
