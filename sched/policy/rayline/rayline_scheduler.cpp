@@ -140,7 +140,6 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     fresh_.clear();
     recheck_.clear();
     planned_at_.clear();
-    idle_after_.clear();
     reprojected_ = -kNever;
     long_wait_job_.clear();
   }
@@ -153,10 +152,10 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       if (s.compute_alive(d) && free_at(d, now, s) < now + 0.5 * opt_.horizon) return true;
     return false;
   };
-  auto idle = [&](std::size_t n) {  // live devices free now
-    std::size_t k = 0;
-    for (DeviceId d : g.nodes[n].computes) k += s.compute_alive(d) && free_at(d, now, s) <= now ? 1 : 0;
-    return k;
+  auto idle = [&](std::size_t n) {  // a live device free now
+    for (DeviceId d : g.nodes[n].computes)
+      if (s.compute_alive(d) && free_at(d, now, s) <= now) return true;
+    return false;
   };
   bool any = false;
   for (std::size_t n = 0; n < g.nodes.size() && !any; ++n) any = wants_work(n);
@@ -171,7 +170,6 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   if (fresh_.size() != g.nodes.size() + 1) fresh_.assign(g.nodes.size() + 1, true);
   if (recheck_.size() != g.nodes.size()) recheck_.assign(g.nodes.size(), -kNever);
   if (planned_at_.size() != g.nodes.size()) planned_at_.assign(g.nodes.size(), -kNever);
-  if (idle_after_.size() != g.nodes.size()) idle_after_.assign(g.nodes.size(), 0);
   for (JobId j : pool.queued_since(bucketed_)) {
     const NodeId h = home(j, pool, s);
     const std::size_t k = h == kNone ? g.nodes.size() : static_cast<std::size_t>(h);
@@ -187,11 +185,10 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   todo.clear();
   for (std::size_t n = 0; n < g.nodes.size(); ++n) {
     if (by_node_[n].empty() && by_node_[any_bucket].empty()) continue;
-    // New jobs are looked at no more than once per `slack` unless a device fell idle since
-    // the node's last pass (one that pass left idle, finding nothing it could take, waits),
-    // or nothing at all is in flight (no later event would call again).
+    // New jobs are looked at no more than once per `slack` unless a device is idle, or
+    // nothing at all is in flight (no later event would call again).
     const bool due = (fresh_[n] || fresh_[any_bucket]) ? now >= planned_at_[n] + opt_.slack : now >= recheck_[n];
-    if (!due && !drained && idle(n) <= idle_after_[n]) continue;
+    if (!due && !drained && idle(n) == 0) continue;
     if (wants_work(n)) todo.push_back(n);
   }
   if (todo.empty()) return done();
@@ -209,7 +206,6 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     planned_at_[n] = now;
     plan_node(n, now, pool, s, st);
     recheck_[n] = now + 0.25 * opt_.hold;
-    idle_after_[n] = idle(n);
   }
   fresh_[any_bucket] = false;
   return done();
