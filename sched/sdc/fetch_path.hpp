@@ -58,7 +58,7 @@ class FetchPathFinder {
   Time arrival_within(BlockId b, MemId m, Time enough, const Lost& lost, Time* proven = nullptr, int* hops = nullptr) {
     // (Inline: a ray queue is usually answered by its first hop, single_holder_direct().)
     bool single = false;  // single_holder_direct() applied (and left it open)
-    if (!hops && !scene_local_) {
+    if (!hops && !restricted(b)) {
       const Time a = single_holder_direct(b, m, true, nullptr, &single);
       if (a == a) {  // (NaN: not settled that way)
         if (a <= enough || !lost(a)) return a;
@@ -98,6 +98,11 @@ class FetchPathFinder {
     if (on != scene_local_) { scene_local_ = on; clear(); }
   }
   bool scene_from_origin_or_local() const { return scene_local_; }
+  // Whether b's roots depend on the destination's node (scene data under the rule above);
+  // every other block starts from all its holders, memoised and short-cut as usual.
+  bool restricted(BlockId b) const {
+    return scene_local_ && schedule_->pool().block(b).kind == DataKind::SceneData;
+  }
 
   std::uint64_t searches() const { return searches_; }
   std::uint64_t hits() const { return hits_; }
@@ -279,7 +284,7 @@ Time FetchPathFinder::arrival_within_open(BlockId b, MemId m, Time enough, const
     if (proven) *proven = a;
     return kNever;
   };
-  if (scene_local_) {  // roots depend on the destination's node: the plain way
+  if (restricted(b)) {  // roots depend on the destination's node: the plain way
     if (hops) {
       std::vector<ChannelId> p;
       path(b, m, p);
