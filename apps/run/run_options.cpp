@@ -46,10 +46,12 @@ SchedulerChoice scheduler_choice(const std::string& name, Time horizon, const Ag
 
 unsigned rayline_rules_flag(const std::string& list, SchedulerKind kind) {
   if (list.empty()) return 0;
-  std::string names;
-  for (std::string_view n : kRaylineRuleNames) (names.empty() ? names : names.append(", ")).append(n);
   const std::optional<unsigned> mask = rayline_rules_off(list);
-  if (!mask) throw InputError("--rayline-off", "", "unknown rule in '" + list + "' (rules: " + names + ")");
+  if (!mask) {
+    std::string names;
+    for (std::string_view n : kRaylineRuleNames) (names.empty() ? names : names.append(", ")).append(n);
+    throw InputError("--rayline-off", "", "unknown rule in '" + list + "' (rules: " + names + ")");
+  }
   if (kind != SchedulerKind::Rayline) throw InputError("--rayline-off", "", "applies to --scheduler rayline only");
   return *mask;
 }

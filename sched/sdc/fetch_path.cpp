@@ -223,8 +223,7 @@ std::uint64_t FetchPathFinder::path_stamp(const Tree& t, MemId m) const {
 bool FetchPathFinder::tree_valid(BlockId b, MemId m) {
   if (static_cast<std::size_t>(b) >= trees_.size()) trees_.resize(schedule_->pool().block_count());
   const Tree& t = trees_[static_cast<std::size_t>(b)];
-  const bool restricted = scene_local_ && schedule_->pool().block(b).kind == DataKind::SceneData;
-  restrict_node_ = restricted ? schedule_->graph().memories[m].node : kNone;
+  restrict_node_ = restricted(b) ? schedule_->graph().memories[m].node : kNone;
   return t.valid && t.holders_version == schedule_->holders_version(b) && t.node == restrict_node_ &&
          stamp_[static_cast<std::size_t>(t.slot) * n_ + static_cast<std::size_t>(m)] == path_stamp(t, m);
 }

@@ -94,21 +94,16 @@ def simulate(out_dir, platform, scene, scheduler, clients=4, horizon="2s", depth
            "--out", out_dir] + list(extra)
     # RAYLINE_EXP_REUSE=1: a run whose folder already holds a metrics.json (an earlier,
     # finished run of the same command) is read, not run again.
-    if os.environ.get("RAYLINE_EXP_REUSE", "") not in ("", "0") and os.path.exists(os.path.join(out_dir, "metrics.json")):
-        status, rc, wall = "ok", 0, ""
-        row = {k: "" for k in FIELDS}
-        row.update(labels)
-        row.update(platform=os.path.basename(platform).removesuffix(".json"), scene=scene, scheduler=scheduler,
-                   clients=clients, horizon_s=_seconds(horizon), prediction_depth=depth, fidelity=fidelity,
-                   duration_s=_seconds(duration), status=status, exit_code=rc, run_wall_s="", out_dir=out_dir)
-        return read_run(row, out_dir, outcome_from_metrics=True)
-    status, rc, wall = run_rayline(cmd, out_dir, timeout)
+    reuse = (os.environ.get("RAYLINE_EXP_REUSE", "") not in ("", "0")
+             and os.path.exists(os.path.join(out_dir, "metrics.json")))
+    status, rc, wall = ("ok", 0, "") if reuse else run_rayline(cmd, out_dir, timeout)
     row = {k: "" for k in FIELDS}
     row.update(labels)
     row.update(platform=os.path.basename(platform).removesuffix(".json"), scene=scene, scheduler=scheduler,
                clients=clients, horizon_s=_seconds(horizon), prediction_depth=depth, fidelity=fidelity,
-               duration_s=_seconds(duration), status=status, exit_code=rc, run_wall_s=round(wall, 3), out_dir=out_dir)
-    return read_run(row, out_dir)
+               duration_s=_seconds(duration), status=status, exit_code=rc,
+               run_wall_s="" if reuse else round(wall, 3), out_dir=out_dir)
+    return read_run(row, out_dir, outcome_from_metrics=reuse)
 
 
 def simulate_peak(out_dir, platform, scene, scheduler, duration="12s", timeout=1800, extra=(), clients="auto", **labels):

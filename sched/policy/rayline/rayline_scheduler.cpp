@@ -14,20 +14,21 @@ std::optional<unsigned> rayline_rules_off(std::string_view list) {
     const std::string_view name = list.substr(0, comma);
     list = comma == std::string_view::npos ? std::string_view{} : list.substr(comma + 1);
     if (name.empty()) continue;
-    const auto* it = std::find(std::begin(kRaylineRuleNames), std::end(kRaylineRuleNames), name);
-    if (it == std::end(kRaylineRuleNames)) return std::nullopt;
-    mask |= 1u << (it - std::begin(kRaylineRuleNames));
+    const unsigned bit = rayline_rule_bit(name);
+    if (bit == 0) return std::nullopt;
+    mask |= bit;
   }
   return mask;
 }
 
 RaylineOptions rayline_options(Time horizon, unsigned off) {
   RaylineOptions o{.horizon = horizon};
-  o.ownership = !(off & 1u);
-  o.image_split = !(off & 2u);
-  o.completion_aware = !(off & 4u);
-  if (off & 8u) o.min_remote_bytes = 0;
-  o.no_waiting = !(off & 16u);
+  const auto on = [off](std::string_view rule) { return (off & rayline_rule_bit(rule)) == 0; };
+  o.ownership = on("ownership");
+  o.image_split = on("image-split");
+  o.completion_aware = on("completion");
+  if (!on("batching")) o.min_remote_bytes = 0;
+  o.no_waiting = on("no-waiting");
   return o;
 }
 

@@ -53,6 +53,11 @@ struct RaylineOptions {
 // std::nullopt names an unknown rule.
 inline constexpr std::string_view kRaylineRuleNames[] = {"ownership", "image-split", "completion", "batching",
                                                          "no-waiting"};
+constexpr unsigned rayline_rule_bit(std::string_view name) {
+  for (unsigned i = 0; i < std::size(kRaylineRuleNames); ++i)
+    if (kRaylineRuleNames[i] == name) return 1u << i;
+  return 0;
+}
 std::optional<unsigned> rayline_rules_off(std::string_view list);
 RaylineOptions rayline_options(Time horizon, unsigned rules_off);
 
