@@ -33,6 +33,139 @@ FetchBound::FetchBound(const DeviceGraph& g) : n_(g.memories.size()) {
       lat_to_[j * n_ + i] = lat_[i * n_ + j];
       inv_bw_to_[j * n_ + i] = inv_bw_[i * n_ + j];
     }
+  network_groups(g);
+  build_relay_runs(g);
+}
+
+void FetchBound::build_relay_runs(const DeviceGraph& g) {
+  relay_runs_.assign(n_, {});
+  std::vector<ChannelId> channels;
+  for (std::size_t m = 0; m < n_; ++m) {
+    const std::vector<Relay>& rs = relay_in_[m];
+    auto key = [&](const Relay& r) {
+      const std::int32_t k = g.channels[static_cast<std::size_t>(r.channel)].network;
+      return k >= 0 ? group_of(k, r.from) : -1;
+    };
+    for (std::uint32_t i = 0; i < rs.size();) {
+      const std::int32_t group = key(rs[i]);
+      std::uint32_t e = i + 1;
+      while (group >= 0 && e < rs.size() && key(rs[e]) == group) ++e;
+      RelayRun run{i, e, {}, kNever, 0};
+      channels.clear();
+      for (std::uint32_t j = i; j < e; ++j) {
+        channels.push_back(rs[j].channel);
+        run.min_latency = std::min(run.min_latency, rs[j].latency);
+        run.max_bandwidth = std::max(run.max_bandwidth, rs[j].bandwidth);
+      }
+      run.common = common_resources(g, channels);
+      relay_runs_[m].push_back(run);
+      i = e;
+    }
+  }
+}
+
+FetchBound::Common FetchBound::common_resources(const DeviceGraph& g, const std::vector<ChannelId>& channels) {
+  Common out;
+  if (channels.empty()) return out;
+  int k = 0;
+  for (ResourceId r : g.channels[static_cast<std::size_t>(channels.front())].resources) {
+    bool everywhere = true;
+    for (ChannelId c : channels) {
+      const auto& rs = g.channels[static_cast<std::size_t>(c)].resources;
+      everywhere = everywhere && std::find(rs.begin(), rs.end(), r) != rs.end();
+    }
+    if (everywhere && k < kCommon) out.r[k++] = r;
+  }
+  return out;
+}
+
+void FetchBound::network_groups(const DeviceGraph& g) {
+  const std::size_t nets = g.networks.size();
+  group_of_.assign(nets * n_, -1);
+  std::vector<std::int32_t> group_network;
+  for (std::size_t k = 0; k < nets; ++k) {
+    const Network& net = g.networks[k];
+    const auto base = static_cast<std::int32_t>(group_network.size());
+    const std::size_t count = std::max<std::size_t>(1, net.racks.size());
+    for (std::size_t r = 0; r < count; ++r) group_network.push_back(static_cast<std::int32_t>(k));
+    for (const NetworkMember& q : net.members)
+      group_of_[k * n_ + static_cast<std::size_t>(q.memory)] = base + (q.rack >= 0 ? q.rack : 0);
+  }
+  groups_ = group_network.size();
+  network_rest_.assign(n_ * groups_, NetworkRest{});
+  // Cuts: per group, its nodes, and the channels leaving and entering them.
+  nodes_ = g.nodes.size();
+  node_of_.resize(n_);
+  for (std::size_t m = 0; m < n_; ++m) node_of_[m] = g.memories[m].node;
+  node_group_.assign(nets * nodes_, -1);
+  groups_info_.assign(groups_, Group{});
+  std::vector<std::vector<char>> in_group(groups_, std::vector<char>(nodes_, 0));
+  for (std::size_t k = 0; k < nets; ++k)
+    for (const NetworkMember& q : g.networks[k].members) {
+      const std::int32_t gi = group_of(static_cast<std::int32_t>(k), q.memory);
+      node_group_[k * nodes_ + static_cast<std::size_t>(q.node)] = gi;
+      in_group[static_cast<std::size_t>(gi)][static_cast<std::size_t>(q.node)] = 1;
+    }
+  overlap_.assign(groups_ * groups_, 0);
+  for (std::size_t a = 0; a < groups_; ++a)
+    for (std::size_t b = 0; b < groups_; ++b)
+      for (std::size_t v = 0; v < nodes_ && !overlap_[a * groups_ + b]; ++v)
+        overlap_[a * groups_ + b] = in_group[a][v] && in_group[b][v];
+  {
+    std::vector<ChannelId> leave, enter;
+    for (std::size_t gi = 0; gi < groups_; ++gi) {
+      Group& gr = groups_info_[gi];
+      gr.network = group_network[gi];
+      leave.clear();
+      enter.clear();
+      for (std::size_t c = 0; c < g.channels.size(); ++c) {
+        const Channel& ch = g.channels[c];
+        const bool from_in = in_group[gi][static_cast<std::size_t>(node_of_[static_cast<std::size_t>(ch.from)])];
+        const bool to_in = in_group[gi][static_cast<std::size_t>(node_of_[static_cast<std::size_t>(ch.to)])];
+        if (from_in && !to_in) leave.push_back(static_cast<ChannelId>(c));
+        if (!from_in && to_in) enter.push_back(static_cast<ChannelId>(c));
+      }
+      gr.leave = common_resources(g, leave);
+      gr.enter = common_resources(g, enter);
+      if (!enter.empty()) gr.enter_bandwidth = 0;
+      for (ChannelId c : enter) {
+        gr.enter_latency = std::min(gr.enter_latency, g.channels[static_cast<std::size_t>(c)].latency);
+        gr.enter_bandwidth = std::max(gr.enter_bandwidth, g.channels[static_cast<std::size_t>(c)].bandwidth);
+      }
+    }
+  }
+  std::vector<std::vector<MemId>> members(groups_);
+  for (std::size_t k = 0; k < nets; ++k)
+    for (const NetworkMember& q : g.networks[k].members)
+      members[static_cast<std::size_t>(group_of(static_cast<std::int32_t>(k), q.memory))].push_back(q.memory);
+  std::vector<std::vector<ChannelId>> in(groups_);  // per group: its members' channels into m
+  for (std::size_t m = 0; m < n_; ++m) {
+    for (std::size_t gi = 0; gi < groups_; ++gi) {
+      NetworkRest& r = network_rest_[m * groups_ + gi];
+      for (MemId q : members[gi]) {
+        if (static_cast<std::size_t>(q) == m) continue;
+        const std::size_t at = m * n_ + static_cast<std::size_t>(q);
+        r.latency = std::min(r.latency, lat_to_[at]);
+        r.inv_bw = std::min(r.inv_bw, inv_bw_to_[at]);
+      }
+      in[gi].clear();
+    }
+    for (ChannelId c : g.in_channels(static_cast<MemId>(m))) {
+      const MemId q = g.channels[static_cast<std::size_t>(c)].from;
+      for (std::size_t k = 0; k < nets; ++k)
+        if (const std::int32_t gi = group_of(static_cast<std::int32_t>(k), q); gi >= 0) in[static_cast<std::size_t>(gi)].push_back(c);
+    }
+    for (std::size_t gi = 0; gi < groups_; ++gi) {
+      NetworkRest& r = network_rest_[m * groups_ + gi];
+      if (in[gi].empty()) continue;  // no channel into m from the group: relays only
+      r.in = common_resources(g, in[gi]);
+      r.in_bandwidth = 0;
+      for (ChannelId c : in[gi]) {
+        r.in_latency = std::min(r.in_latency, g.channels[static_cast<std::size_t>(c)].latency);
+        r.in_bandwidth = std::max(r.in_bandwidth, g.channels[static_cast<std::size_t>(c)].bandwidth);
+      }
+    }
+  }
 }
 
 // L and W (see the header) by Floyd-Warshall, with leaves peeled first: a memory device
@@ -195,7 +328,7 @@ Time FetchBound::last_hop_floor(const Schedule& s, BlockId b, MemId m) const {
   auto term = [&](const Relay& r) {
     if (const Time t = r.lands_before(s.channel_finish(r.channel), w, best); t < best) best = t;
   };
-  for (const Relay& r : relay_in_[static_cast<std::size_t>(m)]) term(r);
+  best = relay_min(s, m, w, best, -kNever, [](const Relay&) { return true; });
   // A holder's own channel into m that is no relay channel (from m's GPU memory or disk).
   for (const Relay& r : own_in_[static_cast<std::size_t>(m)])
     if (s.copy_at(b, r.from)) term(r);

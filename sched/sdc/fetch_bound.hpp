@@ -72,7 +72,81 @@ class FetchBound {
     }
   };
   const std::vector<Relay>& relay_in(MemId m) const { return relay_in_[static_cast<std::size_t>(m)]; }
+  // The least Relay::lands_before(FinishTime(c), w, ·) over m's relays `admit` takes, and
+  // `end`, whichever is less; returns as soon as it is below `stop_below`. The relays
+  // come in runs (one group's members over one network, NetworkFloor below): a run whose
+  // floor, max(busy(its common resources)) + lat_min + |w| / bw_max, is no less than the
+  // minimum so far cannot lower it and is skipped whole (the same minimum).
+  template <class Admit>
+  Time relay_min(const Schedule& s, MemId m, double w, Time end, Time stop_below, const Admit& admit) const {
+    const std::vector<Relay>& rs = relay_in_[static_cast<std::size_t>(m)];
+    for (const RelayRun& run : relay_runs_[static_cast<std::size_t>(m)]) {
+      if (run.end - run.begin >= kMinRelayRun && !(run.common.busy(s) + (run.min_latency + w / run.max_bandwidth) < end))
+        continue;
+      for (std::uint32_t i = run.begin; i < run.end; ++i) {
+        const Relay& r = rs[i];
+        if (!admit(r)) continue;
+        if (const Time t = r.lands_before(s.channel_finish(r.channel), w, end); t < end) {
+          end = t;
+          if (end < stop_below) return end;
+        }
+      }
+    }
+    return end;
+  }
   const ChannelId* direct_to(MemId m) const { return direct_to_.data() + static_cast<std::size_t>(m) * n_; }
+  // NetworkFloor. A network's members fall into groups (its racks; all of them without
+  // racks). The search meets a network's channels out of one member p to one group's
+  // members as a run: with l the label at p, every channel c = p -> q of the run lands at
+  //     l_q = max(l, FinishTime(c)) + T_TRANS(c, |w|) >= L = max(l, busy(R)) + lat_min + |w| / bw_max
+  // where FinishTime(c) is the latest busy-until of c's resources, R the resources every
+  // channel of the run uses (p's NIC-out; between racks also the uplink and backbone), and
+  // lat_min, bw_max over the run. The search's bound through q != m is the larger of
+  //  * the uncontended rest: (l_q + (L(q, m) + |w| W(q, m)) (1 - 1e-9)) (1 - 1e-14), with
+  //    L and W no smaller than their minima over the group's members other than m;
+  //  * the last hop: the least relayed one (`relay_end`) or a channel from q into m,
+  //    which lands no earlier than max(L, busy(R_in)) + lat + |w| / bw, R_in the resources
+  //    every channel from the group into m uses, lat and bw the least and largest of them.
+  // The same operations as the search's bound, each monotone, so the value is a floor of
+  // every member's bound, in floating point too. And when m's node is in another group H
+  // (a rack of the same network) that shares no node with this one, a cut: every path from
+  // the run's members to m leaves the group's nodes by some channel and enters H's by a
+  // last such channel, which starts after l_q, the resources every leaving channel uses
+  // and those every entering channel uses are free:
+  //     arrival >= max(L, busy(R_leave), busy(R_enter)) + least T_TRANS of an entering channel.
+  // Not a floor of the search's bound, but of every arrival through the run: what a
+  // skipped run could give m is no better than m's label.
+  static constexpr int kCommon = 4;  // resources kept of a common set (a subset: a smaller floor)
+  struct Common {
+    ResourceId r[kCommon] = {kNone, kNone, kNone, kNone};
+    Time busy(const Schedule& s) const {
+      Time t = 0;
+      for (ResourceId x : r)
+        if (x != kNone) t = std::max(t, s.resource_timeline(x).busy_until);
+      return t;
+    }
+  };
+  // Resources on every one of these channels (at most kCommon of them).
+  static Common common_resources(const DeviceGraph& g, const std::vector<ChannelId>& channels);
+  std::int32_t group_of(std::int32_t k, MemId q) const {
+    return group_of_[static_cast<std::size_t>(k) * n_ + static_cast<std::size_t>(q)];
+  }
+  Time network_floor(const Schedule& s, MemId m, std::int32_t group, Time l, const Common& out, Time min_latency,
+                     double max_bandwidth, double w, Time relay_end) const {
+    const NetworkRest& r = network_rest_[static_cast<std::size_t>(m) * groups_ + static_cast<std::size_t>(group)];
+    const Time lq = std::max(l, out.busy(s)) + (min_latency + w / max_bandwidth);
+    const Time free_run = (lq + (r.latency + w * r.inv_bw) * (1 - 1e-9)) * (1 - 1e-14);
+    const Time last = std::min(relay_end, std::max(lq, r.in.busy(s)) + (r.in_latency + w / r.in_bandwidth));
+    Time floor = std::max(free_run, last);
+    const Group& from = groups_info_[static_cast<std::size_t>(group)];
+    const std::int32_t h = node_group_[static_cast<std::size_t>(from.network) * nodes_ + static_cast<std::size_t>(node_of_[static_cast<std::size_t>(m)])];
+    if (h >= 0 && h != group && !overlap_[static_cast<std::size_t>(group) * groups_ + static_cast<std::size_t>(h)]) {
+      const Group& to = groups_info_[static_cast<std::size_t>(h)];
+      const Time cut = std::max({lq, from.leave.busy(s), to.enter.busy(s)}) + (to.enter_latency + w / to.enter_bandwidth);
+      floor = std::max(floor, cut);
+    }
+    return floor;
+  }
 
  private:
   Time holders_bound(const Schedule& s, BlockId b, MemId m, Time now) const {
@@ -91,7 +165,40 @@ class FetchBound {
   std::vector<double> lat_, inv_bw_;  // n x n, +inf where unreachable
   std::vector<double> lat_to_, inv_bw_to_;  // the same, transposed (rows by destination)
   std::vector<std::vector<Relay>> relay_in_;
+  struct RelayRun {
+    std::uint32_t begin, end;  // in relay_in_[m]
+    Common common;
+    Time min_latency;
+    double max_bandwidth;
+  };
+  static constexpr std::uint32_t kMinRelayRun = 4;
+  std::vector<std::vector<RelayRun>> relay_runs_;  // per m: its relays, in order, in runs
+  void build_relay_runs(const DeviceGraph& g);
   std::vector<ChannelId> direct_to_;  // [m * n + q]
+  // Per destination m and group: the least L(q, m) and W(q, m) over the group's members
+  // q != m; the channels into m from them: least latency, largest bandwidth, resources
+  // they all use.
+  struct NetworkRest {
+    double latency = kNever, inv_bw = kNever;
+    Time in_latency = kNever;
+    double in_bandwidth = 1;
+    Common in;
+  };
+  struct Group {
+    std::int32_t network = -1;
+    Common leave, enter;  // resources every channel leaving / entering the group's nodes uses
+    Time enter_latency = kNever;
+    double enter_bandwidth = 1;
+  };
+  std::vector<Group> groups_info_;
+  std::vector<char> overlap_;            // [g * groups_ + h]: the groups share a node
+  std::size_t nodes_ = 0;
+  std::vector<NodeId> node_of_;          // per memory device
+  std::vector<std::int32_t> node_group_; // [k * nodes_ + node]: the node's group in network k (-1: none)
+  std::size_t groups_ = 0;
+  std::vector<std::int32_t> group_of_;     // [k * n + q]: q's group in network k (-1: no member)
+  std::vector<NetworkRest> network_rest_;  // [m * groups_ + group]
+  void network_groups(const DeviceGraph& g);
   // Per destination m: its incoming channels that are no relay channel (their source is
   // reached only through m, e.g. m's GPU memory or disk), with what Eq. 1 needs.
   std::vector<std::vector<Relay>> own_in_;

@@ -34,14 +34,53 @@ void FetchPathFinder::build_hops() {
     }
   }
   hops_at_[n_] = static_cast<std::uint32_t>(hops_.size());
+  build_runs();
   onward_hops_.clear();
   onward_at_.assign(n_ + 1, 0);
   for (std::size_t p = 0; p < n_; ++p) {
     onward_at_[p] = static_cast<std::uint32_t>(onward_hops_.size());
     for (const Hop& hop : out_hops(static_cast<MemId>(p)))
-      if (hop.onward_capacity > 0) onward_hops_.push_back(hop);
+      if (hop.onward_capacity > 0) {
+        onward_hops_.push_back(hop);
+        onward_hops_.back().run = -1;  // (runs are cut_search()'s, over out_hops())
+      }
   }
   onward_at_[n_] = static_cast<std::uint32_t>(onward_hops_.size());
+}
+
+// Network runs (cut_search()): the channels of one network out of p to one group's members,
+// consecutive in p's hops, with what NetworkFloor needs (FetchBound's groups).
+void FetchPathFinder::build_runs() {
+  const DeviceGraph& g = schedule_->graph();
+  runs_.clear();
+  for (Hop& hop : hops_) hop.run = -1;
+  if (rest_) {
+    std::vector<ChannelId> run_channels;
+    for (std::size_t p = 0; p < n_; ++p) {
+      const std::uint32_t end = hops_at_[p + 1];
+      for (std::uint32_t h = hops_at_[p]; h < end;) {
+        const std::int32_t k = g.channels[static_cast<std::size_t>(hops_[h].channel)].network;
+        const std::int32_t group = k >= 0 ? rest_->group_of(k, hops_[h].to) : -1;
+        std::uint32_t e = h + 1;
+        Run run{1, k, group, {}, hops_[h].latency, hops_[h].bandwidth};
+        run_channels.assign(1, hops_[h].channel);
+        for (; group >= 0 && e < end; ++e) {
+          const Channel& ch = g.channels[static_cast<std::size_t>(hops_[e].channel)];
+          if (ch.network != k || rest_->group_of(k, ch.to) != group) break;
+          run.min_latency = std::min(run.min_latency, hops_[e].latency);
+          run.max_bandwidth = std::max(run.max_bandwidth, hops_[e].bandwidth);
+          run_channels.push_back(hops_[e].channel);
+        }
+        run.length = e - h;
+        if (group >= 0 && run.length >= kMinRun) {
+          run.out = FetchBound::common_resources(g, run_channels);
+          hops_[h].run = static_cast<std::int32_t>(runs_.size());
+          runs_.push_back(run);
+        }
+        h = e;
+      }
+    }
+  }
 }
 
 void FetchPathFinder::clear() {
@@ -126,13 +165,9 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
   const double wbytes = static_cast<double>(blk.bytes);
   // (relay_end_in() < direct, but stopping at the first relayed hop that lands earlier:
   // the whole minimum costs 1.7 % more a plan.)
-  bool relay_may_win = false;
-  for (const FetchBound::Relay& r : rest_->relay_in(m))
-    if (r.from != h && r.from_capacity >= blk.bytes &&
-        r.lands_before(schedule_->channel_finish(r.channel), wbytes, direct) < direct) {
-      relay_may_win = true;
-      break;
-    }
+  const bool relay_may_win = rest_->relay_min(*schedule_, m, wbytes, direct, direct, [&](const FetchBound::Relay& r) {
+    return r.from != h && r.from_capacity >= blk.bytes;
+  }) < direct;
   if (!relay_may_win) return direct;
   // A relayed path also leaves h first, by a hop h -> q (q != m, q admissible and not a
   // dead end, i.e. q leads somewhere but back to h), and its arrival is no earlier than
@@ -184,7 +219,7 @@ Time FetchPathFinder::direct_before_relays(BlockId b, MemId m, ChannelId& via, b
     }
   }
   if (best == kNever) return kOpen;
-  const Time relay_end = relay_end_in(m, blk.bytes, [&](MemId q) { return schedule_->copy_at(b, q) != nullptr; });
+  const Time relay_end = relay_end_in(m, blk.bytes, [&](MemId q) { return schedule_->copy_at(b, q) != nullptr; }, best);
   if (!(best <= relay_end)) return kOpen;
   unique = best < relay_end && n_best == 1;
   return best;

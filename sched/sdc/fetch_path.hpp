@@ -20,11 +20,22 @@
 // losing labels and stopped at m (planning speed): the same value as arrival(),
 // usually after a handful of relaxations, and no tree is stored.
 //
+// Networks (planning speed at scale): a member's RAM has one channel to every other
+// member, so a search that relaxed them one by one would cost O(nodes) per label. The
+// search meets them in runs (one network's channels out of p to one group: a rack, or
+// the whole network without racks) and decides per run from a floor on what any of its
+// hops could give (FetchBound::network_floor: Eq. 3 on the resources the run's channels
+// share, the uncontended rest, the last hop into m, and the rack cut): a run that cannot
+// beat m's label, or that loses, is skipped whole; the floor only removes hops that could
+// not change m's label, so every answer is the same. The relayed last hops into m are
+// scanned in the same runs (FetchBound::relay_min).
+//
 // Capacity is not part of the search (it would invalidate every tree reaching the
 // memory device that just received data); the scheduler applies admission delays when it
 // commits the hops. Memory devices smaller than the block are skipped.
 #pragma once
 #include <algorithm>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -32,7 +43,6 @@
 #include "sched/timeline/schedule.hpp"
 
 namespace rayline {
-
 class FetchPathFinder {
  public:
   explicit FetchPathFinder(const Schedule& schedule);
@@ -83,7 +93,10 @@ class FetchPathFinder {
   // (GMB sets its FetchBound; without, the searches run in Dijkstra's order). With bounds
   // set, path() takes the best path from one such search when no other path ties with it
   // anywhere along it (then every search finds this path), else from the full tree.
-  void set_bounds(const FetchBound* rest) { rest_ = rest; }
+  void set_bounds(const FetchBound* rest) {
+    rest_ = rest;
+    build_runs();
+  }
 
   void clear();                         // after reproject(): everything may have moved
   // Search another Schedule on the same platform (same memory devices and channels),
@@ -148,11 +161,24 @@ class FetchPathFinder {
     Bytes onward_capacity;
     Time latency;
     double bandwidth;
+    std::int32_t run = -1;  // out_hops(): at the first hop of a network run, its index in runs_
     Time transfer(double w) const { return latency + w / bandwidth; }  // Eq. 1, as DeviceGraph::transfer_time()
   };
+  // A network's channels out of one member p, consecutive in p's hops (one per other
+  // member): cut_search() decides about them together (NetworkFloor, fetch_bound.hpp).
+  struct Run {
+    std::uint32_t length;
+    std::int32_t network, group;  // the members' group (FetchBound::group_of)
+    FetchBound::Common out;       // resources on every channel of the run (p's NIC-out, ...)
+    Time min_latency;             // over the run's channels
+    double max_bandwidth;
+  };
+  static constexpr std::uint32_t kMinRun = 4;  // shorter runs are expanded hop by hop
+  std::vector<Run> runs_;
   std::vector<Hop> hops_;
   std::vector<std::uint32_t> hops_at_;  // p's hops: hops_[hops_at_[p], hops_at_[p + 1])
   void build_hops();
+  void build_runs();
   std::span<const Hop> out_hops(MemId p) const {
     const auto pi = static_cast<std::size_t>(p);
     return {hops_.data() + hops_at_[pi], hops_.data() + hops_at_[pi + 1]};
@@ -246,14 +272,11 @@ class FetchPathFinder {
   Time direct_before_relays(BlockId b, MemId m, ChannelId& via, bool& unique) const;
   // The earliest a relayed last hop can land on m (rest_ set) for a block of `bytes`: from a
   // device that is no holder (nothing is routed through a holder) and can take it.
+  // (stop_below: may return any value below it once the minimum is known to be.)
   template <class IsHolder>
-  Time relay_end_in(MemId m, Bytes bytes, const IsHolder& is_holder) const {
-    const double wbytes = static_cast<double>(bytes);
-    Time end = kNever;
-    for (const FetchBound::Relay& r : rest_->relay_in(m))
-      if (r.from_capacity >= bytes && !is_holder(r.from))
-        if (const Time t = r.lands_before(schedule_->channel_finish(r.channel), wbytes, end); t < end) end = t;
-    return end;
+  Time relay_end_in(MemId m, Bytes bytes, const IsHolder& is_holder, Time stop_below = -kNever) const {
+    return rest_->relay_min(*schedule_, m, static_cast<double>(bytes), kNever, stop_below,
+                            [&](const FetchBound::Relay& r) { return r.from_capacity >= bytes && !is_holder(r.from); });
   }
   // Memo lookup in O(1): per block asked about this pass, a slot of n_ indices into
   // memos_ (-1: none yet), one per memory device.
@@ -495,22 +518,25 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
     std::pop_heap(open_.begin(), open_.end(), OpenAfter{});
     open_.pop_back();
     if (top.label != label_[static_cast<std::size_t>(top.mem)]) continue;  // superseded
-    for (const Hop& hop : out_hops(top.mem)) {
+    // Relaxes one hop out of top (Eq. 3). Returns m's label when the hop reaches m by
+    // `enough` (the search ends), NaN otherwise.
+    constexpr Time kGoOn = std::numeric_limits<Time>::quiet_NaN();
+    auto relax = [&](const Hop& hop) -> Time {
       const MemId q = hop.to;
       const ChannelId c = hop.channel;
       const auto qi = static_cast<std::size_t>(q);
-      if (holder_[qi] || hop.to_capacity < bytes) continue;
+      if (holder_[qi] || hop.to_capacity < bytes) return kGoOn;
       const Time lq = std::max(top.label, schedule_->channel_finish(c)) + hop.transfer(wbytes);  // Eq. 3
       if (!(lq < label_[qi])) {
         if constexpr (Ties)
           if (lq == label_[qi] && c != label_via_[qi]) tie_[qi] = 1;
-        continue;
+        return kGoOn;
       }
       if (q == m && lq <= enough) return lq;  // a <= lq <= enough
       const Time x = through(lq, q);
       if (x > enough && lost(x)) {
         dropped = std::min(dropped, x);
-        continue;
+        return kGoOn;
       }
       label_[qi] = lq;
       label_via_[qi] = c;
@@ -520,6 +546,35 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
         open_.push_back({x, lq, q});
         std::push_heap(open_.begin(), open_.end(), OpenAfter{});
       }
+      return kGoOn;
+    };
+    const std::span<const Hop> hs = out_hops(top.mem);
+    for (std::size_t h = 0; h < hs.size(); ++h) {
+      if (rest && hs[h].run >= 0) {
+        // A network run: its hop into m (if any) first, then the others together. Every
+        // other member q gets through(l_q, q) >= the run's floor (fetch_bound.hpp,
+        // NetworkFloor), so when the floor cannot beat m's label no hop of the run would be
+        // expanded (Ties: nor tie with it), and when it loses, none would be kept: skip
+        // them. Otherwise expand the run hop by hop (the hop into m again: a no-op).
+        const Run& run = runs_[static_cast<std::size_t>(hs[h].run)];
+        const ChannelId into_m = direct[static_cast<std::size_t>(top.mem)];
+        if (into_m >= 0 && g.channels[static_cast<std::size_t>(into_m)].network == run.network) {
+          const Channel& ch = g.channels[static_cast<std::size_t>(into_m)];
+          const Hop hm{into_m, m, g.memories[mi].capacity, 0, ch.latency, ch.bandwidth};
+          if (const Time a = relax(hm); a == a) return a;
+        }
+        if (into_m >= 0 || into_m == kNone) {
+          const Time floor = rest->network_floor(*schedule_, m, run.group, top.label, run.out, run.min_latency,
+                                                 run.max_bandwidth, wbytes, relay_end);
+          const bool skip = Ties ? floor > label_[mi] : floor >= label_[mi];
+          if (skip || (floor > enough && lost(floor))) {
+            if (!skip) dropped = std::min(dropped, floor);
+            h += run.length - 1;
+            continue;
+          }
+        }
+      }
+      if (const Time a = relax(hs[h]); a == a) return a;
     }
   }
   return label_[mi];

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "dcg_fixture.hpp"
+#include "sched/io/platform_loader.hpp"
 #include "sched/policy/gmb/arrival_bound.hpp"
 #include "sched/sdc/fetch_bound.hpp"
 #include "sched/sdc/fetch_path.hpp"
@@ -302,6 +303,61 @@ RandomState random_cluster_state(std::mt19937& rng, int inst) {
   return r;
 }
 
+// A switched network as platform files describe it (`networks`, the loader expands it):
+// 6-16 nodes, with or without a GPU, NICs of 100 Mb/s, 1 Gb/s or 10 Gb/s, in no racks or
+// in 2-3 racks (uplinks of random speed) with or without a backbone. Long enough for the
+// search's network runs and relay runs (FetchBound's NetworkFloor), which decide about a
+// whole group of channels at once.
+RandomState random_network_state(std::mt19937& rng, int inst) {
+  RandomState r;
+  std::uniform_real_distribution<double> u(0, 1);
+  const int nodes = 6 + inst % 11;
+  const int racks = inst % 3 == 0 ? 0 : 2 + inst % 2;
+  const bool backbone = racks == 0 ? inst % 2 == 1 : u(rng) < 0.7;
+  const char* speeds[] = {"100Mb/s", "1Gb/s", "10Gb/s"};
+  std::string net = R"({"name": "lan", "latency": "100us", "duplex": "full")";
+  if (backbone) net += std::string(R"(, "backbone": {"bandwidth": ")") + speeds[1 + inst % 2] + R"(", "latency": "20us"})";
+  if (racks > 0) {
+    net += R"(, "racks": [)";
+    for (int k = 0; k < racks; ++k)
+      net += std::string(k ? ", " : "") + R"({"name": "r)" + std::to_string(k) + R"(", "uplink": ")" + speeds[std::uniform_int_distribution<int>(0, 2)(rng)] + "\"}";
+    net += "]";
+  }
+  net += R"(, "members": [)";
+  std::string node_list;
+  for (int i = 0; i < nodes; ++i) {
+    const std::string n = "n" + std::to_string(i);
+    node_list += std::string(i ? ", " : "") + R"({"name": ")" + n + R"(", "type": ")" + (u(rng) < 0.5 ? "G" : "C") + "\"";
+    if (u(rng) < 0.2) node_list += R"(, "memory": [{"name": "ram", "capacity": "60MB"}])";
+    node_list += "}";
+    net += std::string(i ? ", " : "") + R"({"node": ")" + n + R"(", "bandwidth": ")" + speeds[std::uniform_int_distribution<int>(0, 2)(rng)] + "\"";
+    if (racks > 0) net += R"(, "rack": "r)" + std::to_string(i * racks / nodes) + "\"";
+    net += "}";
+  }
+  net += "]}";
+  const std::string cpu = R"({"name": "cpu", "kind": "cpu", "memory": "ram", "timing": {"RayIntersect": {"setup": "5us"}}})";
+  const std::string sata = R"({"name": "sata", "kind": "sata", "between": ["disk", "ram"], "duplex": "half", "latency": "8ms", "bandwidth": "150MB/s"})";
+  const std::string json = R"({"name": "random-network", "node_types": {
+      "C": {"memory": [{"name": "disk", "kind": "disk", "capacity": "1TB"}, {"name": "ram", "kind": "host", "capacity": "8GiB"}],
+            "compute": [)" + cpu + R"(], "channels": [)" + sata + R"(]},
+      "G": {"memory": [{"name": "disk", "kind": "disk", "capacity": "1TB"}, {"name": "ram", "kind": "host", "capacity": "8GiB"},
+                       {"name": "gpumem", "kind": "gpu", "capacity": "6GiB"}],
+            "compute": [)" + cpu + R"(, {"name": "gpu", "kind": "gpu", "memory": "gpumem", "timing": {"RayIntersect": {"setup": "50us"}}}],
+            "channels": [)" + sata + R"(, {"name": "pcie", "kind": "pcie", "between": ["ram", "gpumem"], "duplex": "full", "latency": "10us", "bandwidth": "6GB/s"}]}},
+    "nodes": [)" + node_list + R"(], "networks": [)" + net + "]}";
+  r.g = parse_platform(json, "random-network.json");
+  for (std::size_t m = 0; m < r.g.memories.size(); ++m) r.m.push_back(static_cast<MemId>(m));
+  for (int k = 0; k < 6; ++k) {
+    DataBlock d;
+    d.name = "b" + std::to_string(k);
+    d.kind = k % 2 ? DataKind::RayQueue : DataKind::SceneData;
+    d.consumed = k % 2 == 1;
+    d.bytes = k % 2 ? static_cast<Bytes>(u(rng) * 32e6) + 1 : static_cast<Bytes>((0.9 + 0.2 * u(rng)) * 50e6);
+    r.blocks.push_back(r.pool.add_block(d));
+  }
+  return r;
+}
+
 // Scene blocks on every disk (origins), sometimes also in a RAM; each ray queue in one RAM.
 void place_cluster_blocks(const RandomState& r, Schedule& s, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(0, 1);
@@ -414,6 +470,13 @@ TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomClusters) {
   int checked = 0, cut = 0;
   expect_cut_search_equals_full_search(34, 200, random_cluster_state, place_cluster_blocks, checked, cut);
   EXPECT_GT(checked, 5000);
+  EXPECT_GT(cut, 0);
+}
+
+TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomNetworks) {
+  int checked = 0, cut = 0;
+  expect_cut_search_equals_full_search(61, 90, random_network_state, place_cluster_blocks, checked, cut);
+  EXPECT_GT(checked, 20000);
   EXPECT_GT(cut, 0);
 }
 
