@@ -316,8 +316,14 @@ Time FetchBound::direct_upper_bound(const Schedule& s, BlockId b, MemId m, Time 
         continue;
       }
       if (t1 >= best || g.memories[p].capacity < bytes) continue;
-      for (ChannelId c2 : g.out_channels(p))
-        if (g.channels[c2].to == m) best = std::min(best, std::max(t1, s.channel_finish(c2)) + g.transfer_time(c2, bytes));
+      // The second hop p -> m (direct_to_: the channel, or several to scan).
+      auto hop2 = [&](ChannelId c2) { best = std::min(best, std::max(t1, s.channel_finish(c2)) + g.transfer_time(c2, bytes)); };
+      if (const ChannelId c2 = direct_to_[static_cast<std::size_t>(m) * n_ + static_cast<std::size_t>(p)]; c2 >= 0) {
+        hop2(c2);
+      } else if (c2 == kSeveral) {
+        for (ChannelId c3 : g.out_channels(p))
+          if (g.channels[c3].to == m) hop2(c3);
+      }
     }
   return best;
 }

@@ -20,14 +20,26 @@ Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
       resource_version_(graph.resources.size(), 0),
       used_(graph.memories.size(), 0),
       device_pending_(graph.computes.size(), 0) {
-  resource_channels_first_.assign(graph.resources.size() + 1, 0);
+  std::vector<std::int32_t> fanout(graph.resources.size(), 0);
   for (const Channel& c : graph.channels)
-    for (ResourceId r : c.resources) ++resource_channels_first_[static_cast<std::size_t>(r) + 1];
+    for (ResourceId r : c.resources) ++fanout[static_cast<std::size_t>(r)];
+  for (std::size_t c = 0; c < graph.channels.size(); ++c)
+    for (ResourceId r : graph.channels[c].resources)
+      if (fanout[static_cast<std::size_t>(r)] > kKeptFanout) {
+        if (on_demand_.empty()) on_demand_.assign(graph.channels.size(), 0);
+        on_demand_[c] = 1;
+      }
+  auto kept = [&](std::size_t c) { return on_demand_.empty() || !on_demand_[c]; };
+  resource_channels_first_.assign(graph.resources.size() + 1, 0);
+  for (std::size_t c = 0; c < graph.channels.size(); ++c)
+    if (kept(c))
+      for (ResourceId r : graph.channels[c].resources) ++resource_channels_first_[static_cast<std::size_t>(r) + 1];
   for (std::size_t r = 0; r < graph.resources.size(); ++r) resource_channels_first_[r + 1] += resource_channels_first_[r];
   resource_channels_.resize(static_cast<std::size_t>(resource_channels_first_.back()));
   std::vector<std::int32_t> fill(resource_channels_first_.begin(), resource_channels_first_.end() - 1);
   for (std::size_t c = 0; c < graph.channels.size(); ++c)
-    for (ResourceId r : graph.channels[c].resources) resource_channels_[static_cast<std::size_t>(fill[static_cast<std::size_t>(r)]++)] = static_cast<ChannelId>(c);
+    if (kept(c))
+      for (ResourceId r : graph.channels[c].resources) resource_channels_[static_cast<std::size_t>(fill[static_cast<std::size_t>(r)]++)] = static_cast<ChannelId>(c);
 }
 
 // Same arithmetic as before the cache: max(0, busy_until of each resource in order).

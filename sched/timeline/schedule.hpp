@@ -7,6 +7,7 @@
 // depend on activities committed before them, so increasing ActivityId is a topological
 // order; reproject() uses that to move every unfinished activity after reality diverged.
 #pragma once
+#include <algorithm>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -109,9 +110,19 @@ class Schedule {
   // FinishTime(c) of Eq. 3: the latest busy-until of c's resources (kept per channel, updated
   // when a resource's timeline changes).
   // A lost channel (fail()) is busy for ever: no Eq. 3 label crosses it.
+  // A channel on a resource that many channels share (a NIC of a large network, a rack
+  // uplink, a backbone) is computed when asked instead: keeping it would cost every
+  // booking of that resource one update per channel on it (N² for a backbone).
   Time channel_finish(ChannelId c) const {
-    return dead_channel_.empty() || !dead_channel_[static_cast<std::size_t>(c)] ? channel_finish_[static_cast<std::size_t>(c)]
-                                                                                 : kNever;
+    const auto ci = static_cast<std::size_t>(c);
+    if (!dead_channel_.empty() && dead_channel_[ci]) return kNever;
+    if (!on_demand_.empty() && on_demand_[ci]) return channel_finish_now(c);
+    return channel_finish_[ci];
+  }
+  Time channel_finish_now(ChannelId c) const {
+    Time t = 0;
+    for (ResourceId r : graph_->channels[static_cast<std::size_t>(c)].resources) t = std::max(t, resource_tl_[r].busy_until);
+    return t;
   }
   std::uint64_t resource_version(ResourceId r) const { return resource_version_[r]; }
 
@@ -225,6 +236,8 @@ class Schedule {
   std::vector<Activity> acts_;
   std::vector<Timeline> device_tl_, resource_tl_;
   std::vector<Time> channel_finish_;  // per channel: max(0, busy_until of its resources)
+  static constexpr std::int32_t kKeptFanout = 64;  // channels per resource above which its channels are on demand
+  std::vector<char> on_demand_;       // per channel (empty: none): channel_finish_now() when asked
   // Channels using each resource (CSR: channels_of_resource_[first_..[r+1])).
   std::vector<std::int32_t> resource_channels_first_;
   std::vector<ChannelId> resource_channels_;
