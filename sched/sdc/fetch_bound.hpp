@@ -128,6 +128,7 @@ class FetchBound {
   };
   // Resources on every one of these channels (at most kCommon of them).
   static Common common_resources(const DeviceGraph& g, const std::vector<ChannelId>& channels);
+  std::size_t group_count() const { return groups_; }
   std::int32_t group_of(std::int32_t k, MemId q) const {
     return group_of_[static_cast<std::size_t>(k) * n_ + static_cast<std::size_t>(q)];
   }

@@ -315,10 +315,27 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
       std::push_heap(heap_.begin(), heap_.end(), heap_after);
     }
   }
+  const double wbytes = static_cast<double>(blk.bytes);
+  if (!runs_.empty()) group_max_.assign(rest_->group_count(), kNever);
+  Time lp = 0;
+  auto relax_tree = [&](const Hop& hop) {
+    const MemId q = hop.to;
+    const ChannelId c = hop.channel;
+    // A holder never receives a second copy (its own copy may still be in flight).
+    if (done_[q] || holder_[q] || hop.to_capacity < blk.bytes) return;
+    const Time lq = std::max(lp, schedule_->channel_finish(c)) + hop.transfer(wbytes);  // Eq. 3
+    if (lq < arrival[q]) {
+      arrival[q] = lq;
+      via[q] = c;
+      heap_.emplace_back(lq, q);
+      std::push_heap(heap_.begin(), heap_.end(), heap_after);
+    }
+  };
   if (blk.movable) {
     while (!heap_.empty()) {
       std::pop_heap(heap_.begin(), heap_.end(), heap_after);
-      const auto [lp, p] = heap_.back();
+      const MemId p = heap_.back().second;
+      lp = heap_.back().first;
       heap_.pop_back();
       if (done_[p]) continue;
       done_[p] = 1;
@@ -332,18 +349,33 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
           if (!done_[q]) stamp[q] = kUnsettled;
         break;
       }
-      for (const Hop& hop : out_hops(p)) {
-        const MemId q = hop.to;
-        const ChannelId c = hop.channel;
-        // A holder never receives a second copy (its own copy may still be in flight).
-        if (done_[q] || holder_[q] || hop.to_capacity < blk.bytes) continue;
-        const Time lq = std::max(lp, schedule_->channel_finish(c)) + hop.transfer(static_cast<double>(blk.bytes));  // Eq. 3
-        if (lq < arrival[q]) {
-          arrival[q] = lq;
-          via[q] = c;
-          heap_.emplace_back(lq, q);
-          std::push_heap(heap_.begin(), heap_.end(), heap_after);
+      const std::span<const Hop> hs = out_hops(p);
+      for (std::size_t h = 0; h < hs.size(); ++h) {
+        // A network run (build_runs()) none of whose hops can lower its member's label does
+        // nothing: every l_q >= the run's Eq. 3 floor >= the largest label of the group's
+        // members when last looked at (labels only fall), so it is skipped, exactly.
+        std::int32_t group = -1;
+        Time run_max = -kNever;
+        if (hs[h].run >= 0) {
+          const Run& run = runs_[static_cast<std::size_t>(hs[h].run)];
+          const Time floor = std::max(lp, run.out.busy(*schedule_)) + (run.min_latency + wbytes / run.max_bandwidth);
+          if (floor >= group_max_[static_cast<std::size_t>(run.group)]) {
+            h += run.length - 1;
+            continue;
+          }
+          group = run.group;
+          run_max = lp;  // (p's own label, should p be a member: settled, so no greater)
+          for (std::size_t e = h + run.length; h < e; ++h) {
+            const Hop& hop = hs[h];
+            relax_tree(hop);
+            // (Members the tree never enters, holders and those too small, do not count.)
+            if (!holder_[hop.to] && hop.to_capacity >= blk.bytes) run_max = std::max(run_max, arrival[hop.to]);
+          }
+          group_max_[static_cast<std::size_t>(group)] = run_max;
+          --h;
+          continue;
         }
+        relax_tree(hs[h]);
       }
     }
   }

@@ -175,6 +175,7 @@ class FetchPathFinder {
   };
   static constexpr std::uint32_t kMinRun = 4;  // shorter runs are expanded hop by hop
   std::vector<Run> runs_;
+  std::vector<Time> group_max_;  // search(): per group, no member's label above it (kNever: unknown)
   std::vector<Hop> hops_;
   std::vector<std::uint32_t> hops_at_;  // p's hops: hops_[hops_at_[p], hops_at_[p + 1])
   void build_hops();
