@@ -132,6 +132,13 @@ class FetchBound {
   std::int32_t group_of(std::int32_t k, MemId q) const {
     return group_of_[static_cast<std::size_t>(k) * n_ + static_cast<std::size_t>(q)];
   }
+  // The first part alone: a floor of the uncontended rest's bound over the run's members.
+  Time network_free_run(const Schedule& s, MemId m, std::int32_t group, Time l, const Common& out, Time min_latency,
+                        double max_bandwidth, double w) const {
+    const NetworkRest& r = network_rest_[static_cast<std::size_t>(m) * groups_ + static_cast<std::size_t>(group)];
+    const Time lq = std::max(l, out.busy(s)) + (min_latency + w / max_bandwidth);
+    return (lq + (r.latency + w * r.inv_bw) * (1 - 1e-9)) * (1 - 1e-14);
+  }
   Time network_floor(const Schedule& s, MemId m, std::int32_t group, Time l, const Common& out, Time min_latency,
                      double max_bandwidth, double w, Time relay_end) const {
     const NetworkRest& r = network_rest_[static_cast<std::size_t>(m) * groups_ + static_cast<std::size_t>(group)];

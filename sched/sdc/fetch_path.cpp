@@ -35,17 +35,6 @@ void FetchPathFinder::build_hops() {
   }
   hops_at_[n_] = static_cast<std::uint32_t>(hops_.size());
   build_runs();
-  onward_hops_.clear();
-  onward_at_.assign(n_ + 1, 0);
-  for (std::size_t p = 0; p < n_; ++p) {
-    onward_at_[p] = static_cast<std::uint32_t>(onward_hops_.size());
-    for (const Hop& hop : out_hops(static_cast<MemId>(p)))
-      if (hop.onward_capacity > 0) {
-        onward_hops_.push_back(hop);
-        onward_hops_.back().run = -1;  // (runs are cut_search()'s, over out_hops())
-      }
-  }
-  onward_at_[n_] = static_cast<std::uint32_t>(onward_hops_.size());
 }
 
 // Network runs (cut_search()): the channels of one network out of p to one group's members,
@@ -175,7 +164,20 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
   // is at least `direct`, so is every relayed arrival.
   const double* rest_lat = rest_->latency_to(m);
   const double* rest_inv_bw = rest_->inv_bw_to(m);
-  for (const Hop& hop : blk.bytes > 0 ? onward_hops(h) : out_hops(h)) {
+  // (Over out_hops(), whose network runs are skipped whole when even the run's floor of
+  // the free run, FetchBound::network_free_run, reaches `direct`: none of its hops could
+  // open the answer. Dead ends: q leads nowhere but back to h for a block this size.)
+  const std::span<const Hop> hs = out_hops(h);
+  for (std::size_t k = 0; k < hs.size(); ++k) {
+    const Hop& hop = hs[k];
+    if (hop.run >= 0) {
+      const Run& run = runs_[static_cast<std::size_t>(hop.run)];
+      if (!(rest_->network_free_run(*schedule_, m, run.group, root, run.out, run.min_latency, run.max_bandwidth, wbytes) <
+            direct)) {
+        k += run.length - 1;
+        continue;
+      }
+    }
     const auto qi = static_cast<std::size_t>(hop.to);
     // (A dead end first: every channel out of q leads back to h or to a device too small.)
     if (hop.to == m || hop.to_capacity < blk.bytes || hop.onward_capacity < blk.bytes) continue;

@@ -184,14 +184,6 @@ class FetchPathFinder {
     const auto pi = static_cast<std::size_t>(p);
     return {hops_.data() + hops_at_[pi], hops_.data() + hops_at_[pi + 1]};
   }
-  // The same without the hops into dead ends for every block (q's other neighbours have
-  // no capacity: a GPU or disk reached only from p), for blocks of at least one byte.
-  std::vector<Hop> onward_hops_;
-  std::vector<std::uint32_t> onward_at_;
-  std::span<const Hop> onward_hops(MemId p) const {
-    const auto pi = static_cast<std::size_t>(p);
-    return {onward_hops_.data() + onward_at_[pi], onward_hops_.data() + onward_at_[pi + 1]};
-  }
   std::vector<Tree> trees_;            // per block
   std::vector<BlockId> valid_trees_;   // the blocks whose tree is valid (what clear() resets)
   std::vector<Time> arrival_;          // slot x memory device
