@@ -22,14 +22,36 @@ void FetchPathFinder::build_hops() {
   const DeviceGraph& g = schedule_->graph();
   hops_.clear();
   hops_at_.assign(n_ + 1, 0);
+  // Per memory device q: the largest capacity among the devices its channels lead to, and
+  // the largest among those other than that device (q's onward capacity seen from p is
+  // the first unless p is its device).
+  struct Onward {
+    Bytes first = 0, second = 0;
+    MemId first_to = kNone;
+  };
+  std::vector<Onward> onward_of(n_);
+  for (std::size_t q = 0; q < n_; ++q) {
+    Onward& o = onward_of[q];
+    for (const ChannelId c : g.out_channels(static_cast<MemId>(q))) {
+      const MemId t = g.channels[static_cast<std::size_t>(c)].to;
+      const Bytes cap = g.memories[static_cast<std::size_t>(t)].capacity;
+      if (t == o.first_to) {
+        o.first = std::max(o.first, cap);
+      } else if (o.first_to == kNone || cap > o.first) {
+        o.second = std::max(o.second, o.first);
+        o.first = cap;
+        o.first_to = t;
+      } else {
+        o.second = std::max(o.second, cap);
+      }
+    }
+  }
   for (std::size_t p = 0; p < n_; ++p) {
     hops_at_[p] = static_cast<std::uint32_t>(hops_.size());
     for (const ChannelId c : g.out_channels(static_cast<MemId>(p))) {
       const Channel& ch = g.channels[static_cast<std::size_t>(c)];
-      Bytes onward = 0;
-      for (const ChannelId o : g.out_channels(ch.to))
-        if (const MemId t = g.channels[static_cast<std::size_t>(o)].to; t != ch.from)
-          onward = std::max(onward, g.memories[static_cast<std::size_t>(t)].capacity);
+      const Onward& o = onward_of[static_cast<std::size_t>(ch.to)];
+      const Bytes onward = o.first_to != ch.from ? o.first : o.second;
       hops_.push_back({c, ch.to, g.memories[static_cast<std::size_t>(ch.to)].capacity, onward, ch.latency, ch.bandwidth});
     }
   }
@@ -320,18 +342,22 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
   const double wbytes = static_cast<double>(blk.bytes);
   if (!runs_.empty()) group_max_.assign(rest_->group_count(), kNever);
   Time lp = 0;
-  auto relax_tree = [&](const Hop& hop) {
+  // Relaxes a hop; returns q's label after it (-inf where the tree never enters q again:
+  // settled, a holder, too small).
+  auto relax_tree = [&](const Hop& hop) __attribute__((always_inline)) -> Time {
     const MemId q = hop.to;
     const ChannelId c = hop.channel;
     // A holder never receives a second copy (its own copy may still be in flight).
-    if (done_[q] || holder_[q] || hop.to_capacity < blk.bytes) return;
+    if (done_[q] || holder_[q] || hop.to_capacity < blk.bytes) return -kNever;
     const Time lq = std::max(lp, schedule_->channel_finish(c)) + hop.transfer(wbytes);  // Eq. 3
     if (lq < arrival[q]) {
       arrival[q] = lq;
       via[q] = c;
       heap_.emplace_back(lq, q);
       std::push_heap(heap_.begin(), heap_.end(), heap_after);
+      return lq;
     }
+    return arrival[q];
   };
   if (blk.movable) {
     while (!heap_.empty()) {
@@ -366,13 +392,8 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
             continue;
           }
           group = run.group;
-          run_max = lp;  // (p's own label, should p be a member: settled, so no greater)
-          for (std::size_t e = h + run.length; h < e; ++h) {
-            const Hop& hop = hs[h];
-            relax_tree(hop);
-            // (Members the tree never enters, holders and those too small, do not count.)
-            if (!holder_[hop.to] && hop.to_capacity >= blk.bytes) run_max = std::max(run_max, arrival[hop.to]);
-          }
+          run_max = -kNever;  // (settled members, p among them, are never relaxed again)
+          for (std::size_t e = h + run.length; h < e; ++h) run_max = std::max(run_max, relax_tree(hs[h]));
           group_max_[static_cast<std::size_t>(group)] = run_max;
           --h;
           continue;

@@ -23,12 +23,22 @@ Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
   std::vector<std::int32_t> fanout(graph.resources.size(), 0);
   for (const Channel& c : graph.channels)
     for (ResourceId r : c.resources) ++fanout[static_cast<std::size_t>(r)];
-  for (std::size_t c = 0; c < graph.channels.size(); ++c)
-    for (ResourceId r : graph.channels[c].resources)
+  for (std::size_t c = 0; c < graph.channels.size(); ++c) {
+    const std::vector<ResourceId>& rs = graph.channels[c].resources;
+    if (rs.empty() || rs.size() > kRouteMax) continue;
+    for (ResourceId r : rs)
       if (fanout[static_cast<std::size_t>(r)] > kKeptFanout) {
-        if (on_demand_.empty()) on_demand_.assign(graph.channels.size(), 0);
+        if (on_demand_.empty()) {
+          on_demand_.assign(graph.channels.size(), 0);
+          on_demand_route_.resize(graph.channels.size());
+        }
         on_demand_[c] = 1;
+        std::array<ResourceId, kRouteMax>& route = on_demand_route_[c];
+        route.fill(rs.front());
+        std::copy(rs.begin(), rs.end(), route.begin());
+        break;
       }
+  }
   auto kept = [&](std::size_t c) { return on_demand_.empty() || !on_demand_[c]; };
   resource_channels_first_.assign(graph.resources.size() + 1, 0);
   for (std::size_t c = 0; c < graph.channels.size(); ++c)

@@ -8,6 +8,7 @@
 // order; reproject() uses that to move every unfinished activity after reality diverged.
 #pragma once
 #include <algorithm>
+#include <array>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -121,7 +122,7 @@ class Schedule {
   }
   Time channel_finish_now(ChannelId c) const {
     Time t = 0;
-    for (ResourceId r : graph_->channels[static_cast<std::size_t>(c)].resources) t = std::max(t, resource_tl_[r].busy_until);
+    for (ResourceId r : on_demand_route_[static_cast<std::size_t>(c)]) t = std::max(t, resource_tl_[r].busy_until);
     return t;
   }
   std::uint64_t resource_version(ResourceId r) const { return resource_version_[r]; }
@@ -238,6 +239,10 @@ class Schedule {
   std::vector<Time> channel_finish_;  // per channel: max(0, busy_until of its resources)
   static constexpr std::int32_t kKeptFanout = 64;  // channels per resource above which its channels are on demand
   std::vector<char> on_demand_;       // per channel (empty: none): channel_finish_now() when asked
+  static constexpr std::size_t kRouteMax = 5;  // resources of an on-demand channel (a route through racks has 5)
+  // Per channel (with on_demand_): its resources, the first repeated to fill the array
+  // (a maximum is unchanged by repeats), read without the DeviceGraph's indirection.
+  std::vector<std::array<ResourceId, kRouteMax>> on_demand_route_;
   // Channels using each resource (CSR: channels_of_resource_[first_..[r+1])).
   std::vector<std::int32_t> resource_channels_first_;
   std::vector<ChannelId> resource_channels_;
