@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
@@ -20,29 +21,110 @@ std::string gb(double bytes) {
   return buf;
 }
 
-// Memory devices a copy of a block of `bytes` can reach hop by hop from `holders`, each
-// hop's memory device big enough to hold it (Placer::place admits the block on every hop,
-// Sec. 4.4).
-std::vector<bool> reachable(const std::vector<MemId>& holders, double bytes, const Schedule& s) {
-  const DeviceGraph& g = s.graph();
-  std::vector<bool> seen(g.memories.size(), false);
-  std::vector<MemId> todo;
-  for (MemId m : holders) {
-    seen[static_cast<std::size_t>(m)] = true;
-    todo.push_back(m);
-  }
-  while (!todo.empty()) {
-    const MemId u = todo.back();
-    todo.pop_back();
-    for (const ChannelId ci : g.out_channels(u)) {
-      const auto v = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(ci)].to);
-      if (!s.channel_alive(ci) || seen[v] || static_cast<double>(g.memories[v].capacity) < bytes) continue;
-      seen[v] = true;
-      todo.push_back(static_cast<MemId>(v));
+// Memory devices a copy of a block can reach hop by hop from its holders, each hop's
+// memory device big enough to hold it (Placer::place admits the block on every hop,
+// Sec. 4.4). Per size class (the devices big enough): the strongly connected components
+// of the live channels between those devices (Tarjan), and each component's reach
+// through the condensation, so a block's answer is a union of a few precomputed sets, not
+// a walk over every channel (a network of N members has N² of them).
+class ClassReach {
+ public:
+  ClassReach(const Schedule& s, Bytes min_capacity) : s_(s), comp_(s.graph().memories.size(), -1) {
+    const DeviceGraph& g = s.graph();
+    const std::size_t n = g.memories.size();
+    in_.assign(n, 0);
+    for (std::size_t m = 0; m < n; ++m) in_[m] = g.memories[m].capacity >= min_capacity;
+    // Tarjan, iterative: components come out sinks first, so each one's successors are done.
+    std::vector<std::int32_t> index(n, -1), low(n, 0);
+    std::vector<char> on_stack(n, 0);
+    std::vector<MemId> stack;
+    std::vector<std::pair<MemId, std::size_t>> call;  // (device, next out-channel)
+    std::int32_t next = 0;
+    for (std::size_t root = 0; root < n; ++root) {
+      if (!in_[root] || index[root] >= 0) continue;
+      call.emplace_back(static_cast<MemId>(root), 0);
+      while (!call.empty()) {
+        auto& [u, k] = call.back();
+        const auto ui = static_cast<std::size_t>(u);
+        if (k == 0 && index[ui] < 0) {
+          index[ui] = low[ui] = next++;
+          stack.push_back(u);
+          on_stack[ui] = 1;
+        }
+        const auto& out = g.out_channels(u);
+        if (k < out.size()) {
+          const ChannelId c = out[k++];
+          const auto v = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c)].to);
+          if (!in_[v] || !s.channel_alive(c)) continue;
+          if (index[v] < 0) {
+            call.emplace_back(static_cast<MemId>(v), 0);
+          } else if (on_stack[v]) {
+            low[ui] = std::min(low[ui], index[v]);
+          }
+          continue;
+        }
+        if (low[ui] == index[ui]) {  // u roots a component: pop it, then its reach
+          const auto id = static_cast<std::int32_t>(reach_.size());
+          std::vector<MemId> members;
+          MemId w;
+          do {
+            w = stack.back();
+            stack.pop_back();
+            on_stack[static_cast<std::size_t>(w)] = 0;
+            comp_[static_cast<std::size_t>(w)] = id;
+            members.push_back(w);
+          } while (w != u);
+          std::vector<bool> r(n, false);
+          for (MemId x : members) {
+            r[static_cast<std::size_t>(x)] = true;
+            for (ChannelId c : g.out_channels(x)) {
+              const auto v = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c)].to);
+              if (!in_[v] || !s.channel_alive(c) || comp_[v] == id || comp_[v] < 0) continue;
+              const std::vector<bool>& rv = reach_[static_cast<std::size_t>(comp_[v])];
+              for (std::size_t y = 0; y < n; ++y) r[y] = r[y] || rv[y];
+            }
+          }
+          reach_.push_back(std::move(r));
+        }
+        const MemId done = u;
+        call.pop_back();
+        if (!call.empty()) {
+          const auto pi = static_cast<std::size_t>(call.back().first);
+          low[pi] = std::min(low[pi], low[static_cast<std::size_t>(done)]);
+        }
+      }
     }
   }
-  return seen;
-}
+  // Where a block held by `holders` can get to (the holders themselves included).
+  std::vector<bool> from(const std::vector<MemId>& holders) const {
+    const DeviceGraph& g = s_.graph();
+    std::vector<bool> seen(g.memories.size(), false);
+    auto add = [&](std::int32_t comp) {
+      const std::vector<bool>& r = reach_[static_cast<std::size_t>(comp)];
+      for (std::size_t y = 0; y < seen.size(); ++y) seen[y] = seen[y] || r[y];
+    };
+    std::vector<char> added(reach_.size(), 0);
+    for (MemId h : holders) {
+      const auto hi = static_cast<std::size_t>(h);
+      seen[hi] = true;
+      if (comp_[hi] >= 0) {
+        if (!added[static_cast<std::size_t>(comp_[hi])]++) add(comp_[hi]);
+        continue;
+      }
+      for (ChannelId c : g.out_channels(h)) {  // a holder too small to be a hop itself
+        const auto v = static_cast<std::size_t>(g.channels[static_cast<std::size_t>(c)].to);
+        if (in_[v] && s_.channel_alive(c) && !added[static_cast<std::size_t>(comp_[v])]++) add(comp_[v]);
+      }
+    }
+    return seen;
+  }
+
+ private:
+  const Schedule& s_;
+  std::vector<char> in_;
+  std::vector<std::int32_t> comp_;          // per memory device (-1: too small)
+  std::vector<std::vector<bool>> reach_;    // per component
+};
 
 // Where blocks can get to. first_unplaceable asks for every queued job; many share their
 // inputs (the scene blocks), and many more share where their input is and which memory
@@ -65,7 +147,12 @@ class ReachCache {
     std::sort(key.first.begin(), key.first.end());
     key.second = std::lower_bound(capacities_.begin(), capacities_.end(), bytes) - capacities_.begin();
     auto [r, new_key] = by_key_.try_emplace(std::move(key));
-    if (new_key) r->second = reachable(r->first.first, bytes, s_);
+    if (new_key) {
+      const auto cls = static_cast<std::size_t>(r->first.second);
+      auto [c, new_class] = classes_.try_emplace(cls);
+      if (new_class) c->second = std::make_unique<ClassReach>(s_, static_cast<Bytes>(cls < capacities_.size() ? capacities_[cls] : bytes));
+      r->second = c->second->from(r->first.first);
+    }
     it->second = &r->second;
     return r->second;
   }
@@ -76,6 +163,7 @@ class ReachCache {
   std::vector<double> capacities_;  // distinct, ascending
   std::map<Key, std::vector<bool>> by_key_;
   std::unordered_map<BlockId, const std::vector<bool>*> by_block_;
+  std::unordered_map<std::size_t, std::unique_ptr<ClassReach>> classes_;  // per size class
 };
 
 std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, ReachCache& cache) {
