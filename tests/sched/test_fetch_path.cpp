@@ -253,6 +253,19 @@ Time chain(const Schedule& s, BlockId b, const std::vector<ChannelId>& p, Time n
   return t;
 }
 
+// Six blocks: scene data of about 50 MB (even k) and ray queues of up to 32 MB (odd k).
+void add_cluster_blocks(RandomState& r, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int k = 0; k < 6; ++k) {
+    DataBlock d;
+    d.name = "b" + std::to_string(k);
+    d.kind = k % 2 ? DataKind::RayQueue : DataKind::SceneData;
+    d.consumed = k % 2 == 1;
+    d.bytes = k % 2 ? static_cast<Bytes>(u(rng) * 32e6) + 1 : static_cast<Bytes>((0.9 + 0.2 * u(rng)) * 50e6);
+    r.blocks.push_back(r.pool.add_block(d));
+  }
+}
+
 // Cluster-shaped random platform (the paper's Sec. 6 shape, small): 2-5 nodes, each a
 // disk and a RAM (SATA, one half-duplex resource) and maybe a GPU memory behind PCIe; a
 // LAN channel between every two RAMs that occupies the sender's port out and the
@@ -292,14 +305,7 @@ RandomState random_cluster_state(std::mt19937& rng, int inst) {
   r.m.insert(r.m.end(), rams.begin(), rams.end());
   r.m.insert(r.m.end(), disks.begin(), disks.end());
   r.g = b.build();
-  for (int k = 0; k < 6; ++k) {
-    DataBlock d;
-    d.name = "b" + std::to_string(k);
-    d.kind = k % 2 ? DataKind::RayQueue : DataKind::SceneData;
-    d.consumed = k % 2 == 1;
-    d.bytes = k % 2 ? static_cast<Bytes>(u(rng) * 32e6) + 1 : static_cast<Bytes>((0.9 + 0.2 * u(rng)) * 50e6);
-    r.blocks.push_back(r.pool.add_block(d));
-  }
+  add_cluster_blocks(r, rng);
   return r;
 }
 
@@ -347,14 +353,7 @@ RandomState random_network_state(std::mt19937& rng, int inst) {
     "nodes": [)" + node_list + R"(], "networks": [)" + net + "]}";
   r.g = parse_platform(json, "random-network.json");
   for (std::size_t m = 0; m < r.g.memories.size(); ++m) r.m.push_back(static_cast<MemId>(m));
-  for (int k = 0; k < 6; ++k) {
-    DataBlock d;
-    d.name = "b" + std::to_string(k);
-    d.kind = k % 2 ? DataKind::RayQueue : DataKind::SceneData;
-    d.consumed = k % 2 == 1;
-    d.bytes = k % 2 ? static_cast<Bytes>(u(rng) * 32e6) + 1 : static_cast<Bytes>((0.9 + 0.2 * u(rng)) * 50e6);
-    r.blocks.push_back(r.pool.add_block(d));
-  }
+  add_cluster_blocks(r, rng);
   return r;
 }
 
