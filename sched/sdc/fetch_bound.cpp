@@ -50,15 +50,9 @@ void FetchBound::build_relay_runs(const DeviceGraph& g) {
       const std::int32_t group = key(rs[i]);
       std::uint32_t e = i + 1;
       while (group >= 0 && e < rs.size() && key(rs[e]) == group) ++e;
-      RelayRun run{i, e, {}, kNever, 0};
       channels.clear();
-      for (std::uint32_t j = i; j < e; ++j) {
-        channels.push_back(rs[j].channel);
-        run.min_latency = std::min(run.min_latency, rs[j].latency);
-        run.max_bandwidth = std::max(run.max_bandwidth, rs[j].bandwidth);
-      }
-      run.common = common_resources(g, channels);
-      relay_runs_[m].push_back(run);
+      for (std::uint32_t j = i; j < e; ++j) channels.push_back(rs[j].channel);
+      relay_runs_[m].push_back({i, e, Span::of(g, channels)});
       i = e;
     }
   }
@@ -77,6 +71,16 @@ FetchBound::Common FetchBound::common_resources(const DeviceGraph& g, const std:
     if (everywhere && k < kCommon) out.r[k++] = r;
   }
   return out;
+}
+
+FetchBound::Span FetchBound::Span::of(const DeviceGraph& g, const std::vector<ChannelId>& channels) {
+  Span span;
+  span.common = common_resources(g, channels);
+  for (ChannelId c : channels) {
+    span.min_latency = std::min(span.min_latency, g.channels[static_cast<std::size_t>(c)].latency);
+    span.max_bandwidth = std::max(span.max_bandwidth, g.channels[static_cast<std::size_t>(c)].bandwidth);
+  }
+  return span;
 }
 
 void FetchBound::network_groups(const DeviceGraph& g) {

@@ -81,7 +81,7 @@ class FetchBound {
   Time relay_min(const Schedule& s, MemId m, double w, Time end, Time stop_below, const Admit& admit) const {
     const std::vector<Relay>& rs = relay_in_[static_cast<std::size_t>(m)];
     for (const RelayRun& run : relay_runs_[static_cast<std::size_t>(m)]) {
-      if (run.end - run.begin >= kMinRelayRun && !(run.common.busy(s) + (run.min_latency + w / run.max_bandwidth) < end))
+      if (run.end - run.begin >= kMinRelayRun && !(run.span.earliest_end(s, 0, w) < end))
         continue;
       for (std::uint32_t i = run.begin; i < run.end; ++i) {
         const Relay& r = rs[i];
@@ -128,22 +128,31 @@ class FetchBound {
   };
   // Resources on every one of these channels (at most kCommon of them).
   static Common common_resources(const DeviceGraph& g, const std::vector<ChannelId>& channels);
+  // A set of channels taken together (a run): when data ready at l crosses any of them,
+  // Eq. 3 lands it no earlier than max(l, busy(common)) + lat_min + |w| / bw_max.
+  struct Span {
+    Common common;
+    Time min_latency = kNever;
+    double max_bandwidth = 0;
+    static Span of(const DeviceGraph& g, const std::vector<ChannelId>& channels);
+    Time earliest_end(const Schedule& s, Time l, double w) const {
+      return std::max(l, common.busy(s)) + (min_latency + w / max_bandwidth);
+    }
+  };
   std::size_t group_count() const { return groups_; }
   std::int32_t group_of(std::int32_t k, MemId q) const {
     return group_of_[static_cast<std::size_t>(k) * n_ + static_cast<std::size_t>(q)];
   }
-  // The first part alone: a floor of the uncontended rest's bound over the run's members.
-  Time network_free_run(const Schedule& s, MemId m, std::int32_t group, Time l, const Common& out, Time min_latency,
-                        double max_bandwidth, double w) const {
+  // With lq = the run's Span::earliest_end (a floor of every l_q): the first part alone,
+  // a floor of the uncontended rest's bound over the run's members ...
+  Time network_free_run(MemId m, std::int32_t group, Time lq, double w) const {
     const NetworkRest& r = network_rest_[static_cast<std::size_t>(m) * groups_ + static_cast<std::size_t>(group)];
-    const Time lq = std::max(l, out.busy(s)) + (min_latency + w / max_bandwidth);
     return (lq + (r.latency + w * r.inv_bw) * (1 - 1e-9)) * (1 - 1e-14);
   }
-  Time network_floor(const Schedule& s, MemId m, std::int32_t group, Time l, const Common& out, Time min_latency,
-                     double max_bandwidth, double w, Time relay_end) const {
+  // ... and NetworkFloor whole.
+  Time network_floor(const Schedule& s, MemId m, std::int32_t group, Time lq, double w, Time relay_end) const {
     const NetworkRest& r = network_rest_[static_cast<std::size_t>(m) * groups_ + static_cast<std::size_t>(group)];
-    const Time lq = std::max(l, out.busy(s)) + (min_latency + w / max_bandwidth);
-    const Time free_run = (lq + (r.latency + w * r.inv_bw) * (1 - 1e-9)) * (1 - 1e-14);
+    const Time free_run = network_free_run(m, group, lq, w);
     const Time last = std::min(relay_end, std::max(lq, r.in.busy(s)) + (r.in_latency + w / r.in_bandwidth));
     Time floor = std::max(free_run, last);
     const Group& from = groups_info_[static_cast<std::size_t>(group)];
@@ -175,9 +184,7 @@ class FetchBound {
   std::vector<std::vector<Relay>> relay_in_;
   struct RelayRun {
     std::uint32_t begin, end;  // in relay_in_[m]
-    Common common;
-    Time min_latency;
-    double max_bandwidth;
+    Span span;
   };
   static constexpr std::uint32_t kMinRelayRun = 4;
   std::vector<std::vector<RelayRun>> relay_runs_;  // per m: its relays, in order, in runs

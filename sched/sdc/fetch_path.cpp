@@ -73,20 +73,15 @@ void FetchPathFinder::build_runs() {
         const std::int32_t k = g.channels[static_cast<std::size_t>(hops_[h].channel)].network;
         const std::int32_t group = k >= 0 ? rest_->group_of(k, hops_[h].to) : -1;
         std::uint32_t e = h + 1;
-        Run run{1, k, group, {}, hops_[h].latency, hops_[h].bandwidth};
         run_channels.assign(1, hops_[h].channel);
         for (; group >= 0 && e < end; ++e) {
           const Channel& ch = g.channels[static_cast<std::size_t>(hops_[e].channel)];
           if (ch.network != k || rest_->group_of(k, ch.to) != group) break;
-          run.min_latency = std::min(run.min_latency, hops_[e].latency);
-          run.max_bandwidth = std::max(run.max_bandwidth, hops_[e].bandwidth);
           run_channels.push_back(hops_[e].channel);
         }
-        run.length = e - h;
-        if (group >= 0 && run.length >= kMinRun) {
-          run.out = FetchBound::common_resources(g, run_channels);
+        if (group >= 0 && e - h >= kMinRun) {
           hops_[h].run = static_cast<std::int32_t>(runs_.size());
-          runs_.push_back(run);
+          runs_.push_back({e - h, k, group, FetchBound::Span::of(g, run_channels)});
         }
         h = e;
       }
@@ -194,8 +189,7 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
     const Hop& hop = hs[k];
     if (hop.run >= 0) {
       const Run& run = runs_[static_cast<std::size_t>(hop.run)];
-      if (!(rest_->network_free_run(*schedule_, m, run.group, root, run.out, run.min_latency, run.max_bandwidth, wbytes) <
-            direct)) {
+      if (!(rest_->network_free_run(m, run.group, run.span.earliest_end(*schedule_, root, wbytes), wbytes) < direct)) {
         k += run.length - 1;
         continue;
       }
@@ -382,19 +376,16 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
         // A network run (build_runs()) none of whose hops can lower its member's label does
         // nothing: every l_q >= the run's Eq. 3 floor >= the largest label of the group's
         // members when last looked at (labels only fall), so it is skipped, exactly.
-        std::int32_t group = -1;
-        Time run_max = -kNever;
         if (hs[h].run >= 0) {
           const Run& run = runs_[static_cast<std::size_t>(hs[h].run)];
-          const Time floor = std::max(lp, run.out.busy(*schedule_)) + (run.min_latency + wbytes / run.max_bandwidth);
-          if (floor >= group_max_[static_cast<std::size_t>(run.group)]) {
+          Time& group_max = group_max_[static_cast<std::size_t>(run.group)];
+          if (run.span.earliest_end(*schedule_, lp, wbytes) >= group_max) {
             h += run.length - 1;
             continue;
           }
-          group = run.group;
-          run_max = -kNever;  // (settled members, p among them, are never relaxed again)
+          Time run_max = -kNever;  // (settled members, p among them, are never relaxed again)
           for (std::size_t e = h + run.length; h < e; ++h) run_max = std::max(run_max, relax_tree(hs[h]));
-          group_max_[static_cast<std::size_t>(group)] = run_max;
+          group_max = run_max;
           --h;
           continue;
         }

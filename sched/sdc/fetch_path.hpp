@@ -169,9 +169,7 @@ class FetchPathFinder {
   struct Run {
     std::uint32_t length;
     std::int32_t network, group;  // the members' group (FetchBound::group_of)
-    FetchBound::Common out;       // resources on every channel of the run (p's NIC-out, ...)
-    Time min_latency;             // over the run's channels
-    double max_bandwidth;
+    FetchBound::Span span;        // its channels (shared resources: p's NIC-out, ...)
   };
   static constexpr std::uint32_t kMinRun = 4;  // shorter runs are expanded hop by hop
   std::vector<Run> runs_;
@@ -557,8 +555,8 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
           if (const Time a = relax(hm); a == a) return a;
         }
         if (into_m >= 0 || into_m == kNone) {
-          const Time floor = rest->network_floor(*schedule_, m, run.group, top.label, run.out, run.min_latency,
-                                                 run.max_bandwidth, wbytes, relay_end);
+          const Time floor = rest->network_floor(*schedule_, m, run.group, run.span.earliest_end(*schedule_, top.label, wbytes),
+                                                 wbytes, relay_end);
           const bool skip = Ties ? floor > label_[mi] : floor >= label_[mi];
           if (skip || (floor > enough && lost(floor))) {
             if (!skip) dropped = std::min(dropped, floor);
