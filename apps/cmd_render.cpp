@@ -20,12 +20,14 @@
 #include "apps/run/run_options.hpp"
 #include "render/engine/calibrate.hpp"
 #include "render/engine/profile_recorder.hpp"
+#include "render/engine/ray_log_recorder.hpp"
 #include "render/engine/renderer.hpp"
 #include "render/image/image_io.hpp"
 #include "render/scene/gltf_reader.hpp"
 #include "render/scene/scene.hpp"
 #include "common/error.hpp"
 #include "common/progress_line.hpp"
+#include "workload/twin_file.hpp"
 
 namespace rayline::cli {
 
@@ -51,6 +53,13 @@ void parse_resolution(const std::string& s, int& w, int& h) {
 std::string sibling(const std::string& image, const std::string& suffix) {
   fs::path p(image);
   return (p.parent_path() / (p.stem().string() + suffix)).string();
+}
+
+// NAME.twin.json -> NAME.twin.rays (InputError unless the name ends in .twin.json).
+std::string twin_rays_file(const std::string& twin) {
+  if (!twin.ends_with(".twin.json"))
+    throw InputError(twin, "--record-twin", "name the file NAME.twin.json (its ray log is written as NAME.twin.rays)");
+  return twin.substr(0, twin.size() - 5) + ".rays";
 }
 
 // True for an --out named .exr (OpenEXR, and its PNG preview), false for .png (the 8-bit
@@ -162,12 +171,39 @@ void check_render_outputs(const RenderCliOptions& opt) {
   std::vector<NamedPath> outputs = image_outputs(opt.out);
   outputs.push_back({"--record-profile", opt.record_profile});
   outputs.push_back({"--record-replay", opt.record_replay});
+  outputs.push_back({"--record-twin", opt.record_twin});
+  if (!opt.record_twin.empty()) outputs.push_back({"--record-twin (its ray log)", twin_rays_file(opt.record_twin)});
   std::vector<NamedPath> inputs = scene_inputs(opt.scene);
   inputs.push_back({"--platform", opt.platform == "auto" ? std::string() : opt.platform});
   inputs.push_back(
       {"--blocks-dir", opt.blocks_dir.empty() ? std::string() : (fs::path(opt.blocks_dir) / "blocks.json").string()});
   check_distinct(outputs, inputs);
   check_output_file(opt.out, "--out", "out/render.exr");
+}
+
+// --record-twin: this render as `simulate --like` runs it (workload/twin_file.hpp).
+void write_twin(const RenderCliOptions& opt, const engine::RayLogRecorder& rec, const engine::RenderResult& r,
+                OutputSet& outputs) {
+  if (rec.live() != 0) throw std::runtime_error("ray log: rays still alive at the end of the render");
+  TwinSpec t;
+  t.scene = r.scene_name;
+  t.width = std::uint32_t(r.width), t.height = std::uint32_t(r.height), t.spp = std::uint32_t(r.spp);
+  t.max_depth = std::uint32_t(r.max_depth);
+  t.seed = r.seed;
+  t.scheduler = r.scheduler;
+  t.horizon = duration_flag("--horizon", opt.horizon);
+  t.path_cap = r.path_cap, t.min_batch = r.min_batch, t.max_batch = r.max_batch;
+  t.memory_budget = r.memory_budget;
+  t.blocks = r.block_bytes;
+  const std::string rays = twin_rays_file(opt.record_twin);
+  t.rays = fs::path(rays).filename().string();
+  t.platform_json = r.platform_json;
+  t.recorded_seconds = r.seconds;
+  t.recorded_loads = r.store.loads;
+  t.recorded_jobs = r.jobs;
+  t.recorded_traced = r.counts.traced;
+  outputs.write(rays, [&](const std::string& staged) { rec.log().save(staged); });
+  outputs.write_text(opt.record_twin, twin_json(t));
 }
 
 // --record-profile / --record-replay: the recorder the renderer's kernels report to.
@@ -258,10 +294,17 @@ int run_render(const RenderCliOptions& opt) {
   }
   const std::unique_ptr<engine::ProfileRecorder> recorder = make_recorder(opt);
   ro.batching.recorder = recorder.get();
+  std::unique_ptr<engine::RayLogRecorder> ray_log;
+  if (!opt.record_twin.empty()) {
+    check_output_file(opt.record_twin, "--record-twin", "out/room.twin.json");
+    ray_log = std::make_unique<engine::RayLogRecorder>();
+    ro.batching.ray_log = ray_log.get();
+  }
   const engine::RenderResult r = engine::render(ro);
   line.done();
   OutputSet outputs;
   if (recorder) write_recordings(opt, *recorder, r, outputs);
+  if (ray_log) write_twin(opt, *ray_log, r, outputs);
   write_image_and_companions(opt.out, r, outputs);
   outputs.publish();
   if (!opt.quiet) print_render_summary(opt.out, r);

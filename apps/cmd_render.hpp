@@ -32,6 +32,8 @@ struct RenderCliOptions {
   bool quiet = false;
   // per-cell ray statistics / a replay log from the renderer's kernels.
   std::string record_profile, record_replay;
+  // NAME.twin.json (+ NAME.twin.rays): this render for `rayline simulate --like`.
+  std::string record_twin;
   std::string record_tiles = "8x8";
   int record_keyframe = 0;
 };

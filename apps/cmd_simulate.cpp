@@ -20,6 +20,7 @@
 #include "sim/peak_search.hpp"
 #include "workload/path_trace_graph.hpp"
 #include "sim/simulation.hpp"
+#include "workload/twin_file.hpp"
 
 namespace rayline::cli {
 
@@ -97,6 +98,15 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
       std::printf("prediction accuracy %.1f%% (jobs), %.1f%% (rays)\n", 100 * s.prediction_accuracy,
                   100 * s.prediction_ray_accuracy);
   }
+  if (s.twin) {
+    const auto rel = [](double sim, double real) { return real > 0 ? 100 * (sim - real) / real : 0.0; };
+    std::printf("twin of the recorded render: frame %s (recorded %s, %+.0f%%), %llu loads (recorded %llu, %+.0f%%), "
+                "%llu jobs (recorded %llu)\n",
+                format_duration(s.simulated).c_str(), format_duration(s.recorded_seconds).c_str(),
+                rel(s.simulated, s.recorded_seconds), static_cast<unsigned long long>(s.twin_loads),
+                static_cast<unsigned long long>(s.recorded_loads), rel(double(s.twin_loads), double(s.recorded_loads)),
+                static_cast<unsigned long long>(s.twin_jobs), static_cast<unsigned long long>(s.recorded_jobs));
+  }
   if (s.faults_applied > 0)
     std::printf("faults: %d applied (metrics.json \"faults\": throughput before and after each); rays lost %llu%s\n",
                 s.faults_applied, static_cast<unsigned long long>(s.rays_lost),
@@ -166,11 +176,30 @@ void engine_config(const SimulateOptions& opt, Time horizon, const AgingSetting&
 
 // The flags as a SimulationConfig (clients left at 1): every text flag parsed and checked,
 // InputError naming the flag otherwise.
-sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
+// --like NAME.twin.json: the recorded render's platform and scheduler unless --platform /
+// --scheduler say otherwise (docs/validation.md).
+void twin_config(const SimulateOptions& opt, SimulateOptions& eff, sim::SimulationConfig& cfg) {
+  if (opt.workload != SimulateOptions{}.workload)
+    throw InputError("--like", "", "replays a recorded render; give --like or --workload, not both");
+  cfg.workload = opt.like;
+  cfg.workload_kind = sim::WorkloadKind::Twin;
+  cfg.platform_file = opt.platform.empty() ? std::string() : resolve_platform(opt.platform);
+  const TwinSpec twin = load_twin(opt.like);
+  if (!opt.scheduler_given) eff.scheduler = twin.scheduler;
+}
+
+sim::SimulationConfig simulate_config(const SimulateOptions& given) {
   sim::SimulationConfig cfg;
-  cfg.platform_file = resolve_platform(opt.platform);
-  cfg.workload = resolve_workload(opt.workload);
-  cfg.workload_kind = workload_kind(cfg.workload);
+  SimulateOptions opt = given;
+  if (!given.like.empty()) {
+    twin_config(given, opt, cfg);
+  } else {
+    cfg.platform_file = resolve_platform(opt.platform);
+    cfg.workload = resolve_workload(opt.workload);
+    cfg.workload_kind = workload_kind(cfg.workload);
+    if (cfg.workload.ends_with(".twin.json"))
+      throw InputError("--workload", cfg.workload, "is a recorded render: run its twin with --like " + cfg.workload);
+  }
   const Time horizon = duration_flag("--horizon", opt.horizon);
   const AgingSetting aging = parse_aging(opt.aging, "--aging");
   cfg.duration = duration_flag("--duration", opt.duration);
@@ -187,8 +216,9 @@ sim::SimulationConfig simulate_config(const SimulateOptions& opt) {
     if (cfg.host_memory == 0) throw InputError("--memory-budget", "", "must be more than 0 bytes");
   }
   cfg.warm = opt.start == "warm";
-  if (cfg.warm && cfg.workload_kind == sim::WorkloadKind::JobSet)
-    throw InputError("--start", "", "warm applies to the ray stream and to path tracing; a job set says where its data starts");
+  if (cfg.warm && (cfg.workload_kind == sim::WorkloadKind::JobSet || cfg.workload_kind == sim::WorkloadKind::Twin))
+    throw InputError("--start", "", "warm applies to the ray stream and to path tracing; a job set and a recorded render "
+                                    "say where their data starts");
   if (cfg.workload_kind != sim::WorkloadKind::PathTrace) check_no_path_trace_flags(opt);
   // --blocks sizes the synthetic ray stream's scene; a job set and a scene profile bring their own.
   if (cfg.workload_kind != sim::WorkloadKind::RayStream && opt.blocks != SimulateOptions{}.blocks)
@@ -204,6 +234,12 @@ void check_simulate_flags(const SimulateOptions& opt) { simulate_config(opt); }
 
 namespace {
 std::vector<NamedPath> run_inputs(const SimulateOptions& opt) {
+  if (!opt.like.empty()) {
+    const std::string rays = load_twin(opt.like).rays_path(opt.like);
+    return {{"--platform", opt.platform.empty() ? std::string() : resolve_platform(opt.platform)},
+            {"--like", opt.like},
+            {"--like (its ray log)", rays}};
+  }
   const std::string workload = resolve_workload(opt.workload);
   return {{"--platform", resolve_platform(opt.platform)},
           {"--workload", workload == "ray-stream" ? "" : workload},

@@ -37,6 +37,8 @@ struct SimulateOptions {
   int frames_in_flight = 1;         // --frames-in-flight (path tracing)
   std::string memory_budget;        // --memory-budget: every node's host RAM (empty: the platform's)
   int frames = 0;                   // --frames: frames per client, then the run ends (0: until --duration)
+  std::string like;                 // --like NAME.twin.json: the twin of a recorded render
+  bool scheduler_given = false;     // --scheduler on the command line (else a twin's own)
 };
 int run_simulate(const SimulateOptions& opt);
 // One run, as run_simulate does it, writing its results folder at `dir` (inside compare's

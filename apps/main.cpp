@@ -160,10 +160,16 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                   "used most (3/4 of each, the rest for rays), as after a long steady run (docs/simulator.md)")
       ->default_val(opt->start)
       ->check(CLI::IsMember({"cold", "warm"}));
+  sim->add_option("--like", opt->like,
+                  "Simulate a recorded render (NAME.twin.json from `rayline render --record-twin`): its platform, "
+                  "blocks, settings, batching and scheduler, every ray's outcome from its ray log; runs until the "
+                  "frame is done (docs/validation.md). --platform and --scheduler override the recorded ones")
+      ->type_name(kPath);
   sim->add_option("--fail", opt->fail,
                   "DEVICE@TIME: a node, memory or compute device fails at TIME (e.g. B3@10s); its work is re-planned "
                   "on the devices left, lost data made again where the workload can (repeatable; docs/faults.md)")->type_name(kFault);
-  sim->callback([opt, &action] {
+  sim->callback([opt, sim, &action] {
+    opt->scheduler_given = sim->count("--scheduler") > 0;
     action = [opt] {
       use_huge_pages_for_large_allocations();  // apps/huge_pages.hpp
       return run_simulate(*opt);
@@ -304,6 +310,10 @@ void add_render(CLI::App& app, std::function<int()>& action) {
                 "Write per-cell ray statistics of this render (JSON, docs/scene-profiles.md); CPU kernels only")->type_name(kPath);
   r->add_option("--record-replay", opt->record_replay,
                 "Write a replay log of this render for `rayline simulate --fidelity replay` (CPU kernels only)")->type_name(kPath);
+  r->add_option("--record-twin", opt->record_twin,
+                "Write NAME.twin.json and NAME.twin.rays: this render's settings, platform and every ray's outcome, for "
+                "`rayline simulate --like NAME.twin.json` (docs/validation.md); CPU kernels only")
+      ->type_name(kPath);
   r->add_option("--record-tiles", opt->record_tiles, "Tile grid of the recorded replay log, TXxTY (the profile's image.tiles)")->type_name(kTiles)
       ->default_val(opt->record_tiles);
   r->add_option("--record-keyframe", opt->record_keyframe,

@@ -21,6 +21,8 @@
 #include "workload/ray_flow_expectation.hpp"
 #include "sched/io/platform_loader.hpp"
 #include "workload/ray_stream.hpp"
+#include "workload/render_twin.hpp"
+#include "workload/twin_file.hpp"
 #include "sched/runtime/runtime_loop.hpp"
 #include "sched/runtime/fault.hpp"
 #include "common/invocation.hpp"
@@ -193,14 +195,46 @@ struct Inputs {
   DeviceGraph graph;
   std::unique_ptr<JobSet> set;            // WorkloadKind::JobSet
   std::unique_ptr<SceneProfile> profile;  // WorkloadKind::PathTrace
+  TwinSpec twin;                          // WorkloadKind::Twin, and its ray log
+  std::shared_ptr<const RayLog> twin_rays;
   PathTraceOptions path_trace;
   ReplayLog recording;                    // record_replay: every split of this run
   std::vector<Fault> faults;              // --fail, checked against the platform
 };
 
+// The twin file and its ray log, checked against each other.
+void load_twin_inputs(const SimulationConfig& cfg, Inputs& in) {
+  in.twin = load_twin(cfg.workload);
+  const std::string rays = in.twin.rays_path(cfg.workload);
+  auto log = std::make_shared<RayLog>(RayLog::load(rays));
+  if (log->cells != in.twin.blocks.size())
+    throw InputError(rays, "cells", std::to_string(log->cells) + " cells, but " + cfg.workload + " lists " +
+                                        std::to_string(in.twin.blocks.size()) + " blocks");
+  if (log->width != in.twin.width || log->height != in.twin.height || log->spp != in.twin.spp)
+    throw InputError(rays, "width", "the ray log's image (" + std::to_string(log->width) + "x" +
+                                        std::to_string(log->height) + ", " + std::to_string(log->spp) +
+                                        " spp) is not the twin file's");
+  in.twin_rays = std::move(log);
+}
+
+// The twin runs on one machine's DCG as the renderer builds it: a disk and a host memory,
+// compute devices running RayIntersect and ShadowIntersect.
+void check_twin_platform(const SimulationConfig& cfg, const Inputs& in) {
+  const DeviceGraph& g = in.graph;
+  const std::string file = cfg.platform_file.empty() ? cfg.workload : cfg.platform_file;
+  bool disk = false, host = false;
+  for (const MemoryDevice& m : g.memories) disk |= m.kind == MemoryKind::Disk, host |= m.kind == MemoryKind::Host;
+  if (!disk || !host) throw InputError(file, "memory", "the twin of a render needs a disk and a host memory device");
+  if (g.job_type("RayIntersect") == kNone || g.job_type("ShadowIntersect") == kNone)
+    throw InputError(file, "compute", "the twin of a render needs devices running RayIntersect and ShadowIntersect");
+}
+
 std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
   auto in = std::make_unique<Inputs>();  // (path_trace.record points into it)
-  in->graph = load_platform(cfg.platform_file);
+  if (cfg.workload_kind == WorkloadKind::Twin) load_twin_inputs(cfg, *in);
+  in->graph = cfg.platform_file.empty() ? parse_platform(in->twin.platform_json, cfg.workload + " (its platform)")
+                                        : load_platform(cfg.platform_file);
+  if (cfg.workload_kind == WorkloadKind::Twin) check_twin_platform(cfg, *in);
   if (cfg.host_memory > 0) {  // --memory-budget: the RAM of every node, as a render's budget
     for (MemoryDevice& m : in->graph.memories)
       if (m.kind == MemoryKind::Host) m.capacity = static_cast<Bytes>(cfg.host_memory);
@@ -344,10 +378,39 @@ struct Engine {
         stream = w.get();
         return w;
       }
+      case WorkloadKind::Twin: return make_twin(in);
       case WorkloadKind::JobSet: break;
     }
     for (auto [b, m] : in.set->initial) schedule.put_initial(b, m);
     return std::make_unique<StaticWorkload>();
+  }
+
+  // The render's blocks on the disk, its rays queued in host memory (renderer.cpp does the same).
+  std::unique_ptr<Workload> make_twin(const Inputs& in) {
+    const DeviceGraph& g = in.graph;
+    MemId disk = kNone, ram = kNone;
+    for (std::size_t i = 0; i < g.memories.size(); ++i) {
+      if (g.memories[i].kind == MemoryKind::Disk && disk == kNone) disk = MemId(i);
+      if (g.memories[i].kind == MemoryKind::Host && ram == kNone) ram = MemId(i);
+    }
+    std::vector<BlockId> blocks;
+    for (std::size_t c = 0; c < in.twin.blocks.size(); ++c) {
+      DataBlock d;
+      d.name = "scene" + std::to_string(c);
+      d.kind = DataKind::SceneData;
+      d.bytes = in.twin.blocks[c];
+      blocks.push_back(pool.add_block(d));
+      schedule.put_initial(blocks.back(), disk, 0, true);
+    }
+    RayBatchOptions o;
+    o.spp = int(in.twin.spp);
+    o.path_cap = in.twin.path_cap;
+    o.min_batch = in.twin.min_batch;
+    o.max_batch = in.twin.max_batch;
+    auto w = std::make_unique<RenderTwinWorkload>(g, ram, std::move(blocks), o, in.twin_rays);
+    twin = w.get();
+    twin_ram = ram;
+    return w;
   }
 
   SgPlatform platform;
@@ -356,6 +419,8 @@ struct Engine {
   Schedule schedule;
   RayStreamWorkload* stream = nullptr;
   PathTraceWorkload* path_trace = nullptr;
+  RenderTwinWorkload* twin = nullptr;
+  MemId twin_ram = kNone;
   std::unique_ptr<Workload> workload;
   std::unique_ptr<Scheduler> scheduler;
   SimExecutor executor;
@@ -374,6 +439,7 @@ void show_progress(const SimulationConfig& cfg, Engine& e, ProgressLine& progres
     if (!progress.due()) return;
     const double rays = e.stream       ? static_cast<double>(e.stream->rays_traced())
                         : e.path_trace ? static_cast<double>(work_of(*e.path_trace))
+                        : e.twin       ? static_cast<double>(e.twin->counts().traced)
                                        : 0.0;
     if (cfg.runs_for_duration())
       progress.print("simulate", "t=%7.2f / %.0f s  rays %.3g  activities %zu", now, cfg.duration, rays,
@@ -643,6 +709,43 @@ std::string why_nothing_ended(const Engine& e, Time warm, Time end) {
   return buf;
 }
 
+// The twin of a render: its frame against the recording's (docs/validation.md). Loads are
+// the disk->RAM T-jobs of scene blocks, as the renderer's block store counts them.
+json twin_metrics(const Engine& e, const Inputs& in, const Outcome& o, SimulationSummary& sum) {
+  std::uint64_t loads = 0;
+  Bytes bytes = 0;
+  for (std::size_t i = 0; i < e.schedule.activity_count(); ++i) {
+    const Activity& a = e.schedule.activity(static_cast<ActivityId>(i));
+    if (a.kind != ActivityKind::Transfer || a.state != ActivityState::Done || a.cancelled) continue;
+    if (e.pool.block(a.block).kind != DataKind::SceneData) continue;
+    if (e.schedule.graph().channels[static_cast<std::size_t>(a.channel)].to != e.twin_ram) continue;
+    ++loads;
+    bytes += a.bytes;
+  }
+  const RenderTwinWorkload& w = *e.twin;
+  sum.twin = true;
+  sum.twin_loads = loads;
+  sum.twin_jobs = w.jobs_created();
+  sum.recorded_loads = in.twin.recorded_loads;
+  sum.recorded_jobs = in.twin.recorded_jobs;
+  sum.recorded_seconds = in.twin.recorded_seconds;
+  const bool done = w.finished() && !o.stalled;
+  return {{"scene", in.twin.scene},
+          {"frame_done", done},
+          {"makespan_s", o.stats.makespan},
+          {"loads", loads},
+          {"bytes_loaded", bytes},
+          {"jobs", w.jobs_created()},
+          {"merges", w.merges()},
+          {"block_visits", w.counts().traced},
+          {"camera_rays", w.camera_rays()},
+          {"paths_ended", w.counts().paths_ended},
+          {"recorded_run", {{"seconds", in.twin.recorded_seconds},
+                            {"loads", in.twin.recorded_loads},
+                            {"jobs", in.twin.recorded_jobs},
+                            {"block_visits", in.twin.recorded_traced}}}};
+}
+
 // metrics.json (its fields: docs/architecture.md); fills the summary's totals.
 json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e, const Outcome& o, double wall,
                  SimulationSummary& sum) {
@@ -681,6 +784,7 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
       m["path_trace"]["nothing_delivered"] = sum.nothing_delivered;
     }
   }
+  if (e.twin) m["twin"] = twin_metrics(e, in, o, sum);
   m["prediction_error"] = {{"exec_mean_rel", mean_of(n.err_exec)}, {"exec_p95_rel", percentile(n.err_exec, 0.95)},
                            {"transfer_mean_rel", mean_of(n.err_transfer)},
                            {"transfer_p95_rel", percentile(n.err_transfer, 0.95)}};

@@ -17,13 +17,14 @@
 namespace rayline::sim {
 
 // Where a run's jobs come from (the Workload seam, docs/architecture.md): the synthetic
-// ray stream (runs for `duration`), a static job set (runs to its end), or path tracing
-// on a scene profile (Sec. 5-6, runs for `duration`).
-enum class WorkloadKind : std::uint8_t { RayStream, JobSet, PathTrace };
+// ray stream (runs for `duration`), a static job set (runs to its end), path tracing
+// on a scene profile (Sec. 5-6, runs for `duration`), or the twin of a recorded render
+// (`--like NAME.twin.json`, docs/validation.md: runs until its frame is done).
+enum class WorkloadKind : std::uint8_t { RayStream, JobSet, PathTrace, Twin };
 
 // A run, every option parsed (the command line checks them, apps/run/).
 struct SimulationConfig {
-  std::string platform_file;
+  std::string platform_file;            // "" with a twin: the platform the render drove
   WorkloadKind workload_kind = WorkloadKind::RayStream;
   std::string workload = "ray-stream";  // as metrics.json names it: "ray-stream", or the file
   SchedulerChoice scheduler;
@@ -53,7 +54,9 @@ struct SimulationConfig {
   // Faults to inject (docs/faults.md): "DEVICE@TIME" each, as --fail takes them.
   std::vector<std::string> faults;
 
-  bool runs_for_duration() const { return workload_kind != WorkloadKind::JobSet; }
+  bool runs_for_duration() const {
+    return workload_kind != WorkloadKind::JobSet && workload_kind != WorkloadKind::Twin;
+  }
 };
 
 struct SimulationSummary {
@@ -67,6 +70,10 @@ struct SimulationSummary {
   std::string stalled_reason;  // when stalled: which job, and why no device can take it (sched/policy/unplaced.hpp)
   // Path-tracing workload only.
   bool path_trace = false;
+  // Twin of a recorded render only: the simulated frame against the recording's.
+  bool twin = false;
+  std::uint64_t twin_loads = 0, twin_jobs = 0, recorded_loads = 0, recorded_jobs = 0;
+  double recorded_seconds = 0;
   double steady_rays_per_second = 0;    // block visits (rays intersected in a block) per second after the warm-up
   double compute_bound_rays_shot_per_second = 0;  // path tracing: the most any schedule could reach (workload/compute_bound.hpp)
   double steady_rays_shot_per_second = 0;  // the paper's metric: rays traced to completion per second after the warm-up

@@ -60,10 +60,12 @@ LocalExecutor::Task ActivityTasks::task(ActivityId id, const Activity& a) {
 LocalExecutor::Task ActivityTasks::exec_task(const Activity& a, Victims v) {
   RayJob* job = &s_.workload.job(a.job);
   accel::Aggregate* aggregate = aggregates_.at(std::size_t(a.device)).get();
-  return [this, job, aggregate, v = std::move(v)] {
+  const bool keep = s_.workload.keeps_inputs();
+  return [this, job, aggregate, keep, v = std::move(v)] {
     evict(v);
-    aggregate->intersect(s_.ts, accel::QueueJob{job->cell, job->kind, job->rays, job->parts}, job->out, job->counts);
-    std::vector<trace::RayRecord>().swap(job->rays);
+    const auto kind = static_cast<trace::RayKind>(job->slot % 2);
+    aggregate->intersect(s_.ts, accel::QueueJob{job->cell, kind, job->rays, job->parts}, job->out, job->counts);
+    if (!keep) std::vector<trace::RayRecord>().swap(job->rays);
   };
 }
 

@@ -19,6 +19,7 @@
 #include "render/engine/gpu_select.hpp"
 #include "render/engine/local_executor.hpp"
 #include "render/engine/profile_recorder.hpp"
+#include "render/engine/ray_log_recorder.hpp"
 #include "render/engine/render_metrics.hpp"
 #include "render/engine/workstation.hpp"
 #include "render/integrator/camera.hpp"
@@ -162,6 +163,8 @@ void prepare_blocks(const RenderOptions& opt, const Frame& f, Blocks& b, RenderR
       throw InputError("--record-tiles", "", e.what());
     }
   }
+  if (opt.batching.ray_log)  // every ray's outcome, for simulate --like
+    opt.batching.ray_log->begin(std::uint32_t(res.width), std::uint32_t(res.height), std::uint32_t(res.spp), nb);
   b.footprint.resize(nb);
   for (std::uint32_t i = 0; i < nb; ++i) {
     // Missing or truncated block files are found before anything runs.
@@ -259,8 +262,9 @@ void add_cpu_only_job_types(const RenderOptions& opt, Platform& p) {
 
 void make_platform(const RenderOptions& opt, const Blocks& b, const RenderWorkloadOptions& wo, Bytes ram_capacity,
                    Platform& p, RenderResult& res) {
-  // A profile recorder classifies rays in the CPU kernels: no GPU then.
-  p.gpu_ctx = opt.batching.recorder ? nullptr : open_gpu(opt, res);
+  // A profile recorder classifies rays in the CPU kernels, and a ray log records CPU visits
+  // (a GPU's doubtful rays would come back as visits of their own): no GPU then.
+  p.gpu_ctx = opt.batching.recorder || opt.batching.ray_log ? nullptr : open_gpu(opt, res);
   p.wm = workstation_model(opt.platform);
   p.wm.threads = res.threads;
   p.wm.ram_capacity = ram_capacity;
@@ -493,6 +497,10 @@ RenderResult render(const RenderOptions& opt) {
   const Bytes ram_capacity = size_paths(opt, blocks, wo, res);
   Platform platform;
   make_platform(opt, blocks, wo, ram_capacity, platform, res);
+  res.min_batch = wo.min_batch;
+  res.max_batch = wo.max_batch;
+  res.block_bytes = blocks.footprint;
+  res.platform_json = workstation_json(platform.wm, "the platform of a render (" + res.platform + ")");
   run(opt, frame, blocks, wo, platform, res);
   return res;
 }

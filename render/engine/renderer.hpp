@@ -88,6 +88,9 @@ struct RenderResult {
   Bytes scene_block_bytes = 0;            // sum of block footprints
   Bytes memory_budget = 0;
   std::uint32_t path_cap = 0;             // paths alive at once (lowered to fit the budget)
+  std::uint32_t min_batch = 0, max_batch = 0;  // the batching settings used
+  std::vector<Bytes> block_bytes;         // each cell's block as the plan charges it
+  std::string platform_json;              // the DCG driven, as a platform file (memory budget = RAM capacity)
   Bytes rss_start_bytes = 0;              // process RSS when the run started (scene, index loaded)
   Bytes peak_rss_bytes = 0;               // process peak RSS at the end (getrusage)
   Bytes overhead_bound_bytes = 0;         // documented allowance beyond the budget
