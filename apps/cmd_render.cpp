@@ -366,6 +366,8 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %s, bandwidth %s; %s\n", c.load_samples,
               format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),
               fit_quality(c.load_fit, "load").c_str());
+  std::printf("dispatch latency per job (thread free and data in place -> job started), mean %s: in each setup below\n",
+              format_duration(c.dispatch_gap).c_str());
   std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %s, %s; %s\n", c.exec_samples,
               format_duration(c.model.intersect_setup).c_str(), ray_rate(c.model.intersect_rate).c_str(),
               fit_quality(c.intersect_fit, "job").c_str());

@@ -112,12 +112,18 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
   }
   const ExecCoefficients& a = tm.at(0, 0);
   const ExecCoefficients& b = tm.at(0, 1);
+  // Eq. 2's setup also carries the loop's mean dispatch latency per job (the idle time
+  // between a thread being free with its job's data in place and the job starting): a
+  // plan, and a simulation of this machine, then account for it as the renderer pays it.
+  double gaps = 0;
+  for (Time g : r.dispatch_gaps) gaps += g;
+  c.dispatch_gap = r.dispatch_gaps.empty() ? 0 : gaps / double(r.dispatch_gaps.size());
   if (a.supported && a.rate[int(DataKind::RayQueue)] > 0) {
-    c.model.intersect_setup = a.setup;
+    c.model.intersect_setup = a.setup + c.dispatch_gap;
     c.model.intersect_rate = a.rate[int(DataKind::RayQueue)];
   }
   if (b.supported && b.rate[int(DataKind::ShadowRayQueue)] > 0) {
-    c.model.shadow_setup = b.setup;
+    c.model.shadow_setup = b.setup + c.dispatch_gap;
     c.model.shadow_rate = b.rate[int(DataKind::ShadowRayQueue)];
   }
   // The GPU: its Eq. 2 per job type (dispatch + hit download + host shading) and

@@ -23,6 +23,9 @@ struct CalibrationResult {
   // How well each fit predicts its own samples (sched/core/fit_errors.hpp): Eq. 1 of the loads,
   // Eq. 2 per CPU thread of RayIntersect and ShadowIntersect.
   FitErrors load_fit, intersect_fit, shadow_fit;
+  // The mean dispatch latency per CPU E-job (RenderResult::dispatch_gaps), added to both
+  // job types' Eq. 2 setup in `model`.
+  Time dispatch_gap = 0;
   // The GPU, when one was used: samples and whether each fit replaced the defaults.
   std::string gpu_device;
   int gpu_exec_samples = 0, pcie_samples = 0;

@@ -141,6 +141,16 @@ void activity_json(const RenderResult& r, const Schedule& s, json& m) {
                               {"transfer_median_rel_error", median(err_transfer)},
                               {"exec_samples", err_exec.size()},
                               {"transfer_samples", err_transfer.size()}};
+  // The loop's dispatch latency per E-job on a CPU thread (renderer.hpp, dispatch_gaps).
+  std::vector<double> gaps(r.dispatch_gaps.begin(), r.dispatch_gaps.end());
+  std::sort(gaps.begin(), gaps.end());
+  double sum = 0;
+  for (double g : gaps) sum += g;
+  m["dispatch_gap_s"] = {{"mean", gaps.empty() ? 0.0 : sum / double(gaps.size())},
+                         {"p50", gaps.empty() ? 0.0 : gaps[gaps.size() / 2]},
+                         {"p90", gaps.empty() ? 0.0 : gaps[gaps.size() * 9 / 10]},
+                         {"total", sum},
+                         {"samples", gaps.size()}};
 }
 
 // Per compute device: utilisation and where its idle time went.

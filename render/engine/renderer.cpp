@@ -419,6 +419,25 @@ void report_samples(const Schedule& schedule, const JobPool& pool, const Platfor
   }
 }
 
+// The dispatch latency of every E-job on a CPU thread (RenderResult::dispatch_gaps): its
+// start minus the latest of its predecessor's end, its inputs' arrival and its creation.
+void report_dispatch(const Schedule& schedule, const JobPool& pool, const Platform& p, RenderResult& res) {
+  const DeviceGraph& g = p.g;
+  for (std::size_t d = 0; d < g.computes.size(); ++d) {
+    if (g.computes[d].kind != ComputeKind::Cpu) continue;
+    Time prev_end = -1;
+    for (ActivityId id : schedule.device_timeline(DeviceId(d)).items) {
+      const Activity& a = schedule.activity(id);
+      if (a.state != ActivityState::Done || a.cancelled) continue;
+      if (prev_end >= 0) {
+        const Time ready = std::max({prev_end, a.data_ready, pool.job(a.job).created});
+        res.dispatch_gaps.push_back(std::max<Time>(0, a.start - ready));
+      }
+      prev_end = a.end;
+    }
+  }
+}
+
 void report_gpu(const RenderOptions& opt, const GpuStore* gpu, RenderResult& res) {
   if (gpu) {
     res.gpu = gpu->stats();
@@ -477,6 +496,7 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
 
   report_image(workload, store, film, res);
   report_samples(schedule, pool, p, sb, res);
+  report_dispatch(schedule, pool, p, res);
   report_gpu(opt, gpu_store.get(), res);
   res.metrics_json = render_metrics_json(res, schedule, executor.busy_seconds());
   if (opt.keep_schedule_outputs) {

@@ -100,6 +100,10 @@ struct RenderResult {
   // T-job as (bytes, seconds).
   std::vector<TimingSample> exec_samples;
   std::vector<std::pair<Bytes, Time>> load_samples;
+  // Per E-job on a CPU thread (the first on each excepted): how long the thread stood idle
+  // after the job's inputs and the thread itself were ready, before the job started — the
+  // loop's dispatch latency (events, planning, thread wake-up), which the plan does not see.
+  std::vector<Time> dispatch_gaps;
   // The GPU: the device used ("" when none), why none or what failed.
   std::string gpu_device, gpu_status = "none";
   int gpu_device_id = -1;                 // its compute device in the DCG (TimingSample::device)
