@@ -182,9 +182,9 @@ void check_render_outputs(const RenderCliOptions& opt) {
 }
 
 // --record-twin: this render as `simulate --like` runs it (workload/twin_file.hpp).
-void write_twin(const RenderCliOptions& opt, const engine::RayLogRecorder& rec, const engine::RenderResult& r,
+void write_twin(const RenderCliOptions& opt, engine::RayLogRecorder& rec, const engine::RenderResult& r,
                 OutputSet& outputs) {
-  if (rec.live() != 0) throw std::runtime_error("ray log: rays still alive at the end of the render");
+  const RayLog& log = rec.finish();
   TwinSpec t;
   t.scene = r.scene_name;
   t.width = std::uint32_t(r.width), t.height = std::uint32_t(r.height), t.spp = std::uint32_t(r.spp);
@@ -198,11 +198,15 @@ void write_twin(const RenderCliOptions& opt, const engine::RayLogRecorder& rec, 
   const std::string rays = twin_rays_file(opt.record_twin);
   t.rays = fs::path(rays).filename().string();
   t.platform_json = r.platform_json;
+  engine::CalibrationResult fit;  // this run's own Eq. 1, Eq. 2 and dispatch latency
+  fit.model = r.workstation;
+  engine::fit_model(r, fit);
+  t.fitted_platform_json = engine::workstation_json(fit.model, "fitted to the recorded render's own measurements");
   t.recorded_seconds = r.seconds;
   t.recorded_loads = r.store.loads;
   t.recorded_jobs = r.jobs;
   t.recorded_traced = r.counts.traced;
-  outputs.write(rays, [&](const std::string& staged) { rec.log().save(staged); });
+  outputs.write(rays, [&](const std::string& staged) { log.save(staged); });
   outputs.write_text(opt.record_twin, twin_json(t));
 }
 

@@ -185,6 +185,9 @@ void twin_config(const SimulateOptions& opt, SimulateOptions& eff, sim::Simulati
   cfg.workload_kind = sim::WorkloadKind::Twin;
   cfg.platform_file = opt.platform.empty() ? std::string() : resolve_platform(opt.platform);
   const TwinSpec twin = load_twin(opt.like);
+  cfg.twin_fitted_timing = opt.timing == "recorded";
+  if (cfg.twin_fitted_timing && !opt.platform.empty())
+    throw InputError("--timing", "", "recorded takes the twin's fitted platform; give --timing recorded or --platform, not both");
   if (!opt.scheduler_given) eff.scheduler = twin.scheduler;
 }
 
@@ -197,6 +200,7 @@ sim::SimulationConfig simulate_config(const SimulateOptions& given) {
     cfg.platform_file = resolve_platform(opt.platform);
     cfg.workload = resolve_workload(opt.workload);
     cfg.workload_kind = workload_kind(cfg.workload);
+    if (opt.timing != SimulateOptions{}.timing) throw InputError("--timing", "", "applies only to a recorded render (--like)");
     if (cfg.workload.ends_with(".twin.json"))
       throw InputError("--workload", cfg.workload, "is a recorded render: run its twin with --like " + cfg.workload);
   }

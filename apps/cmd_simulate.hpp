@@ -38,6 +38,7 @@ struct SimulateOptions {
   std::string memory_budget;        // --memory-budget: every node's host RAM (empty: the platform's)
   int frames = 0;                   // --frames: frames per client, then the run ends (0: until --duration)
   std::string like;                 // --like NAME.twin.json: the twin of a recorded render
+  std::string timing = "platform";  // --timing platform|recorded (a twin's)
   bool scheduler_given = false;     // --scheduler on the command line (else a twin's own)
 };
 int run_simulate(const SimulateOptions& opt);

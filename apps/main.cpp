@@ -165,6 +165,12 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                   "blocks, settings, batching and scheduler, every ray's outcome from its ray log; runs until the "
                   "frame is done (docs/validation.md). --platform and --scheduler override the recorded ones")
       ->type_name(kPath);
+  sim->add_option("--timing", opt->timing,
+                  "With --like: platform = the timing of the platform the render drove (a prediction, e.g. from "
+                  "`rayline calibrate`); recorded = Eq. 1, Eq. 2 and dispatch latency fitted to the recorded run itself "
+                  "(the workload model's error alone)")
+      ->default_val(opt->timing)
+      ->check(CLI::IsMember({"platform", "recorded"}));
   sim->add_option("--fail", opt->fail,
                   "DEVICE@TIME: a node, memory or compute device fails at TIME (e.g. B3@10s); its work is re-planned "
                   "on the devices left, lost data made again where the workload can (repeatable; docs/faults.md)")->type_name(kFault);

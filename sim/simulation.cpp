@@ -232,8 +232,11 @@ void check_twin_platform(const SimulationConfig& cfg, const Inputs& in) {
 std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
   auto in = std::make_unique<Inputs>();  // (path_trace.record points into it)
   if (cfg.workload_kind == WorkloadKind::Twin) load_twin_inputs(cfg, *in);
-  in->graph = cfg.platform_file.empty() ? parse_platform(in->twin.platform_json, cfg.workload + " (its platform)")
-                                        : load_platform(cfg.platform_file);
+  if (cfg.twin_fitted_timing && in->twin.fitted_platform_json.empty())
+    throw InputError(cfg.workload, "fitted_platform", "missing: --timing recorded needs a twin file that has it");
+  in->graph = !cfg.platform_file.empty()  ? load_platform(cfg.platform_file)
+              : cfg.twin_fitted_timing    ? parse_platform(in->twin.fitted_platform_json, cfg.workload + " (its fitted_platform)")
+                                          : parse_platform(in->twin.platform_json, cfg.workload + " (its platform)");
   if (cfg.workload_kind == WorkloadKind::Twin) check_twin_platform(cfg, *in);
   if (cfg.host_memory > 0) {  // --memory-budget: the RAM of every node, as a render's budget
     for (MemoryDevice& m : in->graph.memories)

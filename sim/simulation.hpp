@@ -25,6 +25,7 @@ enum class WorkloadKind : std::uint8_t { RayStream, JobSet, PathTrace, Twin };
 // A run, every option parsed (the command line checks them, apps/run/).
 struct SimulationConfig {
   std::string platform_file;            // "" with a twin: the platform the render drove
+  bool twin_fitted_timing = false;      // a twin on its recording's own fitted timing (--timing recorded)
   WorkloadKind workload_kind = WorkloadKind::RayStream;
   std::string workload = "ray-stream";  // as metrics.json names it: "ray-stream", or the file
   SchedulerChoice scheduler;

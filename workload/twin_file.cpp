@@ -37,6 +37,7 @@ std::string twin_json(const TwinSpec& t) {
   j["blocks"] = t.blocks;
   j["rays"] = t.rays;
   j["platform"] = json::parse(t.platform_json);
+  if (!t.fitted_platform_json.empty()) j["fitted_platform"] = json::parse(t.fitted_platform_json);
   j["recorded_run"] = {{"seconds", t.recorded_seconds},
                        {"loads", t.recorded_loads},
                        {"jobs", t.recorded_jobs},
@@ -53,7 +54,7 @@ TwinSpec load_twin(const std::string& path) {
   const JsonField root = input.field(doc, "");
   root.object();
   root.only_keys({"format", "scene", "width", "height", "spp", "max_depth", "seed", "scheduler", "horizon_s", "batching",
-                  "memory_budget_bytes", "blocks", "rays", "platform", "recorded_run"});
+                  "memory_budget_bytes", "blocks", "rays", "platform", "fitted_platform", "recorded_run"});
   if (root.at("format").string() != kFormat)
     root.fail_at("format", std::string("expected \"") + kFormat + "\" (written by rayline render --record-twin)");
   TwinSpec t;
@@ -86,6 +87,10 @@ TwinSpec load_twin(const std::string& path) {
   t.rays = root.at("rays").non_empty_string();
   root.at("platform").object();
   t.platform_json = root.at("platform").json().dump();
+  if (const auto f = root.find("fitted_platform")) {
+    f->object();
+    t.fitted_platform_json = f->json().dump();
+  }
   if (const auto r = root.find("recorded_run")) {
     r->object();
     r->only_keys({"seconds", "loads", "jobs", "traced"});

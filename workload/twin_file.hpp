@@ -24,6 +24,10 @@ struct TwinSpec {
   std::vector<Bytes> blocks;        // charged bytes of each cell's block
   std::string rays;                 // the ray log, relative to the twin file's folder
   std::string platform_json;        // the platform (DCG) the render drove
+  // The same platform with Eq. 1, Eq. 2 and the dispatch latency fitted to the recording
+  // run's own measurements ("" when none): timing known exactly, so a twin run on it
+  // measures the workload model's error alone (docs/validation.md).
+  std::string fitted_platform_json;
   // The recording render (slower than an unrecorded one: it keeps every job's input rays).
   double recorded_seconds = 0;
   std::uint64_t recorded_loads = 0, recorded_jobs = 0, recorded_traced = 0;

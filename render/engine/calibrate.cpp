@@ -39,6 +39,71 @@ FitErrors fit_channel(const std::vector<std::pair<Bytes, Time>>& s, Time& latenc
 
 }  // namespace
 
+void fit_model(const RenderResult& r, CalibrationResult& c) {
+  c.load_samples = static_cast<int>(r.load_samples.size());
+  if (r.load_samples.size() >= 2) c.load_fit = fit_channel(r.load_samples, c.model.disk_latency, c.model.disk_bandwidth);
+
+  // All CPU hardware threads are identical: fit them as one device (0); the GPU is device 1.
+  TimingModel tm;
+  tm.resize(2, 2);
+  std::vector<TimingSample> samples;
+  for (TimingSample s : r.exec_samples) {
+    s.device = s.device == r.gpu_device_id ? 1 : 0;
+    (s.device == 1 ? c.gpu_exec_samples : c.exec_samples) += 1;
+    // Eq. 2 with the ray queue as the only sized input (SceneData's cost is in SETUP).
+    std::vector<InputSize> in;
+    for (const InputSize& x : s.inputs)
+      if (x.kind != DataKind::SceneData) in.push_back(x);
+    s.inputs = std::move(in);
+    samples.push_back(std::move(s));
+  }
+  // RenderResult's sample types: RayIntersect 0, ShadowIntersect 1.
+  for (auto& e : tm.fit(samples).entries) {
+    if (!e.ok) continue;
+    FitErrors& f = e.device == 0 ? (e.type == 0 ? c.intersect_fit : c.shadow_fit)
+                                 : (e.type == 0 ? c.gpu_intersect_fit : c.gpu_shadow_fit);
+    f = e.errors;
+  }
+  const ExecCoefficients& a = tm.at(0, 0);
+  const ExecCoefficients& b = tm.at(0, 1);
+  // Eq. 2's setup also carries the loop's mean dispatch latency per job (the idle time
+  // between a thread being free with its job's data in place and the job starting): a
+  // plan, and a simulation of this machine, then account for it as the renderer pays it.
+  double gaps = 0;
+  for (Time g : r.dispatch_gaps) gaps += g;
+  c.dispatch_gap = r.dispatch_gaps.empty() ? 0 : gaps / double(r.dispatch_gaps.size());
+  if (a.supported && a.rate[int(DataKind::RayQueue)] > 0) {
+    c.model.intersect_setup = a.setup + c.dispatch_gap;
+    c.model.intersect_rate = a.rate[int(DataKind::RayQueue)];
+  }
+  if (b.supported && b.rate[int(DataKind::ShadowRayQueue)] > 0) {
+    c.model.shadow_setup = b.setup + c.dispatch_gap;
+    c.model.shadow_rate = b.rate[int(DataKind::ShadowRayQueue)];
+  }
+  // The GPU: its Eq. 2 per job type (dispatch + hit download + host shading) and
+  // the RAM->GPU channel's Eq. 1 over every upload (blocks with their BVH build, ray queues).
+  if (r.gpu_device_id >= 0) {
+    GpuModel gm = c.model.gpus.empty() ? GpuModel{} : c.model.gpus.front();  // what is not fitted is kept
+    gm.memory = r.gpu_memory_budget;
+    const ExecCoefficients& ga = tm.at(1, 0);
+    const ExecCoefficients& gb = tm.at(1, 1);
+    if (ga.supported && ga.rate[int(DataKind::RayQueue)] > 0) {
+      gm.intersect_setup = ga.setup;
+      gm.intersect_rate = ga.rate[int(DataKind::RayQueue)];
+      c.gpu_intersect_fitted = true;
+    }
+    if (gb.supported && gb.rate[int(DataKind::ShadowRayQueue)] > 0) {
+      gm.shadow_setup = gb.setup;
+      gm.shadow_rate = gb.rate[int(DataKind::ShadowRayQueue)];
+      c.gpu_shadow_fitted = true;
+    }
+    c.pcie_samples = static_cast<int>(r.pcie_samples.size());
+    if (r.pcie_samples.size() >= 2) c.pcie_fit = fit_channel(r.pcie_samples, gm.pcie_latency, gm.pcie_bandwidth);
+    c.gpu_device = r.gpu_device;
+    c.model.gpus.assign(1, gm);
+  }
+}
+
 CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_gpu_jobs) {
   if (opt.memory_budget == 0) {
     // One quick in-core pass to learn the block sizes, then the budgeted run that loads.
@@ -86,68 +151,7 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
   }
   c.model.threads = r.threads;
   if (r.load_samples.size() < 2) throw std::runtime_error("calibrate: fewer than 2 block loads were measured; use more blocks");
-  c.load_samples = static_cast<int>(r.load_samples.size());
-  c.load_fit = fit_channel(r.load_samples, c.model.disk_latency, c.model.disk_bandwidth);
-
-  // All CPU hardware threads are identical: fit them as one device (0); the GPU is device 1.
-  TimingModel tm;
-  tm.resize(2, 2);
-  std::vector<TimingSample> samples;
-  for (TimingSample s : r.exec_samples) {
-    s.device = s.device == r.gpu_device_id ? 1 : 0;
-    (s.device == 1 ? c.gpu_exec_samples : c.exec_samples) += 1;
-    // Eq. 2 with the ray queue as the only sized input (SceneData's cost is in SETUP).
-    std::vector<InputSize> in;
-    for (const InputSize& x : s.inputs)
-      if (x.kind != DataKind::SceneData) in.push_back(x);
-    s.inputs = std::move(in);
-    samples.push_back(std::move(s));
-  }
-  // RenderResult's sample types: RayIntersect 0, ShadowIntersect 1.
-  for (auto& e : tm.fit(samples).entries) {
-    if (!e.ok) continue;
-    FitErrors& f = e.device == 0 ? (e.type == 0 ? c.intersect_fit : c.shadow_fit)
-                                 : (e.type == 0 ? c.gpu_intersect_fit : c.gpu_shadow_fit);
-    f = e.errors;
-  }
-  const ExecCoefficients& a = tm.at(0, 0);
-  const ExecCoefficients& b = tm.at(0, 1);
-  // Eq. 2's setup also carries the loop's mean dispatch latency per job (the idle time
-  // between a thread being free with its job's data in place and the job starting): a
-  // plan, and a simulation of this machine, then account for it as the renderer pays it.
-  double gaps = 0;
-  for (Time g : r.dispatch_gaps) gaps += g;
-  c.dispatch_gap = r.dispatch_gaps.empty() ? 0 : gaps / double(r.dispatch_gaps.size());
-  if (a.supported && a.rate[int(DataKind::RayQueue)] > 0) {
-    c.model.intersect_setup = a.setup + c.dispatch_gap;
-    c.model.intersect_rate = a.rate[int(DataKind::RayQueue)];
-  }
-  if (b.supported && b.rate[int(DataKind::ShadowRayQueue)] > 0) {
-    c.model.shadow_setup = b.setup + c.dispatch_gap;
-    c.model.shadow_rate = b.rate[int(DataKind::ShadowRayQueue)];
-  }
-  // The GPU: its Eq. 2 per job type (dispatch + hit download + host shading) and
-  // the RAM->GPU channel's Eq. 1 over every upload (blocks with their BVH build, ray queues).
-  if (r.gpu_device_id >= 0) {
-    GpuModel gm;
-    gm.memory = r.gpu_memory_budget;
-    const ExecCoefficients& ga = tm.at(1, 0);
-    const ExecCoefficients& gb = tm.at(1, 1);
-    if (ga.supported && ga.rate[int(DataKind::RayQueue)] > 0) {
-      gm.intersect_setup = ga.setup;
-      gm.intersect_rate = ga.rate[int(DataKind::RayQueue)];
-      c.gpu_intersect_fitted = true;
-    }
-    if (gb.supported && gb.rate[int(DataKind::ShadowRayQueue)] > 0) {
-      gm.shadow_setup = gb.setup;
-      gm.shadow_rate = gb.rate[int(DataKind::ShadowRayQueue)];
-      c.gpu_shadow_fitted = true;
-    }
-    c.pcie_samples = static_cast<int>(r.pcie_samples.size());
-    if (r.pcie_samples.size() >= 2) c.pcie_fit = fit_channel(r.pcie_samples, gm.pcie_latency, gm.pcie_bandwidth);
-    c.gpu_device = r.gpu_device;
-    c.model.gpus.push_back(gm);
-  }
+  fit_model(r, c);
   c.platform_json = workstation_json(c.model, "calibrated by rayline calibrate on this machine");
   return c;
 }

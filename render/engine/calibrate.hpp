@@ -37,6 +37,13 @@ struct CalibrationResult {
   std::string platform_json;
 };
 
+// Fits `c.model` to a render's own measurements (its other fields are kept): Eq. 1 of
+// the disk->RAM channel over its loads (at least 2, else kept), Eq. 2 per job type of a
+// CPU thread and of the GPU, the RAM->GPU channel, and the mean dispatch latency added to
+// the CPU setups. calibrate() calls it on its render; `render --record-twin` on the
+// recorded render (the twin's "recorded" timing, docs/validation.md).
+void fit_model(const RenderResult& r, CalibrationResult& c);
+
 // Fewer GPU jobs of a type than this in the mixed pass start the GPU's own pass (calibrate.cpp).
 inline constexpr int kMinGpuJobsPerType = 32;
 

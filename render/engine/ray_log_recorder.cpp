@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <unordered_map>
 #include <utility>
-#include <vector>
 
 namespace rayline::engine {
 
@@ -11,65 +11,85 @@ void RayLogRecorder::begin(std::uint32_t width, std::uint32_t height, std::uint3
   log_ = RayLog{};
   log_.width = width, log_.height = height, log_.spp = spp, log_.cells = cells;
   pixels_ = std::uint64_t(width) * height;
-  log_.entry.assign(pixels_ * spp, RayLog::kNoVisit);
-  live_.clear();
+  events_.clear();
+  rays_.clear();
+  finished_ = false;
 }
 
 std::uint64_t RayLogRecorder::key(const trace::RayRecord& r) const {
   if (r.bounce > 255) throw std::runtime_error("ray log: more than 255 bounces");
-  return (camera_index(r) << 9) | (std::uint64_t(r.bounce) << 1) | std::uint64_t(r.kind);
-}
-
-std::uint32_t RayLogRecorder::add_visit(const trace::RayRecord& r) {
-  if (log_.visits.size() >= RayLog::kNoVisit - 1) throw std::runtime_error("ray log: more than 2^32 visits");
-  RayVisit v;
-  v.cell = r.cell;
-  v.bounce = r.bounce;
-  v.kind = static_cast<std::uint8_t>(r.kind);
-  log_.visits.push_back(v);
-  return static_cast<std::uint32_t>(log_.visits.size() - 1);
+  const std::uint64_t camera = std::uint64_t(r.sample) * pixels_ + r.pixel;
+  return (camera << 9) | (std::uint64_t(r.bounce) << 1) | std::uint64_t(r.kind);
 }
 
 void RayLogRecorder::camera_rays(std::span<const trace::RayRecord> placed, std::uint64_t, std::uint64_t) {
-  for (const trace::RayRecord& r : placed) {
-    const std::uint32_t v = add_visit(r);
-    log_.entry.at(camera_index(r)) = v;
-    live_[key(r)] = v;
-  }
+  events_.push_back({true, 0, static_cast<std::uint32_t>(placed.size())});
+  for (const trace::RayRecord& r : placed) rays_.push_back({key(r), r.cell});
 }
 
 void RayLogRecorder::job(std::span<const trace::RayRecord> in, std::span<const trace::RayRecord> out) {
   if (in.empty()) return;
-  const bool shadow = in.front().kind == trace::RayKind::Shadow;
-  // The job's input visits, by the key an output finds its parent with: the path for a
-  // RayIntersect job, (path, bounce) for a ShadowIntersect job.
+  events_.push_back({false, static_cast<std::uint32_t>(in.size()), static_cast<std::uint32_t>(out.size())});
+  for (const trace::RayRecord& r : in) rays_.push_back({key(r), r.cell});
+  for (const trace::RayRecord& r : out) rays_.push_back({key(r), r.cell});
+}
+
+const RayLog& RayLogRecorder::finish() {
+  if (finished_) return log_;
+  log_.entry.assign(pixels_ * log_.spp, RayLog::kNoVisit);
+  std::unordered_map<std::uint64_t, std::uint32_t> live;  // ray -> its current visit
+  auto add_visit = [&](const Rec& r) {
+    if (log_.visits.size() >= RayLog::kNoVisit - 1) throw std::runtime_error("ray log: more than 2^32 visits");
+    RayVisit v;
+    v.cell = r.cell;
+    v.bounce = static_cast<std::uint16_t>((r.key >> 1) & 0xFF);
+    v.kind = static_cast<std::uint8_t>(r.key & 1);
+    log_.visits.push_back(v);
+    const auto id = static_cast<std::uint32_t>(log_.visits.size() - 1);
+    live[r.key] = id;
+    return id;
+  };
   std::unordered_map<std::uint64_t, std::uint32_t> parent;
-  parent.reserve(in.size());
-  for (const trace::RayRecord& r : in) {
-    const auto it = live_.find(key(r));
-    if (it == live_.end()) throw std::runtime_error("ray log: a job's input ray was never handed to it");
-    parent[shadow ? key(r) : camera_index(r)] = it->second;
-    live_.erase(it);
-  }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;  // (parent visit, child visit)
-  edges.reserve(out.size());
-  for (const trace::RayRecord& o : out) {
-    const auto it = parent.find(shadow ? key(o) : camera_index(o));
-    if (it == parent.end()) throw std::runtime_error("ray log: an output ray has no input ray of its path");
-    const std::uint32_t w = add_visit(o);
-    edges.emplace_back(it->second, w);
-    live_[key(o)] = w;
+  std::size_t at = 0;
+  for (const Event& e : events_) {
+    if (e.camera) {
+      for (std::uint32_t i = 0; i < e.out; ++i, ++at) log_.entry.at(rays_[at].key >> 9) = add_visit(rays_[at]);
+      continue;
+    }
+    const bool shadow = (rays_[at].key & 1) != 0;
+    // The job's input visits, by the key an output finds its parent with: the path for a
+    // RayIntersect job, (path, bounce) for a ShadowIntersect job.
+    parent.clear();
+    for (std::uint32_t i = 0; i < e.in; ++i, ++at) {
+      const auto it = live.find(rays_[at].key);
+      if (it == live.end()) throw std::runtime_error("ray log: a job's input ray was never handed to it");
+      parent[shadow ? rays_[at].key : rays_[at].key >> 9] = it->second;
+      live.erase(it);
+    }
+    edges.clear();
+    for (std::uint32_t i = 0; i < e.out; ++i, ++at) {
+      const auto it = parent.find(shadow ? rays_[at].key : rays_[at].key >> 9);
+      if (it == parent.end()) throw std::runtime_error("ray log: an output ray has no input ray of its path");
+      const std::uint32_t p = it->second;
+      edges.emplace_back(p, add_visit(rays_[at]));
+    }
+    std::stable_sort(edges.begin(), edges.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t i = 0; i < edges.size();) {
+      RayVisit& p = log_.visits[edges[i].first];
+      p.first = static_cast<std::uint32_t>(log_.children.size());
+      std::size_t j = i;
+      for (; j < edges.size() && edges[j].first == edges[i].first; ++j) log_.children.push_back(edges[j].second);
+      if (j - i > 255) throw std::runtime_error("ray log: more than 255 rays from one visit");
+      p.children = static_cast<std::uint8_t>(j - i);
+      i = j;
+    }
   }
-  std::stable_sort(edges.begin(), edges.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (std::size_t i = 0; i < edges.size();) {
-    RayVisit& p = log_.visits[edges[i].first];
-    p.first = static_cast<std::uint32_t>(log_.children.size());
-    std::size_t j = i;
-    for (; j < edges.size() && edges[j].first == edges[i].first; ++j) log_.children.push_back(edges[j].second);
-    if (j - i > 255) throw std::runtime_error("ray log: more than 255 rays from one visit");
-    p.children = static_cast<std::uint8_t>(j - i);
-    i = j;
-  }
+  if (!live.empty()) throw std::runtime_error("ray log: rays still alive at the end of the render");
+  std::vector<Event>().swap(events_);
+  std::vector<Rec>().swap(rays_);
+  finished_ = true;
+  return log_;
 }
 
 }  // namespace rayline::engine

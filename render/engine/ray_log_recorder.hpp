@@ -1,14 +1,16 @@
-// Records a render's ray log (workload/ray_log.hpp) for its simulated twin: each camera
-// ray's first visit, and after every E-job which visits each of its input rays handed on.
-// Runs on the loop thread (RenderWorkload calls it as each job's result is taken), from
-// the job's input and output rays: an output ray descends from the input ray of the same
-// path (pixel, sample) — in a RayIntersect job there is one path ray per path; in a
-// ShadowIntersect job the one with the output's bounce. The render is CPU-only while
-// recording (doubtful GPU rays would come back as visits of their own).
+// Records a render's ray log (workload/ray_log.hpp) for its simulated twin. During the
+// render it only appends, per finished E-job on the loop thread, the identity of each
+// input ray and of each output ray with its cell (20 bytes per ray visit); finish() links
+// them into the log after the render, so the recorded run is timed as an unrecorded one.
+//
+// Linking: an output ray descends from the job's input ray of the same path (pixel,
+// sample) — a RayIntersect job holds one path ray per path; in a ShadowIntersect job, from
+// the input of the output's bounce. The render is CPU-only while recording (a GPU's
+// doubtful rays would come back as visits of their own).
 #pragma once
 #include <cstdint>
 #include <span>
-#include <unordered_map>
+#include <vector>
 
 #include "render/integrator/ray.hpp"
 #include "workload/ray_log.hpp"
@@ -22,20 +24,27 @@ class RayLogRecorder {
   void camera_rays(std::span<const trace::RayRecord> placed, std::uint64_t first, std::uint64_t n);
   // A finished E-job: its input rays (all in one cell, one kind) and its output rays.
   void job(std::span<const trace::RayRecord> in, std::span<const trace::RayRecord> out);
-  // The log, once the render has ended (every ray ended: no live ray is left).
-  const RayLog& log() const { return log_; }
-  std::size_t live() const { return live_.size(); }
+  // After the render: links what was appended into the log (std::runtime_error when a ray
+  // cannot be linked, or rays are left alive).
+  const RayLog& finish();
 
  private:
-  std::uint64_t camera_index(const trace::RayRecord& r) const {
-    return std::uint64_t(r.sample) * pixels_ + r.pixel;
-  }
+  struct Rec {
+    std::uint64_t key;  // camera index << 9 | bounce << 1 | kind
+    std::uint32_t cell;
+  };
   std::uint64_t key(const trace::RayRecord& r) const;
-  std::uint32_t add_visit(const trace::RayRecord& r);
 
   RayLog log_;
   std::uint64_t pixels_ = 0;
-  std::unordered_map<std::uint64_t, std::uint32_t> live_;  // ray (path, bounce, kind) -> its current visit
+  // Appended in event order: per event a header {kind: 0 camera / 1 job, counts} then its rays.
+  struct Event {
+    bool camera = false;
+    std::uint32_t in = 0, out = 0;  // camera: `out` rays placed
+  };
+  std::vector<Event> events_;
+  std::vector<Rec> rays_;
+  bool finished_ = false;
 };
 
 }  // namespace rayline::engine

@@ -520,6 +520,7 @@ RenderResult render(const RenderOptions& opt) {
   res.min_batch = wo.min_batch;
   res.max_batch = wo.max_batch;
   res.block_bytes = blocks.footprint;
+  res.workstation = platform.wm;
   res.platform_json = workstation_json(platform.wm, "the platform of a render (" + res.platform + ")");
   run(opt, frame, blocks, wo, platform, res);
   return res;

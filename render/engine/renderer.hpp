@@ -10,6 +10,7 @@
 #include "render/store/block_store.hpp"
 #include "render/store/gpu_store.hpp"
 #include "render/engine/render_workload.hpp"
+#include "render/engine/workstation.hpp"
 #include "render/integrator/path_kernels.hpp"
 #include "sched/runtime/runtime_loop.hpp"
 #include "sched/core/timing_model.hpp"
@@ -91,6 +92,7 @@ struct RenderResult {
   std::uint32_t min_batch = 0, max_batch = 0;  // the batching settings used
   std::vector<Bytes> block_bytes;         // each cell's block as the plan charges it
   std::string platform_json;              // the DCG driven, as a platform file (memory budget = RAM capacity)
+  WorkstationModel workstation;           // ... and as its model
   Bytes rss_start_bytes = 0;              // process RSS when the run started (scene, index loaded)
   Bytes peak_rss_bytes = 0;               // process peak RSS at the end (getrusage)
   Bytes overhead_bound_bytes = 0;         // documented allowance beyond the budget
