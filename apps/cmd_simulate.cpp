@@ -189,6 +189,15 @@ void twin_config(const SimulateOptions& opt, SimulateOptions& eff, sim::Simulati
   if (cfg.twin_fitted_timing && !opt.platform.empty())
     throw InputError("--timing", "", "recorded takes the twin's fitted platform; give --timing recorded or --platform, not both");
   if (!opt.scheduler_given) eff.scheduler = twin.scheduler;
+  // A twin replays its log unless told otherwise; the path-tracing flags mean nothing to it.
+  if (!opt.fidelity_given) eff.fidelity = "replay";
+  if (!parse_fidelity(eff.fidelity, cfg.fidelity) || cfg.fidelity == Fidelity::Analytic)
+    throw InputError("--fidelity", "", "a recorded render's twin runs at replay (its ray log) or markov (its statistics), not '" +
+                                           eff.fidelity + "'");
+  SimulateOptions rest = eff;
+  rest.fidelity = SimulateOptions{}.fidelity;
+  rest.workload = opt.like;
+  check_no_path_trace_flags(rest);
 }
 
 sim::SimulationConfig simulate_config(const SimulateOptions& given) {
@@ -223,7 +232,8 @@ sim::SimulationConfig simulate_config(const SimulateOptions& given) {
   if (cfg.warm && (cfg.workload_kind == sim::WorkloadKind::JobSet || cfg.workload_kind == sim::WorkloadKind::Twin))
     throw InputError("--start", "", "warm applies to the ray stream and to path tracing; a job set and a recorded render "
                                     "say where their data starts");
-  if (cfg.workload_kind != sim::WorkloadKind::PathTrace) check_no_path_trace_flags(opt);
+  if (cfg.workload_kind != sim::WorkloadKind::PathTrace && cfg.workload_kind != sim::WorkloadKind::Twin)
+    check_no_path_trace_flags(opt);
   // --blocks sizes the synthetic ray stream's scene; a job set and a scene profile bring their own.
   if (cfg.workload_kind != sim::WorkloadKind::RayStream && opt.blocks != SimulateOptions{}.blocks)
     throw InputError("--blocks", "", "applies only to the ray stream (--workload ray-stream): '" + opt.workload +

@@ -39,7 +39,8 @@ struct SimulateOptions {
   int frames = 0;                   // --frames: frames per client, then the run ends (0: until --duration)
   std::string like;                 // --like NAME.twin.json: the twin of a recorded render
   std::string timing = "platform";  // --timing platform|recorded (a twin's)
-  bool scheduler_given = false;     // --scheduler on the command line (else a twin's own)
+  bool scheduler_given = false;
+  bool fidelity_given = false;      // --fidelity on the command line (a twin's default: replay)     // --scheduler on the command line (else a twin's own)
 };
 int run_simulate(const SimulateOptions& opt);
 // One run, as run_simulate does it, writing its results folder at `dir` (inside compare's

@@ -176,6 +176,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
                   "on the devices left, lost data made again where the workload can (repeatable; docs/faults.md)")->type_name(kFault);
   sim->callback([opt, sim, &action] {
     opt->scheduler_given = sim->count("--scheduler") > 0;
+    opt->fidelity_given = sim->count("--fidelity") > 0;
     action = [opt] {
       use_huge_pages_for_large_allocations();  // apps/huge_pages.hpp
       return run_simulate(*opt);

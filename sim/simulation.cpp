@@ -197,6 +197,8 @@ struct Inputs {
   std::unique_ptr<SceneProfile> profile;  // WorkloadKind::PathTrace
   TwinSpec twin;                          // WorkloadKind::Twin, and its ray log
   std::shared_ptr<const RayLog> twin_rays;
+  Fidelity twin_fidelity = Fidelity::Replay;
+  std::uint64_t twin_seed = 1;
   PathTraceOptions path_trace;
   ReplayLog recording;                    // record_replay: every split of this run
   std::vector<Fault> faults;              // --fail, checked against the platform
@@ -215,6 +217,10 @@ void load_twin_inputs(const SimulationConfig& cfg, Inputs& in) {
                                         std::to_string(log->height) + ", " + std::to_string(log->spp) +
                                         " spp) is not the twin file's");
   in.twin_rays = std::move(log);
+  if (cfg.fidelity == Fidelity::Analytic)
+    throw InputError("--fidelity", "", "a recorded render's twin runs at replay (its ray log) or markov (the log's statistics)");
+  in.twin_fidelity = cfg.fidelity;
+  in.twin_seed = cfg.seed;
 }
 
 // The twin runs on one machine's DCG as the renderer builds it: a disk and a host memory,
@@ -410,7 +416,12 @@ struct Engine {
     o.path_cap = in.twin.path_cap;
     o.min_batch = in.twin.min_batch;
     o.max_batch = in.twin.max_batch;
-    auto w = std::make_unique<RenderTwinWorkload>(g, ram, std::move(blocks), o, in.twin_rays);
+    std::unique_ptr<TwinOracle> oracle;
+    if (in.twin_fidelity == Fidelity::Replay)
+      oracle = std::make_unique<ReplayOracle>(in.twin_rays);
+    else
+      oracle = std::make_unique<MarkovOracle>(*in.twin_rays, in.twin.width, in.twin.height, in.twin.spp, in.twin_seed);
+    auto w = std::make_unique<RenderTwinWorkload>(g, ram, std::move(blocks), o, std::move(oracle));
     twin = w.get();
     twin_ram = ram;
     return w;

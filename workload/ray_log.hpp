@@ -39,13 +39,6 @@ struct RayLog {
   std::vector<std::uint32_t> children;   // visit ids
 
   std::uint64_t camera_rays() const { return entry.size(); }
-  // Path rays that end in the visit (a path visit with no path child): the paths it ends.
-  bool ends_path(const RayVisit& v) const {
-    if (v.kind != 0) return false;
-    for (std::uint32_t i = 0; i < v.children; ++i)
-      if (visits[children[v.first + i]].kind == 0) return false;
-    return true;
-  }
 
   // Written to `path` as is (the caller stages and renames); std::runtime_error naming
   // the file when it cannot be written.

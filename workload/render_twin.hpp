@@ -1,24 +1,18 @@
 // The simulated twin of a render (docs/validation.md): the renderer's own batching policy
-// (workload/ray_batch_workload.hpp, the same code `rayline render` runs) over the rays of
-// a ray log recorded from that render (workload/ray_log.hpp). A twin ray is a visit of
-// the log; when its E-job ends, the log says which rays it handed on and to which cells,
-// exactly as the real kernels did. What the simulator adds is time: E-jobs take what the
-// timing model (Eq. 2) says, T-jobs what SimGrid says for the platform's channels.
+// (workload/ray_batch_workload.hpp, the same code `rayline render` runs) over rays whose
+// outcomes come from an oracle (workload/twin_oracle.hpp): the render's ray log, replayed
+// exactly, or its Markov statistics. When an E-job ends, the oracle says which rays each
+// of its rays handed on and to which cells. What the simulator adds is time: E-jobs take
+// what the timing model (Eq. 2) says, T-jobs what SimGrid says for the platform's channels.
 #pragma once
 #include <cstdint>
 #include <memory>
 #include <vector>
 
 #include "workload/ray_batch_workload.hpp"
-#include "workload/ray_log.hpp"
+#include "workload/twin_oracle.hpp"
 
 namespace rayline {
-
-struct TwinRay {
-  std::uint32_t visit = 0;
-  std::uint32_t cell = 0;
-  std::uint8_t kind = 0;  // 0 path, 1 shadow
-};
 
 struct TwinCounts {
   std::uint64_t traced = 0;       // block visits
@@ -36,15 +30,15 @@ struct TwinRayTraits {
 
 class RenderTwinWorkload final : public RayBatchWorkload<TwinRay, TwinCounts, TwinRayTraits> {
  public:
-  // `scene_blocks[c]` is cell c's SceneData block (log->cells of them).
+  // `scene_blocks[c]` is cell c's SceneData block (one per cell of the recorded render).
   RenderTwinWorkload(const DeviceGraph& g, MemId ram, std::vector<BlockId> scene_blocks, RayBatchOptions opt,
-                     std::shared_ptr<const RayLog> log);
+                     std::unique_ptr<TwinOracle> oracle);
 
  private:
   TwinCounts make_camera_rays(std::uint64_t first, std::uint64_t n) override;
   void job_done(Job& job) override;
 
-  std::shared_ptr<const RayLog> log_;
+  std::unique_ptr<TwinOracle> oracle_;
 };
 
 }  // namespace rayline

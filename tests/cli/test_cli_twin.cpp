@@ -65,6 +65,15 @@ TEST_F(CliTwin, TwinReplaysTheRenderAndItsLoadsComeClose) {
   EXPECT_LE(std::abs(sim_loads - real_loads), 0.25 * real_loads) << "simulated " << sim_loads << ", real " << real_loads;
   EXPECT_GT(twin.at("makespan_s").get<double>(), 0);
 
+  // Markov fidelity: the log's statistics, sampled; the recorded run's own fitted timing.
+  r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --fidelity markov --timing recorded --out " + path("sim-markov"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto markov = json_of("sim-markov/metrics.json").at("twin");
+  EXPECT_TRUE(markov.at("frame_done").get<bool>());
+  EXPECT_EQ(markov.at("paths_ended"), render.at("rays").at("camera"));
+  const double visits = render.at("rays").at("cell_visits").get<double>();
+  EXPECT_LE(std::abs(markov.at("block_visits").get<double>() - visits), 0.05 * visits);
+
   // The twin under another scheduler: the same rays, another plan.
   r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --scheduler budge --out " + path("sim-budge"));
   ASSERT_EQ(r.code, 0) << r.all;

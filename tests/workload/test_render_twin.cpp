@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <array>
 #include <random>
 #include <string>
 
@@ -110,7 +111,7 @@ TEST(RenderTwin, EveryVisitTracedOnceEveryPathEndsOnRandomLogs) {
       o.path_cap = 200;
       o.min_batch = 16;
       o.max_batch = 64;
-      RenderTwinWorkload wl(g, 1, blocks, o, log);
+      RenderTwinWorkload wl(g, 1, blocks, o, std::make_unique<ReplayOracle>(log));
       auto sched = make_scheduler(policy, 2.0);
       ExactExecutor ex(s);
       RuntimeLoop loop(*sched, ex, wl, pool, s);
@@ -135,6 +136,48 @@ TEST(RenderTwin, EveryVisitTracedOnceEveryPathEndsOnRandomLogs) {
       const auto c = rayline::testing::check_schedule(s, pool);
       for (const auto& e : c.errors) ADD_FAILURE() << e;
     }
+}
+
+// The Markov oracle: per (cell, kind, bounce) outcome statistics of a log, sampled per ray.
+// Every path still ends; the visits per camera ray, the visits per cell and the entry
+// cells per tile match the log's within sampling noise; and it describes the scene at
+// another resolution and spp too.
+TEST(RenderTwin, MarkovOracleReproducesTheLogsStatistics) {
+  const RayLog log = random_log(6, 64, 48, 4, 5, 11);
+  for (const auto [w, h, spp] : {std::array<std::uint32_t, 3>{64, 48, 4}, std::array<std::uint32_t, 3>{128, 96, 2}}) {
+    MarkovOracle m(log, w, h, spp, 5);
+    EXPECT_EQ(m.camera_rays(), std::uint64_t(w) * h * spp);
+    std::vector<double> per_cell(6, 0.0), log_cell(6, 0.0);
+    for (const RayVisit& v : log.visits) log_cell[v.cell] += 1.0 / double(log.camera_rays());
+    std::uint64_t visits = 0, entered = 0;
+    std::vector<TwinRay> stack, out;
+    for (std::uint64_t i = 0; i < m.camera_rays(); ++i) {
+      TwinRay r;
+      if (!m.entry(i, r)) continue;
+      ++entered;
+      stack.assign(1, r);
+      while (!stack.empty()) {
+        const TwinRay x = stack.back();
+        stack.pop_back();
+        ++visits;
+        per_cell[x.cell] += 1.0 / double(m.camera_rays());
+        out.clear();
+        m.visit(x, out);
+        ASSERT_LE(out.size(), 2u);
+        for (const TwinRay& y : out) {
+          ASSERT_LT(y.cell, 6u);
+          ASSERT_LT(y.bounce, 5u) << "no ray beyond the log's path length";
+          stack.push_back(y);
+        }
+      }
+    }
+    std::uint64_t log_entered = 0;
+    for (std::uint32_t e : log.entry) log_entered += e != RayLog::kNoVisit;
+    const double per_ray = double(visits) / double(m.camera_rays()), log_per_ray = double(log.visits.size()) / double(log.camera_rays());
+    EXPECT_NEAR(per_ray, log_per_ray, 0.05 * log_per_ray);
+    EXPECT_NEAR(double(entered) / double(m.camera_rays()), double(log_entered) / double(log.camera_rays()), 0.02);
+    for (std::size_t c = 0; c < 6; ++c) EXPECT_NEAR(per_cell[c], log_cell[c], 0.1 * log_cell[c]) << "cell " << c;
+  }
 }
 
 TEST(RayLogFile, RoundTripKeepsEveryRecord) {
