@@ -725,7 +725,7 @@ std::string why_nothing_ended(const Engine& e, Time warm, Time end) {
 
 // The twin of a render: its frame against the recording's (docs/validation.md). Loads are
 // the disk->RAM T-jobs of scene blocks, as the renderer's block store counts them.
-json twin_metrics(const Engine& e, const Inputs& in, const Outcome& o, SimulationSummary& sum) {
+json twin_metrics(const SimulationConfig& cfg, const Engine& e, const Inputs& in, const Outcome& o, SimulationSummary& sum) {
   std::uint64_t loads = 0;
   Bytes bytes = 0;
   for (std::size_t i = 0; i < e.schedule.activity_count(); ++i) {
@@ -745,6 +745,8 @@ json twin_metrics(const Engine& e, const Inputs& in, const Outcome& o, Simulatio
   sum.recorded_seconds = in.twin.recorded_seconds;
   const bool done = w.finished() && !o.stalled;
   return {{"scene", in.twin.scene},
+          {"fidelity", to_string(in.twin_fidelity)},
+          {"timing", !cfg.platform_file.empty() ? "platform file" : cfg.twin_fitted_timing ? "recorded" : "platform"},
           {"frame_done", done},
           {"makespan_s", o.stats.makespan},
           {"loads", loads},
@@ -798,7 +800,7 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
       m["path_trace"]["nothing_delivered"] = sum.nothing_delivered;
     }
   }
-  if (e.twin) m["twin"] = twin_metrics(e, in, o, sum);
+  if (e.twin) m["twin"] = twin_metrics(cfg, e, in, o, sum);
   m["prediction_error"] = {{"exec_mean_rel", mean_of(n.err_exec)}, {"exec_p95_rel", percentile(n.err_exec, 0.95)},
                            {"transfer_mean_rel", mean_of(n.err_transfer)},
                            {"transfer_p95_rel", percentile(n.err_transfer, 0.95)}};
