@@ -37,7 +37,8 @@ def load(name, extra=None):
     """The result table of experiment `name` (and its extra table `extra`, e.g. 'central-series')."""
     done = os.path.join(OUT, f".{name}.done")
     reuse = os.environ.get("RAYLINE_NB_REUSE", "") not in ("", "0")  # debugging: skip re-running
-    if REDUCED and not (reuse and os.path.exists(done)):
+    # An extra table comes from the run that wrote the main one (load(name) before it).
+    if REDUCED and not ((reuse or extra) and os.path.exists(done)):
         os.makedirs(OUT, exist_ok=True)
         subprocess.run(["/usr/bin/python3", SCRIPT, name, "--mode", "reduced", "--out", OUT], check=True)
         open(done, "w").close()

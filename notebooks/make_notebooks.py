@@ -393,6 +393,73 @@ print(df.sort_values(['scene', 'scheduler', 'nodes'])[cols].to_string(index=Fals
 ]
 
 
+NB["09_validation"] = [
+"""df = load('validation')
+real = load('validation', 'validation-real')
+df['budget_pct'] = (100 * df.budget).round().astype(int)
+BOUND = {'replay': 0.10, 'markov': 0.20}
+df['bound'] = df.fidelity.map(BOUND)
+df['judged'] = df.real_spread < 0.05  # the acceptance bounds hold where the real runs agree within 5 %
+df['outside'] = df.judged & ((df.makespan_error.abs() > df.bound) | (df.loads_error.abs() > df.bound))
+cols = ['scene', 'budget_pct', 'scheduler', 'fidelity', 'timing', 'real_makespan_s', 'real_spread', 'recorded_makespan_s',
+        'sim_makespan_s', 'makespan_error', 'real_loads', 'recorded_loads', 'sim_loads', 'loads_error', 'busy_error',
+        'sim_wall_s', 'outside']
+print(df[cols].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
+"""fig, axes = plt.subplots(2, 2, figsize=(13, 8), sharex=True)
+mk = {'replay': 'o', 'markov': 's'}
+ls = {'platform': '-', 'recorded': '--'}
+scenes = list(dict.fromkeys(df.scene))
+cmap = dict(zip(scenes, ['tab:blue', 'tab:red', 'tab:green', 'tab:purple']))
+for (ax, metric, title) in [(axes[0][0], 'makespan_error', 'frame makespan'), (axes[0][1], 'loads_error', 'block loads')]:
+    for (scene, fid, timing), r in df.groupby(['scene', 'fidelity', 'timing']):
+        g = r.groupby('budget_pct')[metric].apply(lambda v: v.abs().max()).sort_index()
+        ax.plot(g.index, 100 * g.values, marker=mk[fid], ls=ls[timing], color=cmap[scene],
+                label=f'{scene}, {fid}, {timing} timing')
+    ax.axhline(10, color='k', lw=0.8, ls=':'); ax.axhline(20, color='k', lw=0.8, ls=':')
+    ax.set_ylabel(f'|error| of the {title}, worst scheduler (%)'); ax.set_title(title); ax.grid(alpha=.3)
+axes[0][0].legend(fontsize=6)
+for (scene, fid, timing), r in df.groupby(['scene', 'fidelity', 'timing']):
+    g = r.groupby('budget_pct').sim_wall_s.median().sort_index()
+    axes[1][0].plot(g.index, g.values, marker=mk[fid], ls=ls[timing], color=cmap[scene])
+rr = real.groupby(['scene', 'budget'])['makespan_s'].median().reset_index()
+for scene, r in rr.groupby('scene'):
+    axes[1][0].plot((100 * r.budget).round(), r.makespan_s, 'k', marker='*', ls=':', alpha=.5)
+axes[1][0].set_yscale('log'); axes[1][0].set_ylabel('wall time (s): twins, and real renders (stars)')
+axes[1][0].set_xlabel('memory budget (% of the scene; 100 = in core)'); axes[1][0].grid(alpha=.3)
+for (scene, budget), r in real.groupby(['scene', 'budget']):
+    spread = r.groupby('scheduler').makespan_s.agg(lambda v: (v.max() - v.min()) / v.median())
+    axes[1][1].scatter([100 * budget] * len(spread), 100 * spread.values, color=cmap[scene], s=14)
+axes[1][1].axhline(5, color='k', lw=0.8, ls=':')
+axes[1][1].set_ylabel('real runs: spread of the makespan (%)'); axes[1][1].set_xlabel('memory budget (%)')
+axes[1][1].grid(alpha=.3)
+savefig(fig, 'validation.png')""",
+"""rows = []
+for (scene, budget, fid, timing), r in df.groupby(['scene', 'budget', 'fidelity', 'timing']):
+    ref_col = 'real_makespan_s' if timing == 'platform' else 'recorded_makespan_s'
+    real_order = list(r.sort_values(ref_col).scheduler)
+    sim_order = list(r.sort_values('sim_makespan_s').scheduler)
+    # pairs whose real makespans differ by more than the larger real spread must keep their order
+    bad = []
+    for i, a in r.iterrows():
+        for j, b in r.iterrows():
+            if a[ref_col] < b[ref_col] and (b[ref_col] - a[ref_col]) / a[ref_col] > max(a.real_spread, b.real_spread):
+                if not a.sim_makespan_s < b.sim_makespan_s:
+                    bad.append(f'{a.scheduler}<{b.scheduler}')
+    rows.append({'scene': scene, 'budget_pct': round(100 * budget), 'fidelity': fid, 'timing': timing,
+                 'real order': ' < '.join(real_order), 'simulated order': ' < '.join(sim_order),
+                 'separated pairs reversed': ', '.join(bad) or 'none'})
+print(pd.DataFrame(rows).to_string(index=False))
+best = []
+for scene, r in df[df.timing == 'platform'].groupby('scene'):
+    for fid in ['markov', 'replay']:
+        x = r[(r.fidelity == fid) & r.judged]
+        ok = len(x) > 0 and (x.makespan_error.abs() <= 0.10).all() and (x.loads_error.abs() <= 0.10).all()
+        best.append({'scene': scene, 'fidelity': fid, 'judged points': len(x), 'all within 10 %': ok,
+                     'median sim wall (s)': r[r.fidelity == fid].sim_wall_s.median()})
+print(pd.DataFrame(best).to_string(index=False))""",
+]
+
+
 def prose(name):
     path = os.path.join(HERE, "prose", name + ".md")
     if not os.path.exists(path):

@@ -54,6 +54,9 @@ struct RayBatchJob {
   std::vector<std::pair<BlockId, std::uint32_t>> parts;
   std::vector<Ray> out;
   Counts counts;
+  // The input rays' identities, where the engine keeps them for a ray log (the renderer
+  // frees the rays themselves on the worker thread).
+  std::vector<std::uint64_t> input_ids;
 };
 
 template <class Ray, class Counts, class Traits>

@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "common/error.hpp"
+#include "render/engine/ray_log_recorder.hpp"
 
 namespace rayline::engine {
 
@@ -60,12 +61,16 @@ LocalExecutor::Task ActivityTasks::task(ActivityId id, const Activity& a) {
 LocalExecutor::Task ActivityTasks::exec_task(const Activity& a, Victims v) {
   RayJob* job = &s_.workload.job(a.job);
   accel::Aggregate* aggregate = aggregates_.at(std::size_t(a.device)).get();
-  const bool keep = s_.workload.keeps_inputs();
-  return [this, job, aggregate, keep, v = std::move(v)] {
+  const RayLogRecorder* log = s_.workload.ray_log();
+  return [this, job, aggregate, log, v = std::move(v)] {
     evict(v);
     const auto kind = static_cast<trace::RayKind>(job->slot % 2);
     aggregate->intersect(s_.ts, accel::QueueJob{job->cell, kind, job->rays, job->parts}, job->out, job->counts);
-    if (!keep) std::vector<trace::RayRecord>().swap(job->rays);
+    if (log) {  // the ray log's identities of the inputs, kept past the rays (ray_log_recorder.hpp)
+      job->input_ids.reserve(job->rays.size());
+      for (const trace::RayRecord& r : job->rays) job->input_ids.push_back(log->id(r));
+    }
+    std::vector<trace::RayRecord>().swap(job->rays);
   };
 }
 

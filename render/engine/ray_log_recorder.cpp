@@ -16,7 +16,7 @@ void RayLogRecorder::begin(std::uint32_t width, std::uint32_t height, std::uint3
   finished_ = false;
 }
 
-std::uint64_t RayLogRecorder::key(const trace::RayRecord& r) const {
+std::uint64_t RayLogRecorder::id(const trace::RayRecord& r) const {
   if (r.bounce > 255) throw std::runtime_error("ray log: more than 255 bounces");
   const std::uint64_t camera = std::uint64_t(r.sample) * pixels_ + r.pixel;
   return (camera << 9) | (std::uint64_t(r.bounce) << 1) | std::uint64_t(r.kind);
@@ -24,14 +24,14 @@ std::uint64_t RayLogRecorder::key(const trace::RayRecord& r) const {
 
 void RayLogRecorder::camera_rays(std::span<const trace::RayRecord> placed, std::uint64_t, std::uint64_t) {
   events_.push_back({true, 0, static_cast<std::uint32_t>(placed.size())});
-  for (const trace::RayRecord& r : placed) rays_.push_back({key(r), r.cell});
+  for (const trace::RayRecord& r : placed) rays_.push_back({id(r), r.cell});
 }
 
-void RayLogRecorder::job(std::span<const trace::RayRecord> in, std::span<const trace::RayRecord> out) {
+void RayLogRecorder::job(std::uint32_t cell, std::span<const std::uint64_t> in, std::span<const trace::RayRecord> out) {
   if (in.empty()) return;
   events_.push_back({false, static_cast<std::uint32_t>(in.size()), static_cast<std::uint32_t>(out.size())});
-  for (const trace::RayRecord& r : in) rays_.push_back({key(r), r.cell});
-  for (const trace::RayRecord& r : out) rays_.push_back({key(r), r.cell});
+  for (std::uint64_t k : in) rays_.push_back({k, cell});
+  for (const trace::RayRecord& r : out) rays_.push_back({id(r), r.cell});
 }
 
 const RayLog& RayLogRecorder::finish() {
@@ -86,8 +86,8 @@ const RayLog& RayLogRecorder::finish() {
     }
   }
   if (!live.empty()) throw std::runtime_error("ray log: rays still alive at the end of the render");
-  std::vector<Event>().swap(events_);
-  std::vector<Rec>().swap(rays_);
+  std::deque<Event>().swap(events_);
+  std::deque<Rec>().swap(rays_);
   finished_ = true;
   return log_;
 }

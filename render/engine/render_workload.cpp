@@ -71,8 +71,8 @@ trace::RayCounts RenderWorkload::make_camera_rays(std::uint64_t first, std::uint
 
 void RenderWorkload::job_done(RayJob& job) {
   if (!ray_log_) return;
-  ray_log_->job(job.rays, job.out);
-  std::vector<RayRecord>().swap(job.rays);
+  ray_log_->job(job.cell, job.input_ids, job.out);
+  std::vector<std::uint64_t>().swap(job.input_ids);
 }
 
 }  // namespace rayline::engine

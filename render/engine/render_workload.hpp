@@ -37,8 +37,8 @@ class RenderWorkload final : public RayBatchWorkload<trace::RayRecord, trace::Ra
  public:
   RenderWorkload(const trace::TraceSettings& ts, const trace::PinholeCamera& camera, const DeviceGraph& g,
                  MemId ram, std::vector<BlockId> scene_blocks, RenderWorkloadOptions opt);
-  // Whether a job's kernel must leave its input rays in place (a ray log reads them).
-  bool keeps_inputs() const { return ray_log_ != nullptr; }
+  // The ray log being recorded (nullptr: none): a job's kernel keeps its input rays' ids.
+  const RayLogRecorder* ray_log() const { return ray_log_; }
 
  private:
   trace::RayCounts make_camera_rays(std::uint64_t first, std::uint64_t n) override;

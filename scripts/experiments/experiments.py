@@ -12,6 +12,7 @@
   accuracy    fidelity levels: simulator wall time vs throughput error; scheduler cost vs k
   stability   tiny k, memory below the working set, 10x slower LAN, fast GPU + slow CPUs, many clients
   scale       clusters of 8 to 128 type-A nodes in racks: simulator wall time, SimGrid and scheduler shares, RSS
+  validation  real renders against their simulated twins (validation.py; docs/validation.md)
 
   experiments.py NAME [--mode full|reduced] [--out DIR]
 
@@ -27,6 +28,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rayline_exp as rx  # noqa: E402
+import validation as val  # noqa: E402
 
 SCHEDULERS = ["gmb", "budge", "loadanyonce"]
 SCALING = ["paper-A", "paper-2A", "paper-3A", "paper-4A", "paper-4A+B", "paper-4A+B+C", "paper-4A+B+C+D", "paper-cluster"]
@@ -52,6 +54,8 @@ class Ctx:
         return row
 
     def save(self):
+        if self.name == "validation":  # writes its own tables (validation.py)
+            return
         rx.write_csv(os.path.join(self.out, self.name + ".csv"), self.rows)
         print(f"wrote {rx.shown(os.path.join(self.out, self.name + '.csv'))} ({len(self.rows)} runs)")
 
@@ -346,6 +350,10 @@ def scale(c):
                       duration="2s" if c.reduced else "10s", extra=["--no-timeline"])
 
 
+def validation(c):
+    val.run_grid(c.reduced, c.out)
+
+
 def _write(path, rows):
     if not rows:
         open(path, "w").close()
@@ -359,7 +367,7 @@ def _write(path, rows):
 
 
 EXPERIMENTS = {"scaling": scaling, "peak": peak, "ablation": ablation, "central": central, "workstation": workstation, "horizon": horizon,
-               "accuracy": accuracy, "stability": stability, "scale": scale}
+               "accuracy": accuracy, "stability": stability, "scale": scale, "validation": validation}
 
 
 def main():

@@ -18,7 +18,7 @@ drives. Per point:
 Metrics: makespan (the frame's wall time / the simulated frame), block loads, bytes
 loaded, compute busy share, and the simulator's wall time.
 
-  validation.py [--mode full|reduced] [--out DIR]
+  validation.py [--mode full|reduced] [--out DIR]    (or: experiments.py validation ...)
 Writes DIR/validation.csv (one row per point and twin variant) and DIR/validation-real.csv
 (every real run). The reduced (CI) setting: one small scene, one budget, two schedulers."""
 import argparse
@@ -97,18 +97,12 @@ def scene_bytes(out, name, scene, parts, cal):
     return json.load(open(probe.removesuffix(".png") + ".metrics.json"))["memory"]["scene_block_bytes"]
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--mode", choices=["full", "reduced"], default=None)
-    ap.add_argument("--out", default=None)
-    a = ap.parse_args()
-    reduced = rx.is_reduced(a.mode)
+def run_grid(reduced, out):
+    """The whole grid into `out` (validation.csv, validation-real.csv, runs/validation/)."""
     g = REDUCED if reduced else FULL
     res, spp = g.get("resolution", RES), g.get("spp", SPP)
-    out = a.out or os.path.join(rx.REPO, "out/experiments-reduced" if reduced else "notebooks/results")
     runs = os.path.join(out, "runs", "validation")
     os.makedirs(runs, exist_ok=True)
-    print(f"rayline: {rx.shown(rx.rayline_bin())}  mode: {'reduced' if reduced else 'full'}  results: {rx.shown(out)}")
     rows, real_rows = [], []
     for name, triangles, blocks in g["scenes"]:
         scene, parts = scene_files(out, name, triangles, blocks, print)
@@ -160,6 +154,17 @@ def main():
     write(os.path.join(out, "validation.csv"), rows)
     write(os.path.join(out, "validation-real.csv"), real_rows)
     print(f"wrote {rx.shown(os.path.join(out, 'validation.csv'))} ({len(rows)} rows)")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--mode", choices=["full", "reduced"], default=None)
+    ap.add_argument("--out", default=None)
+    a = ap.parse_args()
+    reduced = rx.is_reduced(a.mode)
+    out = a.out or os.path.join(rx.REPO, "out/experiments-reduced" if reduced else "notebooks/results")
+    print(f"rayline: {rx.shown(rx.rayline_bin())}  mode: {'reduced' if reduced else 'full'}  results: {rx.shown(out)}")
+    run_grid(reduced, out)
 
 
 def write(path, rows):
