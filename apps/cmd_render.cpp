@@ -198,7 +198,7 @@ void write_twin(const RenderCliOptions& opt, engine::RayLogRecorder& rec, const 
   const std::string rays = twin_rays_file(opt.record_twin);
   t.rays = fs::path(rays).filename().string();
   t.platform_json = r.platform_json;
-  engine::CalibrationResult fit;  // this run's own Eq. 1, Eq. 2 and dispatch latency
+  engine::CalibrationResult fit;  // this run's own Eq. 1, Eq. 2 and control loop latency
   fit.model = r.workstation;
   engine::fit_model(r, fit);
   t.fitted_platform_json = engine::workstation_json(fit.model, "fitted to the recorded render's own measurements");
@@ -370,8 +370,10 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %s, bandwidth %s; %s\n", c.load_samples,
               format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),
               fit_quality(c.load_fit, "load").c_str());
-  std::printf("dispatch latency per job (thread free and data in place -> job started), mean %s: in each setup below\n",
-              format_duration(c.dispatch_gap).c_str());
+  std::printf("control loop after a finished job, over %d waits of a thread that ran dry: %s + %.3g x the job's "
+              "duration (mean wait per job %s); %s\n",
+              c.loop_samples, format_duration(c.model.loop.per_job).c_str(), c.model.loop.per_exec_second,
+              format_duration(c.dispatch_gap).c_str(), fit_quality(c.loop_fit, "wait").c_str());
   std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %s, %s; %s\n", c.exec_samples,
               format_duration(c.model.intersect_setup).c_str(), ray_rate(c.model.intersect_rate).c_str(),
               fit_quality(c.intersect_fit, "job").c_str());

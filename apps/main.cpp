@@ -167,7 +167,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
       ->type_name(kPath);
   sim->add_option("--timing", opt->timing,
                   "With --like: platform = the timing of the platform the render drove (a prediction, e.g. from "
-                  "`rayline calibrate`); recorded = Eq. 1, Eq. 2 and dispatch latency fitted to the recorded run itself "
+                  "`rayline calibrate`); recorded = Eq. 1, Eq. 2 and the control loop's latency fitted to the recorded run itself "
                   "(the workload model's error alone)")
       ->default_val(opt->timing)
       ->check(CLI::IsMember({"platform", "recorded"}));

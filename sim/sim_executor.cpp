@@ -30,6 +30,7 @@ void SimExecutor::dispatch(ActivityId id, const Activity& a) {
   }
   State& s = st_[id];
   s.dispatched = true;
+  s.release = release_;
   if (a.kind == ActivityKind::Transfer) {
     s.channel_prev = last_on_channel_[a.channel];
     last_on_channel_[a.channel] = id;
@@ -62,10 +63,22 @@ void SimExecutor::try_start(ActivityId id) {
     wake_waiters(id);
     return;
   }
+  if (s.release > platform_.now()) {  // the control loop has not dispatched it yet
+    if (!s.timer) {
+      s.timer = true;
+      platform_.start_timer(s.release - platform_.now(), [this, id](const SgCompletion&) {
+        st_[id].timer = false;
+        st_[id].release = 0;
+        try_start(id);
+      });
+    }
+    return;
+  }
   if (a.kind == ActivityKind::Transfer && !a.cancelled && opt_.transfer_order == TransferOrder::Exclusive &&
       !resources_free(id, a))
     return;
   s.started = true;
+  s.started_at = platform_.now();
   buffered_.push_back({ExecutorEvent::Type::Started, id, platform_.now()});
   if (a.cancelled) {  // withdrawn (Schedule::cancel): done the moment it may run, nothing moves
     on_done(id, platform_.now(), true);
@@ -123,8 +136,14 @@ void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   std::vector<ActivityId> w;
   if (static_cast<std::size_t>(id) < waiters_.size()) w.swap(waiters_[id]);
   // Report first (the loop may re-plan and dispatch at this very instant), then start
-  // whatever this completion unblocked.
+  // whatever this completion unblocked. What the loop dispatches in answer to a finished
+  // E-job waits for the loop's latency (DeviceGraph::loop).
+  const ControlLoop& loop = schedule_.graph().loop;
+  const Activity& done = schedule_.activity(id);
+  if (ok && loop.modelled() && done.kind == ActivityKind::Exec)
+    release_ = finish + loop.latency(finish - st_[id].started_at);
   if (sink_) (*sink_)(events);
+  release_ = 0;
   if (!freed.empty()) {  // Exclusive: what this completion unblocked, in plan order
     w.insert(w.end(), freed.begin(), freed.end());
     std::sort(w.begin(), w.end());

@@ -69,7 +69,13 @@ class SimExecutor final : public Executor {
     ActivityId channel_prev = kNone;
     SgActivityId sg = 0;  // the SimGrid activity while started (0: none, or a 0 s withdrawn one)
     bool placeholder = false;  // aborted before it started: ends at once after its timeline predecessors
+    Time started_at = 0;
+    // The control loop (DeviceGraph::loop): dispatched in answer to a finished E-job, it
+    // starts no earlier than that job's end plus the loop's latency.
+    Time release = 0;
+    bool timer = false;  // a timer will try it again at `release`
   };
+  Time release_ = 0;  // for activities dispatched during the current report (0: none)
   void wake_waiters(ActivityId id);
   std::vector<ActivityId> halted_;  // stopped by halt(), their waiters woken by abort()
   std::vector<State> st_;

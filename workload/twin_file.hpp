@@ -24,7 +24,7 @@ struct TwinSpec {
   std::vector<Bytes> blocks;        // charged bytes of each cell's block
   std::string rays;                 // the ray log, relative to the twin file's folder
   std::string platform_json;        // the platform (DCG) the render drove
-  // The same platform with Eq. 1, Eq. 2 and the dispatch latency fitted to the recording
+  // The same platform with Eq. 1, Eq. 2 and the control loop's latency fitted to the recording
   // run's own measurements ("" when none): timing known exactly, so a twin run on it
   // measures the workload model's error alone (docs/validation.md).
   std::string fitted_platform_json;

@@ -66,18 +66,25 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
   }
   const ExecCoefficients& a = tm.at(0, 0);
   const ExecCoefficients& b = tm.at(0, 1);
-  // Eq. 2's setup also carries the loop's mean dispatch latency per job (the idle time
-  // between a thread being free with its job's data in place and the job starting): a
-  // plan, and a simulation of this machine, then account for it as the renderer pays it.
   double gaps = 0;
   for (Time g : r.dispatch_gaps) gaps += g;
   c.dispatch_gap = r.dispatch_gaps.empty() ? 0 : gaps / double(r.dispatch_gaps.size());
+  // The control loop's latency after a finished job (DeviceGraph::loop), fitted to the
+  // gaps of threads that ran dry: gap = per_job + per_exec_second x the job's duration.
+  if (r.loop_samples.size() >= 2) {
+    std::vector<std::pair<Bytes, Time>> s;  // (microseconds of the finished job, gap): Eq. 1's fit
+    for (auto [len, gap] : r.loop_samples) s.emplace_back(static_cast<Bytes>(len * 1e6), gap);
+    double bw = 0;
+    c.loop_fit = fit_channel(s, c.model.loop.per_job, bw);
+    c.model.loop.per_exec_second = bw > 0 && bw < 1e15 ? 1e6 / bw : 0;
+    c.loop_samples = static_cast<int>(r.loop_samples.size());
+  }
   if (a.supported && a.rate[int(DataKind::RayQueue)] > 0) {
-    c.model.intersect_setup = a.setup + c.dispatch_gap;
+    c.model.intersect_setup = a.setup;
     c.model.intersect_rate = a.rate[int(DataKind::RayQueue)];
   }
   if (b.supported && b.rate[int(DataKind::ShadowRayQueue)] > 0) {
-    c.model.shadow_setup = b.setup + c.dispatch_gap;
+    c.model.shadow_setup = b.setup;
     c.model.shadow_rate = b.rate[int(DataKind::ShadowRayQueue)];
   }
   // The GPU: its Eq. 2 per job type (dispatch + hit download + host shading) and

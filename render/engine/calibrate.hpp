@@ -23,9 +23,12 @@ struct CalibrationResult {
   // How well each fit predicts its own samples (sched/core/fit_errors.hpp): Eq. 1 of the loads,
   // Eq. 2 per CPU thread of RayIntersect and ShadowIntersect.
   FitErrors load_fit, intersect_fit, shadow_fit;
-  // The mean dispatch latency per CPU E-job (RenderResult::dispatch_gaps), added to both
-  // job types' Eq. 2 setup in `model`.
+  // The mean dispatch latency per CPU E-job (RenderResult::dispatch_gaps), and the control
+  // loop's latency fitted to the gaps of threads that ran dry (model.loop; loop_fit, over
+  // loop_samples gaps).
   Time dispatch_gap = 0;
+  int loop_samples = 0;
+  FitErrors loop_fit;
   // The GPU, when one was used: samples and whether each fit replaced the defaults.
   std::string gpu_device;
   int gpu_exec_samples = 0, pcie_samples = 0;
@@ -39,8 +42,8 @@ struct CalibrationResult {
 
 // Fits `c.model` to a render's own measurements (its other fields are kept): Eq. 1 of
 // the disk->RAM channel over its loads (at least 2, else kept), Eq. 2 per job type of a
-// CPU thread and of the GPU, the RAM->GPU channel, and the mean dispatch latency added to
-// the CPU setups. calibrate() calls it on its render; `render --record-twin` on the
+// CPU thread and of the GPU, the RAM->GPU channel, and the control loop's latency (to
+// the control loop's latency. calibrate() calls it on its render; `render --record-twin` on the
 // recorded render (the twin's "recorded" timing, docs/validation.md).
 void fit_model(const RenderResult& r, CalibrationResult& c);
 

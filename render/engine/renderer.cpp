@@ -425,15 +425,18 @@ void report_dispatch(const Schedule& schedule, const JobPool& pool, const Platfo
   const DeviceGraph& g = p.g;
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
     if (g.computes[d].kind != ComputeKind::Cpu) continue;
-    Time prev_end = -1;
+    Time prev_end = -1, prev_len = 0;
     for (ActivityId id : schedule.device_timeline(DeviceId(d)).items) {
       const Activity& a = schedule.activity(id);
       if (a.state != ActivityState::Done || a.cancelled) continue;
       if (prev_end >= 0) {
         const Time ready = std::max({prev_end, a.data_ready, pool.job(a.job).created});
-        res.dispatch_gaps.push_back(std::max<Time>(0, a.start - ready));
+        const Time gap = std::max<Time>(0, a.start - ready);
+        res.dispatch_gaps.push_back(gap);
+        if (a.planned_start >= prev_end && a.data_ready <= prev_end) res.loop_samples.emplace_back(prev_len, gap);
       }
       prev_end = a.end;
+      prev_len = a.end - a.start;
     }
   }
 }

@@ -53,7 +53,11 @@ std::string workstation_json(const WorkstationModel& m, const std::string& descr
     s += ",\n        {\"name\": \"pcie" + std::to_string(i) + "\", \"kind\": \"pcie\", \"between\": [\"ram\", \"gpu" +
          std::to_string(i) + "mem\"], \"duplex\": \"full\", \"latency\": " + us(m.gpus[i].pcie_latency) +
          ", \"bandwidth\": " + bps(m.gpus[i].pcie_bandwidth) + "}";
-  s += "\n      ]\n    }\n  },\n  \"nodes\": [{\"name\": \"W\", \"type\": \"W\"}]\n}\n";
+  s += "\n      ]\n    }\n  },\n  \"nodes\": [{\"name\": \"W\", \"type\": \"W\"}]";
+  if (m.loop.modelled())
+    s += ",\n  \"control_loop\": {\"per_job\": " + us(m.loop.per_job) + ", \"per_exec_second\": " +
+         num(m.loop.per_exec_second) + "}";
+  s += "\n}\n";
   return s;
 }
 
@@ -103,6 +107,7 @@ WorkstationModel load_workstation_model(const std::string& path) {
   m.loaders = loaders;
   m.disk_latency = dc->latency;
   m.disk_bandwidth = dc->bandwidth;
+  m.loop = g.loop;
   // Both job types with a rate on their ray queue, per compute device model.
   auto coefficients = [&](DeviceId d, Time& ri_setup, double& ri_rate, Time& si_setup, double& si_rate) {
     const ComputeDevice& c = g.computes[d];

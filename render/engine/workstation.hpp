@@ -38,6 +38,7 @@ struct WorkstationModel {
   Time shadow_setup = 20e-6;
   double shadow_rate = 1.0 / 128e6;    // s per ShadowRayQueue byte
   std::vector<GpuModel> gpus;          // Vulkan compute devices (0 or more)
+  ControlLoop loop;                    // the loop's latency after a finished E-job (fitted by calibrate)
 };
 
 // Names used by the renderer: memories "disk" and "ram" (+ "gpu<i>mem"), job types

@@ -94,6 +94,18 @@ struct Network {
   std::vector<ResourceId> route(std::size_t a, std::size_t b) const;
 };
 
+// The master's control loop (docs/validation.md): after an E-job finishes, the loop takes
+// time to absorb the event, let the workload make jobs, plan them and wake the device that
+// runs the next one: per_job + per_exec_second x the finished job's own duration (its rays
+// are staged by the loop). An engine that runs the loop in zero time (the simulator) holds
+// what the loop dispatches in answer to a finished job back by this much. 0: no model.
+struct ControlLoop {
+  Time per_job = 0;
+  double per_exec_second = 0;
+  bool modelled() const { return per_job > 0 || per_exec_second > 0; }
+  Time latency(Time exec_seconds) const { return per_job + per_exec_second * exec_seconds; }
+};
+
 class DeviceGraph {
  public:
   std::string name;
@@ -106,6 +118,7 @@ class DeviceGraph {
   std::vector<Network> networks;
   std::vector<std::string> job_types;  // JobTypeId -> name
   TimingModel timing;                  // per compute device x job type (Eq. 2)
+  ControlLoop loop;                    // the master's control loop (platform "control_loop")
 
   // Build adjacency and check structural invariants; throws InputError naming the field.
   void finalize();

@@ -113,7 +113,7 @@ class PlatformReader {
   explicit PlatformReader(const JsonInput& input) : in_(input) {}
 
   DeviceGraph read(const JsonField& root) {
-    root.only_keys({"name", "description", "job_types", "node_types", "nodes", "networks"});
+    root.only_keys({"name", "description", "job_types", "node_types", "nodes", "networks", "control_loop"});
     g_.source_file = in_.file();
     g_.name = root.at("name").non_empty_string();
     if (const auto d = root.find("description"); d && !d->json().is_string()) d->fail("expected a string");
@@ -124,6 +124,7 @@ class PlatformReader {
     for (const JsonField& node : nodes.elements()) read_node(node, types);
     if (const auto nets = root.find("networks"))
       for (const JsonField& net : nets->elements()) network(net);
+    if (const auto cl = root.find("control_loop")) control_loop(*cl);
     g_.finalize();
     for (const PendingTiming& pt : timings_) timing(pt);
     check_reachable();
@@ -131,6 +132,19 @@ class PlatformReader {
   }
 
  private:
+  // "control_loop": {"per_job": DURATION, "per_exec_second": NUMBER >= 0} (ControlLoop).
+  void control_loop(const JsonField& f) {
+    f.object().only_keys({"per_job", "per_exec_second", "description"});
+    if (const auto p = f.find("per_job")) {
+      g_.loop.per_job = p->quantity(JsonUnit::duration);
+      if (!(g_.loop.per_job >= 0)) p->fail("expected a duration of at least 0");
+    }
+    if (const auto p = f.find("per_exec_second")) {
+      g_.loop.per_exec_second = p->number();
+      if (!(g_.loop.per_exec_second >= 0 && g_.loop.per_exec_second < 1e6)) p->fail("expected a number from 0");
+    }
+  }
+
   // Job types (JobTypeId order). Default: the path-tracing job graph of Fig. 3 + Compute.
   void job_types(const JsonField& root) {
     const auto jt = root.find("job_types");

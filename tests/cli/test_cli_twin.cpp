@@ -74,6 +74,21 @@ TEST_F(CliTwin, TwinReplaysTheRenderAndItsLoadsComeClose) {
   const double visits = render.at("rays").at("cell_visits").get<double>();
   EXPECT_LE(std::abs(markov.at("block_visits").get<double>() - visits), 0.05 * visits);
 
+  // The control loop's latency (platform "control_loop"): what the loop dispatches after a
+  // finished job waits for it, so the same frame takes longer; the same rays are traced.
+  auto plat = json_of("rec.twin.json").at("platform");
+  plat.erase("control_loop");
+  std::ofstream(path("no-loop.json")) << plat.dump();
+  plat["control_loop"] = {{"per_job", "2ms"}, {"per_exec_second", 0.5}};
+  std::ofstream(path("loop.json")) << plat.dump();
+  r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --platform " + path("no-loop.json") + " --out " + path("sim-a"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --platform " + path("loop.json") + " --out " + path("sim-b"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto a = json_of("sim-a/metrics.json").at("twin"), b = json_of("sim-b/metrics.json").at("twin");
+  EXPECT_EQ(a.at("block_visits"), b.at("block_visits"));
+  EXPECT_GT(b.at("makespan_s").get<double>(), a.at("makespan_s").get<double>() + 0.002) << "the loop's latency is not felt";
+
   // The twin under another scheduler: the same rays, another plan.
   r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --scheduler budge --out " + path("sim-budge"));
   ASSERT_EQ(r.code, 0) << r.all;

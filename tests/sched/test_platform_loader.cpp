@@ -381,8 +381,25 @@ TEST(PlatformLoader, BadInputNamesTheField) {
          j["node_types"]["N"]["memory"][0]["kind"] = "host";
        },
        "nodes", "disk"},
+      {"control loop: negative per_exec_second",
+       [](json& j) { j["control_loop"] = {{"per_job", "1ms"}, {"per_exec_second", -1}}; },
+       "control_loop.per_exec_second", "from 0"},
+      {"control loop: per_job not a duration", [](json& j) { j["control_loop"] = {{"per_job", "1GB"}}; },
+       "control_loop.per_job", ""},
+      {"control loop: unknown key", [](json& j) { j["control_loop"] = {{"per_jobs", "1ms"}}; },
+       "control_loop.per_jobs", "unknown key"},
   };
   expect_errors(base, cases);
+}
+
+TEST(PlatformLoader, ControlLoopIsOptionalAndReadInSeconds) {
+  json j = base();
+  EXPECT_FALSE(parse_platform(j.dump(), "p.json").loop.modelled());
+  j["control_loop"] = {{"per_job", "250us"}, {"per_exec_second", 0.2}};
+  const DeviceGraph g = parse_platform(j.dump(), "p.json");
+  EXPECT_DOUBLE_EQ(g.loop.per_job, 250e-6);
+  EXPECT_DOUBLE_EQ(g.loop.per_exec_second, 0.2);
+  EXPECT_DOUBLE_EQ(g.loop.latency(0.01), 250e-6 + 0.002);
 }
 
 // Four nodes in two racks on a backbone: within a rack a channel uses the two NICs; between
