@@ -42,8 +42,8 @@ struct CalibrationResult {
 
 // Fits `c.model` to a render's own measurements (its other fields are kept): Eq. 1 of
 // the disk->RAM channel over its loads (at least 2, else kept), Eq. 2 per job type of a
-// CPU thread and of the GPU, the RAM->GPU channel, and the control loop's latency (to
-// the control loop's latency. calibrate() calls it on its render; `render --record-twin` on the
+// CPU thread and of the GPU, the RAM->GPU channel, and the control loop's latency.
+// calibrate() calls it on its render; `render --record-twin` on the
 // recorded render (the twin's "recorded" timing, docs/validation.md).
 void fit_model(const RenderResult& r, CalibrationResult& c);
 

@@ -320,10 +320,15 @@ TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
   EXPECT_NE(r.out.find("Eq. 1"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("Eq. 2"), std::string::npos) << r.out;
   // Each fit's error on the measured time, its median and worst (sched/core/fit_errors.hpp), all
-  // defined: the loads, RayIntersect and ShadowIntersect.
+  // defined: the loads, the control loop's latency, RayIntersect and ShadowIntersect.
   std::size_t fits = 0;
   for (std::size_t at = 0; (at = r.out.find("% of the measured time (median", at)) != std::string::npos; ++at) ++fits;
-  EXPECT_EQ(fits, 3u) << r.out;
+  EXPECT_EQ(fits, 4u) << r.out;
+  EXPECT_NE(r.out.find("control loop after a finished job"), std::string::npos) << r.out;
+  std::ifstream platform(path("me.json"));
+  const auto p = nlohmann::json::parse(platform);
+  ASSERT_TRUE(p.contains("control_loop")) << p.dump(2);
+  EXPECT_GE(p.at("control_loop").at("per_exec_second").get<double>(), 0.0);
   EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
   r = rayline_cli("platform check " + path("me.json"));
   ASSERT_EQ(r.code, 0) << r.all;
