@@ -354,6 +354,7 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   ro.threads = opt.threads;
   ro.spp = opt.spp;
   ro.gpu = opt.gpu;
+  ro.bvh_quality = opt.bvh_quality;
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!(opt.budget_fraction > 0 && opt.budget_fraction < 1))
     throw InputError("--budget-fraction", "", "must be in (0, 1)");

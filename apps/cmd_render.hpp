@@ -45,6 +45,7 @@ struct CalibrateCliOptions {
   int threads = 0, spp = 4;
   std::string resolution = "256x256";
   double budget_fraction = 0.3;
+  std::string bvh_quality = "low";   // the builder whose loads are measured (a budget's default)
   std::string gpu = "auto";
   std::string out = "out/this-machine.json";
   bool quiet = false;

@@ -344,6 +344,11 @@ void add_calibrate(CLI::App& app, std::function<int()>& action) {
   c->add_option("--resolution", opt->resolution, "Resolution of the measuring render, WIDTHxHEIGHT")->type_name(kResolution)->default_val(opt->resolution);
   c->add_option("--budget-fraction", opt->budget_fraction, "RAM budget as a share of the scene's block bytes (forces loads)")
       ->default_val(opt->budget_fraction);
+  c->add_option("--bvh-quality", opt->bvh_quality,
+                "BVH builder of the measured loads: low (what renders under a budget use), medium (in core), high; "
+                "a load's time is mostly its build, so calibrate with the builder your renders use")
+      ->default_val(opt->bvh_quality)
+      ->check(CLI::IsMember({"low", "medium", "high"}));
   c->add_option("--gpu", opt->gpu, "Vulkan device to measure too: none | auto | index | name substring")
       ->default_val(opt->gpu);
   c->add_option("--out,-o", opt->out, "Platform file to write")->type_name(kPath)->default_val(opt->out);

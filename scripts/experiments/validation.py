@@ -1,11 +1,11 @@
-#!/usr/bin/python3
 """The simulator against the real renderer (docs/validation.md): real `rayline render` runs
 and their simulated twins (`rayline simulate --like`), point by point.
 
 Grid: generated museum-like scenes of three sizes x memory budgets (in core, 50, 25, 10 %
-of the scene's block bytes) x schedulers (gmb, budge, loadanyonce). Per scene, one
-`rayline calibrate` at the grid's resolution and spp gives the platform every render
-drives. Per point:
+of the scene's block bytes) x schedulers (gmb, budge, loadanyonce). Per scene, `rayline
+calibrate` at the grid's resolution and spp gives the platform every render drives: with
+the low-quality BVH builder for the budgets, the medium one in core (what `render
+--bvh-quality auto` uses). Per point:
   * real: R unrecorded renders, alternated across the schedulers (the machine is shared:
     alternating spreads its noise over all of them); their median and spread
     ((max - min) / median);
@@ -18,10 +18,9 @@ drives. Per point:
 Metrics: makespan (the frame's wall time / the simulated frame), block loads, bytes
 loaded, compute busy share, and the simulator's wall time.
 
-  validation.py [--mode full|reduced] [--out DIR]    (or: experiments.py validation ...)
-Writes DIR/validation.csv (one row per point and twin variant) and DIR/validation-real.csv
+  experiments.py validation [--mode full|reduced] [--out DIR]
+It writes DIR/validation.csv (one row per point and twin variant) and DIR/validation-real.csv
 (every real run). The reduced (CI) setting: one small scene, one budget, two schedulers."""
-import argparse
 import csv
 import json
 import os
@@ -39,6 +38,12 @@ FULL = {"scenes": [("museum-0.3M", 300_000, 16), ("museum-1M", 1_000_000, 16), (
 REDUCED = {"scenes": [("museum-0.1M", 100_000, 8)], "budgets": [0.25], "schedulers": ["gmb", "budge"], "repeats": 2,
            "resolution": "96x96", "spp": 2}
 TWINS = [("replay", "platform"), ("replay", "recorded"), ("markov", "platform"), ("markov", "recorded")]
+
+
+def reuse(path):
+    """RAYLINE_EXP_REUSE=1: a render whose outputs exist already (an earlier run of the same
+    grid) is read, not run again; twins are always run."""
+    return os.environ.get("RAYLINE_EXP_REUSE", "") not in ("", "0") and os.path.exists(path)
 
 
 def run(cmd, timeout=1800):
@@ -82,11 +87,13 @@ def scene_files(out, name, triangles, blocks, log):
     return scene, parts
 
 
-def calibrate(out, name, scene, blocks, res, spp):
-    cal = os.path.join(out, "scenes", name, "calibrated.json")
+def calibrate(out, name, scene, blocks, res, spp, quality):
+    """`rayline calibrate` with the BVH builder the renders use (`render --bvh-quality auto`:
+    low under a budget, medium in core; a load's time is mostly its build)."""
+    cal = os.path.join(out, "scenes", name, f"calibrated-{quality}.json")
     if not os.path.exists(cal):
         run(["calibrate", "--scene", scene, "-n", str(blocks), "--resolution", res, "--spp", str(spp),
-             "--threads", str(THREADS), "--budget-fraction", "0.25", "--out", cal, "-q"])
+             "--threads", str(THREADS), "--budget-fraction", "0.25", "--bvh-quality", quality, "--out", cal, "-q"])
     return cal
 
 
@@ -106,9 +113,11 @@ def run_grid(reduced, out):
     rows, real_rows = [], []
     for name, triangles, blocks in g["scenes"]:
         scene, parts = scene_files(out, name, triangles, blocks, print)
-        cal = calibrate(out, name, scene, blocks, res, spp)
-        total = scene_bytes(out, name, scene, parts, cal)
+        cals = {q: calibrate(out, name, scene, blocks, res, spp, q)
+                for q in (["low", "medium"] if 1.0 in g["budgets"] else ["low"])}
+        total = scene_bytes(out, name, scene, parts, cals["low"])
         for budget in g["budgets"]:
+            cal = cals["medium" if budget >= 1 else "low"]
             flags = [] if budget >= 1 else ["--memory-budget", f"{int(total * budget)}B"]
             tag = f"{name}-b{int(round(budget * 100))}"
             base = ["render", "--scene", scene, "--blocks-dir", parts, "--platform", cal, "--resolution", res,
@@ -117,14 +126,16 @@ def run_grid(reduced, out):
             for rep in range(g["repeats"]):  # alternated: rep-major, schedulers inside
                 for s in g["schedulers"]:
                     img = os.path.join(runs, f"{tag}-{s}-real{rep}.png")
-                    run(base + ["--scheduler", s, "--out", img])
+                    if not reuse(img.removesuffix(".png") + ".metrics.json"):
+                        run(base + ["--scheduler", s, "--out", img])
                     r = real_metrics(img.removesuffix(".png") + ".metrics.json")
                     real[s].append(r)
                     real_rows.append({"scene": name, "triangles": triangles, "budget": budget, "scheduler": s, "repeat": rep, **r})
             for s in g["schedulers"]:
                 twin = os.path.join(runs, f"{tag}-{s}.twin.json")
                 img = os.path.join(runs, f"{tag}-{s}-rec.png")
-                run(base + ["--scheduler", s, "--out", img, "--record-twin", twin])
+                if not reuse(twin):
+                    run(base + ["--scheduler", s, "--out", img, "--record-twin", twin])
                 rec = real_metrics(img.removesuffix(".png") + ".metrics.json")
                 mk = [r["makespan_s"] for r in real[s]]
                 med = {k: statistics.median(r[k] for r in real[s]) for k in ("makespan_s", "loads", "bytes_loaded", "busy")}
@@ -156,17 +167,6 @@ def run_grid(reduced, out):
     print(f"wrote {rx.shown(os.path.join(out, 'validation.csv'))} ({len(rows)} rows)")
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--mode", choices=["full", "reduced"], default=None)
-    ap.add_argument("--out", default=None)
-    a = ap.parse_args()
-    reduced = rx.is_reduced(a.mode)
-    out = a.out or os.path.join(rx.REPO, "out/experiments-reduced" if reduced else "notebooks/results")
-    print(f"rayline: {rx.shown(rx.rayline_bin())}  mode: {'reduced' if reduced else 'full'}  results: {rx.shown(out)}")
-    run_grid(reduced, out)
-
-
 def write(path, rows):
     tmp = path + ".tmp"
     with open(tmp, "w", newline="") as f:
@@ -174,7 +174,3 @@ def write(path, rows):
         w.writeheader()
         w.writerows(rows)
     os.replace(tmp, path)
-
-
-if __name__ == "__main__":
-    main()

@@ -236,3 +236,69 @@ TEST(SimExecutor, ChannelOrderRunsBothAtOnceSharingTheNic) {
   EXPECT_NEAR(ch.w_end, 3.0, 1e-2);
   EXPECT_NEAR(ch.s1_end, 3.5, 1e-2);
 }
+
+namespace {
+// A chain: each job is made only when the one before it finished (as rays spawn rays), so
+// the runtime loop dispatches every job but the first in answer to a finished E-job.
+class ChainWorkload final : public Workload {
+ public:
+  ChainWorkload(BlockId block, int n) : block_(block), n_(n) {}
+  void start(Time now, JobPool& pool, Schedule&) override { add(now, pool); }
+  void on_job_finished(JobId, Time now, JobPool& pool, Schedule&) override {
+    ++done_;
+    if (made_ < n_) add(now, pool);
+  }
+  bool finished() const override { return done_ == n_; }
+
+ private:
+  void add(Time now, JobPool& pool) {
+    Job j;
+    j.name = "c" + std::to_string(made_++);
+    j.type = 0;
+    j.inputs = {block_};
+    j.created = now;
+    pool.add_job(std::move(j));
+  }
+  BlockId block_;
+  int n_, made_ = 0, done_ = 0;
+};
+}  // namespace
+
+// The control loop (DeviceGraph::loop): a job dispatched in answer to a finished one starts
+// that job's end + per_job + per_exec_second x its duration later; without the model, at once.
+// (One SimGrid platform per process: one TEST each.)
+namespace {
+void expect_chain_gaps(bool modelled) {
+  DcgBuilder b;
+  const NodeId n = b.node("n0");
+  const MemId ram = b.mem("n0.ram", Bytes(8) << 30, MemoryKind::Host, n);
+  b.dev("n0.cpu", ram);
+  b.timing(0, DataKind::SceneData, 100 * MB, 1e-5);
+  DeviceGraph g = b.build();
+  if (modelled) g.loop = {0.5, 0.25};
+  JobPool pool;
+  DataBlock blk;
+  blk.name = "scene";
+  blk.kind = DataKind::SceneData;
+  blk.bytes = static_cast<Bytes>(100 * MB);
+  const BlockId id = pool.add_block(blk);
+  Schedule s(g, pool);
+  s.put_initial(id, ram);
+  sim::SgPlatform platform(g);
+  GmbScheduler gmb({.horizon = 1e9});
+  sim::SimExecutor ex(platform, s, {});
+  ChainWorkload wl(id, 3);
+  RuntimeLoop loop(gmb, ex, wl, pool, s);
+  const RunStats r = loop.run();
+  ASSERT_FALSE(r.stalled);
+  const Time d = 1.0 + 1e-5;
+  const Time gap = modelled ? 0.5 + 0.25 * d : 0.0;
+  EXPECT_NEAR(r.makespan, 3 * d + 2 * gap, 1e-9);
+  ASSERT_EQ(s.activity_count(), 3u);
+  for (std::size_t i = 1; i < s.activity_count(); ++i)
+    EXPECT_NEAR(s.activity(ActivityId(i)).start, s.activity(ActivityId(i - 1)).end + gap, 1e-9) << i;
+}
+}  // namespace
+
+TEST(SimExecutor, WithoutAControlLoopTheNextJobStartsAtOnce) { expect_chain_gaps(false); }
+TEST(SimExecutor, ControlLoopDelaysWhatIsDispatchedAfterAFinishedJob) { expect_chain_gaps(true); }
