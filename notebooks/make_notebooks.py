@@ -405,7 +405,7 @@ cols = ['scene', 'budget_pct', 'scheduler', 'fidelity', 'timing', 'real_makespan
         'sim_makespan_s', 'makespan_error', 'real_loads', 'recorded_loads', 'sim_loads', 'loads_error', 'busy_error',
         'sim_wall_s', 'outside']
 print(df[cols].to_string(index=False, float_format=lambda v: f'{v:.3g}'))""",
-"""fig, axes = plt.subplots(2, 2, figsize=(13, 8), sharex=True)
+"""fig, axes = plt.subplots(2, 2, figsize=(13, 8))
 mk = {'replay': 'o', 'markov': 's'}
 ls = {'platform': '-', 'recorded': '--'}
 scenes = list(dict.fromkeys(df.scene))
@@ -417,15 +417,16 @@ for (ax, metric, title) in [(axes[0][0], 'makespan_error', 'frame makespan'), (a
                 label=f'{scene}, {fid}, {timing} timing')
     ax.axhline(10, color='k', lw=0.8, ls=':'); ax.axhline(20, color='k', lw=0.8, ls=':')
     ax.set_ylabel(f'|error| of the {title}, worst scheduler (%)'); ax.set_title(title); ax.grid(alpha=.3)
+    ax.set_xlabel('memory budget (% of the scene; 100 = in core)'); ax.set_xticks([10, 25, 50, 100])
 axes[0][0].legend(fontsize=6)
 # speed against accuracy, against the real runs: each twin's wall time (x) and its error (y);
 # the real render's own wall time for the same frame as a star on the x axis
 for (scene, fid), r in df[df.timing == 'platform'].groupby(['scene', 'fidelity']):
-    axes[1][0].scatter(r.sim_wall_s, 100 * r.makespan_error.abs(), marker=mk[fid], color=cmap[scene], s=18,
-                       label=f'{scene}, {fid}')
+    axes[1][0].scatter(r.sim_wall_s, (100 * r.makespan_error.abs()).clip(lower=0.5), marker=mk[fid], color=cmap[scene],
+                       s=18, label=f'{scene}, {fid}')
 for scene, r in real.groupby('scene'):
-    axes[1][0].scatter(r.makespan_s, [0.3] * len(r), marker='*', color=cmap[scene], s=40, alpha=.5)
-axes[1][0].set_xscale('log'); axes[1][0].set_yscale('symlog', linthresh=1)
+    axes[1][0].scatter(r.makespan_s, [0.5] * len(r), marker='*', color=cmap[scene], s=40, alpha=.5)
+axes[1][0].set_xscale('log'); axes[1][0].set_yscale('log')
 axes[1][0].set_xlabel('wall time (s): twin (markers), real render (stars)')
 axes[1][0].set_ylabel('|makespan error| against the real median (%)'); axes[1][0].grid(alpha=.3)
 axes[1][0].legend(fontsize=6)
@@ -434,6 +435,7 @@ for (scene, budget), r in real.groupby(['scene', 'budget']):
     axes[1][1].scatter([100 * budget] * len(spread), 100 * spread.values, color=cmap[scene], s=14)
 axes[1][1].axhline(5, color='k', lw=0.8, ls=':')
 axes[1][1].set_ylabel('real runs: spread of the makespan (%)'); axes[1][1].set_xlabel('memory budget (%)')
+axes[1][1].set_xticks([10, 25, 50, 100])
 axes[1][1].grid(alpha=.3)
 savefig(fig, 'validation.png')""",
 """rows = []

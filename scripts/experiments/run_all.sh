@@ -1,7 +1,8 @@
 #!/bin/sh
 # Runs every experiment of the notebooks and refreshes the notebooks and their figures.
 #
-#   scripts/experiments/run_all.sh --full      # all experiments (about 41 min on 2 cores):
+#   scripts/experiments/run_all.sh --full      # all experiments (about 80 min on 2 cores, 40 of them
+#                                              # notebook 09's real renders):
 #                                              # CSVs in notebooks/results/, notebooks executed in
 #                                              # place, PNG figures next to them
 #   scripts/experiments/run_all.sh --reduced   # the CI setting (short runs, few points) into
