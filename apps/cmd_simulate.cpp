@@ -181,6 +181,8 @@ void engine_config(const SimulateOptions& opt, Time horizon, const AgingSetting&
 void twin_config(const SimulateOptions& opt, SimulateOptions& eff, sim::SimulationConfig& cfg) {
   if (opt.workload != SimulateOptions{}.workload)
     throw InputError("--like", "", "replays a recorded render; give --like or --workload, not both");
+  if (opt.duration != SimulateOptions{}.duration)
+    throw InputError("--duration", "", "a recorded render's twin runs until its frame is done; leave --duration out");
   cfg.workload = opt.like;
   cfg.workload_kind = sim::WorkloadKind::Twin;
   cfg.platform_file = opt.platform.empty() ? std::string() : resolve_platform(opt.platform);

@@ -25,6 +25,7 @@ QUICK_SKIP=(
   '^cmake( |$) ## configures or builds the build under test'
   '^ctest( |$) ## runs tests of the suite that runs this check'
   'rayline (render|calibrate)( |$) ## renders and calibration: a minute together on 2 cores'
+  'rayline simulate --like ## the twin of a render the quick check skips'
 )
 
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"

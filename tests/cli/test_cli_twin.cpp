@@ -109,6 +109,12 @@ TEST_F(CliTwin, BadTwinInputsExitTwoNamingFileAndField) {
   r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --workload museum --out " + path("s1"));
   EXPECT_EQ(r.code, 2) << r.all;
   EXPECT_NE(r.err.find("--like"), std::string::npos) << r.err;
+  r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --duration 5s --out " + path("s1"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--duration"), std::string::npos) << r.err;
+  r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --fidelity analytic --out " + path("s1"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--fidelity"), std::string::npos) << r.err;
   r = rayline_cli("simulate -q --workload " + path("rec.twin.json") + " --out " + path("s1"));
   EXPECT_EQ(r.code, 2) << r.all;
   EXPECT_NE(r.err.find("--like"), std::string::npos) << r.err;
