@@ -6,6 +6,7 @@
 
 #include <filesystem>
 
+#include "render/engine/ray_log_recorder.hpp"
 #include "render/engine/renderer.hpp"
 #include "small_render.hpp"
 #include "z_fighting_scene.hpp"
@@ -174,4 +175,36 @@ TEST(RenderDeterminism, ReadAheadSameImage) {
   EXPECT_GT(ra.store.recycled_arrays, 0u) << "evicted blocks' arrays must be reused";
   EXPECT_EQ(ra.sums, rb.sums);
   EXPECT_EQ(ra.sums, in_core.sums);
+}
+
+// Recording a ray log (render --record-twin) changes nothing in the image, and the log is
+// the render: one visit per cell visit, one entry per camera ray that met a cell, every
+// child recorded after its parent, and a path ray that hands on no path ray ends its path
+// once per camera ray (the twin's conservation). Under a budget, with two threads.
+TEST(RenderDeterminism, RayLogRecordingSameImageAndItsLogIsTheRender) {
+  RenderOptions a = base();
+  const RenderResult plain = render(a);
+  RenderOptions b = base();
+  b.memory_budget = plain.scene_block_bytes / 4;
+  rayline::engine::RayLogRecorder recorder;
+  b.batching.ray_log = &recorder;
+  const RenderResult rec = render(b);
+  expect_sane(rec);
+  EXPECT_EQ(plain.sums, rec.sums);
+  const rayline::RayLog& log = recorder.finish();
+  EXPECT_EQ(log.visits.size(), rec.counts.traced);
+  EXPECT_EQ(log.camera_rays(), rec.camera_rays);
+  std::uint64_t ended_paths = 0, entered = 0;
+  for (std::uint32_t e : log.entry) entered += e != rayline::RayLog::kNoVisit;
+  for (std::size_t v = 0; v < log.visits.size(); ++v) {
+    const rayline::RayVisit& x = log.visits[v];
+    bool continues = x.kind != 0;
+    for (std::uint32_t k = 0; k < x.children; ++k) {
+      const std::uint32_t c = log.children[x.first + k];
+      ASSERT_GT(c, v) << "a child recorded before its parent";
+      continues = continues || log.visits[c].kind == 0;
+    }
+    ended_paths += continues ? 0 : 1;
+  }
+  EXPECT_EQ(ended_paths, entered) << "every path that met a cell ends exactly once in the log";
 }
