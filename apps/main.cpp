@@ -163,7 +163,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--like", opt->like,
                   "Simulate a recorded render (NAME.twin.json from `rayline render --record-twin`): its platform, "
                   "blocks, settings, batching and scheduler, every ray's outcome from its ray log; runs until the "
-                  "frame is done (docs/validation.md). --platform and --scheduler override the recorded ones")
+                  "frame is done (docs/validation.md). --platform, --scheduler and --memory-budget override the recorded ones")
       ->type_name(kPath);
   sim->add_option("--timing", opt->timing,
                   "With --like: platform = the timing of the platform the render drove (a prediction, e.g. from "

@@ -198,6 +198,8 @@ struct Inputs {
   TwinSpec twin;                          // WorkloadKind::Twin, and its ray log
   std::shared_ptr<const RayLog> twin_rays;
   Fidelity twin_fidelity = Fidelity::Replay;
+  Bytes host_memory = 0;  // --memory-budget (0: the platform's)
+  std::uint32_t twin_paths = 0;  // paths in flight (twin_path_cap)
   std::uint64_t twin_seed = 1;
   PathTraceOptions path_trace;
   ReplayLog recording;                    // record_replay: every split of this run
@@ -217,10 +219,27 @@ void load_twin_inputs(const SimulationConfig& cfg, Inputs& in) {
                                         std::to_string(log->height) + ", " + std::to_string(log->spp) +
                                         " spp) is not the twin file's");
   in.twin_rays = std::move(log);
+  in.host_memory = static_cast<Bytes>(cfg.host_memory);
   if (cfg.fidelity == Fidelity::Analytic)
     throw InputError("--fidelity", "", "a recorded render's twin runs at replay (its ray log) or markov (the log's statistics)");
   in.twin_fidelity = cfg.fidelity;
   in.twin_seed = cfg.seed;
+}
+
+// The paths a twin keeps in flight: the recorded render's, or under another budget
+// (--memory-budget) what the renderer would keep there: every path whose rays fit next to
+// the largest block (one path ray and one shadow ray per hit, 64 bytes each), at most the
+// frame's (render/engine/renderer.cpp, size_paths).
+std::uint32_t twin_path_cap(const Inputs& in) {
+  const TwinSpec& t = in.twin;
+  if (in.host_memory == 0) return t.path_cap;
+  const Bytes largest = *std::max_element(t.blocks.begin(), t.blocks.end());
+  const Bytes per_path = Bytes(1 + t.max_depth) * 64;
+  const Bytes frame = Bytes(t.width) * t.height * t.spp;
+  if (in.host_memory < largest + 64 * per_path)
+    throw InputError("--memory-budget", "", "smaller than the recorded render's largest block (" + std::to_string(largest) +
+                                                " bytes) plus room for 64 paths of rays");
+  return static_cast<std::uint32_t>(std::min<Bytes>({(in.host_memory - largest) / per_path, frame, Bytes(1) << 26}));
 }
 
 // The twin runs on one machine's DCG as the renderer builds it: a disk and a host memory,
@@ -243,7 +262,10 @@ std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
   in->graph = !cfg.platform_file.empty()  ? load_platform(cfg.platform_file)
               : cfg.twin_fitted_timing    ? parse_platform(in->twin.fitted_platform_json, cfg.workload + " (its fitted_platform)")
                                           : parse_platform(in->twin.platform_json, cfg.workload + " (its platform)");
-  if (cfg.workload_kind == WorkloadKind::Twin) check_twin_platform(cfg, *in);
+  if (cfg.workload_kind == WorkloadKind::Twin) {
+    check_twin_platform(cfg, *in);
+    in->twin_paths = twin_path_cap(*in);
+  }
   if (cfg.host_memory > 0) {  // --memory-budget: the RAM of every node, as a render's budget
     for (MemoryDevice& m : in->graph.memories)
       if (m.kind == MemoryKind::Host) m.capacity = static_cast<Bytes>(cfg.host_memory);
@@ -413,7 +435,7 @@ struct Engine {
     }
     RayBatchOptions o;
     o.spp = int(in.twin.spp);
-    o.path_cap = in.twin.path_cap;
+    o.path_cap = in.twin_paths;
     o.min_batch = in.twin.min_batch;
     o.max_batch = in.twin.max_batch;
     std::unique_ptr<TwinOracle> oracle;

@@ -89,6 +89,18 @@ TEST_F(CliTwin, TwinReplaysTheRenderAndItsLoadsComeClose) {
   EXPECT_EQ(a.at("block_visits"), b.at("block_visits"));
   EXPECT_GT(b.at("makespan_s").get<double>(), a.at("makespan_s").get<double>() + 0.002) << "the loop's latency is not felt";
 
+  // What if the machine had more RAM: the same rays under a budget twice the size load no
+  // more blocks; a budget below the largest block is refused, named.
+  r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --memory-budget 1200KiB --out " + path("sim-more"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto more = json_of("sim-more/metrics.json").at("twin");
+  EXPECT_TRUE(more.at("frame_done").get<bool>());
+  EXPECT_EQ(more.at("block_visits"), render.at("rays").at("cell_visits"));
+  EXPECT_LE(more.at("loads").get<double>(), sim_loads);
+  r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --memory-budget 1KiB --out " + path("sim-less"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--memory-budget"), std::string::npos) << r.err;
+
   // The twin under another scheduler: the same rays, another plan.
   r = rayline_cli("simulate -q --like " + path("rec.twin.json") + " --scheduler budge --out " + path("sim-budge"));
   ASSERT_EQ(r.code, 0) << r.all;
