@@ -227,19 +227,16 @@ void load_twin_inputs(const SimulationConfig& cfg, Inputs& in) {
 }
 
 // The paths a twin keeps in flight: the recorded render's, or under another budget
-// (--memory-budget) what the renderer would keep there: every path whose rays fit next to
-// the largest block (one path ray and one shadow ray per hit, 64 bytes each), at most the
-// frame's (render/engine/renderer.cpp, size_paths).
+// (--memory-budget) what the renderer would keep there (paths_in_budget).
 std::uint32_t twin_path_cap(const Inputs& in) {
   const TwinSpec& t = in.twin;
   if (in.host_memory == 0) return t.path_cap;
   const Bytes largest = *std::max_element(t.blocks.begin(), t.blocks.end());
-  const Bytes per_path = Bytes(1 + t.max_depth) * 64;
-  const Bytes frame = Bytes(t.width) * t.height * t.spp;
-  if (in.host_memory < largest + 64 * per_path)
+  const int depth = static_cast<int>(t.max_depth);
+  if (in.host_memory < largest + 64 * path_bytes(depth))
     throw InputError("--memory-budget", "", "smaller than the recorded render's largest block (" + std::to_string(largest) +
                                                 " bytes) plus room for 64 paths of rays");
-  return static_cast<std::uint32_t>(std::min<Bytes>({(in.host_memory - largest) / per_path, frame, Bytes(1) << 26}));
+  return paths_in_budget(in.host_memory, largest, depth, Bytes(t.width) * t.height * t.spp);
 }
 
 // The twin runs on one machine's DCG as the renderer builds it: a disk and a host memory,

@@ -33,6 +33,16 @@
 namespace rayline {
 
 inline constexpr int kBatchSlots = 4;
+// The timing model and the memory budget charge 64 bytes per queued ray (render/integrator/ray.hpp).
+inline constexpr Bytes kRayRecordBytes = 64;
+// The ray bytes one path can hold at once: one path ray and at most one shadow ray per hit.
+inline Bytes path_bytes(int max_depth) { return Bytes(1 + max_depth) * kRayRecordBytes; }
+// Paths whose rays fit in `budget` next to the largest block (the renderer's automatic
+// paths-in-flight cap under a budget; its twin's too): at most the frame's and 2^26. The
+// caller checks budget >= largest + 64 x path_bytes first.
+inline std::uint32_t paths_in_budget(Bytes budget, Bytes largest, int max_depth, Bytes frame_paths) {
+  return static_cast<std::uint32_t>(std::min<Bytes>({(budget - largest) / path_bytes(max_depth), frame_paths, Bytes(1) << 26}));
+}
 
 struct RayBatchOptions {
   int spp = 4;
@@ -270,9 +280,6 @@ class RayBatchWorkload : public Workload {
       make_job(bk, bc, staging_[bc][bk], std::min<std::size_t>(best, opt_.max_batch), now, pool, s);
     }
   }
-
-  // The timing model charges 64 bytes per queued ray (render/integrator/ray.hpp).
-  static constexpr Bytes kRayRecordBytes = 64;
 
   const DeviceGraph& g_;
   MemId ram_;

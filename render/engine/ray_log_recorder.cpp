@@ -22,7 +22,7 @@ std::uint64_t RayLogRecorder::id(const trace::RayRecord& r) const {
   return (camera << 9) | (std::uint64_t(r.bounce) << 1) | std::uint64_t(r.kind);
 }
 
-void RayLogRecorder::camera_rays(std::span<const trace::RayRecord> placed, std::uint64_t, std::uint64_t) {
+void RayLogRecorder::camera_rays(std::span<const trace::RayRecord> placed) {
   events_.push_back({true, 0, static_cast<std::uint32_t>(placed.size())});
   for (const trace::RayRecord& r : placed) rays_.push_back({id(r), r.cell});
 }

@@ -22,8 +22,8 @@ namespace rayline::engine {
 class RayLogRecorder {
  public:
   void begin(std::uint32_t width, std::uint32_t height, std::uint32_t spp, std::uint32_t cells);
-  // Camera rays [first, first + n) were generated; `placed` holds those that entered a cell.
-  void camera_rays(std::span<const trace::RayRecord> placed, std::uint64_t first, std::uint64_t n);
+  // Camera rays were generated; `placed` holds those that entered a cell.
+  void camera_rays(std::span<const trace::RayRecord> placed);
   // A ray's identity: camera index << 9 | bounce << 1 | kind (thread-safe; throws
   // std::runtime_error past 255 bounces).
   std::uint64_t id(const trace::RayRecord& r) const;

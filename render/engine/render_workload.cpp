@@ -53,7 +53,7 @@ trace::RayCounts RenderWorkload::make_camera_rays(std::uint64_t first, std::uint
   trace::RayCounts total;
   for (std::size_t k = 0; k < chunks; ++k) {
     if (recorder_) recorder_->camera_rays(fresh[k], begin(k), end(k) - begin(k), pixels);
-    if (ray_log_) ray_log_->camera_rays(fresh[k], begin(k), end(k) - begin(k));
+    if (ray_log_) ray_log_->camera_rays(fresh[k]);
     total += counts[k];
     count_staged(fresh[k].size());
   }

@@ -179,7 +179,7 @@ void prepare_blocks(const RenderOptions& opt, const Frame& f, Blocks& b, RenderR
 // ---- setup: the platform, this machine --------------------------------------------------
 
 // Bytes of one path's rays: one path ray and at most one shadow ray per hit.
-Bytes bytes_per_path(const RenderResult& res) { return Bytes(1 + res.max_depth) * sizeof(trace::RayRecord); }
+Bytes bytes_per_path(const RenderResult& res) { return path_bytes(res.max_depth); }
 
 // The budget holds scene blocks and the ray queues of queued jobs alike (both are data in
 // RAM the plan accounts for). Rays are bounded by the paths alive at once. The path cap is
@@ -205,8 +205,8 @@ Bytes size_paths(const RenderOptions& opt, const Blocks& b, RenderWorkloadOption
                            std::to_string(b.largest) + " bytes in RAM) plus room for 64 paths of rays (" +
                            std::to_string(need) + " bytes in all); use more blocks or a larger budget");
     const Bytes fit = (opt.memory_budget - b.largest) / per_path;
-    wo.path_cap = static_cast<std::uint32_t>(
-        auto_cap ? std::min<Bytes>({fit, frame_paths, Bytes(1) << 26}) : std::min<Bytes>(wo.path_cap, fit));
+    wo.path_cap = auto_cap ? paths_in_budget(opt.memory_budget, b.largest, res.max_depth, frame_paths)
+                           : static_cast<std::uint32_t>(std::min<Bytes>(wo.path_cap, fit));
     ram_capacity = opt.memory_budget;
   } else {
     ram_capacity = res.scene_block_bytes + Bytes(wo.path_cap) * per_path;
