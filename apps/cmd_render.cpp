@@ -22,6 +22,9 @@
 #include "render/engine/profile_recorder.hpp"
 #include "render/engine/ray_log_recorder.hpp"
 #include "render/engine/renderer.hpp"
+#ifdef RAYLINE_WITH_MPI
+#include "render/mpi/mpi_cluster.hpp"
+#endif
 #include "render/image/image_io.hpp"
 #include "render/scene/gltf_reader.hpp"
 #include "render/scene/scene.hpp"
@@ -288,8 +291,32 @@ void print_render_summary(const std::string& out, const engine::RenderResult& r)
 
 }  // namespace
 
+namespace {
+int render_here(const RenderCliOptions& opt, engine::Cluster* cluster);
+}  // namespace
+
+// --distributed: every rank runs this command; rank 0 renders, the others serve its plan.
 int run_render(const RenderCliOptions& opt) {
+  if (!opt.distributed) return render_here(opt, nullptr);
+#ifdef RAYLINE_WITH_MPI
+  if (!opt.record_profile.empty() || !opt.record_replay.empty() || !opt.record_twin.empty())
+    throw InputError("--distributed", "", "recordings (--record-*) are made by one-machine renders only");
+  if (!opt.fail.empty()) throw InputError("--distributed", "", "--fail names devices of one machine; not with --distributed");
+  mpi::Session session;
+  mpi::MpiCluster cluster(session);
+  if (session.rank() != 0) return cluster.serve();
+  return render_here(opt, &cluster);
+#else
+  throw InputError("--distributed", "", "this rayline was built without MPI (scripts/setup.sh installs Open MPI; rebuild)");
+#endif
+}
+
+namespace {
+int render_here(const RenderCliOptions& opt, engine::Cluster* cluster) {
   engine::RenderOptions ro = render_options(opt);
+  ro.cluster = cluster;
+  if (cluster && ro.gpu != "none" && ro.gpu != "auto")
+    throw InputError("--gpu", "", "a distributed render runs on the ranks' CPU threads only");
   check_render_outputs(opt);
   ProgressLine line(ProgressLine::for_stderr(opt.quiet));
   if (line.mode() != ProgressLine::Mode::Off) {
@@ -314,6 +341,7 @@ int run_render(const RenderCliOptions& opt) {
   if (!opt.quiet) print_render_summary(opt.out, r);
   return kExitOk;
 }
+}  // namespace
 
 // One fit's quality for the console (sched/core/fit_errors.hpp): the error on the measured time
 // first, since the worst relative error belongs to the shortest samples.

@@ -34,6 +34,7 @@ struct RenderCliOptions {
   std::string record_profile, record_replay;
   // NAME.twin.json (+ NAME.twin.rays): this render for `rayline simulate --like`.
   std::string record_twin;
+  bool distributed = false;  // under mpirun (render/mpi)
   std::string record_tiles = "8x8";
   int record_keyframe = 0;
 };

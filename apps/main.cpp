@@ -330,6 +330,9 @@ void add_render(CLI::App& app, std::function<int()>& action) {
   r->add_option("--out,-o", opt->out, "Image, in the format its extension names: NAME.exr (OpenEXR, and a PNG preview NAME.png next to it) or "
                 "NAME.png (8-bit sRGB); NAME.metrics.json, NAME.timeline.json, NAME.jobs.csv go next to it")->type_name(kPath)
       ->default_val(opt->out);
+  r->add_flag("--distributed", opt->distributed,
+             "Under mpirun: one node per rank (its threads, RAM under --memory-budget, disk), ranks joined by a "
+             "measured LAN; rank 0 plans and writes the outputs (README, \"Render on several machines\")");
   r->add_flag("--quiet,-q", opt->quiet, "No progress line on stderr and no summary");
   r->callback([opt, &action] { action = [opt] { return run_render(*opt); }; });
 }

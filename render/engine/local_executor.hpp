@@ -25,7 +25,7 @@
 
 namespace rayline::engine {
 
-class LocalExecutor final : public Executor {
+class LocalExecutor : public Executor {
  public:
   using Task = std::function<void()>;
   // Called on the loop's thread at dispatch: returns the work of the activity (it may

@@ -198,6 +198,25 @@ json gpu_json(const RenderResult& r) {
           {"peak_device_bytes", r.gpu.peak_device_bytes}};
 }
 
+// A distributed render (render/mpi/README.md): the LAN as measured, what crossed it, and
+// per rank what it ran, loaded and sent.
+json distributed_json(const RenderResult& r) {
+  json d;
+  d["lan"] = {{"latency_s", r.lan.latency}, {"bandwidth_bytes_per_s", r.lan.bandwidth}};
+  Bytes bytes = 0;
+  Time seconds = 0;
+  for (const auto& [b, t] : r.lan_samples) bytes += b, seconds += t;
+  d["lan_transfers"] = {{"count", r.lan_samples.size()}, {"planned_bytes", bytes}, {"seconds", seconds}};
+  json ranks = json::array();
+  for (const RankStats& s : r.ranks)
+    ranks.push_back({{"host", s.host}, {"execs", s.execs}, {"loads", s.loads}, {"evictions", s.evictions},
+                     {"bytes_read", s.bytes_read}, {"scene_blocks_in", s.scene_in}, {"scene_blocks_out", s.scene_out},
+                     {"ray_queues_in", s.queues_in}, {"ray_queues_out", s.queues_out},
+                     {"messages_sent", s.messages_sent}, {"bytes_sent", s.bytes_sent}});
+  d["ranks"] = ranks;
+  return d;
+}
+
 }  // namespace
 
 std::string render_metrics_json(const RenderResult& r, const Schedule& s, const std::vector<double>& lane_busy) {
@@ -250,6 +269,7 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   activity_json(r, s, m);
   m["devices"] = devices_json(r, s);
   m["gpu"] = gpu_json(r);
+  if (!r.ranks.empty()) m["distributed"] = distributed_json(r);
   return m.dump(2) + "\n";
 }
 

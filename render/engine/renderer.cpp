@@ -27,6 +27,7 @@
 #include "render/scene/scene.hpp"
 #include "render/scene/scene_stream.hpp"
 #include "render/store/temp_partition.hpp"
+#include "sched/io/platform_loader.hpp"
 #include "sched/io/trace_output.hpp"
 #include "sched/policy/scheduler_factory.hpp"
 #include "sched/policy/unplaced.hpp"
@@ -114,7 +115,9 @@ void resolve_frame(const RenderOptions& opt, Frame& f, RenderResult& res) {
     throw InputError("--spp", "", "width x height x spp must stay below 2^32 samples");
   f.quality = bvh_quality(opt);
   res.bvh_quality = f.quality == trace::BvhQuality::Low ? "low" : (f.quality == trace::BvhQuality::High ? "high" : "medium");
-  f.threads = opt.threads > 0 ? opt.threads : std::max(1, int(std::thread::hardware_concurrency()));
+  f.threads = opt.threads > 0 ? opt.threads
+              : opt.cluster ? opt.cluster->default_threads()
+                            : std::max(1, int(std::thread::hardware_concurrency()));
   res.threads = f.threads;
 }
 
@@ -264,14 +267,28 @@ void make_platform(const RenderOptions& opt, const Blocks& b, const RenderWorklo
                    Platform& p, RenderResult& res) {
   // A profile recorder classifies rays in the CPU kernels, and a ray log records CPU visits
   // (a GPU's doubtful rays would come back as visits of their own): no GPU then.
-  p.gpu_ctx = opt.batching.recorder || opt.batching.ray_log ? nullptr : open_gpu(opt, res);
-  p.wm = workstation_model(opt.platform);
+  p.gpu_ctx = opt.batching.recorder || opt.batching.ray_log || opt.cluster ? nullptr : open_gpu(opt, res);
+  LanModel lan;
+  if (opt.cluster) {
+    lan = opt.cluster->lan();
+    if (!opt.platform.empty() && opt.platform != "auto") {  // a cluster file (calibrate --distributed)
+      int nodes = 0;
+      p.wm = load_node_model(opt.platform, &nodes, &lan);
+      if (nodes != opt.cluster->ranks())
+        throw InputError(opt.platform, "nodes", "describes " + std::to_string(nodes) + " nodes but " +
+                                                    std::to_string(opt.cluster->ranks()) + " ranks run");
+    }
+  } else {
+    p.wm = workstation_model(opt.platform);
+  }
   p.wm.threads = res.threads;
   p.wm.ram_capacity = ram_capacity;
   if (opt.loaders > 0) p.wm.loaders = opt.loaders;
   res.loaders = p.wm.loaders;
   plan_gpu(opt, b, wo, p, res);
-  p.g = make_workstation(p.wm, opt.platform);
+  p.g = opt.cluster ? parse_platform(cluster_json(p.wm, opt.cluster->ranks(), lan, "a distributed render"),
+                                     "<distributed platform>")
+                    : make_workstation(p.wm, opt.platform);
   res.platform = opt.platform.empty() ? "auto" : opt.platform;
   const DeviceGraph& g = p.g;
   for (std::size_t i = 0; i < g.memories.size(); ++i) {
@@ -293,7 +310,7 @@ struct SceneBlocks {
   std::map<BlockId, std::uint32_t> cell_of;
 };
 
-SceneBlocks add_scene_blocks(const Blocks& b, MemId disk, JobPool& pool, Schedule& schedule) {
+SceneBlocks add_scene_blocks(const Blocks& b, const DeviceGraph& g, JobPool& pool, Schedule& schedule) {
   SceneBlocks sb;
   sb.blocks.resize(b.footprint.size());
   for (std::uint32_t c = 0; c < b.footprint.size(); ++c) {
@@ -303,7 +320,8 @@ SceneBlocks add_scene_blocks(const Blocks& b, MemId disk, JobPool& pool, Schedul
     d.bytes = b.footprint[c];
     sb.blocks[c] = pool.add_block(d);
     sb.cell_of[sb.blocks[c]] = c;
-    schedule.put_initial(sb.blocks[c], disk, 0, true);
+    for (std::size_t m = 0; m < g.memories.size(); ++m)  // (a distributed render: on every rank's disk)
+      if (g.memories[m].kind == MemoryKind::Disk) schedule.put_initial(sb.blocks[c], MemId(m), 0, true);
   }
   return sb;
 }
@@ -411,6 +429,8 @@ void report_samples(const Schedule& schedule, const JobPool& pool, const Platfor
       for (BlockId blk : pool.job(a.job).inputs) t.inputs.push_back({pool.block(blk).kind, pool.block(blk).bytes});
       t.duration = a.end - a.start;
       res.exec_samples.push_back(std::move(t));
+    } else if (g.channels[a.channel].network != kNone) {
+      res.lan_samples.emplace_back(a.bytes, a.end - a.start);
     } else if (sb.cell_of.count(a.block) && g.channels[a.channel].to == p.ram) {
       res.load_samples.emplace_back(a.bytes, a.end - a.start);
     } else if (g.channels[a.channel].to == p.gmem) {
@@ -456,7 +476,7 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
          RenderResult& res) {
   JobPool pool;
   Schedule schedule(p.g, pool);
-  const SceneBlocks sb = add_scene_blocks(b, p.disk, pool, schedule);
+  const SceneBlocks sb = add_scene_blocks(b, p.g, pool, schedule);
   auto scheduler = make_scheduler(opt.scheduler, opt.horizon, opt.aging, opt.adaptive_aging);
   res.scheduler = opt.scheduler;
   res.scheduler_parameters = scheduler->describe();
@@ -472,15 +492,26 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
   store.set_staging_slots(static_cast<std::size_t>(p.wm.loaders));  // one read-ahead per loader
   std::unique_ptr<GpuStore> gpu_store;
   if (p.gpu_ctx) gpu_store = std::make_unique<GpuStore>(*p.gpu_ctx, store);
-  const AggregateSources sources{store, gpu_store.get(), opt.batching.recorder, opt.gpu_resolve_doubtful};
-  ActivityTasks tasks({p.g, schedule, workload, ts, sb.cell_of, p.ram, p.gmem, store, gpu_store.get(), opt.read_ahead},
-                      make_aggregates(p.g, sources));
+  std::unique_ptr<ActivityTasks> tasks;
+  std::unique_ptr<LocalExecutor> executor_ptr;
+  if (opt.cluster) {  // the other ranks get the frame, then the executor's lanes reach them
+    opt.cluster->start({opt.scene, b.dir, res.width, res.height, res.spp, res.max_depth, f.threads,
+                        opt.build_threads > 0 ? opt.build_threads : f.threads, int(f.quality), opt.seed,
+                        ts.skip_empty, b.footprint});
+    executor_ptr = opt.cluster->executor({p.g, schedule, workload, ts, sb.cell_of, store, opt.read_ahead});
+  } else {
+    const AggregateSources sources{store, gpu_store.get(), opt.batching.recorder, opt.gpu_resolve_doubtful};
+    tasks = std::make_unique<ActivityTasks>(
+        ActivityTasks::Setup{p.g, schedule, workload, ts, sb.cell_of, p.ram, p.gmem, store, gpu_store.get(), opt.read_ahead},
+        make_aggregates(p.g, sources));
+    executor_ptr = std::make_unique<LocalExecutor>(
+        p.g, [t = tasks.get()](ActivityId id, const Activity& a) { return t->task(id, a); },
+        [t = tasks.get()](ActivityId id, const Activity& a) { return t->hint(id, a); });
+  }
+  LocalExecutor& executor = *executor_ptr;
   res.rss_start_bytes = rss_now();
   res.overhead_bound_bytes = overhead_bound(res, wo, b, p);
 
-  LocalExecutor executor(
-      p.g, [&tasks](ActivityId id, const Activity& a) { return tasks.task(id, a); },
-      [&tasks](ActivityId id, const Activity& a) { return tasks.hint(id, a); });
   RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
   loop.on_progress = LoopWatch{opt, p, executor, workload, gpu_store.get()};
   for (const std::string& f : opt.faults) {
@@ -496,6 +527,7 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
   res.peak_rss_bytes = rss_peak();
   if (auto err = executor.failure()) std::rethrow_exception(err);
   if (res.run.stalled) throw std::runtime_error("render stalled: " + unplaced_summary(pool, schedule));
+  if (opt.cluster) opt.cluster->finish(res);
 
   report_image(workload, store, film, res);
   report_samples(schedule, pool, p, sb, res);

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "render/engine/cluster.hpp"
 #include "render/store/block_store.hpp"
 #include "render/store/gpu_store.hpp"
 #include "render/engine/render_workload.hpp"
@@ -60,6 +61,9 @@ struct RenderOptions {
   // the image may then differ from the CPU-only one at edge cracks.
   bool gpu_resolve_doubtful = true;
   bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result
+  // A distributed render (render/mpi/README.md): one node per rank, this process rank 0.
+  // `threads` and `memory_budget` are per rank then; no GPU.
+  Cluster* cluster = nullptr;
   // Calibration hook (calibrate.hpp): with a GPU, the plan lets the CPU threads run only
   // the doubtful rays' jobs, so every job the GPU can run is planned there (until the device
   // is lost: then the CPU threads take everything again). The image does not change.
@@ -118,6 +122,10 @@ struct RenderResult {
   Bytes gpu_memory_budget = 0;
   GpuStoreStats gpu;
   std::vector<std::pair<Bytes, Time>> pcie_samples;  // RAM->GPU T-jobs (bytes, seconds)
+  // A distributed render: per rank, what it did; the LAN between the ranks as measured.
+  std::vector<RankStats> ranks;
+  LanModel lan;
+  std::vector<std::pair<Bytes, Time>> lan_samples;  // rank-to-rank T-jobs (bytes, seconds)
 };
 
 // Throws InputError for bad input (scene, blocks, budget, platform, options).

@@ -25,9 +25,10 @@ std::string timing(Time ri_setup, double ri_rate, Time si_setup, double si_rate)
 }
 }  // namespace
 
-std::string workstation_json(const WorkstationModel& m, const std::string& description) {
-  std::string s = "{\n  \"name\": \"workstation\",\n  \"description\": \"" + description + "\",\n";
-  s += "  \"node_types\": {\n    \"W\": {\n      \"memory\": [\n";
+namespace {
+// The node type "W" of a model: its memories, compute devices and channels.
+std::string node_type_json(const WorkstationModel& m) {
+  std::string s = "  \"node_types\": {\n    \"W\": {\n      \"memory\": [\n";
   s += "        {\"name\": \"disk\", \"kind\": \"disk\", \"capacity\": " + bytes(m.disk_capacity) + "},\n";
   s += "        {\"name\": \"ram\", \"kind\": \"host\", \"capacity\": " + bytes(m.ram_capacity) + "}";
   for (std::size_t i = 0; i < m.gpus.size(); ++i)
@@ -53,11 +54,37 @@ std::string workstation_json(const WorkstationModel& m, const std::string& descr
     s += ",\n        {\"name\": \"pcie" + std::to_string(i) + "\", \"kind\": \"pcie\", \"between\": [\"ram\", \"gpu" +
          std::to_string(i) + "mem\"], \"duplex\": \"full\", \"latency\": " + us(m.gpus[i].pcie_latency) +
          ", \"bandwidth\": " + bps(m.gpus[i].pcie_bandwidth) + "}";
-  s += "\n      ]\n    }\n  },\n  \"nodes\": [{\"name\": \"W\", \"type\": \"W\"}]";
+  s += "\n      ]\n    }\n  },\n";
+  return s;
+}
+std::string loop_json(const WorkstationModel& m) {
+  std::string s;
   if (m.loop.modelled())
     s += ",\n  \"control_loop\": {\"per_job\": " + us(m.loop.per_job) + ", \"per_exec_second\": " +
          num(m.loop.per_exec_second) + "}";
-  s += "\n}\n";
+  return s;
+}
+}  // namespace
+
+std::string workstation_json(const WorkstationModel& m, const std::string& description) {
+  std::string s = "{\n  \"name\": \"workstation\",\n  \"description\": \"" + description + "\",\n";
+  s += node_type_json(m) + "  \"nodes\": [{\"name\": \"W\", \"type\": \"W\"}]" + loop_json(m) + "\n}\n";
+  return s;
+}
+
+std::string cluster_json(const WorkstationModel& m, int nodes, const LanModel& lan, const std::string& description) {
+  std::string s = "{\n  \"name\": \"cluster\",\n  \"description\": \"" + description + "\",\n";
+  s += node_type_json(m) + "  \"nodes\": [";
+  std::string members;
+  for (int r = 0; r < nodes; ++r) {
+    s += std::string(r ? ", " : "") + "{\"name\": \"R" + std::to_string(r) + "\", \"type\": \"W\"}";
+    members += std::string(r ? ", " : "") + "{\"node\": \"R" + std::to_string(r) + "\"}";
+  }
+  s += "]";
+  if (nodes > 1)
+    s += ",\n  \"networks\": [{\"name\": \"lan\", \"kind\": \"lan\", \"latency\": " + us(lan.latency) +
+         ", \"bandwidth\": " + bps(lan.bandwidth) + ", \"duplex\": \"full\",\n    \"members\": [" + members + "]}]";
+  s += loop_json(m) + "\n}\n";
   return s;
 }
 
@@ -81,16 +108,28 @@ void set_gpu(WorkstationModel& m, Bytes memory) {
   m.gpus[0].memory = memory;
 }
 
-WorkstationModel load_workstation_model(const std::string& path) {
+WorkstationModel load_workstation_model(const std::string& path) { return load_node_model(path, nullptr, nullptr); }
+
+WorkstationModel load_node_model(const std::string& path, int* nodes, LanModel* lan) {
   DeviceGraph g = load_platform(path);
   MemId disk = kNone, ram = kNone;
   for (std::size_t i = 0; i < g.memories.size(); ++i) {
+    if (g.memories[i].node != 0) continue;
     if (g.memories[i].kind == MemoryKind::Disk && disk == kNone) disk = static_cast<MemId>(i);
     if (g.memories[i].kind == MemoryKind::Host && ram == kNone) ram = static_cast<MemId>(i);
   }
   if (disk == kNone) throw InputError(path, "memory", "the renderer needs a memory device of kind disk");
   if (ram == kNone) throw InputError(path, "memory", "the renderer needs a memory device of kind host");
-  if (g.nodes.size() != 1) throw InputError(path, "nodes", "the renderer drives one machine: exactly one node");
+  if (!nodes && g.nodes.size() != 1) throw InputError(path, "nodes", "the renderer drives one machine: exactly one node");
+  if (nodes) {  // a cluster: every node like the first, one LAN between them (its first channel)
+    *nodes = int(g.nodes.size());
+    for (const Channel& c : g.channels)
+      if (c.network != kNone) {
+        lan->latency = c.latency;
+        lan->bandwidth = c.bandwidth;
+        break;
+      }
+  }
   const Channel* dc = nullptr;
   int loaders = 0;
   for (const Channel& c : g.channels)
@@ -125,6 +164,7 @@ WorkstationModel load_workstation_model(const std::string& path) {
   bool cpu = false;
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
     const ComputeDevice& c = g.computes[d];
+    if (c.node != 0) continue;
     if (c.kind == ComputeKind::Cpu) {
       if (c.memory != ram) throw InputError(path, "compute." + c.model + ".memory", "CPU devices work from host memory");
       if (!cpu) coefficients(DeviceId(d), m.intersect_setup, m.intersect_rate, m.shadow_setup, m.shadow_rate);

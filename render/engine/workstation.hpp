@@ -62,4 +62,17 @@ void set_gpu(WorkstationModel& m, Bytes memory);
 // The platform JSON of a model (what `rayline calibrate` writes).
 std::string workstation_json(const WorkstationModel& m, const std::string& description);
 
+// The LAN between the ranks of a distributed render (render/mpi/README.md): one switched
+// network, every rank's NIC on its RAM, full duplex.
+struct LanModel {
+  Time latency = 100e-6;
+  double bandwidth = 125e6;  // bytes/s (1 Gb/s)
+};
+// `nodes` identical nodes "R0", "R1", ... of model `m` on one LAN: a distributed render's DCG
+// (what `rayline calibrate --distributed` writes).
+std::string cluster_json(const WorkstationModel& m, int nodes, const LanModel& lan, const std::string& description);
+// A platform file's first node as a model; with `nodes` (a cluster file), the node count
+// and the LAN's first channel too (`lan`), every node taken as the first.
+WorkstationModel load_node_model(const std::string& path, int* nodes, LanModel* lan);
+
 }  // namespace rayline::engine

@@ -5,11 +5,19 @@
 #pragma once
 #include <atomic>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "render/scene/geometry.hpp"
 
 namespace rayline::trace {
+
+// One contribution already in fixed point (a journal film's record).
+struct FilmEntry {
+  std::uint32_t pixel = 0;
+  std::uint32_t channel = 0;
+  std::int64_t units = 0;
+};
 
 class Film {
  public:
@@ -17,6 +25,15 @@ class Film {
   static constexpr float kMaxContribution = 1e6f;
 
   Film(int width, int height);
+  // A journal: add() records each contribution, rounded exactly as a dense film rounds it,
+  // instead of summing it (one E-job of a distributed render on another rank, whose
+  // contributions travel back with the job's outputs, render/mpi/README.md). Used by one
+  // thread; count_sample() is not for journals.
+  static Film journal() { return Film(0, 0, true); }
+  std::vector<FilmEntry> take_journal() { return std::move(journal_entries_); }
+  // Adds a journal's records and its dropped / clamped counts (thread-safe): the sums are
+  // those the contributions would have made here, bit for bit.
+  void apply(std::span<const FilmEntry> entries, std::uint64_t dropped, std::uint64_t clamped);
   int width() const { return width_; }
   int height() const { return height_; }
 
@@ -35,7 +52,10 @@ class Film {
   const std::vector<std::int64_t>& sums() const { return sums_; }
 
  private:
+  Film(int width, int height, bool journal) : width_(width), height_(height), journal_(journal) {}
   int width_, height_;
+  bool journal_ = false;
+  std::vector<FilmEntry> journal_entries_;
   std::vector<std::int64_t> sums_;      // 3 per pixel
   std::vector<std::uint32_t> samples_;  // per pixel
   std::atomic<std::uint64_t> dropped_{0}, clamped_{0};

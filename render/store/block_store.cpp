@@ -167,6 +167,35 @@ void BlockStore::load(std::uint32_t block) {
   stats_.peak_embree_bytes = device_.peak_embree_bytes();
 }
 
+void BlockStore::insert(std::uint32_t block, std::span<const unsigned char> records) {
+  const partition::BlockInfo& info = index_.blocks.at(block);
+  const std::string what = "block " + std::to_string(block) + " received from another rank";
+  if (records.size() != info.triangles * partition::kRecordBytes ||
+      partition::crc32_update(0, records) != info.payload_crc32)
+    throw InputError(what, "payload_crc32", "does not match blocks.json");
+  for (std::uint64_t i = 0; i < info.triangles; ++i) {
+    std::uint32_t m = 0;
+    std::memcpy(&m, records.data() + i * partition::kRecordBytes + 36, 4);
+    if (m >= materials_) throw InputError(what, "material", "triangle " + std::to_string(i) + " uses material " + std::to_string(m));
+  }
+  {
+    std::lock_guard lk(mu_);
+    ++copies_.at(block);
+    if (resident_[block]) return;
+  }
+  const double t0 = since_start();
+  auto g = std::make_shared<const trace::BlockGeometry>(device_, block, records, info.triangles, quality_, &pool_);
+  std::lock_guard lk(mu_);
+  busy(t0, since_start(), false);
+  stats_.build_seconds += since_start() - t0;
+  ++stats_.loads;
+  if (resident_[block]) return;
+  resident_[block] = std::move(g);
+  stats_.resident_bytes += footprint_[block];
+  stats_.peak_resident_bytes = std::max(stats_.peak_resident_bytes, stats_.resident_bytes);
+  stats_.peak_embree_bytes = device_.peak_embree_bytes();
+}
+
 void BlockStore::evict(std::uint32_t block) {
   std::shared_ptr<const trace::BlockGeometry> g;
   std::lock_guard lk(mu_);

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,10 @@ class BlockStore {
   // a bad block file.
   void load(std::uint32_t block);
   void evict(std::uint32_t block);
+  // A RAM->RAM T-job's arrival (a distributed render, render/mpi/README.md): the block built
+  // from the records another rank's RAM copy sent (BlockGeometry::records), checked against
+  // blocks.json (size and CRC-32) as a file read is. Counted as a load; throws InputError.
+  void insert(std::uint32_t block, std::span<const unsigned char> records);
   // Starts reading `block`'s file into a staging buffer on a background thread, so the next
   // load() of it only builds the BVH (a T-job's disk half overlapping its predecessor's CPU
   // half). Touches no memory the plan accounts for: one staged file at most (its bytes are

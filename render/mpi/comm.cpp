@@ -1,0 +1,140 @@
+#include "render/mpi/comm.hpp"
+
+#include <mpi.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <climits>
+#include <stdexcept>
+
+namespace rayline::mpi {
+
+namespace {
+constexpr int kTag = 7;
+constexpr int kPingTag = 8;
+
+// Sleeps a little longer each idle round, up to 200 µs: a busy rank answers fast, an idle
+// one costs no core.
+struct Backoff {
+  int us = 1;
+  void idle() {
+    std::this_thread::sleep_for(std::chrono::microseconds(us));
+    us = us < 200 ? us * 2 : 200;
+  }
+  void reset() { us = 1; }
+};
+
+void check(int rc, const char* what) {
+  if (rc != MPI_SUCCESS) throw std::runtime_error(std::string("MPI: ") + what + " failed");
+}
+
+void wait(MPI_Request& req) {
+  Backoff b;
+  for (;;) {
+    int done = 0;
+    check(MPI_Test(&req, &done, MPI_STATUS_IGNORE), "MPI_Test");
+    if (done) return;
+    b.idle();
+  }
+}
+}  // namespace
+
+Session::Session() {
+  int provided = 0;
+  check(MPI_Init_thread(nullptr, nullptr, MPI_THREAD_MULTIPLE, &provided), "MPI_Init_thread");
+  if (provided < MPI_THREAD_MULTIPLE) {
+    MPI_Finalize();
+    throw std::runtime_error("the MPI library does not support MPI_THREAD_MULTIPLE (rebuild Open MPI with threads)");
+  }
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  MPI_Comm local;
+  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &local);
+  MPI_Comm_size(local, &local_size_);
+  MPI_Comm_free(&local);
+}
+
+Session::~Session() { MPI_Finalize(); }
+
+std::string Session::host() const {
+  char name[MPI_MAX_PROCESSOR_NAME];
+  int n = 0;
+  MPI_Get_processor_name(name, &n);
+  return std::string(name, static_cast<std::size_t>(n));
+}
+
+void Session::abort(int code) {
+  MPI_Abort(MPI_COMM_WORLD, code);
+  _exit(code);
+}
+
+void Comm::start(Handler h) {
+  handler_ = std::move(h);
+  stop_ = false;
+  receiver_ = std::thread([this] { receive_loop(); });
+}
+
+void Comm::stop() {
+  stop_ = true;
+  if (receiver_.joinable()) receiver_.join();
+}
+
+void Comm::send(int dest, const Buffer& message) {
+  if (message.size() > std::size_t(INT_MAX)) throw std::runtime_error("MPI: message over 2 GiB");
+  MPI_Request req;
+  check(MPI_Isend(message.data(), static_cast<int>(message.size()), MPI_BYTE, dest, kTag, MPI_COMM_WORLD, &req),
+        "MPI_Isend");
+  wait(req);
+  sent_[static_cast<std::size_t>(dest)].messages.fetch_add(1);
+  sent_[static_cast<std::size_t>(dest)].bytes.fetch_add(message.size());
+}
+
+void Comm::receive_loop() {
+  Backoff b;
+  while (!stop_) {
+    int found = 0;
+    MPI_Message msg;
+    MPI_Status st;
+    check(MPI_Improbe(MPI_ANY_SOURCE, kTag, MPI_COMM_WORLD, &found, &msg, &st), "MPI_Improbe");
+    if (!found) {
+      b.idle();
+      continue;
+    }
+    b.reset();
+    int count = 0;
+    MPI_Get_count(&st, MPI_BYTE, &count);
+    Buffer buf(static_cast<std::size_t>(count));
+    MPI_Request req;
+    check(MPI_Imrecv(buf.data(), count, MPI_BYTE, &msg, &req), "MPI_Imrecv");
+    wait(req);
+    handler_(st.MPI_SOURCE, std::move(buf));
+  }
+}
+
+std::vector<double> Comm::ping(int peer, std::size_t bytes, int n) {
+  Buffer buf(bytes, 1);
+  std::vector<double> out;
+  for (int i = 0; i < n; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    MPI_Request req;
+    check(MPI_Isend(buf.data(), int(bytes), MPI_BYTE, peer, kPingTag, MPI_COMM_WORLD, &req), "MPI_Isend");
+    wait(req);
+    check(MPI_Irecv(buf.data(), int(bytes), MPI_BYTE, peer, kPingTag, MPI_COMM_WORLD, &req), "MPI_Irecv");
+    wait(req);
+    out.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return out;
+}
+
+void Comm::echo(int peer, std::size_t bytes, int n) {
+  Buffer buf(bytes);
+  for (int i = 0; i < n; ++i) {
+    MPI_Request req;
+    check(MPI_Irecv(buf.data(), int(bytes), MPI_BYTE, peer, kPingTag, MPI_COMM_WORLD, &req), "MPI_Irecv");
+    wait(req);
+    check(MPI_Isend(buf.data(), int(bytes), MPI_BYTE, peer, kPingTag, MPI_COMM_WORLD, &req), "MPI_Isend");
+    wait(req);
+  }
+}
+
+}  // namespace rayline::mpi

@@ -1,0 +1,76 @@
+// The ranks of a distributed render and the messages between them (render/mpi/README.md):
+// the only file that sees MPI. Every rank runs one receiver thread, which matches each
+// arriving message (MPI_Improbe + MPI_Mrecv) and hands it to the handler; any thread may
+// send. Idle waits poll with short sleeps rather than MPI's busy waits, so ranks sharing
+// cores (`mpirun --oversubscribe`) leave them to the compute threads.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace rayline::mpi {
+
+using Buffer = std::vector<unsigned char>;
+
+// MPI_Init_thread (MPI_THREAD_MULTIPLE) on construction, MPI_Finalize on destruction.
+// Throws std::runtime_error when the library cannot give threaded access.
+class Session {
+ public:
+  Session();
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+  // Ranks sharing this rank's machine (they share its cores).
+  int local_size() const { return local_size_; }
+  std::string host() const;
+  // Ends every rank at once (a rank whose peer failed): MPI_Abort.
+  [[noreturn]] static void abort(int code);
+
+ private:
+  int rank_ = 0, size_ = 1, local_size_ = 1;
+};
+
+// Counters of what one rank sent (README, "Messages").
+struct Traffic {
+  std::atomic<std::uint64_t> messages{0}, bytes{0};
+};
+
+class Comm {
+ public:
+  using Handler = std::function<void(int source, Buffer message)>;
+  explicit Comm(const Session& s) : session_(s), sent_(static_cast<std::size_t>(s.size())) {}
+  ~Comm() { stop(); }
+  Comm(const Comm&) = delete;
+  Comm& operator=(const Comm&) = delete;
+
+  int rank() const { return session_.rank(); }
+  int size() const { return session_.size(); }
+  // Starts the receiver thread: `h` runs on it for every message, in arrival order per source.
+  void start(Handler h);
+  // Stops it (after the messages already received); idempotent.
+  void stop();
+  // Thread-safe; returns once the buffer may be reused (the message is on its way).
+  void send(int dest, const Buffer& message);
+  // Sent so far to `dest`.
+  const Traffic& sent_to(int dest) const { return sent_[static_cast<std::size_t>(dest)]; }
+  // Round trips to `peer` for `bytes`-byte messages, `n` times, while the receiver thread is
+  // not running (calibration, startup): the seconds of each, as measured here. The peer must
+  // call echo(0, bytes, n) meanwhile.
+  std::vector<double> ping(int peer, std::size_t bytes, int n);
+  void echo(int peer, std::size_t bytes, int n);
+
+ private:
+  void receive_loop();
+  const Session& session_;
+  std::vector<Traffic> sent_;
+  Handler handler_;
+  std::atomic<bool> stop_{false};
+  std::thread receiver_;
+};
+
+}  // namespace rayline::mpi

@@ -1,0 +1,199 @@
+#include "render/mpi/mpi_cluster.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+
+#include "render/engine/renderer.hpp"
+#include "render/mpi/message.hpp"
+#include "render/store/block_store.hpp"
+
+namespace rayline::mpi {
+
+namespace {
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+constexpr std::size_t kBandwidthBytes = std::size_t(4) << 20;
+
+Buffer stats_message(const Node& n, const engine::BlockStore& store, const Comm& comm, const std::string& host) {
+  Header h;
+  h.op = Op::Stats;
+  Writer w(h);
+  const auto st = store.stats();
+  const std::uint64_t v[] = {n.execs, st.loads, st.evictions, st.bytes_read, n.scene_in, n.scene_out, n.queues_in,
+                             n.queues_out};
+  std::vector<std::uint64_t> traffic;
+  for (int r = 0; r < comm.size(); ++r) {
+    traffic.push_back(comm.sent_to(r).messages);
+    traffic.push_back(comm.sent_to(r).bytes);
+  }
+  w.records(std::span<const std::uint64_t>(v)).records(traffic).text(host);
+  return std::move(w.buffer());
+}
+
+engine::RankStats read_stats(const Buffer& m) {
+  Reader r(m);
+  engine::RankStats s;
+  const auto v = r.records<std::uint64_t>();
+  if (v.size() != 8) throw std::runtime_error("MPI message: bad Stats");
+  s.execs = v[0], s.loads = v[1], s.evictions = v[2], s.bytes_read = v[3];
+  s.scene_in = v[4], s.scene_out = v[5], s.queues_in = v[6], s.queues_out = v[7];
+  const auto traffic = r.records<std::uint64_t>();
+  for (std::size_t i = 0; i + 1 < traffic.size(); i += 2) s.messages_sent += traffic[i], s.bytes_sent += traffic[i + 1];
+  s.host = r.text();
+  return s;
+}
+}  // namespace
+
+MpiCluster::MpiCluster(const Session& s) : session_(s), comm_(s), stats_(std::size_t(s.size())) {
+  // Eq. 1's two terms for the rank-to-rank channel: half a round trip of 8 bytes, and of 4 MiB.
+  lan_.latency = 0;
+  lan_.bandwidth = 0;
+  for (int r = 1; r < s.size(); ++r) {
+    if (s.rank() == 0) {
+      const double small = median(comm_.ping(r, 8, 31)) / 2;
+      const double big = median(comm_.ping(r, kBandwidthBytes, 7)) / 2;
+      lan_.latency = std::max(lan_.latency, small);
+      const double bw = double(kBandwidthBytes) / std::max(big - small, 1e-9);
+      lan_.bandwidth = lan_.bandwidth > 0 ? std::min(lan_.bandwidth, bw) : bw;
+    } else if (s.rank() == r) {
+      comm_.echo(0, 8, 31);
+      comm_.echo(0, kBandwidthBytes, 7);
+    }
+  }
+  if (s.size() == 1) lan_ = engine::LanModel{};
+}
+
+MpiCluster::~MpiCluster() {
+  if (session_.rank() == 0 && ready_ >= 0) {  // a run that ended early: the others stop too
+    Header h;
+    h.op = Op::Stop;
+    for (int r = 1; r < ranks(); ++r) comm_.send(r, Writer(h).buffer());
+  }
+  pending_.fail_all("the render ended");
+  comm_.stop();
+}
+
+int MpiCluster::default_threads() const {
+  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
+  return std::max(1, hw / std::max(1, session_.local_size()));
+}
+
+void MpiCluster::on_message(int source, Buffer m) {
+  Reader r(m);
+  const Header h = r.header();
+  switch (h.op) {
+    case Op::Done:
+      if (h.activity < 0) {  // Setup acknowledged
+        std::lock_guard lk(mu_);
+        ++ready_;
+        cv_.notify_all();
+        return;
+      } else {
+        const std::string why = r.text();
+        pending_.complete(h.activity, h.ok != 0, why, std::move(m));
+      }
+      return;
+    case Op::Stats: {
+      std::lock_guard lk(mu_);
+      stats_.at(std::size_t(source)) = read_stats(m);
+      ++ready_;
+      cv_.notify_all();
+      return;
+    }
+    case Op::Fatal: {
+      const std::string why = "rank " + std::to_string(source) + ": " + r.text();
+      {
+        std::lock_guard lk(mu_);
+        fatal_ = why;
+        cv_.notify_all();
+      }
+      pending_.fail_all(why);
+      return;
+    }
+    default:
+      if (self_) self_->handle(source, std::move(m));
+  }
+}
+
+void MpiCluster::start(const engine::ClusterFrame& f) {
+  comm_.start([this](int source, Buffer m) { on_message(source, std::move(m)); });
+  const Buffer setup = encode_frame(f);
+  for (int r = 1; r < ranks(); ++r) comm_.send(r, setup);
+  std::unique_lock lk(mu_);
+  cv_.wait(lk, [&] { return ready_ == ranks() - 1 || !fatal_.empty(); });
+  if (!fatal_.empty()) throw std::runtime_error(fatal_);
+  frame_ = f;
+}
+
+std::unique_ptr<engine::LocalExecutor> MpiCluster::executor(const engine::ClusterWork& w) {
+  self_ = std::make_unique<Node>(comm_, frame_, &w.store);
+  self_->on_local_done = [this](int activity, bool ok, const std::string& why) { pending_.complete(activity, ok, why); };
+  store_ = &w.store;
+  return std::make_unique<MpiExecutor>(w.g, std::make_unique<ClusterTasks>(comm_, *self_, w, pending_), pending_);
+}
+
+void MpiCluster::finish(engine::RenderResult& res) {
+  {
+    std::lock_guard lk(mu_);
+    ready_ = 0;
+  }
+  Header h;
+  h.op = Op::Stop;
+  for (int r = 1; r < ranks(); ++r) comm_.send(r, Writer(h).buffer());
+  {
+    std::unique_lock lk(mu_);
+    cv_.wait(lk, [&] { return ready_ == ranks() - 1 || !fatal_.empty(); });
+    if (!fatal_.empty()) throw std::runtime_error(fatal_);
+    ready_ = -1;  // stopped: nothing more to send
+  }
+  self_->drain();
+  stats_[0] = read_stats(stats_message(*self_, *store_, comm_, session_.host()));
+  res.ranks = stats_;
+  res.lan = lan_;
+}
+
+int MpiCluster::serve() {
+  std::mutex mu;
+  std::condition_variable cv;
+  bool stop = false;
+  comm_.start([&](int source, Buffer m) {
+    const Header h = Reader(m).header();
+    if (h.op == Op::Setup) {
+      Header d;
+      d.op = Op::Done;
+      try {
+        self_ = std::make_unique<Node>(comm_, decode_frame(m));
+        Writer w(d);
+        comm_.send(0, w.text("").buffer());
+      } catch (const std::exception& e) {
+        d.op = Op::Fatal;
+        Writer w(d);
+        comm_.send(0, w.text(e.what()).buffer());
+      }
+      return;
+    }
+    if (h.op == Op::Stop) {
+      if (self_) {
+        self_->drain();
+        comm_.send(0, stats_message(*self_, self_->store(), comm_, session_.host()));
+      }
+      std::lock_guard lk(mu);
+      stop = true;
+      cv.notify_all();
+      return;
+    }
+    if (self_) self_->handle(source, std::move(m));
+  });
+  std::unique_lock lk(mu);
+  cv.wait(lk, [&] { return stop; });
+  lk.unlock();
+  comm_.stop();
+  self_.reset();
+  return 0;
+}
+
+}  // namespace rayline::mpi

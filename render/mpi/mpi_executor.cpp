@@ -1,0 +1,223 @@
+#include "render/mpi/mpi_executor.hpp"
+
+#include <span>
+
+#include "common/error.hpp"
+#include "render/engine/aggregate_factory.hpp"
+#include "render/engine/render_workload.hpp"
+#include "render/integrator/film.hpp"
+#include "render/mpi/message.hpp"
+#include "render/store/block_store.hpp"
+
+namespace rayline::mpi {
+
+void Pending::expect(ActivityId id) {
+  std::lock_guard lk(mu_);
+  slots_[id] = Slot{};
+}
+
+Buffer Pending::wait(ActivityId id) {
+  std::unique_lock lk(mu_);
+  cv_.wait(lk, [&] { return slots_.at(id).done || !failed_.empty(); });
+  Slot s = std::move(slots_.at(id));
+  slots_.erase(id);
+  if (!s.done) throw ActivityError(failed_);
+  if (!s.ok) throw ActivityError(s.why);
+  return std::move(s.reply);
+}
+
+void Pending::complete(ActivityId id, bool ok, const std::string& why, Buffer reply) {
+  {
+    std::lock_guard lk(mu_);
+    auto it = slots_.find(id);
+    if (it == slots_.end()) return;  // (withdrawn)
+    it->second.done = true;
+    it->second.ok = ok;
+    it->second.why = why;
+    it->second.reply = std::move(reply);
+  }
+  cv_.notify_all();
+}
+
+void Pending::fail_all(const std::string& why) {
+  {
+    std::lock_guard lk(mu_);
+    failed_ = why;
+  }
+  cv_.notify_all();
+}
+
+ClusterTasks::ClusterTasks(Comm& comm, Node& self, const engine::ClusterWork& w, Pending& pending)
+    : comm_(comm), self_(self), w_(w), pending_(pending) {
+  const engine::AggregateSources sources{w.store, nullptr, nullptr, true};
+  std::vector<int> next(w.g.nodes.size(), 0);
+  for (const ComputeDevice& c : w.g.computes) {
+    local_index_.push_back(next[std::size_t(c.node)]++);
+    aggregates_.push_back(c.node == 0 ? engine::make_aggregate(c.kind, sources) : nullptr);
+  }
+}
+
+std::map<int, ClusterTasks::Victims> ClusterTasks::victims_of(ActivityId id) {
+  const auto& evs = w_.schedule.evictions();
+  for (; ev_cursor_ < evs.size(); ++ev_cursor_) {
+    const Eviction& e = evs[ev_cursor_];
+    if (w_.g.memories[std::size_t(e.mem)].kind != MemoryKind::Host) continue;
+    Victims& v = victims_[e.for_activity][rank_of(e.mem)];
+    if (const auto it = w_.cell_of.find(e.block); it != w_.cell_of.end()) v.cells.push_back(it->second);
+    else v.queues.push_back(e.block);
+  }
+  std::map<int, Victims> v;
+  if (auto it = victims_.find(id); it != victims_.end()) {
+    v = std::move(it->second);
+    victims_.erase(it);
+  }
+  return v;
+}
+
+void ClusterTasks::evict_elsewhere(ActivityId id, std::map<int, Victims>& v, int main) {
+  for (auto& [rank, vic] : v) {
+    if (rank == main) continue;
+    if (rank == 0) {  // rank 0's queues live in the workload's jobs: nothing to free
+      for (std::uint32_t c : vic.cells) w_.store.evict(c);
+      continue;
+    }
+    Header h;
+    h.op = Op::Evict;
+    h.activity = id;
+    Writer w(h);
+    w.records(vic.cells).records(vic.queues);
+    pending_.expect(id);
+    comm_.send(rank, w.buffer());
+    pending_.wait(id);
+  }
+}
+
+engine::LocalExecutor::Task ClusterTasks::task(ActivityId id, const Activity& a) {
+  auto v = victims_of(id);
+  if (a.kind == ActivityKind::Exec) return exec(id, a, std::move(v));
+  return transfer(id, a, std::move(v));
+}
+
+engine::LocalExecutor::Task ClusterTasks::exec(ActivityId id, const Activity& a, std::map<int, Victims> v) {
+  engine::RayJob* job = &w_.workload.job(a.job);
+  const int rank = int(w_.g.computes[std::size_t(a.device)].node);
+  if (rank == 0) {
+    accel::Aggregate* aggregate = aggregates_.at(std::size_t(a.device)).get();
+    return [this, id, job, aggregate, v = std::move(v)]() mutable {
+      evict_elsewhere(id, v, -1);
+      aggregate->intersect(w_.ts, accel::QueueJob{job->cell, static_cast<trace::RayKind>(job->slot % 2), job->rays, job->parts},
+                           job->out, job->counts);
+      std::vector<trace::RayRecord>().swap(job->rays);
+      ++self_.execs;
+    };
+  }
+  const int device = local_index_.at(std::size_t(a.device));
+  return [this, id, job, rank, device, v = std::move(v)]() mutable {
+    evict_elsewhere(id, v, rank);
+    Header h;
+    h.op = Op::Exec;
+    h.activity = id;
+    h.cell = job->cell;
+    h.device = device;
+    h.slot = job->slot;
+    Writer w(h);
+    std::vector<Part> parts;
+    for (const auto& [q, n] : job->parts) parts.push_back({q, n});
+    w.records(v[rank].cells).records(v[rank].queues).records(parts);
+    pending_.expect(id);
+    comm_.send(rank, w.buffer());
+    const Buffer reply = pending_.wait(id);
+    Reader r(reply);
+    r.text();
+    job->counts = r.value<trace::RayCounts>();
+    job->out = r.records<trace::RayRecord>();
+    const auto entries = r.records<trace::FilmEntry>();
+    const auto dropped = r.value<std::uint64_t>(), clamped = r.value<std::uint64_t>();
+    w_.ts.film->apply(entries, dropped, clamped);
+    std::vector<trace::RayRecord>().swap(job->rays);
+  };
+}
+
+engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity& a, std::map<int, Victims> v) {
+  const Channel& ch = w_.g.channels[std::size_t(a.channel)];
+  const MemoryDevice& from = w_.g.memories[std::size_t(ch.from)];
+  const MemoryDevice& to = w_.g.memories[std::size_t(ch.to)];
+  const int src = int(from.node), dst = int(to.node);
+  const auto cit = w_.cell_of.find(a.block);
+  const bool scene = cit != w_.cell_of.end();
+  const std::uint32_t cell = scene ? cit->second : 0;
+  const bool load = scene && from.kind == MemoryKind::Disk && to.kind == MemoryKind::Host;
+  const bool lan = from.kind == MemoryKind::Host && to.kind == MemoryKind::Host && src != dst;
+  // The rays of a ray queue leaving rank 0: those of the job that consumes it.
+  std::span<const trace::RayRecord> rays;
+  if (lan && !scene && src == 0)
+    if (const JobId j = w_.workload.consumer(a.block); j != kNone) {
+      engine::RayJob& rj = w_.workload.job(j);
+      std::size_t off = 0;
+      for (const auto& [q, n] : rj.parts) {
+        if (q == a.block) rays = std::span<const trace::RayRecord>(rj.rays).subspan(off, n);
+        off += n;
+      }
+    }
+  return [=, this, v = std::move(v)]() mutable {
+    const int main = load ? src : (lan ? dst : -1);
+    evict_elsewhere(id, v, main);
+    if (load && src == 0) {
+      for (std::uint32_t c : v[0].cells) w_.store.evict(c);
+      try {
+        w_.store.load(cell);
+      } catch (const InputError& e) {
+        throw ActivityError(e.what(), std::current_exception());
+      }
+      return;
+    }
+    if (!load && !lan) return;  // (nothing else moves data in the renderer's plans)
+    Header h;
+    h.activity = id;
+    h.cell = cell;
+    h.block = a.block;
+    h.dest = dst;
+    h.device = scene ? 1 : 0;
+    if (load) {
+      h.op = Op::Load;
+    } else if (src == 0) {  // rank 0 sends the data itself
+      h.op = Op::Data;
+    } else {  // another rank sends it
+      h.op = Op::Send;
+    }
+    Writer w(h);
+    const int victims_rank = load ? src : dst;
+    w.records(v[victims_rank].cells).records(v[victims_rank].queues);
+    if (h.op == Op::Data) {
+      if (scene) w.records(w_.store.get(cell)->records());
+      else w.records(rays);
+      if (scene) ++self_.scene_out;
+      else ++self_.queues_out;
+    }
+    pending_.expect(id);
+    comm_.send(h.op == Op::Load ? src : (h.op == Op::Data ? dst : src), w.buffer());
+    pending_.wait(id);
+  };
+}
+
+engine::LocalExecutor::Task ClusterTasks::hint(ActivityId, const Activity& a) const {
+  if (a.kind != ActivityKind::Transfer || !w_.read_ahead) return {};
+  const Channel& ch = w_.g.channels[std::size_t(a.channel)];
+  if (w_.g.memories[std::size_t(ch.from)].kind != MemoryKind::Disk ||
+      w_.g.memories[std::size_t(ch.from)].node != 0)
+    return {};
+  const auto it = w_.cell_of.find(a.block);
+  if (it == w_.cell_of.end()) return {};
+  engine::BlockStore* store = &w_.store;
+  return [store, cell = it->second] { store->read_ahead(cell); };
+}
+
+MpiExecutor::MpiExecutor(const DeviceGraph& g, std::unique_ptr<ClusterTasks> tasks, Pending& pending)
+    : engine::LocalExecutor(
+          g, [t = tasks.get()](ActivityId id, const Activity& a) { return t->task(id, a); },
+          [t = tasks.get()](ActivityId id, const Activity& a) { return t->hint(id, a); }),
+      pending_(pending), tasks_(std::move(tasks)) {}
+
+MpiExecutor::~MpiExecutor() { pending_.fail_all("the render ended"); }
+
+}  // namespace rayline::mpi
