@@ -46,6 +46,8 @@ LAYERS = {
     "render/store": RENDER_INTEGRATOR + RENDER_ENGINES + ["sched/core/types.hpp"],
     "render/accel": RENDER_INTEGRATOR + RENDER_ENGINES + ["render/store", "sched/core/types.hpp"],
     "render/engine": SCHED_ALL + ["workload", "render"],
+    # the distributed render: the engine's seam (render/engine/cluster.hpp) over MPI
+    "render/mpi": SCHED_ALL + ["workload", "render"],
     "apps": SCHED_ALL + ["workload", "sim", "render", "apps"],
     # `rayline report` reads a run's files: it needs none of the engines
     "apps/report": ["common"],
@@ -58,6 +60,7 @@ LAYERS = {
 # matches applies, so a narrower one comes before a wider one.
 THIRD_PARTY = {
     "simgrid/": ["sim/sg_platform.cpp", "sim/sg_platform_internal.hpp"],
+    "mpi.h": ["render/mpi/comm.cpp"],
     "embree3/": ["render/embree", "render/vulkan", "render/reference"],
     "vulkan/": ["render/vulkan"],
     "CLI/": ["apps/main.cpp", "apps/cli_reference.cpp"],
@@ -88,6 +91,7 @@ TARGETS = {
     "rayline_embree": "render/embree",
     "rayline_vulkan": "render/vulkan",
     "rayline_store": "render/store",
+    "rayline_mpi": "render/mpi",
     "rayline_accel": "render/accel",
     "rayline_render": "render/engine",
     "rayline_report": "apps/report",
@@ -97,7 +101,8 @@ TARGET_FOLDER_OF_LINK = {  # what a linked target stands for, as an include pref
     "rayline_sim": "sim", "rayline_scene": "render/scene", "rayline_image": "render/image",
     "rayline_partition": "render/partition", "rayline_reference": "render/reference",
     "rayline_integrator": "render/integrator", "rayline_embree": "render/embree", "rayline_vulkan": "render/vulkan",
-    "rayline_store": "render/store", "rayline_accel": "render/accel", "rayline_render": "render/engine",
+    "rayline_store": "render/store",
+    "rayline_mpi": "render/mpi", "rayline_accel": "render/accel", "rayline_render": "render/engine",
     "rayline_report": "apps/report",
 }
 
