@@ -30,6 +30,7 @@
 #include "render/scene/scene.hpp"
 #include "common/error.hpp"
 #include "common/progress_line.hpp"
+#include "common/units.hpp"
 #include "workload/twin_file.hpp"
 
 namespace rayline::cli {
@@ -301,9 +302,27 @@ int run_render(const RenderCliOptions& opt) {
 #ifdef RAYLINE_WITH_MPI
   if (!opt.record_profile.empty() || !opt.record_replay.empty() || !opt.record_twin.empty())
     throw InputError("--distributed", "", "recordings (--record-*) are made by one-machine renders only");
-  if (!opt.fail.empty()) throw InputError("--distributed", "", "--fail names devices of one machine; not with --distributed");
+  // --fail Rk@TIME: rank k's process is killed at TIME (its loss is handled as a fault).
+  int fail_rank = -1;
+  double fail_at = 0;
+  for (const std::string& f : opt.fail) {
+    const auto at = f.find('@');
+    int k = -1;
+    try {
+      if (f.size() > 1 && f[0] == 'R' && at != std::string::npos) k = std::stoi(f.substr(1, at - 1));
+      fail_at = units::parse_duration(f.substr(at + 1));
+    } catch (const std::exception&) {
+      k = -1;
+    }
+    if (k < 1 || fail_rank >= 0)
+      throw InputError("--fail", f, "with --distributed: one Rk@TIME, k >= 1 a rank other than the master R0, e.g. R2@1.5s");
+    fail_rank = k;
+  }
   mpi::Session session;
+  if (fail_rank >= session.size())
+    throw InputError("--fail", opt.fail.front(), "names rank " + std::to_string(fail_rank) + " of " + std::to_string(session.size()));
   mpi::MpiCluster cluster(session);
+  cluster.fail_at(fail_rank, fail_at);
   if (session.rank() != 0) return cluster.serve();
   return render_here(opt, &cluster);
 #else
@@ -315,6 +334,7 @@ namespace {
 int render_here(const RenderCliOptions& opt, engine::Cluster* cluster) {
   engine::RenderOptions ro = render_options(opt);
   ro.cluster = cluster;
+  if (cluster) ro.faults.clear();  // (a rank's loss is injected by the rank itself)
   if (cluster && ro.gpu != "none" && ro.gpu != "auto")
     throw InputError("--gpu", "", "a distributed render runs on the ranks' CPU threads only");
   check_render_outputs(opt);

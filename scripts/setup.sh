@@ -10,6 +10,7 @@ PACKAGES=(
   libsimgrid-dev libembree-dev embree-tools libtbb-dev libopenexr-dev libpng-dev nlohmann-json3-dev
   libgtest-dev libbenchmark-dev libcli11-dev libeigen3-dev libglpk-dev libassimp-dev zlib1g-dev
   libvulkan-dev mesa-vulkan-drivers glslc
+  libopenmpi-dev openmpi-bin  # render --distributed (render/mpi), ctest -L mpi
   python3-matplotlib python3-pandas jupyter-nbconvert python3-nbformat python3-ipykernel python3-imath
   valgrind  # scripts/count_plan_instructions.sh (GMB planning cost, deterministic)
   chromium  # ctest -L report: `rayline report` pages loaded headless (tests/cli/test_cli_report_chromium.cpp)

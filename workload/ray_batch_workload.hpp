@@ -114,6 +114,28 @@ class RayBatchWorkload : public Workload {
     return aborted_ || (next_camera_ == total_camera_ && staged_ == 0 && in_jobs_ == 0);
   }
 
+  // Jobs whose ray queues were lost with a device (a rank of a distributed render): their
+  // rays are still here, in the jobs (an engine frees them only once a job ran), so they go
+  // back to their queues and become new jobs. Any other lost block ends the run, as for
+  // every workload.
+  void on_lost(Time now, const std::vector<JobId>& jobs, const std::vector<BlockId>& blocks, JobPool& pool,
+               Schedule& s) override {
+    for (BlockId b : blocks)
+      if (pool.block(b).kind != DataKind::RayQueue && pool.block(b).kind != DataKind::ShadowRayQueue)
+        return Workload::on_lost(now, jobs, blocks, pool, s);
+    for (JobId j : jobs) {
+      if (static_cast<std::size_t>(j) >= jobs_.size() || !jobs_[static_cast<std::size_t>(j)]) continue;
+      std::unique_ptr<Job> lost = std::move(jobs_[static_cast<std::size_t>(j)]);
+      for (const auto& part : lost->parts) consumer_.erase(part.first);
+      for (auto& slots : open_)
+        for (JobId& o : slots)
+          if (o == j) o = kNone;
+      in_jobs_ -= lost->input;
+      stage(lost->rays);
+    }
+    flush(now, pool, s, false);
+  }
+
   // Stop making work (a job failed): finished() turns true.
   void abort() { aborted_ = true; }
   Job& job(JobId j) { return *jobs_.at(static_cast<std::size_t>(j)); }

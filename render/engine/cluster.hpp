@@ -39,6 +39,7 @@ struct RankStats {
   std::uint64_t scene_in = 0, scene_out = 0;    // scene blocks received from / sent to other ranks' RAM
   std::uint64_t queues_in = 0, queues_out = 0;  // ray queues likewise
   std::uint64_t messages_sent = 0, bytes_sent = 0;
+  bool lost = false;  // stopped answering during the render (its figures are unknown)
 };
 
 // Rank 0's side of the run, for the executor.
@@ -66,6 +67,9 @@ class Cluster {
   virtual std::unique_ptr<LocalExecutor> executor(const ClusterWork& w) = 0;
   // After the run: stops the other ranks and adds what they measured to `res` (metrics).
   virtual void finish(RenderResult& res) = 0;
+  // Ranks found lost since the last call (they stopped answering; `mpirun --enable-recovery`
+  // kept the others running): the renderer takes their devices and data out of the plan.
+  virtual std::vector<int> take_lost() = 0;
 };
 
 }  // namespace rayline::engine

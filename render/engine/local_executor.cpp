@@ -176,9 +176,12 @@ void LocalExecutor::run(const Sink& sink, Time until) {
 }
 
 void LocalExecutor::wake_at(Time t) {
-  std::lock_guard lk(mu_);
-  wakes_.push_back(t);
-  std::push_heap(wakes_.begin(), wakes_.end(), std::greater<>{});
+  {
+    std::lock_guard lk(mu_);
+    wakes_.push_back(t);
+    std::push_heap(wakes_.begin(), wakes_.end(), std::greater<>{});
+  }
+  cv_.notify_all();  // (a wake from another thread: the loop's wait sees the new deadline)
 }
 
 void LocalExecutor::halt(const std::vector<DeviceId>& computes, const std::vector<ChannelId>&,
@@ -192,6 +195,20 @@ void LocalExecutor::halt(const std::vector<DeviceId>& computes, const std::vecto
       if (running_[static_cast<std::size_t>(d)]) return false;
     return true;
   });
+  // Placeholders (activities aborted before the loss) would wait for a thread that no longer
+  // runs anything: they end now, so what waits for them is not held up.
+  for (DeviceId d : computes) {
+    auto& lane = lanes_[static_cast<std::size_t>(d)];
+    for (auto it = lane.begin(); it != lane.end();)
+      if (it->placeholder) {
+        done_[static_cast<std::size_t>(it->id)] = 1;
+        --in_flight_;
+        it = lane.erase(it);
+      } else {
+        ++it;
+      }
+  }
+  cv_.notify_all();
   events.insert(events.end(), events_.begin(), events_.end());
   events_.clear();
 }

@@ -513,7 +513,22 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
   res.overhead_bound_bytes = overhead_bound(res, wo, b, p);
 
   RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
-  loop.on_progress = LoopWatch{opt, p, executor, workload, gpu_store.get()};
+  loop.on_progress = [watch = LoopWatch{opt, p, executor, workload, gpu_store.get()}, &opt, &loop, &executor,
+                      &g = p.g](Time now, const RunStats& st) mutable {
+    watch(now, st);
+    if (!opt.cluster) return;
+    // A lost rank (render/mpi/README.md, "A rank lost"): its node's devices and data leave
+    // the plan; its jobs are planned again on the other ranks.
+    for (int r : opt.cluster->take_lost()) {
+      Fault f;
+      f.at = now;
+      f.what = "R" + std::to_string(r);
+      f.memories = g.nodes.at(std::size_t(r)).memories;
+      f.computes = g.nodes.at(std::size_t(r)).computes;
+      loop.add_fault(std::move(f));
+      executor.wake_at(now);
+    }
+  };
   for (const std::string& f : opt.faults) {
     Fault fault = parse_fault(f, p.g);
     if (!fault.memories.empty())  // (the renderer's memories hold the only copy of the rays and the image)

@@ -30,9 +30,12 @@ class Session {
   std::string host() const;
   // Ends every rank at once (a rank whose peer failed): MPI_Abort.
   [[noreturn]] static void abort(int code);
+  // A peer was lost: the process ends without MPI_Finalize.
+  void peer_lost() const { peer_lost_ = true; }
 
  private:
   int rank_ = 0, size_ = 1, local_size_ = 1;
+  mutable std::atomic<bool> peer_lost_{false};
 };
 
 // Counters of what one rank sent (README, "Messages").
@@ -43,7 +46,9 @@ struct Traffic {
 class Comm {
  public:
   using Handler = std::function<void(int source, Buffer message)>;
-  explicit Comm(const Session& s) : session_(s), sent_(static_cast<std::size_t>(s.size())) {}
+  explicit Comm(const Session& s)
+      : session_(s), sent_(static_cast<std::size_t>(s.size())), heard_(static_cast<std::size_t>(s.size())),
+        dead_(static_cast<std::size_t>(s.size())) {}
   ~Comm() { stop(); }
   Comm(const Comm&) = delete;
   Comm& operator=(const Comm&) = delete;
@@ -54,8 +59,22 @@ class Comm {
   void start(Handler h);
   // Stops it (after the messages already received); idempotent.
   void stop();
-  // Thread-safe; returns once the buffer may be reused (the message is on its way).
+  // Thread-safe; returns once the buffer may be reused (the message is on its way). Throws
+  // std::runtime_error for a rank marked lost (also when it is marked while waiting).
   void send(int dest, const Buffer& message);
+  // A rank that stopped answering (`mpirun --enable-recovery` keeps the others running):
+  // nothing more is sent to it, and sends waiting for it give up.
+  void mark_lost(int rank) {
+    dead_[static_cast<std::size_t>(rank)] = true;
+    session_.peer_lost();
+  }
+  bool lost(int rank) const { return dead_[static_cast<std::size_t>(rank)]; }
+  // Seconds since the last message from `rank` arrived (since start() before any). While the
+  // receiver waits for one message (a large one, or one from a rank that died mid-send), the
+  // others are not heard either: their silence counts from when that wait began.
+  double silent_for(int rank) const;
+  // Sends whether or not `dest` is marked lost, giving up after `seconds` (a last word).
+  void send_anyway(int dest, const Buffer& message, double seconds);
   // Sent so far to `dest`.
   const Traffic& sent_to(int dest) const { return sent_[static_cast<std::size_t>(dest)]; }
   // Round trips to `peer` for `bytes`-byte messages, `n` times, while the receiver thread is
@@ -68,6 +87,10 @@ class Comm {
   void receive_loop();
   const Session& session_;
   std::vector<Traffic> sent_;
+  std::vector<std::atomic<double>> heard_;  // steady-clock seconds of the last message per source
+  std::vector<std::atomic<bool>> dead_;
+  std::atomic<int> receiving_{-1};        // the source the receiver is waiting on, or -1
+  std::atomic<double> receiving_since_{0};
   Handler handler_;
   std::atomic<bool> stop_{false};
   std::thread receiver_;

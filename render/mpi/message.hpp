@@ -25,6 +25,8 @@ enum class Op : std::uint32_t {
   Stop,      // master -> node: the frame is done; reply with statistics
   Stats,     // node -> master: the reply to Stop
   Fatal,     // node -> master: the node cannot go on (message)
+  Heartbeat, // node -> master, every 250 ms: still here
+  Lost,      // master -> node: rank `dest` stopped answering; send it nothing more
 };
 
 struct Header {

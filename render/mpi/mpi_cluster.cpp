@@ -1,6 +1,8 @@
 #include "render/mpi/mpi_cluster.hpp"
 
 #include <algorithm>
+#include <csignal>
+#include <cstdio>
 #include <chrono>
 #include <stdexcept>
 #include <thread>
@@ -68,13 +70,65 @@ MpiCluster::MpiCluster(const Session& s) : session_(s), comm_(s), stats_(std::si
 }
 
 MpiCluster::~MpiCluster() {
+  stop_watch_ = true;
+  if (watchdog_.joinable()) watchdog_.join();
   if (session_.rank() == 0 && ready_ >= 0) {  // a run that ended early: the others stop too
     Header h;
     h.op = Op::Stop;
-    for (int r = 1; r < ranks(); ++r) comm_.send(r, Writer(h).buffer());
+    for (int r = 1; r < ranks(); ++r) try {
+        comm_.send(r, Writer(h).buffer());
+      } catch (const std::exception&) {  // (a lost rank)
+      }
   }
   pending_.fail_all("the render ended");
   comm_.stop();
+}
+
+int MpiCluster::live_ranks() const {
+  int n = 0;
+  for (int r = 0; r < ranks(); ++r) n += !comm_.lost(r);
+  return n;
+}
+
+void MpiCluster::lose(int rank) {
+  Header out;
+  out.op = Op::Lost;
+  out.dest = rank;
+  comm_.send_anyway(rank, Writer(out).buffer(), 0.5);  // (alive but too slow: it stops serving)
+  comm_.mark_lost(rank);
+  const std::string why = "rank " + std::to_string(rank) + " (R" + std::to_string(rank) + ") stopped answering";
+  std::fprintf(stderr, "rayline: %s for %.0f s: its work is planned again on the other ranks\n", why.c_str(), kSilence);
+  {
+    std::lock_guard lk(mu_);
+    lost_.push_back(rank);
+    lost_new_.push_back(rank);
+    cv_.notify_all();
+  }
+  pending_.fail_rank(rank, why);
+  Header h;
+  h.op = Op::Lost;
+  h.dest = rank;
+  for (int r = 1; r < ranks(); ++r)
+    if (!comm_.lost(r)) try {
+        comm_.send(r, Writer(h).buffer());
+      } catch (const std::exception&) {
+      }
+  if (executor_) executor_->wake_at(executor_->now());
+}
+
+void MpiCluster::watch() {
+  while (!stop_watch_) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    for (int r = 1; r < ranks(); ++r)
+      if (!comm_.lost(r) && comm_.silent_for(r) > kSilence) lose(r);
+  }
+}
+
+std::vector<int> MpiCluster::take_lost() {
+  std::lock_guard lk(mu_);
+  std::vector<int> v;
+  v.swap(lost_new_);
+  return v;
 }
 
 int MpiCluster::default_threads() const {
@@ -104,6 +158,7 @@ void MpiCluster::on_message(int source, Buffer m) {
       cv_.notify_all();
       return;
     }
+    case Op::Heartbeat: return;
     case Op::Fatal: {
       const std::string why = "rank " + std::to_string(source) + ": " + r.text();
       {
@@ -123,8 +178,9 @@ void MpiCluster::start(const engine::ClusterFrame& f) {
   comm_.start([this](int source, Buffer m) { on_message(source, std::move(m)); });
   const Buffer setup = encode_frame(f);
   for (int r = 1; r < ranks(); ++r) comm_.send(r, setup);
+  watchdog_ = std::thread([this] { watch(); });
   std::unique_lock lk(mu_);
-  cv_.wait(lk, [&] { return ready_ == ranks() - 1 || !fatal_.empty(); });
+  cv_.wait(lk, [&] { return ready_ + int(lost_.size()) >= ranks() - 1 || !fatal_.empty(); });
   if (!fatal_.empty()) throw std::runtime_error(fatal_);
   frame_ = f;
 }
@@ -133,7 +189,9 @@ std::unique_ptr<engine::LocalExecutor> MpiCluster::executor(const engine::Cluste
   self_ = std::make_unique<Node>(comm_, frame_, &w.store);
   self_->on_local_done = [this](int activity, bool ok, const std::string& why) { pending_.complete(activity, ok, why); };
   store_ = &w.store;
-  return std::make_unique<MpiExecutor>(w.g, std::make_unique<ClusterTasks>(comm_, *self_, w, pending_), pending_);
+  auto e = std::make_unique<MpiExecutor>(w.g, std::make_unique<ClusterTasks>(comm_, *self_, w, pending_), pending_);
+  executor_ = e.get();
+  return e;
 }
 
 void MpiCluster::finish(engine::RenderResult& res) {
@@ -143,16 +201,22 @@ void MpiCluster::finish(engine::RenderResult& res) {
   }
   Header h;
   h.op = Op::Stop;
-  for (int r = 1; r < ranks(); ++r) comm_.send(r, Writer(h).buffer());
+  for (int r = 1; r < ranks(); ++r)
+    if (!comm_.lost(r)) try {
+        comm_.send(r, Writer(h).buffer());
+      } catch (const std::exception&) {
+      }
   {
     std::unique_lock lk(mu_);
-    cv_.wait(lk, [&] { return ready_ == ranks() - 1 || !fatal_.empty(); });
+    cv_.wait(lk, [&] { return ready_ + int(lost_.size()) >= ranks() - 1 || !fatal_.empty(); });
     if (!fatal_.empty()) throw std::runtime_error(fatal_);
     ready_ = -1;  // stopped: nothing more to send
   }
   self_->drain();
   stats_[0] = read_stats(stats_message(*self_, *store_, comm_, session_.host()));
+  for (int r : lost_) stats_[std::size_t(r)].lost = true;
   res.ranks = stats_;
+  executor_ = nullptr;
   res.lan = lan_;
 }
 
@@ -160,8 +224,25 @@ int MpiCluster::serve() {
   std::mutex mu;
   std::condition_variable cv;
   bool stop = false;
+  std::thread killer;
   comm_.start([&](int source, Buffer m) {
     const Header h = Reader(m).header();
+    if (h.op == Op::Lost && h.dest == session_.rank()) {  // rank 0 gave up on this rank: it stops
+      comm_.mark_lost(0);
+      std::lock_guard lk(mu);
+      stop = true;
+      cv.notify_all();
+      return;
+    }
+    if (h.op == Op::Lost) {
+      comm_.mark_lost(h.dest);
+      return;
+    }
+    if (h.op == Op::Setup && fail_rank_ == session_.rank())
+      killer = std::thread([s = fail_at_] {
+        std::this_thread::sleep_for(std::chrono::duration<double>(s));
+        ::raise(SIGKILL);
+      });
     if (h.op == Op::Setup) {
       Header d;
       d.op = Op::Done;
@@ -188,11 +269,22 @@ int MpiCluster::serve() {
     }
     if (self_) self_->handle(source, std::move(m));
   });
+  // Heartbeats: rank 0 takes a rank silent for kSilence seconds as lost.
   std::unique_lock lk(mu);
-  cv.wait(lk, [&] { return stop; });
+  Header beat;
+  beat.op = Op::Heartbeat;
+  while (!cv.wait_for(lk, std::chrono::milliseconds(250), [&] { return stop; })) {
+    lk.unlock();
+    try {
+      comm_.send(0, Writer(beat).buffer());
+    } catch (const std::exception&) {
+    }
+    lk.lock();
+  }
   lk.unlock();
   comm_.stop();
   self_.reset();
+  if (killer.joinable()) killer.detach();
   return 0;
 }
 

@@ -1,5 +1,6 @@
 #include "render/mpi/mpi_executor.hpp"
 
+#include <algorithm>
 #include <span>
 
 #include "common/error.hpp"
@@ -11,9 +12,24 @@
 
 namespace rayline::mpi {
 
-void Pending::expect(ActivityId id) {
+void Pending::expect(ActivityId id, std::vector<int> ranks) {
   std::lock_guard lk(mu_);
-  slots_[id] = Slot{};
+  Slot s;
+  for (int r : ranks)
+    if (auto it = lost_.find(r); it != lost_.end()) s.done = true, s.ok = false, s.why = it->second;
+  s.ranks = std::move(ranks);
+  slots_[id] = std::move(s);
+}
+
+void Pending::fail_rank(int rank, const std::string& why) {
+  {
+    std::lock_guard lk(mu_);
+    lost_[rank] = why;
+    for (auto& [id, s] : slots_)
+      if (!s.done && std::find(s.ranks.begin(), s.ranks.end(), rank) != s.ranks.end())
+        s.done = true, s.ok = false, s.why = why;
+  }
+  cv_.notify_all();
 }
 
 Buffer Pending::wait(ActivityId id) {
@@ -57,6 +73,14 @@ ClusterTasks::ClusterTasks(Comm& comm, Node& self, const engine::ClusterWork& w,
   }
 }
 
+void ClusterTasks::send(int rank, const Buffer& b) {
+  try {
+    comm_.send(rank, b);
+  } catch (const std::runtime_error& e) {  // a lost rank: the loop re-plans the activity
+    throw ActivityError(e.what());
+  }
+}
+
 std::map<int, ClusterTasks::Victims> ClusterTasks::victims_of(ActivityId id) {
   const auto& evs = w_.schedule.evictions();
   for (; ev_cursor_ < evs.size(); ++ev_cursor_) {
@@ -86,8 +110,8 @@ void ClusterTasks::evict_elsewhere(ActivityId id, std::map<int, Victims>& v, int
     h.activity = id;
     Writer w(h);
     w.records(vic.cells).records(vic.queues);
-    pending_.expect(id);
-    comm_.send(rank, w.buffer());
+    pending_.expect(id, {rank});
+    send(rank, w.buffer());
     pending_.wait(id);
   }
 }
@@ -124,8 +148,8 @@ engine::LocalExecutor::Task ClusterTasks::exec(ActivityId id, const Activity& a,
     std::vector<Part> parts;
     for (const auto& [q, n] : job->parts) parts.push_back({q, n});
     w.records(v[rank].cells).records(v[rank].queues).records(parts);
-    pending_.expect(id);
-    comm_.send(rank, w.buffer());
+    pending_.expect(id, {rank});
+    send(rank, w.buffer());
     const Buffer reply = pending_.wait(id);
     Reader r(reply);
     r.text();
@@ -194,8 +218,8 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
       if (scene) ++self_.scene_out;
       else ++self_.queues_out;
     }
-    pending_.expect(id);
-    comm_.send(h.op == Op::Load ? src : (h.op == Op::Data ? dst : src), w.buffer());
+    pending_.expect(id, {src, dst});
+    send(h.op == Op::Data ? dst : src, w.buffer());
     pending_.wait(id);
   };
 }

@@ -23,19 +23,24 @@ namespace rayline::mpi {
 // Replies awaited by proxies, by activity.
 class Pending {
  public:
-  void expect(ActivityId id);
+  // `ranks`: the ranks whose loss fails the activity (its owner, a transfer's two ends).
+  void expect(ActivityId id, std::vector<int> ranks);
   // The reply's buffer (Done), or throws ActivityError with the rank's reason.
   Buffer wait(ActivityId id);
   void complete(ActivityId id, bool ok, const std::string& why, Buffer reply = {});
   // Every reply still awaited fails with `why` (a rank that gave up).
   void fail_all(const std::string& why);
+  // Every activity involving `rank`, awaited now or later, fails with `why` (a lost rank).
+  void fail_rank(int rank, const std::string& why);
 
  private:
   struct Slot {
     bool done = false, ok = true;
     std::string why;
     Buffer reply;
+    std::vector<int> ranks;
   };
+  std::map<int, std::string> lost_;  // rank -> why
   std::mutex mu_;
   std::condition_variable cv_;
   std::map<ActivityId, Slot> slots_;
@@ -54,6 +59,7 @@ class ClusterTasks {
     std::vector<std::int32_t> queues;
   };
   std::map<int, Victims> victims_of(ActivityId id);
+  void send(int rank, const Buffer& b);  // comm_.send, a lost rank an ActivityError
   int rank_of(MemId m) const { return int(w_.g.memories[std::size_t(m)].node); }
   // Evictions on other ranks than `main` (synchronous), then rank 0's own.
   void evict_elsewhere(ActivityId id, std::map<int, Victims>& v, int main);

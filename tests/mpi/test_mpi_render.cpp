@@ -160,6 +160,41 @@ TEST_F(MpiRender, OneRankWithoutMpirunIsTheOneProcessRender) {
   EXPECT_EQ(metrics("single").at("distributed").at("ranks").size(), 1u);
 }
 
+// `--fail R2@0.5s` kills rank 2's process (SIGKILL) mid-render. Under `mpirun
+// --enable-recovery` the others go on: rank 0 finds rank 2 silent, takes its devices and data
+// out of the plan, puts the rays of its jobs back in their queues, and the image is the
+// one-process image. (mpirun's exit status is 0 in that mode whatever the ranks return, so
+// the outputs are the evidence.)
+TEST_F(MpiRender, RankKilledMidRenderTheOthersFinishTheSameImage) {
+  const std::string frame = "render -q --resolution 96x64 --spp 16 --seed 7 --blocks-dir " + path("blocks");
+  auto r = rayline_cli("render -q --resolution 96x64 --spp 16 --seed 7 --blocks 8 --blocks-dir " + path("blocks") +
+                       " --out " + path("one.exr"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  r = rayline_cli_via("timeout -k 5 240 " + mpirun_ + " -np 3 --oversubscribe --enable-recovery ",
+                      frame + " --distributed --threads 1 --memory-budget 4MiB --fail R2@0.5s --out " + path("killed.exr"));
+  ASSERT_TRUE(std::filesystem::exists(path("killed.exr"))) << r.all;
+  EXPECT_NE(r.err.find("rank 2 (R2) stopped answering"), std::string::npos) << r.err;
+  expect_same_image("one", "killed");
+  const Json ranks = metrics("killed").at("distributed").at("ranks");
+  EXPECT_TRUE(ranks.at(2).at("lost").get<bool>());
+  EXPECT_FALSE(ranks.at(1).at("lost").get<bool>());
+}
+
+// Without --enable-recovery Open MPI ends every rank when one dies: the run stops at once,
+// not zero, mpirun naming the rank; no output is published (they are renamed into place only
+// when complete).
+TEST_F(MpiRender, RankKilledWithoutRecoveryEndsTheRunCleanly) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto r = mpi(3, "render -q --resolution 96x64 --spp 64 --seed 7 --blocks 8 --distributed --threads 1 "
+                  "--fail R1@0.3s --out " + path("dead.exr"));
+  EXPECT_NE(r.code, 0) << r.all;
+  EXPECT_NE(r.code, 124) << "timed out: a rank hung";
+  EXPECT_NE(r.all.find("rank 1"), std::string::npos) << r.all;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 60.0);
+  EXPECT_FALSE(std::filesystem::exists(path("dead.exr")));
+  EXPECT_FALSE(std::filesystem::exists(path("dead.metrics.json")));
+}
+
 TEST_F(MpiRender, BadCombinationsAreRefusedOnEveryRank) {
   auto r = mpi(2, std::string(kFrame) + "--distributed --record-twin " + path("x.twin.json") + " --out " + path("x.exr"));
   EXPECT_EQ(r.code, 2) << r.all;
@@ -168,6 +203,11 @@ TEST_F(MpiRender, BadCombinationsAreRefusedOnEveryRank) {
   EXPECT_EQ(r.code, 2) << r.all;
   EXPECT_NE(r.err.find("absent.json"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(path("x.exr")));
+  r = mpi(2, std::string(kFrame) + "--distributed --fail R0@1s --out " + path("x.exr"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("R0"), std::string::npos) << r.err;
+  r = mpi(2, std::string(kFrame) + "--distributed --fail R5@1s --out " + path("x.exr"));
+  EXPECT_EQ(r.code, 2) << r.all;
 }
 
 }  // namespace
