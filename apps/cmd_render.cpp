@@ -23,6 +23,7 @@
 #include "render/engine/ray_log_recorder.hpp"
 #include "render/engine/renderer.hpp"
 #ifdef RAYLINE_WITH_MPI
+#include "render/mpi/lan_calibration.hpp"
 #include "render/mpi/mpi_cluster.hpp"
 #endif
 #include "render/image/image_io.hpp"
@@ -395,11 +396,52 @@ void print_fit_advice(const engine::CalibrationResult& c) {
               poor.c_str(), 100 * kPoor);
 }
 
+namespace {
+// What `calibrate --distributed` measured of the LAN: the ranks, the file's model, the lines
+// to print.
+struct ClusterLan {
+  int ranks = 1;
+  engine::LanModel model;
+  std::string report;
+};
+int calibrate_here(const CalibrateCliOptions& opt, const ClusterLan* lan, int local_ranks);
+}  // namespace
+
+// --distributed: every rank measures the LAN with the others; rank 0 then calibrates its node
+// and writes the cluster's platform file (one node per rank, every node like rank 0's).
 int run_calibrate(const CalibrateCliOptions& opt) {
+  if (!opt.distributed) return calibrate_here(opt, nullptr, 1);
+#ifdef RAYLINE_WITH_MPI
+  mpi::Session session;
+  const mpi::LanMeasurement m = mpi::measure_lan(session);
+  if (session.rank() != 0) return kExitOk;
+  ClusterLan lan{m.ranks, m.model, ""};
+  char line[200];
+  for (int i = 0; i < m.ranks; ++i)
+    for (int j = i + 1; j < m.ranks; ++j) {
+      std::snprintf(line, sizeof line, "LAN R%d<->R%d, Eq. 1 by ping-pong: latency %s, bandwidth %s\n", i, j,
+                    format_duration(m.latency[i][j]).c_str(), format_bandwidth(m.bandwidth[i][j]).c_str());
+      lan.report += line;
+    }
+  std::string nics;
+  for (std::size_t r = 0; r < m.model.nic.size(); ++r)
+    nics += (r ? ", R" : "R") + std::to_string(r) + " " + format_bandwidth(m.model.nic[r]);
+  lan.report += "the platform file's LAN: latency " + format_duration(m.model.latency) +
+                " (median of the pairs), NICs " + nics + " (each the median of its pairs)\n";
+  return calibrate_here(opt, &lan, session.local_size());
+#else
+  throw InputError("--distributed", "", "this rayline was built without MPI (scripts/setup.sh installs Open MPI; rebuild)");
+#endif
+}
+
+namespace {
+int calibrate_here(const CalibrateCliOptions& opt, const ClusterLan* lan, int local_ranks) {
   engine::RenderOptions ro;
   ro.scene = opt.scene;
   ro.blocks = opt.blocks;
   ro.threads = opt.threads;
+  if (lan && opt.threads == 0)  // the node's share of this machine, as a distributed render's default
+    ro.threads = std::max(1, int(std::thread::hardware_concurrency()) / std::max(1, local_ranks));
   ro.spp = opt.spp;
   ro.gpu = opt.gpu;
   ro.bvh_quality = opt.bvh_quality;
@@ -413,8 +455,14 @@ int run_calibrate(const CalibrateCliOptions& opt) {
     ro.progress = progress_bar(line, "calibrate");
     ro.partition_progress = partition_progress(line);
   }
-  const engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);
+  engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);
   line.done();
+  if (lan) {
+    c.platform_json = engine::cluster_json(c.model, lan->ranks, lan->model,
+                                           "calibrated by rayline calibrate --distributed on " + std::to_string(lan->ranks) +
+                                               " ranks: every node as rank 0's");
+    std::fputs(lan->report.c_str(), stdout);
+  }
   write_file_atomic(opt.out, c.platform_json);
   std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %s, bandwidth %s; %s\n", c.load_samples,
               format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),
@@ -446,8 +494,10 @@ int run_calibrate(const CalibrateCliOptions& opt) {
                 fit_quality(c.pcie_fit, "upload").c_str());
   }
   print_fit_advice(c);
-  std::printf("wrote %s (use: rayline render --platform %s)\n", opt.out.c_str(), opt.out.c_str());
+  std::printf("wrote %s (use: %srayline render %s--platform %s)\n", opt.out.c_str(), lan ? "mpirun -np N " : "",
+              lan ? "--distributed " : "", opt.out.c_str());
   return kExitOk;
 }
+}  // namespace
 
 }  // namespace rayline::cli

@@ -50,6 +50,7 @@ struct CalibrateCliOptions {
   std::string gpu = "auto";
   std::string out = "out/this-machine.json";
   bool quiet = false;
+  bool distributed = false;  // under mpirun: the LAN between the ranks too (a cluster file)
 };
 int run_calibrate(const CalibrateCliOptions& opt);
 

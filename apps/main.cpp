@@ -355,6 +355,9 @@ void add_calibrate(CLI::App& app, std::function<int()>& action) {
   c->add_option("--gpu", opt->gpu, "Vulkan device to measure too: none | auto | index | name substring")
       ->default_val(opt->gpu);
   c->add_option("--out,-o", opt->out, "Platform file to write")->type_name(kPath)->default_val(opt->out);
+  c->add_flag("--distributed", opt->distributed,
+              "Under mpirun: also measure the LAN between every pair of ranks (ping-pong) and write a cluster "
+              "platform file, one node per rank, for render --distributed and simulate");
   c->add_flag("--quiet,-q", opt->quiet, "No progress line on stderr");
   c->callback([opt, &action] { action = [opt] { return run_calibrate(*opt); }; });
 }

@@ -413,14 +413,13 @@ struct Engine {
     return std::make_unique<StaticWorkload>();
   }
 
-  // The render's blocks on the disk, its rays queued in host memory (renderer.cpp does the same).
+  // The render's blocks on the disk(s), its rays queued in the first host memory (renderer.cpp
+  // does the same, one node per rank in a distributed render).
   std::unique_ptr<Workload> make_twin(const Inputs& in) {
     const DeviceGraph& g = in.graph;
-    MemId disk = kNone, ram = kNone;
-    for (std::size_t i = 0; i < g.memories.size(); ++i) {
-      if (g.memories[i].kind == MemoryKind::Disk && disk == kNone) disk = MemId(i);
+    MemId ram = kNone;
+    for (std::size_t i = 0; i < g.memories.size(); ++i)
       if (g.memories[i].kind == MemoryKind::Host && ram == kNone) ram = MemId(i);
-    }
     std::vector<BlockId> blocks;
     for (std::size_t c = 0; c < in.twin.blocks.size(); ++c) {
       DataBlock d;
@@ -428,7 +427,8 @@ struct Engine {
       d.kind = DataKind::SceneData;
       d.bytes = in.twin.blocks[c];
       blocks.push_back(pool.add_block(d));
-      schedule.put_initial(blocks.back(), disk, 0, true);
+      for (std::size_t m = 0; m < g.memories.size(); ++m)  // every node's disk (a cluster: as a distributed render)
+        if (g.memories[m].kind == MemoryKind::Disk) schedule.put_initial(blocks.back(), MemId(m), 0, true);
     }
     RayBatchOptions o;
     o.spp = int(in.twin.spp);
@@ -442,7 +442,6 @@ struct Engine {
       oracle = std::make_unique<MarkovOracle>(*in.twin_rays, in.twin.width, in.twin.height, in.twin.spp, in.twin_seed);
     auto w = std::make_unique<RenderTwinWorkload>(g, ram, std::move(blocks), o, std::move(oracle));
     twin = w.get();
-    twin_ram = ram;
     return w;
   }
 
@@ -453,7 +452,6 @@ struct Engine {
   RayStreamWorkload* stream = nullptr;
   PathTraceWorkload* path_trace = nullptr;
   RenderTwinWorkload* twin = nullptr;
-  MemId twin_ram = kNone;
   std::unique_ptr<Workload> workload;
   std::unique_ptr<Scheduler> scheduler;
   SimExecutor executor;
@@ -751,7 +749,10 @@ json twin_metrics(const SimulationConfig& cfg, const Engine& e, const Inputs& in
     const Activity& a = e.schedule.activity(static_cast<ActivityId>(i));
     if (a.kind != ActivityKind::Transfer || a.state != ActivityState::Done || a.cancelled) continue;
     if (e.pool.block(a.block).kind != DataKind::SceneData) continue;
-    if (e.schedule.graph().channels[static_cast<std::size_t>(a.channel)].to != e.twin_ram) continue;
+    const Channel& ch = e.schedule.graph().channels[static_cast<std::size_t>(a.channel)];
+    if (e.schedule.graph().memories[std::size_t(ch.from)].kind != MemoryKind::Disk ||
+        e.schedule.graph().memories[std::size_t(ch.to)].kind != MemoryKind::Host)
+      continue;
     ++loads;
     bytes += a.bytes;
   }

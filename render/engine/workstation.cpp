@@ -78,7 +78,8 @@ std::string cluster_json(const WorkstationModel& m, int nodes, const LanModel& l
   std::string members;
   for (int r = 0; r < nodes; ++r) {
     s += std::string(r ? ", " : "") + "{\"name\": \"R" + std::to_string(r) + "\", \"type\": \"W\"}";
-    members += std::string(r ? ", " : "") + "{\"node\": \"R" + std::to_string(r) + "\"}";
+    members += std::string(r ? ", " : "") + "{\"node\": \"R" + std::to_string(r) + "\"" +
+               (std::size_t(r) < lan.nic.size() ? ", \"bandwidth\": " + bps(lan.nic[std::size_t(r)]) : std::string()) + "}";
   }
   s += "]";
   if (nodes > 1)

@@ -67,6 +67,7 @@ std::string workstation_json(const WorkstationModel& m, const std::string& descr
 struct LanModel {
   Time latency = 100e-6;
   double bandwidth = 125e6;  // bytes/s (1 Gb/s)
+  std::vector<double> nic;   // per node, its NIC's bytes/s (empty: `bandwidth` for all)
 };
 // `nodes` identical nodes "R0", "R1", ... of model `m` on one LAN: a distributed render's DCG
 // (what `rayline calibrate --distributed` writes).

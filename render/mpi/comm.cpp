@@ -187,4 +187,13 @@ void Comm::echo(int peer, std::size_t bytes, int n) {
   }
 }
 
+std::vector<double> Comm::gather(const std::vector<double>& mine) {
+  std::vector<double> all(rank() == 0 ? mine.size() * std::size_t(size()) : 0);
+  check(MPI_Gather(mine.data(), int(mine.size()), MPI_DOUBLE, all.data(), int(mine.size()), MPI_DOUBLE, 0, MPI_COMM_WORLD),
+        "MPI_Gather");
+  return all;
+}
+
+void Comm::barrier() { check(MPI_Barrier(MPI_COMM_WORLD), "MPI_Barrier"); }
+
 }  // namespace rayline::mpi

@@ -82,6 +82,10 @@ class Comm {
   // call echo(0, bytes, n) meanwhile.
   std::vector<double> ping(int peer, std::size_t bytes, int n);
   void echo(int peer, std::size_t bytes, int n);
+  // Collectives, while the receiver thread is not running: every rank's `mine` (the same
+  // length everywhere) concatenated in rank order, on rank 0 (empty elsewhere).
+  std::vector<double> gather(const std::vector<double>& mine);
+  void barrier();
 
  private:
   void receive_loop();

@@ -188,7 +188,6 @@ void BlockStore::insert(std::uint32_t block, std::span<const unsigned char> reco
   std::lock_guard lk(mu_);
   busy(t0, since_start(), false);
   stats_.build_seconds += since_start() - t0;
-  ++stats_.loads;
   if (resident_[block]) return;
   resident_[block] = std::move(g);
   stats_.resident_bytes += footprint_[block];

@@ -52,7 +52,8 @@ class BlockStore {
   void evict(std::uint32_t block);
   // A RAM->RAM T-job's arrival (a distributed render, render/mpi/README.md): the block built
   // from the records another rank's RAM copy sent (BlockGeometry::records), checked against
-  // blocks.json (size and CRC-32) as a file read is. Counted as a load; throws InputError.
+  // blocks.json (size and CRC-32) as a file read is; not counted as a (disk) load. Throws
+  // InputError.
   void insert(std::uint32_t block, std::span<const unsigned char> records);
   // Starts reading `block`'s file into a staging buffer on a background thread, so the next
   // load() of it only builds the BVH (a T-job's disk half overlapping its predecessor's CPU
