@@ -458,7 +458,7 @@ int calibrate_here(const CalibrateCliOptions& opt, const ClusterLan* lan, int lo
   engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction);
   line.done();
   if (lan) {
-    c.platform_json = engine::cluster_json(c.model, lan->ranks, lan->model,
+    c.platform_json = engine::cluster_json(c.model, lan->ranks, engine::lan_for_plan(lan->model, c.model),
                                            "calibrated by rayline calibrate --distributed on " + std::to_string(lan->ranks) +
                                                " ranks: every node as rank 0's");
     std::fputs(lan->report.c_str(), stdout);

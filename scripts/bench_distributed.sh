@@ -26,7 +26,8 @@ for n in 1 2 3; do
   mpirun -np "$n" --oversubscribe "$BIN" render -q --distributed "${FRAME[@]}" --out "$WORK/ranks$n.exr"
 done
 for n in 2 3; do
-  mpirun -np "$n" --oversubscribe "$BIN" calibrate -q --distributed --threads "$THREADS" \
+  mpirun -np "$n" --oversubscribe "$BIN" calibrate -q --distributed --threads "$THREADS" --scene "$SCENE" \
+    --resolution "${RES}x${RES}" --spp "$SPP" \
     --out "$WORK/cluster$n.json" > "$WORK/calibrate$n.txt"
   "$BIN" simulate -q --like "$WORK/one.twin.json" --platform "$WORK/cluster$n.json" --memory-budget "$BUDGET" \
     --out "$WORK/sim$n" > /dev/null

@@ -271,13 +271,15 @@ void make_platform(const RenderOptions& opt, const Blocks& b, const RenderWorklo
   LanModel lan;
   if (opt.cluster) {
     lan = opt.cluster->lan();
-    if (!opt.platform.empty() && opt.platform != "auto") {  // a cluster file (calibrate --distributed)
+    if (opt.platform.empty() || opt.platform == "auto") p.wm = workstation_model(opt.platform);
+    else {  // a cluster file (calibrate --distributed): its LAN is the plan's already
       int nodes = 0;
       p.wm = load_node_model(opt.platform, &nodes, &lan);
       if (nodes != opt.cluster->ranks())
         throw InputError(opt.platform, "nodes", "describes " + std::to_string(nodes) + " nodes but " +
                                                     std::to_string(opt.cluster->ranks()) + " ranks run");
     }
+    if (opt.platform.empty() || opt.platform == "auto") lan = lan_for_plan(lan, p.wm);
   } else {
     p.wm = workstation_model(opt.platform);
   }

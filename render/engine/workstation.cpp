@@ -72,6 +72,13 @@ std::string workstation_json(const WorkstationModel& m, const std::string& descr
   return s;
 }
 
+LanModel lan_for_plan(LanModel network, const WorkstationModel& m) {
+  const auto series = [&](double bw) { return 1.0 / (1.0 / bw + 1.0 / m.disk_bandwidth); };
+  network.bandwidth = series(network.bandwidth);
+  for (double& b : network.nic) b = series(b);
+  return network;
+}
+
 std::string cluster_json(const WorkstationModel& m, int nodes, const LanModel& lan, const std::string& description) {
   std::string s = "{\n  \"name\": \"cluster\",\n  \"description\": \"" + description + "\",\n";
   s += node_type_json(m) + "  \"nodes\": [";

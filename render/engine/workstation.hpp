@@ -69,6 +69,11 @@ struct LanModel {
   double bandwidth = 125e6;  // bytes/s (1 Gb/s)
   std::vector<double> nic;   // per node, its NIC's bytes/s (empty: `bandwidth` for all)
 };
+// The LAN channel as the plan sees it: a scene block crosses the network as triangle records
+// and its BVH is built on arrival (Embree's BVH is not sent), so the channel's Eq. 1
+// bandwidth is the network's and `m`'s disk channel (read + build, a bound on the build) in
+// series: 1 / (1 / network + 1 / disk channel). Ray queues are charged the same.
+LanModel lan_for_plan(LanModel network, const WorkstationModel& m);
 // `nodes` identical nodes "R0", "R1", ... of model `m` on one LAN: a distributed render's DCG
 // (what `rayline calibrate --distributed` writes).
 std::string cluster_json(const WorkstationModel& m, int nodes, const LanModel& lan, const std::string& description);

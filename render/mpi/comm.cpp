@@ -15,13 +15,13 @@ namespace {
 constexpr int kTag = 7;
 constexpr int kPingTag = 8;
 
-// Sleeps a little longer each idle round, up to 200 µs: a busy rank answers fast, an idle
-// one costs no core.
+// Sleeps a little longer each idle round, up to 50 µs: a busy rank answers within tens of
+// microseconds, an idle one costs a few percent of a core.
 struct Backoff {
   int us = 1;
   void idle() {
     std::this_thread::sleep_for(std::chrono::microseconds(us));
-    us = us < 200 ? us * 2 : 200;
+    us = us < 50 ? us * 2 : 50;
   }
   void reset() { us = 1; }
 };

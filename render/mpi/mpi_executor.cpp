@@ -201,7 +201,10 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
     h.cell = cell;
     h.block = a.block;
     h.dest = dst;
-    h.device = scene ? 1 : 0;
+    // A ray queue rank 0 sends needs no answer: the receiver stores it as it arrives, before
+    // any later message from rank 0 (MPI keeps a pair's messages in order), so the T-job is
+    // done once the bytes have left.
+    h.device = scene ? 1 : (src == 0 ? 2 : 0);
     if (load) {
       h.op = Op::Load;
     } else if (src == 0) {  // rank 0 sends the data itself
@@ -217,6 +220,10 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
       else w.records(rays);
       if (scene) ++self_.scene_out;
       else ++self_.queues_out;
+    }
+    if (h.device == 2) {
+      send(dst, w.buffer());
+      return;
     }
     pending_.expect(id, {src, dst});
     send(h.op == Op::Data ? dst : src, w.buffer());

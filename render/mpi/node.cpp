@@ -201,7 +201,7 @@ void Node::data(const Buffer& m) {
       std::lock_guard lk(mu_);
       queues_[h.block] = std::move(rays);
     }
-    done(h.activity, true, "");
+    if (h.device != 2) done(h.activity, true, "");
   } catch (const std::exception& e) {
     done(h.activity, false, e.what());
   }
@@ -214,7 +214,10 @@ bool Node::handle(int, Buffer message) {
     case Op::Load: spawn(h.activity, [this, m = std::move(message)] { load(m); }); return true;
     case Op::Exec: spawn(h.activity, [this, m = std::move(message)] { exec(m); }); return true;
     case Op::Send: spawn(h.activity, [this, m = std::move(message)] { send(m); }); return true;
-    case Op::Data: spawn(h.activity, [this, m = std::move(message)] { data(m); }); return true;
+    case Op::Data:
+      if (h.device == 1) spawn(h.activity, [this, m = std::move(message)] { data(m); });
+      else data(message);  // a ray queue: stored here, in arrival order (before the Exec that needs it)
+      return true;
     case Op::Evict:
       evict(r);
       done(h.activity, true, "");
