@@ -38,8 +38,8 @@ w = sys.argv[1]
 def load(p): return json.load(open(os.path.join(w, p)))
 one = load("one.metrics.json")
 print(f"one process, {one['threads']} thread(s): {one['seconds']:.2f} s, {one['io']['loads']} loads")
-print("| ranks | seconds | vs one process | LAN measured (latency, bandwidth) | rank-to-rank T-jobs | messages, MB sent | E-jobs per rank | disk loads per rank | blocks via LAN | simulated (calibrated file) | sim − real |")
-print("|---|---|---|---|---|---|---|---|---|---|---|")
+print("| ranks | seconds | vs one process | LAN measured (latency, bandwidth) | rank-to-rank T-jobs | messages, MB sent | E-jobs per rank | traced / seen by rank 0, s per rank | disk loads per rank | blocks via LAN | simulated (calibrated file) | sim − real |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
 for n in (1, 2, 3):
     m = load(f"ranks{n}.metrics.json"); d = m["distributed"]; r = d["ranks"]; lan = d["lan"]; t = d["lan_transfers"]
     sim = ""
@@ -51,7 +51,8 @@ for n in (1, 2, 3):
     print(f"| {n} | {m['seconds']:.2f} | {m['seconds'] / one['seconds']:.2f}× | "
           f"{lan['latency_s'] * 1e6:.0f} µs, {lan['bandwidth_bytes_per_s'] / 1e9:.1f} GB/s | {t['count']} ({t['planned_bytes'] / 1e6:.0f} MB, {t['seconds']:.2f} s) | "
           f"{sum(x['messages_sent'] for x in r)}, {sum(x['bytes_sent'] for x in r) / 1e6:.0f} | "
-          f"{' / '.join(str(x['execs']) for x in r)} | {' / '.join(str(x['loads']) for x in r)} | "
+          f"{' / '.join(str(x['execs']) for x in r)} | {' / '.join(f"{x['exec_traced_seconds']:.2f}/{x['exec_seen_seconds']:.2f}" for x in r)} | "
+          f"{' / '.join(str(x['loads']) for x in r)} | "
           f"{sum(x['scene_blocks_in'] for x in r)} | {sim} |")
     assert m["rays"] == one["rays"], "the distributed render's rays differ from the one-process render's"
 for n in (2, 3):

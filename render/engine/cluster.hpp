@@ -40,6 +40,9 @@ struct RankStats {
   std::uint64_t queues_in = 0, queues_out = 0;  // ray queues likewise
   std::uint64_t messages_sent = 0, bytes_sent = 0;
   bool lost = false;  // stopped answering during the render (its figures are unknown)
+  // Its E-jobs: seconds traced there, and seconds from dispatch to outputs as rank 0 saw
+  // them (the difference: messages, the outputs' way back, waits for a core).
+  double exec_traced_seconds = 0, exec_seen_seconds = 0;
 };
 
 // Rank 0's side of the run, for the executor.

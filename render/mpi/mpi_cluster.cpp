@@ -6,6 +6,7 @@
 #include <chrono>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
 
 #include "render/engine/renderer.hpp"
 #include "render/mpi/message.hpp"
@@ -189,7 +190,7 @@ std::unique_ptr<engine::LocalExecutor> MpiCluster::executor(const engine::Cluste
   self_ = std::make_unique<Node>(comm_, frame_, &w.store);
   self_->on_local_done = [this](int activity, bool ok, const std::string& why) { pending_.complete(activity, ok, why); };
   store_ = &w.store;
-  auto e = std::make_unique<MpiExecutor>(w.g, std::make_unique<ClusterTasks>(comm_, *self_, w, pending_), pending_);
+  auto e = std::make_unique<MpiExecutor>(w.g, std::make_unique<ClusterTasks>(comm_, *self_, w, pending_, exec_time_), pending_);
   executor_ = e.get();
   return e;
 }
@@ -215,6 +216,7 @@ void MpiCluster::finish(engine::RenderResult& res) {
   self_->drain();
   stats_[0] = read_stats(stats_message(*self_, *store_, comm_, session_.host()));
   for (int r : lost_) stats_[std::size_t(r)].lost = true;
+  for (int r = 0; r < ranks(); ++r) std::tie(stats_[std::size_t(r)].exec_traced_seconds, stats_[std::size_t(r)].exec_seen_seconds) = exec_time_.of(r);
   res.ranks = stats_;
   executor_ = nullptr;
   res.lan = lan_;

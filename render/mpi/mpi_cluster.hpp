@@ -43,6 +43,7 @@ class MpiCluster final : public engine::Cluster {
   Comm comm_;
   engine::LanModel lan_;
   Pending pending_;
+  ExecTime exec_time_{session_.size()};
   std::unique_ptr<Node> self_;
   std::mutex mu_;
   std::condition_variable cv_;

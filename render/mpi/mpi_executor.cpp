@@ -1,6 +1,7 @@
 #include "render/mpi/mpi_executor.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <span>
 
 #include "common/error.hpp"
@@ -63,8 +64,8 @@ void Pending::fail_all(const std::string& why) {
   cv_.notify_all();
 }
 
-ClusterTasks::ClusterTasks(Comm& comm, Node& self, const engine::ClusterWork& w, Pending& pending)
-    : comm_(comm), self_(self), w_(w), pending_(pending) {
+ClusterTasks::ClusterTasks(Comm& comm, Node& self, const engine::ClusterWork& w, Pending& pending, ExecTime& time)
+    : comm_(comm), self_(self), w_(w), pending_(pending), time_(time) {
   const engine::AggregateSources sources{w.store, nullptr, nullptr, true};
   std::vector<int> next(w.g.nodes.size(), 0);
   for (const ComputeDevice& c : w.g.computes) {
@@ -129,14 +130,18 @@ engine::LocalExecutor::Task ClusterTasks::exec(ActivityId id, const Activity& a,
     accel::Aggregate* aggregate = aggregates_.at(std::size_t(a.device)).get();
     return [this, id, job, aggregate, v = std::move(v)]() mutable {
       evict_elsewhere(id, v, -1);
+      const auto t0 = std::chrono::steady_clock::now();
       aggregate->intersect(w_.ts, accel::QueueJob{job->cell, static_cast<trace::RayKind>(job->slot % 2), job->rays, job->parts},
                            job->out, job->counts);
       std::vector<trace::RayRecord>().swap(job->rays);
       ++self_.execs;
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      time_.add(0, s, s);
     };
   }
   const int device = local_index_.at(std::size_t(a.device));
   return [this, id, job, rank, device, v = std::move(v)]() mutable {
+    const auto t0 = std::chrono::steady_clock::now();
     evict_elsewhere(id, v, rank);
     Header h;
     h.op = Op::Exec;
@@ -158,6 +163,7 @@ engine::LocalExecutor::Task ClusterTasks::exec(ActivityId id, const Activity& a,
     const auto entries = r.records<trace::FilmEntry>();
     const auto dropped = r.value<std::uint64_t>(), clamped = r.value<std::uint64_t>();
     w_.ts.film->apply(entries, dropped, clamped);
+    time_.add(rank, r.value<double>(), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     std::vector<trace::RayRecord>().swap(job->rays);
   };
 }

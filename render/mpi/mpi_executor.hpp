@@ -47,9 +47,29 @@ class Pending {
   std::string failed_;
 };
 
+// Per rank: seconds its E-jobs traced on that rank, and their seconds as rank 0 saw them
+// (messages, the outputs' way back and waits included).
+class ExecTime {
+ public:
+  explicit ExecTime(int ranks) : traced_(std::size_t(ranks), 0.0), seen_(std::size_t(ranks), 0.0) {}
+  void add(int rank, double traced, double seen) {
+    std::lock_guard lk(mu_);
+    traced_[std::size_t(rank)] += traced;
+    seen_[std::size_t(rank)] += seen;
+  }
+  std::pair<double, double> of(int rank) const {
+    std::lock_guard lk(mu_);
+    return {traced_[std::size_t(rank)], seen_[std::size_t(rank)]};
+  }
+
+ private:
+  mutable std::mutex mu_;
+  std::vector<double> traced_, seen_;
+};
+
 class ClusterTasks {
  public:
-  ClusterTasks(Comm& comm, Node& self, const engine::ClusterWork& w, Pending& pending);
+  ClusterTasks(Comm& comm, Node& self, const engine::ClusterWork& w, Pending& pending, ExecTime& time);
   engine::LocalExecutor::Task task(ActivityId id, const Activity& a);
   engine::LocalExecutor::Task hint(ActivityId id, const Activity& a) const;
 
@@ -70,6 +90,7 @@ class ClusterTasks {
   Node& self_;
   engine::ClusterWork w_;
   Pending& pending_;
+  ExecTime& time_;
   std::vector<std::unique_ptr<accel::Aggregate>> aggregates_;  // rank 0's CPU threads
   std::vector<int> local_index_;                               // per compute device: its thread on its rank
   std::size_t ev_cursor_ = 0;

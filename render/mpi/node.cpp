@@ -3,6 +3,8 @@
 #include <xmmintrin.h>
 #include <pmmintrin.h>
 
+#include <chrono>
+
 #include "common/error.hpp"
 #include "render/engine/aggregate_factory.hpp"
 #include "render/integrator/film.hpp"
@@ -153,14 +155,17 @@ void Node::exec(const Buffer& m) {
   ts.film = &journal;
   std::vector<trace::RayRecord> out;
   trace::RayCounts counts;
+  const auto t0 = std::chrono::steady_clock::now();
   aggregates_.at(std::size_t(h.device))
       ->intersect(ts, accel::QueueJob{h.cell, static_cast<trace::RayKind>(h.slot % 2), rays, parts}, out, counts);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   Header d;
   d.op = Op::Done;
   d.activity = h.activity;
   Writer w(d);
   ++execs;
   w.text("").value(counts).records(out).records(journal.take_journal()).value(journal.dropped()).value(journal.clamped());
+  w.value(seconds);
   done(h.activity, true, "", &w.buffer());
 }
 
