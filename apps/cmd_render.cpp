@@ -426,8 +426,9 @@ int run_calibrate(const CalibrateCliOptions& opt) {
   std::string nics;
   for (std::size_t r = 0; r < m.model.nic.size(); ++r)
     nics += (r ? ", R" : "R") + std::to_string(r) + " " + format_bandwidth(m.model.nic[r]);
-  lan.report += "the platform file's LAN: latency " + format_duration(m.model.latency) +
-                " (median of the pairs), NICs " + nics + " (each the median of its pairs)\n";
+  if (m.ranks > 1)
+    lan.report += "the platform file's LAN: latency " + format_duration(m.model.latency) +
+                  " (median of the pairs), NICs " + nics + " (each the median of its pairs)\n";
   return calibrate_here(opt, &lan, session.local_size());
 #else
   throw InputError("--distributed", "", "this rayline was built without MPI (scripts/setup.sh installs Open MPI; rebuild)");

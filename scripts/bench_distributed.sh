@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Distributed render (render/mpi/README.md) on this machine: one frame of a generated museum
 # rendered by one process, then by 1, 2 and 3 MPI ranks (`mpirun --oversubscribe`, THREADS
-# compute threads and a BUDGET of RAM each), and the 2- and 3-rank configurations simulated
+# compute threads and a BUDGET of RAM each), and each of those configurations simulated
 # from the platform file `calibrate --distributed` writes for them (the twin recorded from the
 # one-process render: `simulate --like`). Prints one markdown table row per run.
 # Usage: scripts/bench_distributed.sh [TRIANGLES=300000] [RES=128] [SPP=4] [BUDGET=8MiB] [BLOCKS=16]
@@ -27,7 +27,7 @@ if [ -z "${SUMMARY_ONLY:-}" ]; then  # SUMMARY_ONLY=1: the table of the runs alr
 for n in 1 2 3; do
   mpirun -np "$n" --oversubscribe "$BIN" render -q --distributed "${FRAME[@]}" --out "$WORK/ranks$n.exr"
 done
-for n in 2 3; do
+for n in 1 2 3; do
   mpirun -np "$n" --oversubscribe "$BIN" calibrate -q --distributed --threads "$THREADS" --scene "$SCENE" \
     --resolution "${RES}x${RES}" --spp "$SPP" \
     --out "$WORK/cluster$n.json" > "$WORK/calibrate$n.txt"
@@ -60,7 +60,7 @@ for n in (1, 2, 3):
           f"{' / '.join(str(x['loads']) for x in r)} | "
           f"{sum(x['scene_blocks_in'] for x in r)} | {sim} |")
     assert m["rays"] == one["rays"], "the distributed render's rays differ from the one-process render's"
-for n in (2, 3):
+for n in (1, 2, 3):
     print(f"calibrate --distributed, {n} ranks:")
     for line in open(os.path.join(w, f"calibrate{n}.txt")):
         if line.startswith(("LAN", "the platform file's LAN")): print("   ", line.rstrip())
