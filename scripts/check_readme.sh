@@ -28,6 +28,9 @@ QUICK_SKIP=(
   'rayline simulate --like ## the twin of a render the quick check skips'
 )
 
+# The distributed commands as README's user runs them: Open MPI refuses root unless told.
+[ "$(id -u)" -eq 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 BUILD="$ROOT/build"
 TIMEOUT=600

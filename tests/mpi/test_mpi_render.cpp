@@ -58,6 +58,9 @@ class MpiRender : public rayline::testing::ScratchTest {
     // CI runs as root; Open MPI refuses that unless told.
     ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
     ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+    // Shared-memory messages by copy: the single-copy mechanism (process_vm_readv) is refused
+    // in some containers, and a peer's death mid-read leaves the reader stalled.
+    ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 0);
   }
   // rayline ARGS on `ranks` ranks; a run that hangs is killed after 240 s (and fails).
   CliResult mpi(int ranks, const std::string& args) {
