@@ -336,8 +336,6 @@ int render_here(const RenderCliOptions& opt, engine::Cluster* cluster) {
   engine::RenderOptions ro = render_options(opt);
   ro.cluster = cluster;
   if (cluster) ro.faults.clear();  // (a rank's loss is injected by the rank itself)
-  if (cluster && ro.gpu != "none" && ro.gpu != "auto")
-    throw InputError("--gpu", "", "a distributed render runs on the ranks' CPU threads only");
   check_render_outputs(opt);
   ProgressLine line(ProgressLine::for_stderr(opt.quiet));
   if (line.mode() != ProgressLine::Mode::Off) {

@@ -20,6 +20,7 @@ class Film;
 namespace rayline::engine {
 
 class BlockStore;
+class GpuStore;
 class RenderWorkload;
 struct RenderResult;
 
@@ -30,6 +31,7 @@ struct ClusterFrame {
   std::uint64_t seed = 1;
   bool skip_empty = true;
   std::vector<std::uint64_t> footprint;  // bytes the plan charges per block
+  std::string gpu;                       // the Vulkan device every node opens (rank 0's name); "" = none
 };
 
 // What one rank did in a distributed render (metrics "ranks").
@@ -39,6 +41,7 @@ struct RankStats {
   std::uint64_t scene_in = 0, scene_out = 0;    // scene blocks received from / sent to other ranks' RAM
   std::uint64_t queues_in = 0, queues_out = 0;  // ray queues likewise
   std::uint64_t messages_sent = 0, bytes_sent = 0;
+  std::uint64_t gpu_jobs = 0;  // E-jobs its GPU ran
   bool lost = false;  // stopped answering during the render (its figures are unknown)
   // Its E-jobs: seconds traced there, and seconds from dispatch to outputs as rank 0 saw
   // them (the difference: messages, the outputs' way back, waits for a core).
@@ -54,6 +57,7 @@ struct ClusterWork {
   const std::map<BlockId, std::uint32_t>& cell_of;
   BlockStore& store;               // rank 0's RAM
   bool read_ahead = true;
+  GpuStore* gpu = nullptr;         // rank 0's GPU memory, if the nodes have a GPU
 };
 
 class Cluster {

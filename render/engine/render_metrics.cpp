@@ -212,7 +212,7 @@ json distributed_json(const RenderResult& r) {
     ranks.push_back({{"host", s.host}, {"execs", s.execs}, {"loads", s.loads}, {"evictions", s.evictions},
                      {"bytes_read", s.bytes_read}, {"scene_blocks_in", s.scene_in}, {"scene_blocks_out", s.scene_out},
                      {"ray_queues_in", s.queues_in}, {"ray_queues_out", s.queues_out},
-                     {"messages_sent", s.messages_sent}, {"bytes_sent", s.bytes_sent}, {"lost", s.lost},
+                     {"messages_sent", s.messages_sent}, {"bytes_sent", s.bytes_sent}, {"lost", s.lost}, {"gpu_jobs", s.gpu_jobs},
                      {"exec_traced_seconds", s.exec_traced_seconds}, {"exec_seen_seconds", s.exec_seen_seconds}});
   d["ranks"] = ranks;
   return d;

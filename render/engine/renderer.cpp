@@ -267,7 +267,7 @@ void make_platform(const RenderOptions& opt, const Blocks& b, const RenderWorklo
                    Platform& p, RenderResult& res) {
   // A profile recorder classifies rays in the CPU kernels, and a ray log records CPU visits
   // (a GPU's doubtful rays would come back as visits of their own): no GPU then.
-  p.gpu_ctx = opt.batching.recorder || opt.batching.ray_log || opt.cluster ? nullptr : open_gpu(opt, res);
+  p.gpu_ctx = opt.batching.recorder || opt.batching.ray_log ? nullptr : open_gpu(opt, res);
   LanModel lan;
   if (opt.cluster) {
     lan = opt.cluster->lan();
@@ -299,7 +299,7 @@ void make_platform(const RenderOptions& opt, const Blocks& b, const RenderWorklo
     if (g.memories[i].kind == MemoryKind::Gpu && p.gmem == kNone) p.gmem = MemId(i);
   }
   for (std::size_t d = 0; d < g.computes.size(); ++d)
-    if (g.computes[d].kind == ComputeKind::Gpu) p.gpu_dev = DeviceId(d);
+    if (g.computes[d].kind == ComputeKind::Gpu && p.gpu_dev == kNone) p.gpu_dev = DeviceId(d);  // (rank 0's)
   res.gpu_device_id = p.gpu_dev == kNone ? -1 : int(p.gpu_dev);
   if (p.gpu_dev != kNone) add_cpu_only_job_types(opt, p);
 }
@@ -499,8 +499,9 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
   if (opt.cluster) {  // the other ranks get the frame, then the executor's lanes reach them
     opt.cluster->start({opt.scene, b.dir, res.width, res.height, res.spp, res.max_depth, f.threads,
                         opt.build_threads > 0 ? opt.build_threads : f.threads, int(f.quality), opt.seed,
-                        ts.skip_empty, b.footprint});
-    executor_ptr = opt.cluster->executor({p.g, schedule, workload, ts, sb.cell_of, store, opt.read_ahead});
+                        ts.skip_empty, b.footprint, p.gpu_ctx ? res.gpu_device : std::string()});
+    executor_ptr =
+        opt.cluster->executor({p.g, schedule, workload, ts, sb.cell_of, store, opt.read_ahead, gpu_store.get()});
   } else {
     const AggregateSources sources{store, gpu_store.get(), opt.batching.recorder, opt.gpu_resolve_doubtful};
     tasks = std::make_unique<ActivityTasks>(

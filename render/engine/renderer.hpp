@@ -62,7 +62,8 @@ struct RenderOptions {
   bool gpu_resolve_doubtful = true;
   bool keep_schedule_outputs = true;  // timeline + jobs CSV in the result
   // A distributed render (render/mpi/README.md): one node per rank, this process rank 0.
-  // `threads` and `memory_budget` are per rank then; no GPU.
+  // `threads`, `memory_budget` and the GPU are per rank then (every rank opens the GPU rank
+  // 0 opened, by name).
   Cluster* cluster = nullptr;
   // Calibration hook (calibrate.hpp): with a GPU, the plan lets the CPU threads run only
   // the doubtful rays' jobs, so every job the GPU can run is planned there (until the device

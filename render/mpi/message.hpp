@@ -21,6 +21,7 @@ enum class Op : std::uint32_t {
   Send,      // master -> node: send a block (scene block or ray queue) to another rank's RAM
   Data,      // node -> node: the block itself, for the receiver's RAM
   Evict,     // master -> node: drop blocks from its RAM (evictions of another rank's activity)
+  Upload,    // master -> node: RAM->GPU T-job of a scene block or a ray queue on its GPU
   Done,      // node -> master: an activity ended (with an E-job's outputs)
   Stop,      // master -> node: the frame is done; reply with statistics
   Stats,     // node -> master: the reply to Stop

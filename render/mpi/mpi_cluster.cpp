@@ -11,6 +11,7 @@
 #include "render/engine/renderer.hpp"
 #include "render/mpi/message.hpp"
 #include "render/store/block_store.hpp"
+#include "render/store/gpu_store.hpp"
 
 namespace rayline::mpi {
 
@@ -21,13 +22,15 @@ double median(std::vector<double> v) {
 }
 constexpr std::size_t kBandwidthBytes = std::size_t(4) << 20;
 
-Buffer stats_message(const Node& n, const engine::BlockStore& store, const Comm& comm, const std::string& host) {
+// `gpu_jobs`: those of a GPU the node does not hold itself (rank 0's, in the renderer's store).
+Buffer stats_message(const Node& n, const engine::BlockStore& store, const Comm& comm, const std::string& host,
+                     std::uint64_t gpu_jobs = 0) {
   Header h;
   h.op = Op::Stats;
   Writer w(h);
   const auto st = store.stats();
-  const std::uint64_t v[] = {n.execs, st.loads, st.evictions, st.bytes_read, n.scene_in, n.scene_out, n.queues_in,
-                             n.queues_out};
+  const std::uint64_t v[] = {n.execs,     st.loads,   st.evictions, st.bytes_read, n.scene_in,
+                             n.scene_out, n.queues_in, n.queues_out, n.gpu_jobs() + gpu_jobs};
   std::vector<std::uint64_t> traffic;
   for (int r = 0; r < comm.size(); ++r) {
     traffic.push_back(comm.sent_to(r).messages);
@@ -41,9 +44,9 @@ engine::RankStats read_stats(const Buffer& m) {
   Reader r(m);
   engine::RankStats s;
   const auto v = r.records<std::uint64_t>();
-  if (v.size() != 8) throw std::runtime_error("MPI message: bad Stats");
+  if (v.size() != 9) throw std::runtime_error("MPI message: bad Stats");
   s.execs = v[0], s.loads = v[1], s.evictions = v[2], s.bytes_read = v[3];
-  s.scene_in = v[4], s.scene_out = v[5], s.queues_in = v[6], s.queues_out = v[7];
+  s.scene_in = v[4], s.scene_out = v[5], s.queues_in = v[6], s.queues_out = v[7], s.gpu_jobs = v[8];
   const auto traffic = r.records<std::uint64_t>();
   for (std::size_t i = 0; i + 1 < traffic.size(); i += 2) s.messages_sent += traffic[i], s.bytes_sent += traffic[i + 1];
   s.host = r.text();
@@ -190,6 +193,7 @@ std::unique_ptr<engine::LocalExecutor> MpiCluster::executor(const engine::Cluste
   self_ = std::make_unique<Node>(comm_, frame_, &w.store);
   self_->on_local_done = [this](int activity, bool ok, const std::string& why) { pending_.complete(activity, ok, why); };
   store_ = &w.store;
+  gpu_ = w.gpu;
   auto e = std::make_unique<MpiExecutor>(w.g, std::make_unique<ClusterTasks>(comm_, *self_, w, pending_, exec_time_), pending_);
   executor_ = e.get();
   return e;
@@ -214,7 +218,7 @@ void MpiCluster::finish(engine::RenderResult& res) {
     ready_ = -1;  // stopped: nothing more to send
   }
   self_->drain();
-  stats_[0] = read_stats(stats_message(*self_, *store_, comm_, session_.host()));
+  stats_[0] = read_stats(stats_message(*self_, *store_, comm_, session_.host(), gpu_ ? gpu_->stats().gpu_jobs : 0));
   for (int r : lost_) stats_[std::size_t(r)].lost = true;
   for (int r = 0; r < ranks(); ++r) std::tie(stats_[std::size_t(r)].exec_traced_seconds, stats_[std::size_t(r)].exec_seen_seconds) = exec_time_.of(r);
   res.ranks = stats_;

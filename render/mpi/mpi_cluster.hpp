@@ -52,6 +52,7 @@ class MpiCluster final : public engine::Cluster {
   std::vector<engine::RankStats> stats_;
   engine::ClusterFrame frame_;
   engine::BlockStore* store_ = nullptr;
+  engine::GpuStore* gpu_ = nullptr;
   engine::LocalExecutor* executor_ = nullptr;
   std::vector<int> lost_, lost_new_;
   std::atomic<bool> stop_watch_{false};

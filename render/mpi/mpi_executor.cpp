@@ -66,7 +66,7 @@ void Pending::fail_all(const std::string& why) {
 
 ClusterTasks::ClusterTasks(Comm& comm, Node& self, const engine::ClusterWork& w, Pending& pending, ExecTime& time)
     : comm_(comm), self_(self), w_(w), pending_(pending), time_(time) {
-  const engine::AggregateSources sources{w.store, nullptr, nullptr, true};
+  const engine::AggregateSources sources{w.store, w.gpu, nullptr, true};
   std::vector<int> next(w.g.nodes.size(), 0);
   for (const ComputeDevice& c : w.g.computes) {
     local_index_.push_back(next[std::size_t(c.node)]++);
@@ -86,10 +86,17 @@ std::map<int, ClusterTasks::Victims> ClusterTasks::victims_of(ActivityId id) {
   const auto& evs = w_.schedule.evictions();
   for (; ev_cursor_ < evs.size(); ++ev_cursor_) {
     const Eviction& e = evs[ev_cursor_];
-    if (w_.g.memories[std::size_t(e.mem)].kind != MemoryKind::Host) continue;
+    const MemoryKind kind = w_.g.memories[std::size_t(e.mem)].kind;
+    if (kind == MemoryKind::Disk) continue;
     Victims& v = victims_[e.for_activity][rank_of(e.mem)];
-    if (const auto it = w_.cell_of.find(e.block); it != w_.cell_of.end()) v.cells.push_back(it->second);
-    else v.queues.push_back(e.block);
+    const auto it = w_.cell_of.find(e.block);
+    if (kind == MemoryKind::Host) {
+      if (it != w_.cell_of.end()) v.cells.push_back(it->second);
+      else v.queues.push_back(e.block);
+    } else {
+      if (it != w_.cell_of.end()) v.gpu_cells.push_back(it->second);
+      else v.gpu_queues.push_back(e.block);
+    }
   }
   std::map<int, Victims> v;
   if (auto it = victims_.find(id); it != victims_.end()) {
@@ -99,18 +106,30 @@ std::map<int, ClusterTasks::Victims> ClusterTasks::victims_of(ActivityId id) {
   return v;
 }
 
+// Rank 0's queues in RAM live in the workload's jobs: nothing to free there.
+void ClusterTasks::evict_here(const Victims& v) {
+  for (std::uint32_t c : v.cells) w_.store.evict(c);
+  if (!w_.gpu) return;
+  for (std::uint32_t c : v.gpu_cells) w_.gpu->evict(c);
+  for (std::int32_t q : v.gpu_queues) w_.gpu->drop_rays(q);
+}
+
+Writer& ClusterTasks::with_victims(Writer& w, const Victims& v) {
+  return w.records(v.cells).records(v.queues).records(v.gpu_cells).records(v.gpu_queues);
+}
+
 void ClusterTasks::evict_elsewhere(ActivityId id, std::map<int, Victims>& v, int main) {
   for (auto& [rank, vic] : v) {
     if (rank == main) continue;
-    if (rank == 0) {  // rank 0's queues live in the workload's jobs: nothing to free
-      for (std::uint32_t c : vic.cells) w_.store.evict(c);
+    if (rank == 0) {
+      evict_here(vic);
       continue;
     }
     Header h;
     h.op = Op::Evict;
     h.activity = id;
     Writer w(h);
-    w.records(vic.cells).records(vic.queues);
+    with_victims(w, vic);
     pending_.expect(id, {rank});
     send(rank, w.buffer());
     pending_.wait(id);
@@ -152,7 +171,7 @@ engine::LocalExecutor::Task ClusterTasks::exec(ActivityId id, const Activity& a,
     Writer w(h);
     std::vector<Part> parts;
     for (const auto& [q, n] : job->parts) parts.push_back({q, n});
-    w.records(v[rank].cells).records(v[rank].queues).records(parts);
+    with_victims(w, v[rank]).records(parts);
     pending_.expect(id, {rank});
     send(rank, w.buffer());
     const Buffer reply = pending_.wait(id);
@@ -178,9 +197,10 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
   const std::uint32_t cell = scene ? cit->second : 0;
   const bool load = scene && from.kind == MemoryKind::Disk && to.kind == MemoryKind::Host;
   const bool lan = from.kind == MemoryKind::Host && to.kind == MemoryKind::Host && src != dst;
+  const bool upload = from.kind == MemoryKind::Host && to.kind == MemoryKind::Gpu;
   // The rays of a ray queue leaving rank 0: those of the job that consumes it.
   std::span<const trace::RayRecord> rays;
-  if (lan && !scene && src == 0)
+  if ((lan || upload) && !scene && src == 0)
     if (const JobId j = w_.workload.consumer(a.block); j != kNone) {
       engine::RayJob& rj = w_.workload.job(j);
       std::size_t off = 0;
@@ -190,8 +210,14 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
       }
     }
   return [=, this, v = std::move(v)]() mutable {
-    const int main = load ? src : (lan ? dst : -1);
+    const int main = load || upload ? src : (lan ? dst : -1);
     evict_elsewhere(id, v, main);
+    if (upload && src == 0) {  // rank 0's GPU (activity_tasks.cpp does the same on one machine)
+      evict_here(v[0]);
+      if (scene) w_.gpu->load(cell);
+      else if (!rays.empty()) w_.gpu->load_rays(a.block, rays, w_.ts);
+      return;
+    }
     if (load && src == 0) {
       for (std::uint32_t c : v[0].cells) w_.store.evict(c);
       try {
@@ -201,7 +227,7 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
       }
       return;
     }
-    if (!load && !lan) return;  // (nothing else moves data in the renderer's plans)
+    if (!load && !lan && !upload) return;  // (nothing else moves data in the renderer's plans)
     Header h;
     h.activity = id;
     h.cell = cell;
@@ -213,14 +239,16 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
     h.device = scene ? 1 : (src == 0 ? 2 : 0);
     if (load) {
       h.op = Op::Load;
+    } else if (upload) {
+      h.op = Op::Upload;
     } else if (src == 0) {  // rank 0 sends the data itself
       h.op = Op::Data;
     } else {  // another rank sends it
       h.op = Op::Send;
     }
     Writer w(h);
-    const int victims_rank = load ? src : dst;
-    w.records(v[victims_rank].cells).records(v[victims_rank].queues);
+    const int victims_rank = load || upload ? src : dst;
+    with_victims(w, v[victims_rank]);
     if (h.op == Op::Data) {
       if (scene) w.records(w_.store.get(cell)->records());
       else w.records(rays);
@@ -232,7 +260,7 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
       return;
     }
     pending_.expect(id, {src, dst});
-    send(h.op == Op::Data ? dst : src, w.buffer());
+    send(h.op == Op::Data ? dst : src, w.buffer());  // (Load, Upload, Send: to src)
     pending_.wait(id);
   };
 }

@@ -16,6 +16,7 @@
 #include "render/engine/cluster.hpp"
 #include "render/engine/local_executor.hpp"
 #include "render/mpi/comm.hpp"
+#include "render/mpi/message.hpp"
 #include "render/mpi/node.hpp"
 
 namespace rayline::mpi {
@@ -74,10 +75,14 @@ class ClusterTasks {
   engine::LocalExecutor::Task hint(ActivityId id, const Activity& a) const;
 
  private:
-  struct Victims {  // per rank: scene blocks (cells) and ray queues leaving its RAM
+  struct Victims {  // per rank: scene blocks (cells) and ray queues leaving its RAM, its GPU
     std::vector<std::uint32_t> cells;
     std::vector<std::int32_t> queues;
+    std::vector<std::uint32_t> gpu_cells;
+    std::vector<std::int32_t> gpu_queues;
   };
+  void evict_here(const Victims& v);  // rank 0's
+  static Writer& with_victims(Writer& w, const Victims& v);
   std::map<int, Victims> victims_of(ActivityId id);
   void send(int rank, const Buffer& b);  // comm_.send, a lost rank an ActivityError
   int rank_of(MemId m) const { return int(w_.g.memories[std::size_t(m)].node); }

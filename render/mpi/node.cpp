@@ -7,6 +7,7 @@
 
 #include "common/error.hpp"
 #include "render/engine/aggregate_factory.hpp"
+#include "render/engine/gpu_select.hpp"
 #include "render/integrator/film.hpp"
 #include "render/mpi/message.hpp"
 
@@ -18,7 +19,7 @@ Buffer encode_frame(const engine::ClusterFrame& f) {
   Writer w(h);
   const std::int64_t ints[] = {f.width, f.height, f.spp, f.max_depth, f.threads, f.build_threads, f.quality,
                                std::int64_t(f.seed), f.skip_empty};
-  w.text(f.scene).text(f.blocks_dir).records(std::span<const std::int64_t>(ints)).records(f.footprint);
+  w.text(f.scene).text(f.blocks_dir).records(std::span<const std::int64_t>(ints)).records(f.footprint).text(f.gpu);
   return std::move(w.buffer());
 }
 
@@ -32,6 +33,7 @@ engine::ClusterFrame decode_frame(const Buffer& b) {
   f.width = int(v[0]), f.height = int(v[1]), f.spp = int(v[2]), f.max_depth = int(v[3]), f.threads = int(v[4]);
   f.build_threads = int(v[5]), f.quality = int(v[6]), f.seed = std::uint64_t(v[7]), f.skip_empty = v[8] != 0;
   f.footprint = r.records<std::uint64_t>();
+  f.gpu = r.text();
   return f;
 }
 
@@ -51,8 +53,16 @@ Node::Node(Comm& comm, const engine::ClusterFrame& f, engine::BlockStore* store)
   ts_.seed = f.seed;
   ts_.max_depth = f.max_depth;
   ts_.skip_empty = f.skip_empty;
-  const engine::AggregateSources sources{*store_, nullptr, nullptr, true};
+  if (!f.gpu.empty()) {  // every node has rank 0's GPU (the graph is homogeneous)
+    std::string status;
+    gpu_ctx_ = engine::select_gpu(f.gpu, status);
+    if (!gpu_ctx_)
+      throw std::runtime_error("no Vulkan device '" + f.gpu + "' here, as rank 0 has (" + status + ")");
+    gpu_ = std::make_unique<engine::GpuStore>(*gpu_ctx_, *store_);
+  }
+  const engine::AggregateSources sources{*store_, gpu_.get(), nullptr, true};
   for (int t = 0; t < f.threads; ++t) aggregates_.push_back(engine::make_aggregate(ComputeKind::Cpu, sources));
+  if (gpu_) aggregates_.push_back(engine::make_aggregate(ComputeKind::Gpu, sources));
 }
 
 Node::~Node() { drain(); }
@@ -104,13 +114,33 @@ std::vector<trace::RayRecord> Node::queue(std::int32_t block) {
   return it == queues_.end() ? std::vector<trace::RayRecord>{} : it->second;
 }
 
-// Every command starts with the evictions of its activity on this rank's RAM: scene blocks
-// (cells) and ray queues (blocks).
+// Every command starts with the evictions of its activity on this rank: scene blocks (cells)
+// and ray queues leaving its RAM, then its GPU's memory.
 void Node::evict(Reader& r) {
   for (std::uint32_t c : r.records<std::uint32_t>()) store_->evict(c);
   const auto queues = r.records<std::int32_t>();
+  const auto gpu_cells = r.records<std::uint32_t>();
+  const auto gpu_queues = r.records<std::int32_t>();
+  if (gpu_) {
+    for (std::uint32_t c : gpu_cells) gpu_->evict(c);
+    for (std::int32_t q : gpu_queues) gpu_->drop_rays(q);
+  }
   std::lock_guard lk(mu_);
   for (std::int32_t q : queues) queues_.erase(q);
+}
+
+void Node::upload(const Buffer& m) {
+  Reader r(m);
+  const Header h = r.header();
+  evict(r);
+  if (!gpu_) throw std::runtime_error("a GPU T-job on a rank without a GPU");
+  if (h.device == 1) {
+    gpu_->load(h.cell);
+  } else {
+    const auto rays = queue(h.block);  // (arrived over the LAN before this message)
+    if (!rays.empty()) gpu_->load_rays(h.block, rays, ts_);
+  }
+  done(h.activity, true, "");
 }
 
 void Node::load(const Buffer& m) {
@@ -174,10 +204,12 @@ void Node::send(const Buffer& m) {
   Header h = r.header();
   const auto ram_cells = r.records<std::uint32_t>();  // the receiver's evictions, forwarded
   const auto queues = r.records<std::int32_t>();
+  const auto gpu_cells = r.records<std::uint32_t>();
+  const auto gpu_queues = r.records<std::int32_t>();
   try {
     h.op = Op::Data;
     Writer w(h);
-    w.records(ram_cells).records(queues);
+    w.records(ram_cells).records(queues).records(gpu_cells).records(gpu_queues);
     if (h.device == 1) {
       w.records(store_->get(h.cell)->records());
       ++scene_out;
@@ -218,6 +250,7 @@ bool Node::handle(int, Buffer message) {
   switch (h.op) {
     case Op::Load: spawn(h.activity, [this, m = std::move(message)] { load(m); }); return true;
     case Op::Exec: spawn(h.activity, [this, m = std::move(message)] { exec(m); }); return true;
+    case Op::Upload: spawn(h.activity, [this, m = std::move(message)] { upload(m); }); return true;
     case Op::Send: spawn(h.activity, [this, m = std::move(message)] { send(m); }); return true;
     case Op::Data:
       if (h.device == 1) spawn(h.activity, [this, m = std::move(message)] { data(m); });

@@ -20,6 +20,8 @@
 #include "render/partition/partition.hpp"
 #include "render/scene/scene.hpp"
 #include "render/store/block_store.hpp"
+#include "render/store/gpu_store.hpp"
+#include "render/vulkan/vulkan_device.hpp"
 
 namespace rayline::mpi {
 
@@ -31,8 +33,10 @@ engine::ClusterFrame decode_frame(const Buffer& b);
 
 class Node {
  public:
-  // On rank 0 `store` is the renderer's own and `ts` its trace settings (the scene loaded
-  // once); elsewhere the node loads the scene and opens the blocks itself (store == nullptr).
+  // On rank 0 `store` is the renderer's own (its threads trace through ClusterTasks);
+  // elsewhere the node loads the scene, opens the blocks and the GPU named by the frame
+  // itself (store == nullptr). Its compute devices are, in order, `threads` CPU threads and
+  // the GPU, as the node type of engine::cluster_json.
   Node(Comm& comm, const engine::ClusterFrame& f, engine::BlockStore* store = nullptr);
   ~Node();
   // On the receiver thread. Returns false for a message that is not the node's.
@@ -53,6 +57,7 @@ class Node {
   void exec(const Buffer& m);
   void send(const Buffer& m);
   void data(const Buffer& m);
+  void upload(const Buffer& m);
 
   Comm& comm_;
   engine::ClusterFrame frame_;
@@ -60,6 +65,8 @@ class Node {
   partition::BlockIndex index_;
   std::unique_ptr<engine::BlockStore> own_store_;
   engine::BlockStore* store_;
+  std::unique_ptr<gpu::GpuContext> gpu_ctx_;  // the node's GPU (frame.gpu), if any
+  std::unique_ptr<engine::GpuStore> gpu_;
   trace::TraceSettings ts_;
   std::vector<std::unique_ptr<accel::Aggregate>> aggregates_;  // per local CPU thread
   std::mutex mu_;
@@ -69,6 +76,7 @@ class Node {
  public:
   // What this rank did (the Stats reply).
   std::atomic<std::uint64_t> execs{0}, scene_in{0}, scene_out{0}, queues_in{0}, queues_out{0};
+  std::uint64_t gpu_jobs() const { return gpu_ ? gpu_->stats().gpu_jobs : 0; }
 };
 
 }  // namespace rayline::mpi
