@@ -193,6 +193,9 @@ RunStats RuntimeLoop::run(Time until) {
   RunStats st;
   workload_.start(executor_.now(), pool_, schedule_);
   if (pool_.queued_count() > 0) plan_and_dispatch(executor_.now(), st);
+  // Faults due already (at 0 s) apply now, before a thread of a real engine can start what
+  // was planned on a device lost at that time; later ones at their first batch of events.
+  while (next_fault_ < faults_.size() && executor_.now() >= faults_[next_fault_].at) apply_fault(faults_[next_fault_++], st);
   // The executor runs until nothing is in flight (then the workload may add more, or the
   // run is over) or until `until`; every batch it reports may trigger a plan (Sec. 4.2).
   const Executor::Sink sink = [&](std::vector<ExecutorEvent>& events) {
