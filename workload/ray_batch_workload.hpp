@@ -23,6 +23,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -143,6 +144,19 @@ class RayBatchWorkload : public Workload {
   JobId consumer(BlockId queue) const {
     auto it = consumer_.find(queue);
     return it == consumer_.end() ? kNone : it->second;
+  }
+  // The rays of ray queue `queue` inside the job that consumes it (empty when no job holds it
+  // or the job's rays are gone): what a T-job moving that queue carries.
+  std::span<const Ray> queue_rays(BlockId queue) {
+    const JobId j = consumer(queue);
+    if (j == kNone || static_cast<std::size_t>(j) >= jobs_.size() || !jobs_[static_cast<std::size_t>(j)]) return {};
+    const Job& job = *jobs_[static_cast<std::size_t>(j)];
+    std::size_t off = 0;
+    for (const auto& [q, n] : job.parts) {
+      if (q == queue) return off + n <= job.rays.size() ? std::span<const Ray>(job.rays).subspan(off, n) : std::span<const Ray>{};
+      off += n;
+    }
+    return {};
   }
   const Counts& counts() const { return counts_; }
   std::uint64_t camera_rays() const { return next_camera_; }

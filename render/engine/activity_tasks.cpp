@@ -82,15 +82,7 @@ LocalExecutor::Task ActivityTasks::gpu_transfer_task(const Activity& a, Victims 
       gpu->load(cell);
     };
   // A ray queue RAM->GPU: the rays of that queue inside the job that consumes it.
-  std::span<const trace::RayRecord> rays;
-  if (const JobId j = s_.workload.consumer(a.block); j != kNone) {
-    RayJob& rj = s_.workload.job(j);
-    std::size_t off = 0;
-    for (const auto& [q, n] : rj.parts) {
-      if (q == a.block) rays = std::span<const trace::RayRecord>(rj.rays).subspan(off, n);
-      off += n;
-    }
-  }
+  const std::span<const trace::RayRecord> rays = s_.workload.queue_rays(a.block);
   return [this, gpu, q = a.block, rays, v = std::move(v)] {
     evict(v);
     if (!rays.empty()) gpu->load_rays(q, rays, s_.ts);

@@ -1,6 +1,7 @@
 #include "render/mpi/lan_calibration.hpp"
 
 #include <algorithm>
+#include <tuple>
 
 namespace rayline::mpi {
 
@@ -11,7 +12,19 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 constexpr std::size_t kBig = std::size_t(4) << 20;
+int big_trips(int round_trips) { return std::max(3, round_trips / 4); }
 }  // namespace
+
+std::pair<double, double> measure_pair(Comm& comm, int peer, int round_trips) {
+  const double lat = median(comm.ping(peer, 8, round_trips)) / 2;
+  const double big = median(comm.ping(peer, kBig, big_trips(round_trips))) / 2;
+  return {lat, double(kBig) / std::max(big - lat, 1e-9)};
+}
+
+void echo_pair(Comm& comm, int peer, int round_trips) {
+  comm.echo(peer, 8, round_trips);
+  comm.echo(peer, kBig, big_trips(round_trips));
+}
 
 LanMeasurement measure_lan(const Session& s, int round_trips) {
   Comm comm(s);
@@ -22,15 +35,8 @@ LanMeasurement measure_lan(const Session& s, int round_trips) {
   std::vector<double> mine(std::size_t(2 * n), 0.0);  // latency, bandwidth to each rank
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j) {
-      if (s.rank() == i) {
-        const double lat = median(comm.ping(j, 8, round_trips)) / 2;
-        const double big = median(comm.ping(j, kBig, std::max(3, round_trips / 4))) / 2;
-        mine[std::size_t(2 * j)] = lat;
-        mine[std::size_t(2 * j + 1)] = double(kBig) / std::max(big - lat, 1e-9);
-      } else if (s.rank() == j) {
-        comm.echo(i, 8, round_trips);
-        comm.echo(i, kBig, std::max(3, round_trips / 4));
-      }
+      if (s.rank() == i) std::tie(mine[std::size_t(2 * j)], mine[std::size_t(2 * j + 1)]) = measure_pair(comm, j, round_trips);
+      else if (s.rank() == j) echo_pair(comm, i, round_trips);
       comm.barrier();
     }
   const std::vector<double> all = comm.gather(mine);

@@ -9,28 +9,21 @@
 #include <tuple>
 
 #include "render/engine/renderer.hpp"
+#include "render/mpi/lan_calibration.hpp"
 #include "render/mpi/message.hpp"
 #include "render/store/block_store.hpp"
-#include "render/store/gpu_store.hpp"
 
 namespace rayline::mpi {
 
 namespace {
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
-constexpr std::size_t kBandwidthBytes = std::size_t(4) << 20;
 
-// `gpu_jobs`: those of a GPU the node does not hold itself (rank 0's, in the renderer's store).
-Buffer stats_message(const Node& n, const engine::BlockStore& store, const Comm& comm, const std::string& host,
-                     std::uint64_t gpu_jobs = 0) {
+Buffer stats_message(Node& n, const Comm& comm, const std::string& host) {
   Header h;
   h.op = Op::Stats;
   Writer w(h);
-  const auto st = store.stats();
+  const auto st = n.store().stats();
   const std::uint64_t v[] = {n.execs,     st.loads,   st.evictions, st.bytes_read, n.scene_in,
-                             n.scene_out, n.queues_in, n.queues_out, n.gpu_jobs() + gpu_jobs};
+                             n.scene_out, n.queues_in, n.queues_out, n.gpu_jobs()};
   std::vector<std::uint64_t> traffic;
   for (int r = 0; r < comm.size(); ++r) {
     traffic.push_back(comm.sent_to(r).messages);
@@ -55,22 +48,19 @@ engine::RankStats read_stats(const Buffer& m) {
 }  // namespace
 
 MpiCluster::MpiCluster(const Session& s) : session_(s), comm_(s), stats_(std::size_t(s.size())) {
-  // Eq. 1's two terms for the rank-to-rank channel: half a round trip of 8 bytes, and of 4 MiB.
+  // The LAN as rank 0 sees it (lan_calibration.hpp): the worst pair with each rank.
+  if (s.size() == 1) return;
   lan_.latency = 0;
   lan_.bandwidth = 0;
   for (int r = 1; r < s.size(); ++r) {
     if (s.rank() == 0) {
-      const double small = median(comm_.ping(r, 8, 31)) / 2;
-      const double big = median(comm_.ping(r, kBandwidthBytes, 7)) / 2;
-      lan_.latency = std::max(lan_.latency, small);
-      const double bw = double(kBandwidthBytes) / std::max(big - small, 1e-9);
-      lan_.bandwidth = lan_.bandwidth > 0 ? std::min(lan_.bandwidth, bw) : bw;
+      const auto [latency, bandwidth] = measure_pair(comm_, r);
+      lan_.latency = std::max(lan_.latency, latency);
+      lan_.bandwidth = lan_.bandwidth > 0 ? std::min(lan_.bandwidth, bandwidth) : bandwidth;
     } else if (s.rank() == r) {
-      comm_.echo(0, 8, 31);
-      comm_.echo(0, kBandwidthBytes, 7);
+      echo_pair(comm_, 0);
     }
   }
-  if (s.size() == 1) lan_ = engine::LanModel{};
 }
 
 MpiCluster::~MpiCluster() {
@@ -190,10 +180,8 @@ void MpiCluster::start(const engine::ClusterFrame& f) {
 }
 
 std::unique_ptr<engine::LocalExecutor> MpiCluster::executor(const engine::ClusterWork& w) {
-  self_ = std::make_unique<Node>(comm_, frame_, &w.store);
+  self_ = std::make_unique<Node>(comm_, frame_, &w.store, w.gpu);
   self_->on_local_done = [this](int activity, bool ok, const std::string& why) { pending_.complete(activity, ok, why); };
-  store_ = &w.store;
-  gpu_ = w.gpu;
   auto e = std::make_unique<MpiExecutor>(w.g, std::make_unique<ClusterTasks>(comm_, *self_, w, pending_, exec_time_), pending_);
   executor_ = e.get();
   return e;
@@ -218,7 +206,7 @@ void MpiCluster::finish(engine::RenderResult& res) {
     ready_ = -1;  // stopped: nothing more to send
   }
   self_->drain();
-  stats_[0] = read_stats(stats_message(*self_, *store_, comm_, session_.host(), gpu_ ? gpu_->stats().gpu_jobs : 0));
+  stats_[0] = read_stats(stats_message(*self_, comm_, session_.host()));
   for (int r : lost_) stats_[std::size_t(r)].lost = true;
   for (int r = 0; r < ranks(); ++r) std::tie(stats_[std::size_t(r)].exec_traced_seconds, stats_[std::size_t(r)].exec_seen_seconds) = exec_time_.of(r);
   res.ranks = stats_;
@@ -266,7 +254,7 @@ int MpiCluster::serve() {
     if (h.op == Op::Stop) {
       if (self_) {
         self_->drain();
-        comm_.send(0, stats_message(*self_, self_->store(), comm_, session_.host()));
+        comm_.send(0, stats_message(*self_, comm_, session_.host()));
       }
       std::lock_guard lk(mu);
       stop = true;

@@ -51,8 +51,6 @@ class MpiCluster final : public engine::Cluster {
   std::string fatal_;                // a rank's Fatal message
   std::vector<engine::RankStats> stats_;
   engine::ClusterFrame frame_;
-  engine::BlockStore* store_ = nullptr;
-  engine::GpuStore* gpu_ = nullptr;
   engine::LocalExecutor* executor_ = nullptr;
   std::vector<int> lost_, lost_new_;
   std::atomic<bool> stop_watch_{false};

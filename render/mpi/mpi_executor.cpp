@@ -199,16 +199,8 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
   const bool lan = from.kind == MemoryKind::Host && to.kind == MemoryKind::Host && src != dst;
   const bool upload = from.kind == MemoryKind::Host && to.kind == MemoryKind::Gpu;
   // The rays of a ray queue leaving rank 0: those of the job that consumes it.
-  std::span<const trace::RayRecord> rays;
-  if ((lan || upload) && !scene && src == 0)
-    if (const JobId j = w_.workload.consumer(a.block); j != kNone) {
-      engine::RayJob& rj = w_.workload.job(j);
-      std::size_t off = 0;
-      for (const auto& [q, n] : rj.parts) {
-        if (q == a.block) rays = std::span<const trace::RayRecord>(rj.rays).subspan(off, n);
-        off += n;
-      }
-    }
+  const std::span<const trace::RayRecord> rays =
+      (lan || upload) && !scene && src == 0 ? w_.workload.queue_rays(a.block) : std::span<const trace::RayRecord>{};
   return [=, this, v = std::move(v)]() mutable {
     const int main = load || upload ? src : (lan ? dst : -1);
     evict_elsewhere(id, v, main);
@@ -219,7 +211,7 @@ engine::LocalExecutor::Task ClusterTasks::transfer(ActivityId id, const Activity
       return;
     }
     if (load && src == 0) {
-      for (std::uint32_t c : v[0].cells) w_.store.evict(c);
+      evict_here(v[0]);
       try {
         w_.store.load(cell);
       } catch (const InputError& e) {

@@ -37,8 +37,8 @@ engine::ClusterFrame decode_frame(const Buffer& b) {
   return f;
 }
 
-Node::Node(Comm& comm, const engine::ClusterFrame& f, engine::BlockStore* store)
-    : comm_(comm), frame_(f), store_(store) {
+Node::Node(Comm& comm, const engine::ClusterFrame& f, engine::BlockStore* store, engine::GpuStore* gpu)
+    : comm_(comm), frame_(f), store_(store), gpu_(gpu) {
   if (store_) return;  // rank 0: the renderer's store; its own threads trace (ClusterTasks)
   scene_ = f.scene.empty() ? scene::default_scene() : scene::load_scene(f.scene);
   index_ = partition::load_block_index(f.blocks_dir);
@@ -58,9 +58,10 @@ Node::Node(Comm& comm, const engine::ClusterFrame& f, engine::BlockStore* store)
     gpu_ctx_ = engine::select_gpu(f.gpu, status);
     if (!gpu_ctx_)
       throw std::runtime_error("no Vulkan device '" + f.gpu + "' here, as rank 0 has (" + status + ")");
-    gpu_ = std::make_unique<engine::GpuStore>(*gpu_ctx_, *store_);
+    own_gpu_ = std::make_unique<engine::GpuStore>(*gpu_ctx_, *store_);
+    gpu_ = own_gpu_.get();
   }
-  const engine::AggregateSources sources{*store_, gpu_.get(), nullptr, true};
+  const engine::AggregateSources sources{*store_, gpu_, nullptr, true};
   for (int t = 0; t < f.threads; ++t) aggregates_.push_back(engine::make_aggregate(ComputeKind::Cpu, sources));
   if (gpu_) aggregates_.push_back(engine::make_aggregate(ComputeKind::Gpu, sources));
 }

@@ -37,7 +37,7 @@ class Node {
   // elsewhere the node loads the scene, opens the blocks and the GPU named by the frame
   // itself (store == nullptr). Its compute devices are, in order, `threads` CPU threads and
   // the GPU, as the node type of engine::cluster_json.
-  Node(Comm& comm, const engine::ClusterFrame& f, engine::BlockStore* store = nullptr);
+  Node(Comm& comm, const engine::ClusterFrame& f, engine::BlockStore* store = nullptr, engine::GpuStore* gpu = nullptr);
   ~Node();
   // On the receiver thread. Returns false for a message that is not the node's.
   bool handle(int source, Buffer message);
@@ -66,7 +66,8 @@ class Node {
   std::unique_ptr<engine::BlockStore> own_store_;
   engine::BlockStore* store_;
   std::unique_ptr<gpu::GpuContext> gpu_ctx_;  // the node's GPU (frame.gpu), if any
-  std::unique_ptr<engine::GpuStore> gpu_;
+  std::unique_ptr<engine::GpuStore> own_gpu_;
+  engine::GpuStore* gpu_ = nullptr;            // own_gpu_, or rank 0's
   trace::TraceSettings ts_;
   std::vector<std::unique_ptr<accel::Aggregate>> aggregates_;  // per local CPU thread
   std::mutex mu_;
