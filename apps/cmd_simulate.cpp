@@ -163,6 +163,8 @@ void path_trace_config(const SimulateOptions& opt, sim::SimulationConfig& cfg) {
 void engine_config(const SimulateOptions& opt, Time horizon, const AgingSetting& aging, sim::SimulationConfig& cfg) {
   cfg.scheduler = scheduler_choice(opt.scheduler, horizon, aging);
   cfg.scheduler.rayline_off = rayline_rules_flag(opt.rayline_off, cfg.scheduler.kind);
+  if (opt.plan_cell < 0) throw InputError("--plan-cell", "", "must be >= 0 (0: one cell)");
+  cfg.scheduler.plan_cell = opt.plan_cell;
   // Shorter than a microsecond nothing can happen (the shortest latency modelled is ~1 us),
   // and per-second rates and shares of such a run run to hundreds of digits.
   if (!(cfg.duration >= 1e-6)) throw InputError("--duration", "", "must be at least 1us");

@@ -100,6 +100,7 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->type_name(kDuration)->default_val(opt->horizon);
   sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->type_name(kAging)->default_val(opt->aging);
   sim->add_option("--rayline-off", opt->rayline_off, "Rayline's rules to switch off, comma-separated, for an ablation: ownership, image-split, completion, batching, no-waiting (docs/rayline-policy.md)")->type_name("RULES");
+  sim->add_option("--plan-cell", opt->plan_cell, "GMB on large clusters: plan in cells of at most this many nodes (racks split, never joined); each device considers the jobs homed in its cell, and a cluster-level pass moves jobs to cells that run dry (docs/scheduler.md, \"Plan cells\"). 0: one cell, the paper's flat GMB at any size")->default_val(opt->plan_cell)->check(CLI::NonNegativeNumber);
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->type_name(kDuration)->default_val(opt->duration);
   sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed)->check(kSeed);
   sim->add_option("--exec-noise", opt->exec_noise, "Actual E-job time = predicted x U[1-n,1+n]")->default_val(opt->exec_noise);
@@ -193,6 +194,7 @@ void add_compare(CLI::App& app, std::function<int()>& action) {
   c->add_option("--workload", o.workload, "'ray-stream', a job-set JSON file, or boeing, museum, FILE.profile.json")->default_val(o.workload);
   c->add_option("--horizon,-k", o.horizon, "GMB horizon k (Sec. 4.2)")->type_name(kDuration)->default_val(o.horizon);
   c->add_option("--aging", o.aging, "GMB aging threshold (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration")->type_name(kAging)->default_val(o.aging);
+  c->add_option("--plan-cell", o.plan_cell, "GMB: nodes per plan cell, 0 for one cell (see simulate --help)")->default_val(o.plan_cell)->check(CLI::NonNegativeNumber);
   c->add_option("--duration", o.duration, "Simulated time")->type_name(kDuration)->default_val(o.duration);
   c->add_option("--transfer-order", o.transfer_order, "T-jobs on shared media: channel, resource or exclusive (see simulate --help)")
       ->default_val(o.transfer_order)

@@ -263,11 +263,9 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
   const std::size_t nlinks = g.resources.size() + g.channels.size();
   m.link_bytes.assign(nlinks, 0.0);
   m.channel_done_bytes.assign(g.channels.size(), 0.0);
-  m.link_active.assign(nlinks, 0);
-  m.link_listed.assign(nlinks, 0);
   m.device_work_s.assign(g.computes.size(), 0.0);
   m.device_active.assign(g.computes.size(), 0);
-  m.device_listed.assign(g.computes.size(), 0);
+  m.device_since.assign(g.computes.size(), 0.0);
 
   Impl* self = &m;
   sg4::Activity::on_completion_cb([self](const sg4::Activity& a) {
@@ -297,52 +295,33 @@ SgPlatform::~SgPlatform() {
 // ---------------------------------------------------------------------------------------
 // Impl: bookkeeping shared by the signals and the start_* calls.
 
-void SgPlatform::Impl::mark_active(std::int32_t link, int delta_count) {
-  link_active[link] += delta_count;
-  if (link_active[link] > 0 && !link_listed[link]) {
-    link_listed[link] = 1;
-    active_links.push_back(link);
-  }
-}
-
+// A compute host runs at 1 flop/s on one core: it is fully loaded while at least one exec
+// runs on it, so its busy time is the union of those intervals, summed as they close.
 void SgPlatform::Impl::mark_device(DeviceId d, int delta_count) {
+  const int before = device_active[d];
   device_active[d] += delta_count;
-  if (device_active[d] > 0 && !device_listed[d]) {
-    device_listed[d] = 1;
-    active_devices.push_back(d);
-  }
+  if (before == 0 && device_active[d] > 0) device_since[d] = sg4::Engine::get_clock();
+  if (before > 0 && device_active[d] == 0) device_work_s[d] += sg4::Engine::get_clock() - device_since[d];
 }
 
-void SgPlatform::Impl::use_channel_links(ChannelId c, int delta_count) {
-  for (std::int32_t l : channel_route[c]) mark_active(l, delta_count);
+// Every flow crosses each link of its route with all its bytes: a link's integral of
+// usage is the bytes of the flows that crossed it, added as each flow ends (or is
+// cancelled, with what it had sent), in O(route) per transfer rather than per time step.
+void SgPlatform::Impl::add_route_bytes(ChannelId c, double bytes) {
+  for (std::int32_t l : channel_route[c]) link_bytes[l] += bytes;
+  if (!channel_links[c]) channel_done_bytes[c] += bytes;
 }
 
-void SgPlatform::Impl::on_time_advance(double delta) {
-  // Link::get_usage() still holds the rate of the interval that just ended.
-  const std::size_t nres = resource_links.size();
-  for (std::size_t i = 0; i < active_links.size();) {
-    const std::int32_t l = active_links[i];
-    if (link_active[l] == 0) {
-      link_listed[l] = 0;
-      active_links[i] = active_links.back();
-      active_links.pop_back();
-      continue;
-    }
-    const sg4::Link* link = static_cast<std::size_t>(l) < nres ? resource_links[l] : channel_links[l - nres];
-    link_bytes[l] += link->get_usage() * delta;
-    ++i;
-  }
-  for (std::size_t i = 0; i < active_devices.size();) {
-    const DeviceId d = active_devices[i];
-    if (device_active[d] == 0) {
-      device_listed[d] = 0;
-      active_devices[i] = active_devices.back();
-      active_devices.pop_back();
-      continue;
-    }
-    device_work_s[d] += compute_hosts[d]->get_load() * delta;  // speed 1: flops/s = busy fraction
-    ++i;
-  }
+double SgPlatform::Impl::in_flight_bytes(std::int32_t link) const {
+  double bytes = 0;
+  for (const auto& [id, p] : pending)
+    if (p.channel != kNone && p.activity)
+      for (std::int32_t l : channel_route[p.channel])
+        if (l == link) bytes += moved_bytes(p, false);
+  return bytes;
+}
+
+void SgPlatform::Impl::on_time_advance(double) {
   // Everything in the graveyard completed in an earlier round and was fully post()ed.
   graveyard.clear();
 }
@@ -357,7 +336,6 @@ void SgPlatform::Impl::launch_comm(SgActivityId id, Bytes bytes) {
   by_activity[comm.get()] = id;
   p.activity = comm;
   p.bytes = bytes;
-  use_channel_links(p.channel, +1);
 }
 
 void SgPlatform::Impl::complete(SgActivityId id, Time finish_s, bool ok) {
@@ -366,9 +344,8 @@ void SgPlatform::Impl::complete(SgActivityId id, Time finish_s, bool ok) {
   Pending p = std::move(it->second);
   pending.erase(it);
   if (p.activity) {
-    if (p.channel != kNone && !channel_links[p.channel]) channel_done_bytes[p.channel] += moved_bytes(p, ok);
+    if (p.channel != kNone) add_route_bytes(p.channel, moved_bytes(p, ok));
     graveyard.push_back(std::move(p.activity));  // SimGrid still uses it after this signal
-    if (p.channel != kNone) use_channel_links(p.channel, -1);
     if (p.device != kNone) mark_device(p.device, -1);
   }
   if (stopped || !p.done) return;
@@ -528,10 +505,7 @@ void SgPlatform::cancel(SgActivityId id) {
   Impl::Pending p = std::move(it->second);
   m.pending.erase(it);  // complete() ignores it from now on; a latency timer finds nothing to do
   if (!p.activity) return;
-  if (p.channel != kNone) {
-    m.use_channel_links(p.channel, -1);
-    if (!m.channel_links[p.channel]) m.channel_done_bytes[p.channel] += Impl::moved_bytes(p, false);
-  }
+  if (p.channel != kNone) m.add_route_bytes(p.channel, Impl::moved_bytes(p, false));
   if (p.device != kNone) m.mark_device(p.device, -1);
   sg4::ActivityPtr a = p.activity;
   m.graveyard.push_back(a);
@@ -572,20 +546,26 @@ Time SgPlatform::now() const { return sg4::Engine::get_clock(); }
 
 std::size_t SgPlatform::in_flight() const { return impl_->pending.size(); }
 
-double SgPlatform::resource_bytes(ResourceId r) const { return impl_->link_bytes.at(impl_->resource_link_index(r)); }
+double SgPlatform::resource_bytes(ResourceId r) const {
+  const std::int32_t l = impl_->resource_link_index(r);
+  return impl_->link_bytes.at(static_cast<std::size_t>(l)) + impl_->in_flight_bytes(l);
+}
 
 double SgPlatform::channel_bytes(ChannelId c) const {
   if (c < 0 || c >= static_cast<ChannelId>(impl_->graph.channels.size()))
     throw std::out_of_range("SgPlatform::channel_bytes: unknown channel " + std::to_string(c));
   const Impl& m = *impl_;
-  if (m.channel_links[c]) return m.link_bytes[m.channel_link_index(c)];
+  if (m.channel_links[c]) return m.link_bytes[m.channel_link_index(c)] + m.in_flight_bytes(m.channel_link_index(c));
   double bytes = m.channel_done_bytes[c];  // a channel without its own link: its transfers' bytes
   for (const auto& [id, p] : m.pending)
     if (p.channel == c && p.activity) bytes += Impl::moved_bytes(p, false);
   return bytes;
 }
 
-double SgPlatform::device_busy_s(DeviceId d) const { return impl_->device_work_s.at(d); }
+double SgPlatform::device_busy_s(DeviceId d) const {
+  const Impl& m = *impl_;
+  return m.device_work_s.at(d) + (m.device_active[d] > 0 ? now() - m.device_since[d] : 0.0);
+}
 
 const DeviceGraph& SgPlatform::graph() const { return impl_->graph; }
 

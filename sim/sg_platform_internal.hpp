@@ -29,10 +29,9 @@ struct SgPlatform::Impl {
   // Exact integrals, by link index (resources first, then channels) and by DeviceId.
   std::vector<double> link_bytes;
   std::vector<double> channel_done_bytes;  // by ChannelId, channels without a link: finished transfers' bytes
-  std::vector<double> device_work_s;
-  std::vector<int> link_active, device_active;  // running SimGrid activities using it
-  std::vector<std::int32_t> active_links, active_devices;  // indices with active > 0 (lazily pruned)
-  std::vector<char> link_listed, device_listed;
+  std::vector<double> device_work_s;  // closed busy intervals
+  std::vector<int> device_active;      // execs running on it
+  std::vector<double> device_since;    // while device_active > 0: when the busy interval began
 
   struct Pending {
     SgActivityId id = 0;
@@ -70,9 +69,9 @@ struct SgPlatform::Impl {
   void complete(SgActivityId id, Time finish_s, bool ok);  // bookkeeping; the user callback is due
   void flush_due();                                         // call due callbacks in start order
   void flush_now();                                         // the same from maestro, timer withdrawn
-  void on_time_advance(double delta);                      // integrate link/host usage
-  void use_channel_links(ChannelId c, int delta_count);
-  void mark_active(std::int32_t link, int delta_count);
+  void on_time_advance(double delta);                      // empties the graveyard
+  void add_route_bytes(ChannelId c, double bytes);          // a transfer ended or was cancelled
+  double in_flight_bytes(std::int32_t link) const;          // bytes running transfers sent through it
   void mark_device(DeviceId d, int delta_count);
 
   std::int32_t resource_link_index(ResourceId r) const { return r; }

@@ -31,7 +31,8 @@ std::unique_ptr<Scheduler> make_scheduler(const SchedulerChoice& c) {
       return std::make_unique<GmbScheduler>(GmbOptions{.horizon = c.horizon,
                                                        .aging = c.aging,
                                                        .adaptive_aging = c.adaptive_aging,
-                                                       .completion_aware = c.kind == SchedulerKind::GmbCompletionAware});
+                                                       .completion_aware = c.kind == SchedulerKind::GmbCompletionAware,
+                                                       .cell_nodes = c.plan_cell});
     case SchedulerKind::Budge: return std::make_unique<BudgeScheduler>();
     case SchedulerKind::LoadAnyOnce: return std::make_unique<LoadAnyOnceScheduler>();
     // Rayline's policy places each job where it finishes first, so it looks a quarter as

@@ -91,6 +91,18 @@ void Schedule::add_copy(BlockId b, Copy c) {
   copies_[b].push_back(std::move(c));
 }
 
+const Copy* Schedule::indexed_copy_at(BlockId b, MemId m) const {
+  CopyIndex& ix = copy_index_[b];
+  const std::vector<Copy>& cs = copies_[static_cast<std::size_t>(b)];
+  if (ix.holders != holders_version_[static_cast<std::size_t>(b)]) {
+    ix.pos.assign(graph_->memories.size(), -1);
+    for (std::size_t k = 0; k < cs.size(); ++k) ix.pos[static_cast<std::size_t>(cs[k].mem)] = static_cast<std::int32_t>(k);
+    ix.holders = holders_version_[static_cast<std::size_t>(b)];
+  }
+  const std::int32_t k = ix.pos[static_cast<std::size_t>(m)];
+  return k >= 0 ? &cs[static_cast<std::size_t>(k)] : nullptr;
+}
+
 void Schedule::note_cached(BlockId b, MemId m) {
   const DataBlock& blk = pool_->block(b);
   if (blk.consumed || !blk.movable) return;

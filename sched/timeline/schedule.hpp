@@ -92,7 +92,9 @@ class Schedule {
   const Copy* copy_at(BlockId b, MemId m) const {
     if (static_cast<std::size_t>(b) >= copies_.size()) return nullptr;
     if (static_cast<std::uint32_t>(m) < 64u && !((holder_mask_[static_cast<std::size_t>(b)] >> m) & 1)) return nullptr;
-    for (const Copy& c : copies_[static_cast<std::size_t>(b)])
+    const std::vector<Copy>& cs = copies_[static_cast<std::size_t>(b)];
+    if (cs.size() > kScannedCopies) return indexed_copy_at(b, m);
+    for (const Copy& c : cs)
       if (c.mem == m) return &c;
     return nullptr;
   }
@@ -261,6 +263,17 @@ class Schedule {
   // Per block: bit m set iff a copy is on memory device m < 64 (copy_at's quick miss; a
   // device >= 64 is always looked up).
   std::vector<std::uint64_t> holder_mask_;
+  // A block with more copies than this (a scene block on every disk of a large cluster)
+  // is looked up through a position index per memory device, rebuilt when its holders
+  // version moved: copy_at() is asked per memory device and relay, so a scan would make
+  // fetch-path searches quadratic in the node count.
+  static constexpr std::size_t kScannedCopies = 16;
+  struct CopyIndex {
+    std::uint64_t holders = ~std::uint64_t{0};
+    std::vector<std::int32_t> pos;  // per memory device: index into copies_[b], -1: none
+  };
+  mutable std::unordered_map<BlockId, CopyIndex> copy_index_;
+  const Copy* indexed_copy_at(BlockId b, MemId m) const;
   void forget_holder(BlockId b, MemId m) {
     if (static_cast<std::uint32_t>(m) < 64u) holder_mask_[static_cast<std::size_t>(b)] &= ~(std::uint64_t{1} << m);
   }

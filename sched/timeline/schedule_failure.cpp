@@ -78,7 +78,10 @@ Schedule::Failure Schedule::fail(Time now, const std::vector<ActivityId>& seeds,
       return is_aborted(c.producer);
     });
     for (Copy& c : v) c.users.erase_if(is_aborted);
-    if (v.size() != before) touched.push_back(static_cast<BlockId>(b));
+    if (v.size() != before) {
+      touched.push_back(static_cast<BlockId>(b));
+      ++holders_version_[b];  // (copy_at() below must not answer from the old positions)
+    }
   }
   // Leaving entries: a copy an aborted activity was to consume or move away is still there
   // (back in the plan, as present, or as arriving from its producer); other entries stop
@@ -105,6 +108,7 @@ Schedule::Failure Schedule::fail(Time now, const std::vector<ActivityId>& seeds,
         }
         note_cached(b, c.mem);
         copies_[b].push_back(std::move(c));
+        ++holders_version_[b];
         touched.push_back(b);
         continue;
       }

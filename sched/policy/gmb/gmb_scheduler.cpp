@@ -24,7 +24,8 @@ std::string GmbScheduler::describe() const {
   return "gmb{k=" + std::to_string(opt_.horizon) + "s; aging=" + (a == kNever ? std::string("off") : std::to_string(a) + "s") +
          (opt_.adaptive_aging ? "; adaptive_aging=1" : "") +
          "; granularity_tiebreak=" + (opt_.granularity_tiebreak ? "1" : "0") +
-         "; completion_aware=" + (opt_.completion_aware ? "1" : "0") + "}";
+         "; completion_aware=" + (opt_.completion_aware ? "1" : "0") +
+         (opt_.cell_nodes > 0 ? "; cell_nodes=" + std::to_string(opt_.cell_nodes) : "") + "}";
 }
 
 // What the graph-only structures depend on: memory devices (capacities), channels (Eq. 1
@@ -60,6 +61,7 @@ GmbScheduler::Choice GmbScheduler::evaluate(JobId j, DeviceId d, Time ready, Tim
   const Job& job = pool.job(j);
   if (!s.graph().timing.supports(d, job.type)) return c;
   const MemId m = s.graph().computes[d].memory;
+  if (!cells_.eligible(j, m)) return c;
   if (std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) return c;
   const Time start = placer_->earliest_start(j, d, ready, s);
   if (start == kNever) return c;
@@ -220,6 +222,7 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
       if (deferred(j)) continue;
       const Job& job = pool.job(j);
       if (!g.timing.supports(d, job.type)) continue;
+      if (!cells_.eligible(j, m)) continue;
       if (std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) continue;
       Time start = std::max(key_at, s.after_deps_ready(j));
       if (has_key && !s.copy_at(bk.key, m) && !Placer::may_fetch(job, bk.key, s)) continue;
@@ -324,9 +327,11 @@ double GmbScheduler::granularity(JobId j, DeviceId d, const JobPool& pool, const
 // Bucket i's jobs in (T_SETUP/T_EXEC on d, id) order: among jobs that start at the same
 // time the first one wins (Sec. 4.3 tie-break), so a scan in this order can stop at the
 // first job that starts as early as the key block allows.
-const GmbScheduler::Sorted& GmbScheduler::sorted_jobs(std::int32_t i, DeviceId d, const JobPool& pool,
+const GmbScheduler::Sorted& GmbScheduler::sorted_jobs(std::int32_t i, DeviceId d, MemId m, const JobPool& pool,
                                                       const Schedule& s) {
-  Sorted& so = sorted_[static_cast<std::size_t>(i) * static_cast<std::size_t>(classes_) +
+  const std::size_t cell = cells_.flat() ? 0 : static_cast<std::size_t>(cells_.cell_of_memory(m));
+  Sorted& so = sorted_[(static_cast<std::size_t>(i) * static_cast<std::size_t>(cells_.count()) + cell) *
+                           static_cast<std::size_t>(classes_) +
                        static_cast<std::size_t>(class_of_device_[d])];
   if (so.built) {
     // Planned jobs leave lazily; compact once they are the majority.
@@ -338,7 +343,7 @@ const GmbScheduler::Sorted& GmbScheduler::sorted_jobs(std::int32_t i, DeviceId d
   so.built = true;
   so.jobs.clear();
   for (JobId j : buckets_[static_cast<std::size_t>(i)].jobs)
-    if (pool.state(j) == JobState::Queued) so.jobs.emplace_back(granularity(j, d, pool, s), j);
+    if (pool.state(j) == JobState::Queued && cells_.eligible(j, m)) so.jobs.emplace_back(granularity(j, d, pool, s), j);
   std::sort(so.jobs.begin(), so.jobs.end());
   for (std::size_t k = 1; k < so.jobs.size(); ++k)
     if (so.jobs[k].first != so.jobs[k - 1].first && nearly_equal(so.jobs[k].first, so.jobs[k - 1].first)) so.monotone = false;
@@ -457,7 +462,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
   }
   if (key_at == kNever || loses(key_at)) return;
   const Time aging = aging_now_;
-  const Sorted& so = sorted_jobs(i, d, pool, s);
+  const Sorted& so = sorted_jobs(i, d, m, pool, s);
   const bool in_order = so.monotone;  // else: every job, no early stop
   const std::size_t n = in_order ? so.jobs.size() : bk.jobs.size();
   auto job_at = [&](std::size_t k) { return in_order ? so.jobs[k].second : bk.jobs[k]; };
@@ -470,6 +475,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     if (deferred(j)) return false;
     const Job& job = pool.job(j);
     if (!g.timing.supports(d, job.type)) return false;
+    if (!cells_.eligible(j, m)) return false;
     if (any_blocked && std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(j, m))) return false;
     return !(key_framebuffer_fetch && !Placer::may_fetch_framebuffer(job, s));
   };
@@ -580,9 +586,15 @@ void GmbScheduler::after_commit(std::size_t activities_before, std::size_t evict
         const std::int32_t i = bucket_of_job_[act.job];
         --buckets_[static_cast<std::size_t>(i)].queued;
         std::int32_t* open_i = open_.data() + static_cast<std::size_t>(i) * mem_index_.size();
-        for (std::size_t m = 0; m < mem_index_.size(); ++m)
+        auto close = [&](std::size_t m) {
           if (blocked_pairs_.empty() || !std::binary_search(blocked_pairs_.begin(), blocked_pairs_.end(), std::make_pair(act.job, static_cast<MemId>(m))))
             --open_i[m];
+        };
+        if (const std::int32_t h = cells_.home(act.job); !cells_.flat() && h != kNone) {
+          for (MemId m : cells_.memories(h)) close(static_cast<std::size_t>(m));
+        } else {
+          for (std::size_t m = 0; m < mem_index_.size(); ++m) close(m);
+        }
       }
       for (BlockId b : pool.job(act.job).inputs) changed(b);
       for (BlockId o : pool.job(act.job).outputs) changed(o);
@@ -601,6 +613,7 @@ bool GmbScheduler::better_elsewhere(const Choice& c, DeviceId d, const JobPool& 
   for (std::size_t o = 0; o < g.computes.size(); ++o) {
     const auto od = static_cast<DeviceId>(o);
     if (od == d || !g.timing.supports(od, job.type) || !s.compute_alive(od)) continue;
+    if (!cells_.eligible(c.job, g.computes[od].memory)) continue;
     const Time ready_o = std::max(now_, s.device_timeline(od).busy_until);
     const Time exec_o = Placer::exec_estimate(c.job, od, s);
     if (ready_o + exec_o >= finish_here) continue;  // cheap prunes first,
@@ -631,6 +644,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     placer_ = std::make_unique<Placer>(s);
     bound_time_ = std::make_unique<FetchBound>(s.graph());
     arrival_bound_ = std::make_unique<ArrivalBound>(s.graph());
+    cells_.build(s.graph(), opt_.cell_nodes);
   } else if (bound_ != &s) {
     placer_->rebind(s);  // same platform: keep the buffers (every cache is reset below)
   }
@@ -644,14 +658,30 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   blocked_pairs_.clear();
   for (JobId j : floor_jobs_) floors_[static_cast<std::size_t>(j)] = InputFloor{};
   floor_jobs_.clear();
+  cells_.assign(now, opt_.horizon, pool, s);
   build_index(now, pool);
   bound_time_->reset();
   mem_index_.resize(g.memories.size());
   for (MemIndex& mi : mem_index_) mi.built = false;
   arrival_bound_->reset(now);
   open_.assign(buckets_.size() * g.memories.size(), 0);
-  for (std::size_t i = 0; i < buckets_.size(); ++i)
-    std::fill_n(open_.begin() + static_cast<std::ptrdiff_t>(i * g.memories.size()), g.memories.size(), buckets_[i].queued);
+  if (cells_.flat()) {
+    for (std::size_t i = 0; i < buckets_.size(); ++i)
+      std::fill_n(open_.begin() + static_cast<std::ptrdiff_t>(i * g.memories.size()), g.memories.size(), buckets_[i].queued);
+  } else {  // per memory device: the bucket's jobs homed in its cell or in none
+    const auto cells = static_cast<std::size_t>(cells_.count());
+    std::vector<std::int32_t> homed(cells + 1);
+    for (std::size_t i = 0; i < buckets_.size(); ++i) {
+      std::fill(homed.begin(), homed.end(), 0);
+      for (JobId j : buckets_[i].jobs) {
+        const std::int32_t h = cells_.home(j);
+        ++homed[h == kNone ? cells : static_cast<std::size_t>(h)];
+      }
+      std::int32_t* open_i = open_.data() + i * g.memories.size();
+      for (std::size_t m = 0; m < g.memories.size(); ++m)
+        open_i[m] = homed[static_cast<std::size_t>(cells_.cell_of_memory(static_cast<MemId>(m)))] + homed[cells];
+    }
+  }
   no_key_bucket_ = -1;
   keys_.clear();
   for (std::size_t i = 0; i < buckets_.size(); ++i) {
@@ -660,7 +690,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   }
   arrival_bound_->assign_all(s, keys_);
   build_classes(s);
-  const std::size_t n_sorted = buckets_.size() * static_cast<std::size_t>(classes_);
+  const std::size_t n_sorted = buckets_.size() * static_cast<std::size_t>(cells_.count()) * static_cast<std::size_t>(classes_);
   if (sorted_.size() < n_sorted) sorted_.resize(n_sorted);
   for (std::size_t k = 0; k < n_sorted; ++k) {
     sorted_[k].built = false;

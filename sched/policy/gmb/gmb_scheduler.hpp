@@ -17,6 +17,7 @@
 
 #include "sched/policy/gmb/arrival_bound.hpp"
 #include "sched/policy/gmb/bucket_order.hpp"
+#include "sched/policy/gmb/plan_cells.hpp"
 #include "sched/sdc/fetch_bound.hpp"
 #include "sched/policy/placer.hpp"
 #include "sched/policy/scheduler.hpp"
@@ -39,6 +40,10 @@ struct GmbOptions {
   // bucket recomputed and sorted at every step) instead of the incremental per-memory-device
   // index; both choose identically (test_gmb_equivalence).
   bool reference_selection = false;
+  // Rayline's option (planning speed at scale, plan_cells.hpp): plan in cells of at most
+  // this many nodes; a device considers only the jobs homed in its cell. <= 0: one cell
+  // (the paper's GMB). A platform of at most this many nodes is one cell either way.
+  int cell_nodes = 0;
 };
 
 // The SDC fetch-path searches (Eq. 3) of one plan() call: searches run, answers the
@@ -57,6 +62,7 @@ class GmbScheduler final : public Scheduler {
   const GmbOptions& options() const { return opt_; }
   Time aging_threshold() const;
   const GmbSearchStats& last_search_stats() const { return search_stats_; }
+  const PlanCells& cells() const { return cells_; }
 
  private:
   struct Choice {
@@ -89,6 +95,7 @@ class GmbScheduler final : public Scheduler {
   std::uint64_t graph_print_ = 0;
   static std::uint64_t fingerprint(const DeviceGraph& g);
   std::unique_ptr<Placer> placer_;
+  PlanCells cells_;
   std::unique_ptr<FetchBound> bound_time_;
   std::vector<std::pair<JobId, MemId>> blocked_pairs_;  // sorted: infeasible this round (capacity)
   std::vector<JobId> deferred_;  // completion_aware: jobs left to other devices this placement
@@ -176,12 +183,12 @@ class GmbScheduler final : public Scheduler {
     bool monotone = true;  // no two granularities within nearly_equal but different
     std::vector<std::pair<double, JobId>> jobs;
   };
-  std::vector<Sorted> sorted_;  // bucket x class (never shrunk: the lists keep their capacity)
+  std::vector<Sorted> sorted_;  // bucket x cell x class (never shrunk: the lists keep their capacity)
   std::vector<DeviceId> class_reps_;  // build_classes(): one device per class
   std::vector<unsigned char> class_coef_;  // the bytes of the coefficients they were built from
   std::vector<std::pair<Time, DeviceId>> device_queue_;  // plan(): devices by ready time (a min-heap)
   void build_classes(const Schedule& s);
-  const Sorted& sorted_jobs(std::int32_t i, DeviceId d, const JobPool& pool, const Schedule& s);
+  const Sorted& sorted_jobs(std::int32_t i, DeviceId d, MemId m, const JobPool& pool, const Schedule& s);
   double granularity(JobId j, DeviceId d, const JobPool& pool, const Schedule& s);
   bool near_tie_ = false;
   Time now_ = 0;
