@@ -1,6 +1,7 @@
 #include "sched/sdc/fetch_bound.hpp"
 
 #include <algorithm>
+#include <limits>
 
 namespace rayline {
 
@@ -352,14 +353,45 @@ Time FetchBound::holders_bound_fill(const Schedule& s, BlockId b, MemId m, Time 
   return e.value;
 }
 
+// The leading initial copies of a block with many (Schedule::initial_prefix, all ready at
+// the same time) enter as one floor, max(now, ready) + their least uncontended fetch to m,
+// lowered by a relative 1e-14 so that rounding never lifts it above any of their terms; the floor's
+// least fetch is kept per (block, m) while the prefix's stamp holds. The other copies
+// count exactly as below.
 Time FetchBound::holders_bound_uncached(const Schedule& s, BlockId b, MemId m, Time now) const {
   const double bytes = static_cast<double>(s.pool().block(b).bytes);
   Time best = kNever;
-  for (const Copy& c : s.copies(b)) {
+  const std::vector<Copy>& copies = s.copies(b);
+  std::size_t first = 0;
+  if (copies.size() > Schedule::kScannedCopies) {
+    if (const Copy* c = s.copy_at(b, m)) return std::max(now, s.copy_ready(*c));
+    if (const Schedule::CopyPrefix pre = s.initial_prefix(b); pre.count > 0) {
+      PrefixFloor& pf = prefix_floors_[b];
+      if (pf.stamp != pre.stamp || pf.bytes != bytes || pf.least.size() != n_) {
+        pf.stamp = pre.stamp;
+        pf.bytes = bytes;
+        pf.least.assign(n_, std::numeric_limits<double>::quiet_NaN());
+        pf.ready = kNever;
+        for (std::size_t k = 0; k < pre.count; ++k) pf.ready = std::min(pf.ready, s.copy_ready(copies[k]));
+      }
+      double& least = pf.least[static_cast<std::size_t>(m)];
+      if (least != least) {
+        least = kNever;
+        for (std::size_t k = 0; k < pre.count; ++k) {
+          const std::size_t i = static_cast<std::size_t>(copies[k].mem) * n_ + static_cast<std::size_t>(m);
+          least = std::min(least, lat_[i] + bytes * inv_bw_[i]);
+        }
+      }
+      if (least < kNever) best = (std::max(now, pf.ready) + least) * (1 - 1e-14);
+      first = pre.count;
+    }
+  }
+  for (std::size_t k = first; k < copies.size(); ++k) {
+    const Copy& c = copies[k];
     const Time ready = std::max(now, s.copy_ready(c));
     if (c.mem == m) return ready;
-    const std::size_t k = static_cast<std::size_t>(c.mem) * n_ + static_cast<std::size_t>(m);
-    best = std::min(best, ready + lat_[k] + bytes * inv_bw_[k]);
+    const std::size_t i = static_cast<std::size_t>(c.mem) * n_ + static_cast<std::size_t>(m);
+    best = std::min(best, ready + lat_[i] + bytes * inv_bw_[i]);
   }
   return best;
 }

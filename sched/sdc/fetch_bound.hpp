@@ -16,6 +16,7 @@
 // recomputing them.
 #pragma once
 #include <algorithm>
+#include <unordered_map>
 #include <vector>
 
 #include "sched/timeline/schedule.hpp"
@@ -237,6 +238,15 @@ class FetchBound {
     return memos_[static_cast<std::size_t>(slot_of_block_[bi]) * n_ + static_cast<std::size_t>(m)];
   }
   void add_slot(BlockId b) const;
+  // holders_bound_uncached(): per block with many initial copies, per destination their
+  // least uncontended fetch time (NaN: not computed yet), for the prefix stamped `stamp`.
+  struct PrefixFloor {
+    std::uint64_t stamp = 0;
+    double bytes = -1;          // the block's size it was computed for
+    Time ready = 0;             // the prefix's earliest copy_ready()
+    std::vector<double> least;  // per memory device
+  };
+  mutable std::unordered_map<BlockId, PrefixFloor> prefix_floors_;
   Time holders_bound_fill(const Schedule& s, BlockId b, MemId m, Time now, Memo& e, std::uint64_t hv) const;
 };
 

@@ -1,5 +1,7 @@
 #include "sched/timeline/schedule.hpp"
 
+#include <bit>
+
 #include <algorithm>
 #include <array>
 #include <iterator>
@@ -91,16 +93,34 @@ void Schedule::add_copy(BlockId b, Copy c) {
   copies_[b].push_back(std::move(c));
 }
 
-const Copy* Schedule::indexed_copy_at(BlockId b, MemId m) const {
+Schedule::CopyIndex& Schedule::copy_index(BlockId b) const {
   CopyIndex& ix = copy_index_[b];
   const std::vector<Copy>& cs = copies_[static_cast<std::size_t>(b)];
   if (ix.holders != holders_version_[static_cast<std::size_t>(b)]) {
     ix.pos.assign(graph_->memories.size(), -1);
     for (std::size_t k = 0; k < cs.size(); ++k) ix.pos[static_cast<std::size_t>(cs[k].mem)] = static_cast<std::int32_t>(k);
     ix.holders = holders_version_[static_cast<std::size_t>(b)];
+    // The leading initial copies and an FNV-1a stamp of what they are.
+    std::uint64_t h = 1469598103934665603ull;
+    std::size_t n = 0;
+    for (; n < cs.size() && cs[n].producer == kNone && cs[n].initial_ready == cs[0].initial_ready; ++n) {
+      h = (h ^ static_cast<std::uint64_t>(cs[n].mem)) * 1099511628211ull;
+      h = (h ^ std::bit_cast<std::uint64_t>(cs[n].initial_ready)) * 1099511628211ull;
+    }
+    ix.prefix = {n, (h ^ n) * 1099511628211ull};
   }
+  return ix;
+}
+
+const Copy* Schedule::indexed_copy_at(BlockId b, MemId m) const {
+  const CopyIndex& ix = copy_index(b);
   const std::int32_t k = ix.pos[static_cast<std::size_t>(m)];
-  return k >= 0 ? &cs[static_cast<std::size_t>(k)] : nullptr;
+  return k >= 0 ? &copies_[static_cast<std::size_t>(b)][static_cast<std::size_t>(k)] : nullptr;
+}
+
+Schedule::CopyPrefix Schedule::initial_prefix(BlockId b) const {
+  if (static_cast<std::size_t>(b) >= copies_.size() || copies_[static_cast<std::size_t>(b)].size() <= kScannedCopies) return {};
+  return copy_index(b).prefix;
 }
 
 void Schedule::note_cached(BlockId b, MemId m) {

@@ -98,6 +98,16 @@ class Schedule {
       if (c.mem == m) return &c;
     return nullptr;
   }
+  // For a block with more than kScannedCopies copies (else {0, 0}): how many copies lead
+  // copies(b) as initial copies ready at the same time (producer kNone: a scene block on
+  // every disk), and a stamp that changes whenever that prefix does. Bounds over those copies can be kept while
+  // the stamp holds, however often the block's other holders change.
+  struct CopyPrefix {
+    std::size_t count = 0;
+    std::uint64_t stamp = 0;
+  };
+  CopyPrefix initial_prefix(BlockId b) const;
+  static constexpr std::size_t kScannedCopies = 16;
   Time copy_ready(const Copy& c) const {
     return c.producer == kNone ? c.initial_ready : acts_[c.producer].end;
   }
@@ -263,16 +273,17 @@ class Schedule {
   // Per block: bit m set iff a copy is on memory device m < 64 (copy_at's quick miss; a
   // device >= 64 is always looked up).
   std::vector<std::uint64_t> holder_mask_;
-  // A block with more copies than this (a scene block on every disk of a large cluster)
-  // is looked up through a position index per memory device, rebuilt when its holders
-  // version moved: copy_at() is asked per memory device and relay, so a scan would make
-  // fetch-path searches quadratic in the node count.
-  static constexpr std::size_t kScannedCopies = 16;
+  // A block with more than kScannedCopies copies (a scene block on every disk of a large
+  // cluster) is looked up through a position index per memory device, rebuilt when its
+  // holders version moved: copy_at() is asked per memory device and relay, so a scan
+  // would make fetch-path searches quadratic in the node count.
   struct CopyIndex {
     std::uint64_t holders = ~std::uint64_t{0};
     std::vector<std::int32_t> pos;  // per memory device: index into copies_[b], -1: none
+    CopyPrefix prefix;
   };
   mutable std::unordered_map<BlockId, CopyIndex> copy_index_;
+  CopyIndex& copy_index(BlockId b) const;  // rebuilt if the holders version moved
   const Copy* indexed_copy_at(BlockId b, MemId m) const;
   void forget_holder(BlockId b, MemId m) {
     if (static_cast<std::uint32_t>(m) < 64u) holder_mask_[static_cast<std::size_t>(b)] &= ~(std::uint64_t{1} << m);

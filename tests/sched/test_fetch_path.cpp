@@ -314,10 +314,10 @@ RandomState random_cluster_state(std::mt19937& rng, int inst) {
 // in 2-3 racks (uplinks of random speed) with or without a backbone. Long enough for the
 // search's network runs and relay runs (FetchBound's NetworkFloor), which decide about a
 // whole group of channels at once.
-RandomState random_network_state(std::mt19937& rng, int inst) {
+RandomState random_network_state(std::mt19937& rng, int inst, int min_nodes = 6) {
   RandomState r;
   std::uniform_real_distribution<double> u(0, 1);
-  const int nodes = 6 + inst % 11;
+  const int nodes = min_nodes + inst % 11;
   const int racks = inst % 3 == 0 ? 0 : 2 + inst % 2;
   const bool backbone = racks == 0 ? inst % 2 == 1 : u(rng) < 0.7;
   const char* speeds[] = {"100Mb/s", "1Gb/s", "10Gb/s"};
@@ -474,9 +474,70 @@ TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomClusters) {
 
 TEST(FetchPath, CutSearchAndMemoEqualTheFullSearchOnRandomNetworks) {
   int checked = 0, cut = 0;
-  expect_cut_search_equals_full_search(61, 90, random_network_state, place_cluster_blocks, checked, cut);
+  expect_cut_search_equals_full_search(61, 90, [](std::mt19937& rng, int inst) { return random_network_state(rng, inst); },
+                                       place_cluster_blocks, checked, cut);
   EXPECT_GT(checked, 20000);
   EXPECT_GT(cut, 0);
+}
+
+// Past Schedule::kScannedCopies copies (a scene block on every disk of 17 to 27 nodes),
+// copy_at() answers from a position index and FetchBound folds the disks' copies into one
+// floor: the searches still equal the full Dijkstra bit for bit, copy_at() equals a scan,
+// and the bounds stay below the arrival, within 1e-13 of the per-copy minimum.
+TEST(FetchPath, ManyCopiesKeepSearchesExactAndBoundsBelow) {
+  int checked = 0, cut = 0;
+  auto large = [](std::mt19937& rng, int inst) { return random_network_state(rng, inst, 17); };
+  expect_cut_search_equals_full_search(73, 24, large, place_cluster_blocks, checked, cut);
+  EXPECT_GT(checked, 10000);
+  std::mt19937 rng(74);
+  std::uniform_real_distribution<double> u(0, 1);
+  int many = 0;
+  for (int inst = 0; inst < 12; ++inst) {
+    RandomState r = large(rng, inst);
+    Schedule s(r.g, r.pool);
+    place_cluster_blocks(r, s, rng);
+    const Time now = u(rng);
+    for (int step = 0; step < 6; ++step) {
+      FetchPathFinder full(s);
+      full.set_now(now);
+      FetchBound fb(r.g);
+      for (BlockId blk : r.blocks) {
+        const std::vector<Copy>& copies = s.copies(blk);
+        if (copies.size() > Schedule::kScannedCopies) ++many;
+        const double w = static_cast<double>(r.pool.block(blk).bytes);
+        for (MemId dst : r.m) {
+          const Copy* scanned = nullptr;
+          for (const Copy& c : copies)
+            if (c.mem == dst) scanned = &c;
+          ASSERT_EQ(s.copy_at(blk, dst), scanned) << "instance " << inst;
+          const Time a = full.arrival(blk, dst);
+          const Time free_run = fb.free_run_bound(s, blk, dst, now);
+          EXPECT_LE(fb.lower_bound(s, blk, dst, now), a * (1 + 1e-12) + 1e-12) << "instance " << inst;
+          EXPECT_LE(fb.lower_bound_once(s, blk, dst, now), a * (1 + 1e-12) + 1e-12) << "instance " << inst;
+          EXPECT_LE(free_run, a * (1 + 1e-12) + 1e-12) << "instance " << inst;
+          // The per-copy minimum of max(now, ready) + the least uncontended fetch.
+          Time exact = kNever;
+          for (const Copy& c : copies) {
+            if (c.mem == dst) {
+              exact = std::max(now, s.copy_ready(c));
+              break;
+            }
+            const auto ci = static_cast<std::size_t>(c.mem);
+            exact = std::min(exact, std::max(now, s.copy_ready(c)) + fb.latency_to(dst)[ci] + w * fb.inv_bw_to(dst)[ci]);
+          }
+          if (exact < kNever) {
+            EXPECT_LE(free_run, exact) << "instance " << inst;
+            EXPECT_GE(free_run, exact * (1 - 1e-13)) << "instance " << inst;
+          } else {
+            EXPECT_EQ(free_run, kNever);
+          }
+          ++checked;
+        }
+      }
+      commit_random_hop(r, s, rng, [&] { return now; });
+    }
+  }
+  EXPECT_GT(many, 100) << "blocks with more copies than a scan handles";
 }
 
 // FetchBound::lower_bound() memoised by the attaining channel equals the bound recomputed
