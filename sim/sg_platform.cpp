@@ -312,13 +312,20 @@ void SgPlatform::Impl::add_route_bytes(ChannelId c, double bytes) {
   if (!channel_links[c]) channel_done_bytes[c] += bytes;
 }
 
+// (Per link, from one pass over the running transfers, kept while the clock and the set
+// of activities stay: the metrics ask for every link at the end of a run.)
 double SgPlatform::Impl::in_flight_bytes(std::int32_t link) const {
-  double bytes = 0;
-  for (const auto& [id, p] : pending)
-    if (p.channel != kNone && p.activity)
-      for (std::int32_t l : channel_route[p.channel])
-        if (l == link) bytes += moved_bytes(p, false);
-  return bytes;
+  const Time now = sg4::Engine::get_clock();
+  if (in_flight_at != now || in_flight_next_id != next_id || in_flight_pending != pending.size()) {
+    in_flight.assign(link_bytes.size(), 0.0);
+    for (const auto& [id, p] : pending)
+      if (p.channel != kNone && p.activity)
+        for (std::int32_t l : channel_route[p.channel]) in_flight[static_cast<std::size_t>(l)] += moved_bytes(p, false);
+    in_flight_at = now;
+    in_flight_next_id = next_id;
+    in_flight_pending = pending.size();
+  }
+  return in_flight[static_cast<std::size_t>(link)];
 }
 
 void SgPlatform::Impl::on_time_advance(double) {

@@ -72,6 +72,10 @@ struct SgPlatform::Impl {
   void on_time_advance(double delta);                      // empties the graveyard
   void add_route_bytes(ChannelId c, double bytes);          // a transfer ended or was cancelled
   double in_flight_bytes(std::int32_t link) const;          // bytes running transfers sent through it
+  mutable std::vector<double> in_flight;                    // in_flight_bytes() of every link, taken
+  mutable Time in_flight_at = -1;                           // at this clock,
+  mutable SgActivityId in_flight_next_id = 0;               // with this next id
+  mutable std::size_t in_flight_pending = 0;                // and this many pending
   void mark_device(DeviceId d, int delta_count);
 
   std::int32_t resource_link_index(ResourceId r) const { return r; }
