@@ -138,6 +138,48 @@ FetchPathFinder::Memo& FetchPathFinder::memo(BlockId b, MemId m) {
   return e;
 }
 
+const FetchPathFinder::NearRoots& FetchPathFinder::near_roots(BlockId b, MemId m, const Schedule::CopyPrefix& pre, double w) {
+  PrefixRoots& pr = prefix_roots_[b];
+  if (pr.stamp != pre.stamp || pr.bytes != w || pr.near.size() != n_) {
+    pr.stamp = pre.stamp;
+    pr.bytes = w;
+    pr.near.assign(n_, NearRoots{});
+  }
+  NearRoots& nr = pr.near[static_cast<std::size_t>(m)];
+  if (nr.built) return nr;
+  nr.built = true;
+  const std::vector<Copy>& copies = schedule_->copies(b);
+  const double* lat = rest_->latency_to(m);
+  const double* inv_bw = rest_->inv_bw_to(m);
+  double d[kNearRoots];
+  for (std::size_t k = 0; k < pre.count; ++k) {
+    const auto qi = static_cast<std::size_t>(copies[k].mem);
+    if (copies[k].mem == m) continue;  // seeded at once
+    double x = lat[qi] + w * inv_bw[qi];  // as through() computes its free run
+    auto ki = static_cast<std::int32_t>(k);
+    // Insert into the sorted near list (ties: the earlier copy first); what falls off
+    // the end joins the rest.
+    std::size_t at = nr.n;
+    while (at > 0 && d[at - 1] > x) --at;
+    if (at == kNearRoots) {
+      nr.rest = std::min(nr.rest, x);
+      continue;
+    }
+    if (nr.n == kNearRoots) {
+      nr.rest = std::min(nr.rest, d[kNearRoots - 1]);
+      --nr.n;
+    }
+    for (std::size_t j = nr.n; j > at; --j) {
+      d[j] = d[j - 1];
+      nr.k[j] = nr.k[j - 1];
+    }
+    d[at] = x;
+    nr.k[at] = ki;
+    ++nr.n;
+  }
+  return nr;
+}
+
 Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, ChannelId* route, bool* tried) const {
   constexpr Time kOpen = std::numeric_limits<Time>::quiet_NaN();
   if (!rest_) return kOpen;

@@ -37,6 +37,7 @@
 #include <algorithm>
 #include <limits>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
 #include "sched/sdc/fetch_bound.hpp"
@@ -94,6 +95,7 @@ class FetchPathFinder {
   // set, path() takes the best path from one such search when no other path ties with it
   // anywhere along it (then every search finds this path), else from the full tree.
   void set_bounds(const FetchBound* rest) {
+    if (rest != rest_) prefix_roots_.clear();
     rest_ = rest;
     build_runs();
   }
@@ -238,6 +240,27 @@ class FetchPathFinder {
     touched_.clear();
   }
   bool cut_unique_ = false;  // cut_search()'s result came with a proof that its path is the only best one
+  // cut_search() of a block with many initial copies ready together (a scene block on
+  // every disk, Schedule::initial_prefix): those roots enter the search lazily, nearest to
+  // the destination first. Per destination, the kNearRoots nearest (by the uncontended
+  // T_TRANS bound of through()) and the least such bound of the others; a marker in the
+  // open heap, keyed by the next root's floor, seeds it when popped, and the others all at
+  // once after the near ones. A root's floor is at most its through() key, so no root
+  // enters later than it would be expanded, and the search's labels are the same.
+  static constexpr std::size_t kNearRoots = 6, kMinLazyRoots = 12;
+  struct NearRoots {
+    bool built = false;
+    std::uint8_t n = 0;
+    std::int32_t k[kNearRoots] = {};  // indices into copies(b), nearest first
+    double rest = kNever;             // least distance of the prefix copies not listed
+  };
+  struct PrefixRoots {
+    std::uint64_t stamp = 0;
+    double bytes = -1;
+    std::vector<NearRoots> near;  // per destination
+  };
+  std::unordered_map<BlockId, PrefixRoots> prefix_roots_;
+  const NearRoots& near_roots(BlockId b, MemId m, const Schedule::CopyPrefix& pre, double w);
   // Branch and bound for b's arrival at m (arrival_within()). Ties: also explores paths
   // that tie with the best (for path()) and flags nodes reached by two of them.
   template <class Lost, bool Ties, bool Funnel = true>
@@ -421,18 +444,25 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
   const double* rest_lat = rest ? rest->latency_to(m) : nullptr;
   const double* rest_inv_bw = rest ? rest->inv_bw_to(m) : nullptr;
   const ChannelId* direct = rest ? rest->direct_to(m) : nullptr;
-  for (const Copy& c : schedule_->copies(b)) {
-    holder_[static_cast<std::size_t>(c.mem)] = 1;
-    touched_.push_back(c.mem);
+  const std::vector<Copy>& copies = schedule_->copies(b);
+  // Lazy roots (see NearRoots): copies [0, lazy) enter the search nearest first; they are
+  // holders from the start (pos), marked in holder_ once seeded.
+  const Schedule::CopyPrefix pre = rest ? schedule_->initial_prefix(b) : Schedule::CopyPrefix{};
+  const std::size_t lazy = pre.count >= kMinLazyRoots ? pre.count : 0;
+  const std::int32_t* pos = lazy ? schedule_->copy_positions(b) : nullptr;
+  for (std::size_t k = lazy; k < copies.size(); ++k) {
+    holder_[static_cast<std::size_t>(copies[k].mem)] = 1;
+    touched_.push_back(copies[k].mem);
   }
-  if (!holder_[mi] && g.memories[mi].capacity < bytes) return kNever;  // never routed into m
+  auto is_holder = [&](std::size_t qi) { return holder_[qi] != 0 || (pos && pos[qi] >= 0); };
+  if (!is_holder(mi) && g.memories[mi].capacity < bytes) return kNever;  // never routed into m
   // A destination reached by one channel only (a GPU behind its host memory): its arrival
   // is Eq. 3 on that hop after the arrival at the channel's source (every path to m ends
   // with it), and its best paths are those to the source, extended.
-  if constexpr (Funnel) if (rest && !holder_[mi] && blk.movable && g.in_channels(m).size() == 1) {
+  if constexpr (Funnel) if (rest && !is_holder(mi) && blk.movable && g.in_channels(m).size() == 1) {
     const ChannelId c = g.in_channels(m)[0];
     const MemId p = g.channels[static_cast<std::size_t>(c)].from;
-    if (!holder_[static_cast<std::size_t>(p)] && g.memories[static_cast<std::size_t>(p)].capacity >= bytes) {
+    if (!is_holder(static_cast<std::size_t>(p)) && g.memories[static_cast<std::size_t>(p)].capacity >= bytes) {
       const Time finish = schedule_->channel_finish(c), trans = g.transfer_time(c, bytes);
       auto hop = [&](Time x) { return std::max(x, finish) + trans; };  // Eq. 3
       auto lost_at_p = [&](Time x) { return lost(hop(x)); };
@@ -453,7 +483,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
   // Every path to m is one direct hop from a holder or ends with a relayed hop. When the
   // best direct hop lands no later than any relayed one can, it is the arrival (Ties: and
   // when it lands strictly first and no other direct hop ties, the only best path).
-  if (rest && !holder_[mi] && blk.movable && !direct_checked) {
+  if (rest && !is_holder(mi) && blk.movable && !direct_checked) {
     ChannelId via = kNone;
     bool unique = false;
     if (const Time best = direct_before_relays(b, m, via, unique); best == best && (!Ties || unique)) {
@@ -468,7 +498,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       return best;
     }
   }
-  const Time relay_end = rest ? relay_end_in(m, bytes, [&](MemId q) { return holder_[static_cast<std::size_t>(q)] != 0; }) : kNever;
+  const Time relay_end = rest ? relay_end_in(m, bytes, [&](MemId q) { return is_holder(static_cast<std::size_t>(q)); }) : kNever;
   // A lower bound on m's label along any path on from label l at q: the uncontended rest
   // (scaled below the real-arithmetic sum by far more than the rounding of any Eq. 3
   // chain), and the last hop: q's own channel into m or a relayed one (Eq. 3 as is).
@@ -486,28 +516,74 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
     }
     return std::max(free_run, last);
   };
-  for (const Copy& c : schedule_->copies(b)) {
+  auto seed = [&](const Copy& c) {
     const auto qi = static_cast<std::size_t>(c.mem);
+    if (lazy && !holder_[qi]) {
+      holder_[qi] = 1;
+      touched_.push_back(c.mem);
+    }
     const Time r = std::max(now_, schedule_->copy_ready(c));
     if (r < label_[qi]) {
       const Time x = through(r, c.mem);
       if (x > enough && lost(x)) {
         dropped = std::min(dropped, x);
-        continue;
+        return;
       }
       label_[qi] = r;
       touched_.push_back(c.mem);
       open_.push_back({x, r, c.mem});
       std::push_heap(open_.begin(), open_.end(), OpenAfter{});
     }
+  };
+  for (std::size_t k = lazy; k < copies.size(); ++k) seed(copies[k]);
+  // The lazy roots: m's own copy at once (a holder's label is final), then a marker.
+  const NearRoots* near = nullptr;
+  std::size_t next_near = 0;
+  bool rest_seeded = false;
+  const Time lazy_ready = lazy ? std::max(now_, schedule_->copy_ready(copies[0])) : 0;
+  auto push_marker = [&] {
+    double dist = kNever;
+    if (next_near < near->n) {
+      const auto qi = static_cast<std::size_t>(copies[static_cast<std::size_t>(near->k[next_near])].mem);
+      dist = rest_lat[qi] + wbytes * rest_inv_bw[qi];
+    } else if (!rest_seeded) {
+      dist = near->rest;
+    }
+    if (!(dist < kNever)) return;
+    const Time floor = (lazy_ready + dist * (1 - 1e-9)) * (1 - 1e-14);  // through()'s free run
+    if (floor > enough && lost(floor)) {  // every root left has through() >= floor
+      dropped = std::min(dropped, floor);
+      return;
+    }
+    open_.push_back({floor, kNever, kNone});
+    std::push_heap(open_.begin(), open_.end(), OpenAfter{});
+  };
+  if (lazy) {
+    if (pos[mi] >= 0 && static_cast<std::size_t>(pos[mi]) < lazy) seed(copies[static_cast<std::size_t>(pos[mi])]);
+    near = &near_roots(b, m, pre, wbytes);
+    push_marker();
   }
-  if (holder_[mi] || !blk.movable) return label_[mi];  // a holder's label is final
+  if (is_holder(mi) || !blk.movable) return label_[mi];  // a holder's label is final
   while (!open_.empty()) {
     const Open top = open_.front();
     // Nothing open can beat m's label (Ties: nor reach it).
     if (Ties ? top.bound > label_[mi] : top.bound >= label_[mi]) break;
     std::pop_heap(open_.begin(), open_.end(), OpenAfter{});
     open_.pop_back();
+    if (top.mem == kNone) {  // the lazy roots' marker: the next near root, or all the others
+      if (next_near < near->n) {
+        seed(copies[static_cast<std::size_t>(near->k[next_near++])]);
+      } else {
+        rest_seeded = true;
+        for (std::size_t k = 0; k < lazy; ++k) {
+          const MemId q = copies[k].mem;
+          if (q == m || std::find(near->k, near->k + near->n, static_cast<std::int32_t>(k)) != near->k + near->n) continue;
+          seed(copies[k]);
+        }
+      }
+      push_marker();
+      continue;
+    }
     if (top.label != label_[static_cast<std::size_t>(top.mem)]) continue;  // superseded
     // Relaxes one hop out of top (Eq. 3). Returns m's label when the hop reaches m by
     // `enough` (the search ends), NaN otherwise.
@@ -516,7 +592,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       const MemId q = hop.to;
       const ChannelId c = hop.channel;
       const auto qi = static_cast<std::size_t>(q);
-      if (holder_[qi] || hop.to_capacity < bytes) return kGoOn;
+      if (is_holder(qi) || hop.to_capacity < bytes) return kGoOn;
       const Time lq = std::max(top.label, schedule_->channel_finish(c)) + hop.transfer(wbytes);  // Eq. 3
       if (!(lq < label_[qi])) {
         if constexpr (Ties)

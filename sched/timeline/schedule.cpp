@@ -118,6 +118,11 @@ const Copy* Schedule::indexed_copy_at(BlockId b, MemId m) const {
   return k >= 0 ? &copies_[static_cast<std::size_t>(b)][static_cast<std::size_t>(k)] : nullptr;
 }
 
+const std::int32_t* Schedule::copy_positions(BlockId b) const {
+  if (static_cast<std::size_t>(b) >= copies_.size() || copies_[static_cast<std::size_t>(b)].size() <= kScannedCopies) return nullptr;
+  return copy_index(b).pos.data();
+}
+
 Schedule::CopyPrefix Schedule::initial_prefix(BlockId b) const {
   if (static_cast<std::size_t>(b) >= copies_.size() || copies_[static_cast<std::size_t>(b)].size() <= kScannedCopies) return {};
   return copy_index(b).prefix;

@@ -107,6 +107,9 @@ class Schedule {
     std::uint64_t stamp = 0;
   };
   CopyPrefix initial_prefix(BlockId b) const;
+  // For such a block: per memory device, the index of its copy in copies(b) (-1: none);
+  // nullptr for a block with few copies. Valid until the block's holders change.
+  const std::int32_t* copy_positions(BlockId b) const;
   static constexpr std::size_t kScannedCopies = 16;
   Time copy_ready(const Copy& c) const {
     return c.producer == kNone ? c.initial_ready : acts_[c.producer].end;
