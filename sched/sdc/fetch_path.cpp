@@ -63,6 +63,7 @@ void FetchPathFinder::build_hops() {
 // consecutive in p's hops, with what NetworkFloor needs (FetchBound's groups).
 void FetchPathFinder::build_runs() {
   const DeviceGraph& g = schedule_->graph();
+  runs_built_ = true;
   runs_.clear();
   for (Hop& hop : hops_) hop.run = -1;
   if (rest_) {

@@ -95,6 +95,7 @@ class FetchPathFinder {
   // set, path() takes the best path from one such search when no other path ties with it
   // anywhere along it (then every search finds this path), else from the full tree.
   void set_bounds(const FetchBound* rest) {
+    if (rest == rest_ && runs_built_) return;  // the runs depend on the graph and the bounds only
     if (rest != rest_) prefix_roots_.clear();
     rest_ = rest;
     build_runs();
@@ -175,6 +176,7 @@ class FetchPathFinder {
   };
   static constexpr std::uint32_t kMinRun = 4;  // shorter runs are expanded hop by hop
   std::vector<Run> runs_;
+  bool runs_built_ = false;  // for rest_ and this graph (rebind() builds the hops again)
   std::vector<Time> group_max_;  // search(): per group, no member's label above it (kNever: unknown)
   std::vector<Hop> hops_;
   std::vector<std::uint32_t> hops_at_;  // p's hops: hops_[hops_at_[p], hops_at_[p + 1])

@@ -528,10 +528,18 @@ GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time n
   const MemId m = s.graph().computes[d].memory;
   MemIndex& mi = mem_index_[static_cast<std::size_t>(m)];
   if (!mi.built) {
+    // The groups holding a bucket with jobs open on m (with plan cells, most buckets have
+    // none homed in m's cell): the others would only be keyed and dropped.
     mi.built = true;
     mi.order.reset(arrival_bound_->group_count());
-    for (std::size_t g = 0; g < arrival_bound_->group_count(); ++g)
-      mi.order.defer(static_cast<std::int32_t>(g));
+    group_seen_.assign(arrival_bound_->group_count(), 0);
+    for (std::size_t i = 0; i < buckets_.size(); ++i) {
+      if (static_cast<std::int32_t>(i) == no_key_bucket_ || open(static_cast<std::int32_t>(i), m) == 0) continue;
+      const std::int32_t g = arrival_bound_->group(s, buckets_[i].key);
+      if (g == kNone || group_seen_[static_cast<std::size_t>(g)]) continue;
+      group_seen_[static_cast<std::size_t>(g)] = 1;
+      mi.order.defer(g);
+    }
   }
   Choice best;
   near_tie_ = false;
@@ -574,8 +582,12 @@ void GmbScheduler::after_commit(std::size_t activities_before, std::size_t evict
     if (static_cast<std::size_t>(b) >= bucket_of_block_.size() || bucket_of_block_[b] < 0) return;
     if (arrival_bound_->group(s, b) != kNone) return;  // holders as before (or seen already)
     const std::int32_t g = arrival_bound_->assign(s, b);
-    for (MemIndex& mi : mem_index_)
-      if (mi.built) mi.order.defer(g);
+    // b's bucket now belongs to g, which may start earlier: g re-enters the order of every
+    // memory device where b's bucket has open jobs. Elsewhere g's key still bounds the
+    // members that matter there (open counts only fall within a plan).
+    const std::int32_t i = bucket_of_block_[b];
+    for (std::size_t m = 0; m < mem_index_.size(); ++m)
+      if (mem_index_[m].built && open(i, static_cast<MemId>(m)) > 0) mem_index_[m].order.defer(g);
   };
   for (std::size_t a = activities_before; a < s.activity_count(); ++a) {
     const Activity& act = s.activity(static_cast<ActivityId>(a));
@@ -639,7 +651,17 @@ bool GmbScheduler::commit(const Choice& c, DeviceId d, Time ready, Time now, Job
 PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   const auto t0 = std::chrono::steady_clock::now();
   PlanStats st;
-  const std::uint64_t print = fingerprint(s.graph());
+  // (A large graph is fingerprinted once per graph object and size: hashing a million LAN
+  // channels at every plan would cost more than the plan. Small graphs, which the renderer
+  // may rebuild in place between frames, are hashed every time.)
+  const DeviceGraph& sg = s.graph();
+  const std::array<std::size_t, 4> shape{reinterpret_cast<std::uintptr_t>(&sg), sg.channels.size(), sg.memories.size(),
+                                         sg.computes.size()};
+  if (sg.channels.size() <= 4096 || shape != graph_shape_) {
+    graph_shape_ = shape;
+    graph_shape_print_ = fingerprint(sg);
+  }
+  const std::uint64_t print = graph_shape_print_;
   if (!placer_ || print != graph_print_) {
     placer_ = std::make_unique<Placer>(s);
     bound_time_ = std::make_unique<FetchBound>(s.graph());

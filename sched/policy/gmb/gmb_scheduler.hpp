@@ -93,6 +93,8 @@ class GmbScheduler final : public Scheduler {
   // bandwidths, the finder's buffers) were built for: kept while one GmbScheduler plans
   // successive Schedules of the same platform (the runtime loop's steady state).
   std::uint64_t graph_print_ = 0;
+  std::array<std::size_t, 4> graph_shape_{};  // plan(): the graph last fingerprinted (address, sizes)
+  std::uint64_t graph_shape_print_ = 0;
   static std::uint64_t fingerprint(const DeviceGraph& g);
   std::unique_ptr<Placer> placer_;
   PlanCells cells_;
@@ -173,6 +175,7 @@ class GmbScheduler final : public Scheduler {
     BucketOrder order;
   };
   std::vector<MemIndex> mem_index_;
+  std::vector<char> group_seen_;  // select_indexed(): groups already entered in a new order
   std::unique_ptr<ArrivalBound> arrival_bound_;  // bounds from exact arrivals seen so far
   // Device timing classes (identical coefficients for every job type) and, per bucket and
   // class, the bucket's jobs sorted by (T_SETUP/T_EXEC, id) -- built on first use.
