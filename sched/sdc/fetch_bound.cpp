@@ -250,6 +250,7 @@ void FetchBound::add_slot(BlockId b) const {
   if (slot_of_block_[bi] < 0) {
     slot_of_block_[bi] = static_cast<std::int32_t>(memos_.size() / n_);
     memos_.resize(memos_.size() + n_);
+    slotted_.push_back(b);
   }
 }
 

@@ -27,7 +27,14 @@ class FetchBound {
  public:
   explicit FetchBound(const DeviceGraph& g);
   // Forget every memoised bound (call after reproject(): activities moved). O(1).
-  void reset() { ++epoch_; }
+  // A new planning pass: every memo is stale (they are per pass), so the slots are given
+  // out again from the start, keeping the memory a long run would otherwise grow.
+  void reset() {
+    ++epoch_;
+    for (BlockId b : slotted_) slot_of_block_[static_cast<std::size_t>(b)] = -1;
+    slotted_.clear();
+    memos_.clear();
+  }
   Time lower_bound(const Schedule& s, BlockId b, MemId m, Time now) const;
   // The same value, not memoised (for blocks asked about once, e.g. a job's ray queue).
   Time lower_bound_once(const Schedule& s, BlockId b, MemId m, Time now) const;
@@ -232,6 +239,7 @@ class FetchBound {
   // Per block that was asked about: one slot of n_ entries (most blocks never are).
   mutable std::vector<std::int32_t> slot_of_block_;
   mutable std::vector<Memos> memos_;
+  mutable std::vector<BlockId> slotted_;  // the blocks with a slot this pass
   Memos& memo(BlockId b, MemId m) const {
     const auto bi = static_cast<std::size_t>(b);
     if (bi >= slot_of_block_.size() || slot_of_block_[bi] < 0) add_slot(b);

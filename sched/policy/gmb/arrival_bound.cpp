@@ -16,6 +16,11 @@ ArrivalBound::ArrivalBound(const DeviceGraph& g) : n_(g.memories.size()), min_in
 
 void ArrivalBound::reset(Time now) {
   ++epoch_;
+  // Records are valid for their pass only: the slots are given out again from the start
+  // (a long run asks about hundreds of thousands of blocks, a pass about a few hundred).
+  for (BlockId b : slotted_) blocks_[static_cast<std::size_t>(b)].slot = -1;
+  slotted_.clear();
+  own_.clear();
   now_ = now;
   n_groups_ = 0;
   sigs_.clear();
@@ -145,6 +150,7 @@ void ArrivalBound::record(const Schedule& s, BlockId b, MemId m, Time lb) {
   if (bs.slot < 0) {
     bs.slot = static_cast<std::int32_t>(own_.size() / n_);
     own_.resize(own_.size() + n_);
+    slotted_.push_back(b);
   }
   const Rec r{lb, b, s.pool().block(b).bytes, s.holders_version(b), epoch_};
   own_[static_cast<std::size_t>(bs.slot) * n_ + static_cast<std::size_t>(m)] = r;

@@ -102,6 +102,7 @@ class ArrivalBound {
   Time now_ = 0;
   std::vector<BlockState> blocks_;
   std::vector<Rec> own_;
+  std::vector<BlockId> slotted_;  // the blocks with a slot in own_ this pass
   // Groups of this pass: groups_[0, n_groups_) (the vector keeps earlier passes' groups,
   // and their members' capacity, for reuse). Their signatures, concatenated, and an
   // open-addressing table from a signature's hash to its group (-1: empty slot).
