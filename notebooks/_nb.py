@@ -21,10 +21,12 @@ REDUCED = os.environ.get("RAYLINE_NB_REDUCED", "") not in ("", "0")
 OUT = os.environ.get("RAYLINE_NB_OUT", os.path.join(REPO, "out", "notebooks-reduced")) if REDUCED else os.path.join(HERE, "results")
 SCRIPT = os.path.join(REPO, "scripts", "experiments", "experiments.py")
 COLORS = {"gmb": "tab:blue", "budge": "tab:orange", "loadanyonce": "tab:green", "gmb-ca": "tab:cyan",
-          "rayline": "tab:red"}
+          "rayline": "tab:red", "gmb-flat": "tab:purple"}
 NAMES = {"gmb": "GMB (paper)", "budge": "Budge 2009", "loadanyonce": "Navratil 2014 (LoadAnyOnce)",
-         "gmb-ca": "GMB completion-aware (Rayline)", "rayline": "Rayline's policy"}
-SHORT = {"gmb": "GMB", "budge": "Budge", "loadanyonce": "LAO", "gmb-ca": "GMB-CA", "rayline": "Rayline"}
+         "gmb-ca": "GMB completion-aware (Rayline)", "rayline": "Rayline's policy",
+         "gmb-flat": "GMB in one cell (--plan-cell 0)"}
+SHORT = {"gmb": "GMB", "budge": "Budge", "loadanyonce": "LAO", "gmb-ca": "GMB-CA", "rayline": "Rayline",
+         "gmb-flat": "GMB-1cell"}
 SCHEDULERS = ["gmb", "budge", "loadanyonce"]
 
 

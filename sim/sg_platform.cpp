@@ -96,6 +96,7 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
   Impl& m = *impl_;
   m.graph = graph;
   m.graph.finalize();
+  m.exclusive_execs = options.exclusive_execs;
   const DeviceGraph& g = m.graph;
   check_unique_host_names(g);
   check_bandwidths(g);
@@ -350,6 +351,7 @@ void SgPlatform::Impl::complete(SgActivityId id, Time finish_s, bool ok) {
   if (it == pending.end()) return;
   Pending p = std::move(it->second);
   pending.erase(it);
+  if (p.timed_exec) mark_device(p.device, -1);
   if (p.activity) {
     if (p.channel != kNone) add_route_bytes(p.channel, moved_bytes(p, ok));
     graveyard.push_back(std::move(p.activity));  // SimGrid still uses it after this signal
@@ -484,6 +486,14 @@ SgActivityId SgPlatform::start_exec(DeviceId d, Time seconds, SgCallback done) {
     m.set_timer(id, now_s, false, 0);
     return id;
   }
+  if (m.exclusive_execs) {
+    if (m.device_active[d] > 0)
+      throw std::logic_error("SgPlatform::start_exec: device " + m.graph.computes[d].name + " already runs an exec (exclusive_execs)");
+    p.timed_exec = true;
+    m.mark_device(d, +1);
+    m.set_timer(id, now_s + seconds, false, 0);
+    return id;
+  }
   // Convention: hosts run at 1 flop/s, so flops = seconds of device time.
   sg4::ExecPtr exec = sg4::Exec::init();
   exec->set_flops_amount(seconds);
@@ -511,6 +521,14 @@ void SgPlatform::cancel(SgActivityId id) {
   if (it == m.pending.end()) return;
   Impl::Pending p = std::move(it->second);
   m.pending.erase(it);  // complete() ignores it from now on; a latency timer finds nothing to do
+  if (p.timed_exec) {  // its end must not keep the engine's clock running
+    m.mark_device(p.device, -1);
+    if (auto t = m.timers.find(id); t != m.timers.end()) {
+      t->second->remove();
+      m.timers.erase(t);
+    }
+    return;
+  }
   if (!p.activity) return;
   if (p.channel != kNone) m.add_route_bytes(p.channel, Impl::moved_bytes(p, false));
   if (p.device != kNone) m.mark_device(p.device, -1);

@@ -45,6 +45,12 @@ struct SgOptions {
   std::vector<std::string> config;
   // xbt log control string; the default hides SimGrid's "Configuration change" chatter.
   std::string log_control = "root.thresh:warning";
+  // The caller runs at most one exec at a time per compute device (SimExecutor's
+  // timelines): an exec alone on its 1 flop/s host takes exactly its seconds, so it runs
+  // as a kernel timer. (SimGrid 3.32 registers and later unregisters a host-state handler
+  // per Exec in a list of every live exec, which grows with the device count.) A second
+  // exec on a busy device is then a logic_error.
+  bool exclusive_execs = false;
 };
 
 using SgActivityId = std::uint64_t;

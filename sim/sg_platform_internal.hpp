@@ -32,12 +32,14 @@ struct SgPlatform::Impl {
   std::vector<double> device_work_s;  // closed busy intervals
   std::vector<int> device_active;      // execs running on it
   std::vector<double> device_since;    // while device_active > 0: when the busy interval began
+  bool exclusive_execs = false;        // SgOptions::exclusive_execs
 
   struct Pending {
     SgActivityId id = 0;
     Time start_s = 0;
     ChannelId channel = kNone;  // transfer, or
     DeviceId device = kNone;    // exec
+    bool timed_exec = false;    // an exec run as a timer (SgOptions::exclusive_execs)
     Bytes bytes = 0;            // a transfer's payload, once its Comm started
     SgCallback done;
     simgrid::s4u::ActivityPtr activity;  // null during the latency phase

@@ -344,6 +344,8 @@ class PartialFolder {
 
 SgOptions sg_options(const SimulationConfig& cfg, const PartialFolder& folder) {
   SgOptions sgo;
+  // Device timelines run one exec at a time; a Paje trace still shows them as SimGrid execs.
+  sgo.exclusive_execs = !cfg.paje;
   if (cfg.paje)
     sgo.config = {"tracing:yes", "tracing/uncategorized:yes", "tracing/precision:9",
                   "tracing/filename:" + (folder / "simgrid.trace").string()};

@@ -348,6 +348,12 @@ def scale(c):
             for scene, clients in (("boeing", n), ("ray-stream", 1)):
                 c.run(f"{scene}-{s}-n{n}", plat, scene, s, clients=clients, label=str(n),
                       duration="2s" if c.reduced else "10s", extra=["--no-timeline"])
+        # Past one plan cell (32 nodes), GMB plans cell by cell; the paper's flat GMB beside it.
+        if n > 32 or c.reduced:
+            for scene, clients in (("boeing", n), ("ray-stream", 1)):
+                row = c.run(f"{scene}-gmb-flat-n{n}", plat, scene, "gmb", clients=clients, label=str(n),
+                            duration="2s" if c.reduced else "10s", extra=["--no-timeline", "--plan-cell", "0"])
+                row["scheduler"] = "gmb-flat"
 
 
 def validation(c):

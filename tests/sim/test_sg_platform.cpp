@@ -263,6 +263,36 @@ TEST(SgPlatform, TwoExecsOnOneDeviceShareIt) {
   EXPECT_LE(rel_err(p.device_busy_s(cl.b_gpu), 4.0), kTol);
 }
 
+// SgOptions::exclusive_execs: an exec alone on its device is a timer; the same timing, the
+// same busy time (cancelled ones count up to the cancel), no clock left running after a
+// cancel, and a second exec on a busy device is refused.
+TEST(SgPlatform, ExclusiveExecsRunAsTimersWithTheSameTimes) {
+  Cluster cl;
+  rayline::sim::SgOptions opt;
+  opt.exclusive_execs = true;
+  SgPlatform p(cl.graph(), opt);
+  Done e1, e2, e3;
+  p.start_exec(cl.a_gpu, 0.75, [&](const SgCompletion& c) {
+    record(e1)(c);
+    p.start_exec(cl.a_gpu, 1e-3, record(e2));  // chained from the callback: the device is free
+  });
+  p.start_exec(cl.a_cpu, 2.5, record(e3));
+  EXPECT_THROW(p.start_exec(cl.a_cpu, 1.0, [](const SgCompletion&) {}), std::logic_error);
+  const rayline::sim::SgActivityId long_one = p.start_exec(cl.b_gpu, 100.0, [](const SgCompletion&) { ADD_FAILURE() << "cancelled"; });
+  p.run_until(1.5);
+  EXPECT_LE(rel_err(p.device_busy_s(cl.b_gpu), 1.5), kTol);  // running: counted up to now
+  p.cancel(long_one);
+  p.run();
+  EXPECT_EQ(e1.finish, 0.75);
+  EXPECT_EQ(e2.start, 0.75);
+  EXPECT_EQ(e2.finish, 0.75 + 1e-3);
+  EXPECT_EQ(e3.finish, 2.5);
+  EXPECT_LE(rel_err(p.now(), 2.5), kTol) << "a cancelled exec must not keep the clock running";
+  EXPECT_LE(rel_err(p.device_busy_s(cl.a_gpu), 0.751), kTol);
+  EXPECT_LE(rel_err(p.device_busy_s(cl.a_cpu), 2.5), kTol);
+  EXPECT_LE(rel_err(p.device_busy_s(cl.b_gpu), 1.5), kTol);
+}
+
 TEST(SgPlatform, IntegratedBytesPerResourceEqualBytesSent) {
   Cluster cl;
   SgPlatform p(cl.graph());
