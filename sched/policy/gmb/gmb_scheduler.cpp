@@ -528,12 +528,15 @@ GmbScheduler::Choice GmbScheduler::select_indexed(DeviceId d, Time ready, Time n
   const MemId m = s.graph().computes[d].memory;
   MemIndex& mi = mem_index_[static_cast<std::size_t>(m)];
   if (!mi.built) {
-    // The groups holding a bucket with jobs open on m (with plan cells, most buckets have
+    // With plan cells, the groups holding a bucket with jobs open on m (most buckets have
     // none homed in m's cell): the others would only be keyed and dropped.
     mi.built = true;
     mi.order.reset(arrival_bound_->group_count());
-    group_seen_.assign(arrival_bound_->group_count(), 0);
-    for (std::size_t i = 0; i < buckets_.size(); ++i) {
+    if (cells_.flat()) {  // (every group, as a bucket scan would cost more than it saves)
+      for (std::size_t g = 0; g < arrival_bound_->group_count(); ++g) mi.order.defer(static_cast<std::int32_t>(g));
+    }
+    group_seen_.assign(cells_.flat() ? 0 : arrival_bound_->group_count(), 0);
+    for (std::size_t i = 0; !cells_.flat() && i < buckets_.size(); ++i) {
       if (static_cast<std::int32_t>(i) == no_key_bucket_ || open(static_cast<std::int32_t>(i), m) == 0) continue;
       const std::int32_t g = arrival_bound_->group(s, buckets_[i].key);
       if (g == kNone || group_seen_[static_cast<std::size_t>(g)]) continue;
