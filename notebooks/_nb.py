@@ -31,8 +31,8 @@ SCHEDULERS = ["gmb", "budge", "loadanyonce"]
 
 
 def schedulers_in(df):
-    """The three of the paper, then any extra series the results hold (gmb-ca, rayline)."""
-    return SCHEDULERS + [s for s in ["gmb-ca", "rayline"] if s in set(df.scheduler)]
+    """The three of the paper, then any extra series the results hold (gmb-ca, rayline, gmb-flat)."""
+    return SCHEDULERS + [s for s in ["gmb-ca", "rayline", "gmb-flat"] if s in set(df.scheduler)]
 
 
 def load(name, extra=None):
