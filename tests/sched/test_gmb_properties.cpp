@@ -298,7 +298,7 @@ INSTANTIATE_TEST_SUITE_P(Modes, GmbProperty, ::testing::Values(0, 1, 2, 3, 4, 5)
 //     once, so a later fetch counted on it without waiting for the activities that free it;
 //   * mode 5: a T-job withdrawn although the E-job reading its copy still needed it, because
 //     that copy had been evicted (Schedule::cancel took an evicted copy for an unused one).
-TEST(GmbProperty, SoakInstancesOfStop33) {
+TEST(GmbProperty, SoakFoundInstancesStayRegressions) {
   struct Case { int mode, seed; };
   for (const Case c : {Case{3, 2565}, Case{4, 494}, Case{5, 46}}) {
     std::mt19937 rng(10000000u * static_cast<unsigned>(c.mode + 1) + static_cast<unsigned>(c.seed));
