@@ -116,8 +116,16 @@ std::int32_t ArrivalBound::assign(const Schedule& s, BlockId b, bool sorted) {
   if (!same_as_last()) {
     sig_.clear();
     sig_.emplace_back(-1, movable ? 1.0 : 0.0);
-    for (const Copy& c : copies) sig_.emplace_back(c.mem, std::max(now_, s.copy_ready(c)));
-    std::sort(sig_.begin() + 1, sig_.end());
+    // Sorted by memory device (one copy per device, so the weights never decide): a block
+    // with many copies (a scene block on every disk) is read in that order from its
+    // position index, without a sort.
+    if (const std::int32_t* pos = s.copy_positions(b)) {
+      for (std::size_t m = 0; m < n_; ++m)
+        if (pos[m] >= 0) sig_.emplace_back(static_cast<std::int64_t>(m), std::max(now_, s.copy_ready(copies[static_cast<std::size_t>(pos[m])])));
+    } else {
+      for (const Copy& c : copies) sig_.emplace_back(c.mem, std::max(now_, s.copy_ready(c)));
+      std::sort(sig_.begin() + 1, sig_.end());
+    }
     id = find_or_add_group(hash(sig_));
   }
   last_ = b;
