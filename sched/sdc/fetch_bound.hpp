@@ -151,11 +151,15 @@ class FetchBound {
   std::int32_t group_of(std::int32_t k, MemId q) const {
     return group_of_[static_cast<std::size_t>(k) * n_ + static_cast<std::size_t>(q)];
   }
+  // A label l followed by an uncontended rest of `rest` seconds (latency + |w|/bandwidth
+  // minima), scaled below the real-arithmetic sum by far more than the rounding of any
+  // Eq. 3 chain: the floor every search and bound here compares against.
+  static Time free_run_floor(Time l, double rest) { return (l + rest * (1 - 1e-9)) * (1 - 1e-14); }
   // With lq = the run's Span::earliest_end (a floor of every l_q): the first part alone,
   // a floor of the uncontended rest's bound over the run's members ...
   Time network_free_run(MemId m, std::int32_t group, Time lq, double w) const {
     const NetworkRest& r = network_rest_[static_cast<std::size_t>(m) * groups_ + static_cast<std::size_t>(group)];
-    return (lq + (r.latency + w * r.inv_bw) * (1 - 1e-9)) * (1 - 1e-14);
+    return free_run_floor(lq, r.latency + w * r.inv_bw);
   }
   // ... and NetworkFloor whole.
   Time network_floor(const Schedule& s, MemId m, std::int32_t group, Time lq, double w, Time relay_end) const {

@@ -245,7 +245,7 @@ Time FetchPathFinder::single_holder_direct(BlockId b, MemId m, bool funnel, Chan
     const Time lq = start + hop.transfer(wbytes);  // Eq. 3
     if (!(lq < direct)) continue;
     // ... and then needs the uncontended rest q -> m (through()'s free run).
-    const Time free_run = (lq + (rest_lat[qi] + wbytes * rest_inv_bw[qi]) * (1 - 1e-9)) * (1 - 1e-14);
+    const Time free_run = FetchBound::free_run_floor(lq, rest_lat[qi] + wbytes * rest_inv_bw[qi]);
     if (free_run < direct) return kOpen;
   }
   return direct;

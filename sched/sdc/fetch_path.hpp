@@ -507,7 +507,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
   auto through = [&](Time l, MemId q) -> Time {
     if (!rest || q == m) return l;
     const auto qi = static_cast<std::size_t>(q);
-    const Time free_run = (l + (rest_lat[qi] + wbytes * rest_inv_bw[qi]) * (1 - 1e-9)) * (1 - 1e-14);
+    const Time free_run = FetchBound::free_run_floor(l, rest_lat[qi] + wbytes * rest_inv_bw[qi]);
     Time last = relay_end;
     if (const ChannelId c = direct[qi]; c >= 0) {
       last = std::min(last, std::max(l, schedule_->channel_finish(c)) + g.transfer_time(c, bytes));
@@ -552,7 +552,7 @@ Time FetchPathFinder::cut_search(BlockId b, MemId m, Time enough, const Lost& lo
       dist = near->rest;
     }
     if (!(dist < kNever)) return;
-    const Time floor = (lazy_ready + dist * (1 - 1e-9)) * (1 - 1e-14);  // through()'s free run
+    const Time floor = FetchBound::free_run_floor(lazy_ready, dist);  // through()'s free run
     if (floor > enough && lost(floor)) {  // every root left has through() >= floor
       dropped = std::min(dropped, floor);
       return;
