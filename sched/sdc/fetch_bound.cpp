@@ -219,16 +219,25 @@ void FetchBound::all_pairs_minima(const DeviceGraph& g) {
   for (std::vector<double>* d : {&lat_, &inv_bw_}) {
     std::vector<double>& D = *d;
     // Floyd-Warshall over the core (rows that cannot reach k are skipped: min(x, inf) = x;
-    // D[i][k] does not change while row i is relaxed through k, as D[k][k] = 0).
-    for (std::size_t k : core) {
-      const double* dk = D.data() + k * n;
-      for (std::size_t i : core) {
-        double* di = D.data() + i * n;
-        const double dik = di[k];
-        if (dik == kNever || i == k) continue;
-        for (std::size_t j : core) di[j] = std::min(di[j], dik + dk[j]);
+    // D[i][k] does not change while row i is relaxed through k, as D[k][k] = 0), on a
+    // compact copy of the core's rows and columns so that the inner loop runs over
+    // contiguous memory (it vectorises; at 1 024 nodes the core is the 1 024 RAMs). Every
+    // entry sees the same updates in the same order as on D itself.
+    const std::size_t nc = core.size();
+    std::vector<double> C(nc * nc);
+    for (std::size_t a = 0; a < nc; ++a)
+      for (std::size_t b = 0; b < nc; ++b) C[a * nc + b] = D[core[a] * n + core[b]];
+    for (std::size_t k = 0; k < nc; ++k) {
+      const double* ck = C.data() + k * nc;
+      for (std::size_t i = 0; i < nc; ++i) {
+        double* ci = C.data() + i * nc;
+        const double cik = ci[k];
+        if (cik == kNever || i == k) continue;
+        for (std::size_t j = 0; j < nc; ++j) ci[j] = std::min(ci[j], cik + ck[j]);
       }
     }
+    for (std::size_t a = 0; a < nc; ++a)
+      for (std::size_t b = 0; b < nc; ++b) D[core[a] * n + core[b]] = C[a * nc + b];
     // Peeled devices in reverse order: each against every device present when it was peeled.
     std::vector<std::size_t> present = core;
     for (auto it = peeled.rbegin(); it != peeled.rend(); ++it) {

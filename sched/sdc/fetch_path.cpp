@@ -396,6 +396,53 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
     }
     return arrival[q];
   };
+  // Early stop (a destination whose in-channels are booked far ahead, where every device
+  // would be settled before it). Every label `stop` can still get comes through an
+  // in-channel c = p -> stop from a device p not settled yet, whose label is at least the
+  // heap's least, L: max(l_p, F(c)) + T_TRANS(c) >= max(L, F(c)) + T_TRANS(c) (the same
+  // operations, monotone). A device that can get the block only from `stop` (its GPU memory,
+  // its disk) gives it nothing earlier than `stop` has it. Once stop's label meets the least
+  // of those floors, no relaxation lowers it and a tie never replaces it: its label and
+  // incoming channel are the whole tree's. A destination behind a single channel p -> stop
+  // (a GPU memory behind its host) gets its label from p's: final with p's, which is tested
+  // the same way. Checked every 64 settled devices (set_early_stop()), O(in-degree) each
+  // time, so searches that settle few devices (every one on the paper's cluster) never pay
+  // for it.
+  std::size_t settled = 0, next_check = early_stop_;
+  auto only_from = [&](MemId p, MemId q) {
+    for (ChannelId c : g.in_channels(p))
+      if (g.channels[static_cast<std::size_t>(c)].from != q) return false;
+    return true;
+  };
+  auto is_final = [&](MemId q, Time L) {
+    const Time x = arrival[q];
+    if (!(x < kNever)) return false;
+    for (ChannelId c : g.in_channels(q)) {
+      const MemId p = g.channels[static_cast<std::size_t>(c)].from;
+      if (done_[p] || (!holder_[p] && only_from(p, q))) continue;
+      if (std::max(L, schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes) < x) return false;
+    }
+    return true;
+  };
+  // True when stop's label and path are final; then they are set, with their stamps.
+  auto stop_early = [&](Time L, MemId& final_host) {
+    if (is_final(stop, L)) {
+      stamp[stop] = via[stop] == kNone ? 0 : stamp[g.channels[via[stop]].from] + channel_stamp(via[stop]);
+      return true;
+    }
+    const std::vector<ChannelId>& in = g.in_channels(stop);
+    if (holder_[stop] || in.size() != 1 || g.memories[static_cast<std::size_t>(stop)].capacity < blk.bytes) return false;
+    const ChannelId c = in[0];
+    const MemId p = g.channels[static_cast<std::size_t>(c)].from;
+    if (done_[p] || holder_[p] || g.memories[static_cast<std::size_t>(p)].capacity < blk.bytes || !is_final(p, L))
+      return false;
+    stamp[p] = stamp[g.channels[via[p]].from] + channel_stamp(via[p]);
+    final_host = p;
+    arrival[stop] = std::max(arrival[p], schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);  // Eq. 3
+    via[stop] = c;
+    stamp[stop] = stamp[p] + channel_stamp(c);
+    return true;
+  };
   if (blk.movable) {
     while (!heap_.empty()) {
       std::pop_heap(heap_.begin(), heap_.end(), heap_after);
@@ -433,6 +480,17 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
           continue;
         }
         relax_tree(hs[h]);
+      }
+      // (After p's relaxations: every settled device has given stop what it can.)
+      if (early_stop_ > 0 && stop != kNone && ++settled >= next_check) {
+        next_check += early_stop_;
+        MemId final_host = kNone;
+        if (stop_early(lp, final_host)) {
+          for (std::size_t q = 0; q < nm; ++q)
+            if (!done_[q] && static_cast<MemId>(q) != stop && static_cast<MemId>(q) != final_host) stamp[q] = kUnsettled;
+          ++early_stops_;
+          break;
+        }
       }
     }
   }

@@ -123,6 +123,11 @@ class FetchPathFinder {
   std::uint64_t searches() const { return searches_; }
   std::uint64_t hits() const { return hits_; }
   std::uint64_t cut_searches() const { return cut_searches_; }  // arrival_within() without a tree
+  // search() may stop before settling its destination once that label is final, checked
+  // every `settled` devices it settles (default 64; 0: never, plain Dijkstra to the
+  // destination, the tests' reference).
+  void set_early_stop(std::size_t settled) { early_stop_ = settled; }
+  std::uint64_t early_stops() const { return early_stops_; }
 
  private:
   // Per block: its tree's arrays live in slot `slot` of the flat arrays below (n_ entries
@@ -139,6 +144,7 @@ class FetchPathFinder {
   // Dijkstra from b's holders, stopped once `stop` is settled (the rest of the tree is
   // marked unsettled: a later question about it searches again).
   void search(BlockId b, Tree& t, MemId stop);
+  static constexpr std::size_t kEarlyStopAfter = 64;  // settled devices between search()'s early-stop checks
   static constexpr std::uint64_t kUnsettled = ~std::uint64_t{0};
   std::uint64_t path_stamp(const Tree& t, MemId m) const;
   std::uint64_t channel_stamp(ChannelId c) const {
@@ -305,7 +311,8 @@ class FetchPathFinder {
   bool memo_exact(const Memo& e) const;
   // Eq. 3 along the memo's path as the Schedule stands now (e.hops > 0).
   Time memo_path_now(const Memo& e, BlockId b) const;
-  std::uint64_t searches_ = 0, hits_ = 0, cut_searches_ = 0;
+  std::uint64_t searches_ = 0, hits_ = 0, cut_searches_ = 0, early_stops_ = 0;
+  std::size_t early_stop_ = kEarlyStopAfter;
   Time now_ = 0;
   bool scene_local_ = false;
 

@@ -401,6 +401,7 @@ void expect_cut_search_equals_full_search(std::uint32_t seed, int instances, con
     for (int round = 0; round < 4; ++round) {
       FetchPathFinder full(s);  // fresh: plain Dijkstra
       full.set_now(now);
+      full.set_early_stop(0);
       for (BlockId blk : r.blocks)
         for (MemId dst : r.m) {
           const Time a = full.arrival(blk, dst);
@@ -538,6 +539,88 @@ TEST(FetchPath, ManyCopiesKeepSearchesExactAndBoundsBelow) {
     }
   }
   EXPECT_GT(many, 100) << "blocks with more copies than a scan handles";
+}
+
+// A destination whose incoming NIC is booked seconds ahead is settled after nearly every
+// other device, so search() stops as soon as its label is final (no in-channel from a
+// device not settled yet can lower it; a GPU memory's with its host's). On networks of
+// 30-40 nodes with a few RAMs' NICs booked that way (and a few disks, so that a first label
+// is often beaten later), the trees' arrivals and paths equal
+// plain Dijkstra's bit for bit, the cached trees' answers for the other destinations
+// too, and the stop happens.
+TEST(FetchPath, EarlyStoppedSearchesEqualPlainDijkstra) {
+  std::mt19937 rng(91);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::uint64_t stops = 0;
+  int checked = 0;
+  for (int inst = 0; inst < 10; ++inst) {
+    RandomState r = random_network_state(rng, inst, 30);
+    Schedule s(r.g, r.pool);
+    place_cluster_blocks(r, s, rng);
+    std::vector<MemId> rams;
+    for (MemId m : r.m)
+      if (r.g.memories[static_cast<std::size_t>(m)].kind == MemoryKind::Host) rams.push_back(m);
+    // Book the NICs of three RAMs: every block but the last two moved into them.
+    for (int k = 0; k < 3; ++k) {
+      const MemId d = rams[std::uniform_int_distribution<std::size_t>(0, rams.size() - 1)(rng)];
+      for (std::size_t bi = 0; bi + 2 < r.blocks.size(); ++bi) {
+        const BlockId blk = r.blocks[bi];
+        if (s.copy_at(blk, d)) continue;
+        for (ChannelId c : r.g.in_channels(d)) {
+          const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
+          if (r.g.memories[static_cast<std::size_t>(ch.from)].kind != MemoryKind::Host || !s.copy_at(blk, ch.from)) continue;
+          const auto adm = s.admission(d, r.pool.block(blk).bytes, {});
+          if (adm.at != kNever) s.commit_transfer(blk, c, kNone, 0, adm);
+          break;
+        }
+      }
+    }
+    // Book the disks of four RAMs: their own disk becomes their slow way, so a search's
+    // first label there is often beaten later through the network.
+    for (int k = 0; k < 4; ++k) {
+      const MemId d = rams[std::uniform_int_distribution<std::size_t>(0, rams.size() - 1)(rng)];
+      for (std::size_t bi = 0; bi + 2 < r.blocks.size(); ++bi) {
+        const BlockId blk = r.blocks[bi];
+        if (s.copy_at(blk, d)) continue;
+        for (ChannelId c : r.g.in_channels(d)) {
+          const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
+          if (r.g.memories[static_cast<std::size_t>(ch.from)].kind != MemoryKind::Disk || !s.copy_at(blk, ch.from)) continue;
+          const auto adm = s.admission(d, r.pool.block(blk).bytes, {});
+          if (adm.at != kNever) s.commit_transfer(blk, c, kNone, 0, adm);
+          break;
+        }
+      }
+    }
+    const Time now = u(rng) * 0.1;
+    FetchPathFinder fast(s), reused(s);
+    fast.set_now(now);
+    fast.set_early_stop(1);  // checked at every settled device: the most chances to be wrong
+    reused.set_now(now);
+    for (BlockId blk : r.blocks)
+      for (MemId dst : r.m) {
+        FetchPathFinder plain(s), fresh(s);
+        plain.set_now(now);
+        plain.set_early_stop(0);
+        fresh.set_now(now);
+        fresh.set_early_stop(1);
+        const Time a = plain.arrival(blk, dst);
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(fresh.arrival(blk, dst)), std::bit_cast<std::uint64_t>(a))
+            << "instance " << inst;
+        // One finder asked every destination in turn: trees reused where they answer.
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(reused.arrival(blk, dst)), std::bit_cast<std::uint64_t>(a))
+            << "instance " << inst;
+        std::vector<ChannelId> p0, p1, p2;
+        plain.path(blk, dst, p0);
+        fresh.path(blk, dst, p1);
+        fast.path(blk, dst, p2);
+        EXPECT_EQ(p1, p0) << "instance " << inst;
+        EXPECT_EQ(p2, p0) << "instance " << inst;
+        stops += fresh.early_stops();
+        ++checked;
+      }
+  }
+  EXPECT_GT(checked, 3000);
+  EXPECT_GT(stops, 50u) << "searches stopped early";
 }
 
 // FetchBound::lower_bound() memoised by the attaining channel equals the bound recomputed

@@ -213,7 +213,16 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
       } else {
         // When the best direct hop meets the lower bound, that is SDC's answer too.
         const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now);
-        const Time at = ub <= blb * (1 + 1e-12) ? ub : placer_->finder().arrival(bk.key, m);
+        const DataBlock& kb = pool.block(bk.key);
+        Time at = ub;
+        if (!(ub <= blb * (1 + 1e-12))) {
+          // The exact arrival from a search cut at losing labels where SDC searches (kNever
+          // when it loses: skipped below either way), else from the tree.
+          at = kb.movable && g.memories[static_cast<std::size_t>(m)].capacity >= kb.bytes &&
+                       !placer_->finder().scene_from_origin_or_local()
+                   ? placer_->finder().arrival_within(bk.key, m, -kNever, loses)
+                   : placer_->finder().arrival(bk.key, m);
+        }
         key_at = std::max(ready, at);
       }
     }
@@ -241,7 +250,11 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
           break;
         }
         const Copy* c = s.copy_at(b, m);
-        start = std::max(start, c ? s.copy_ready(*c) : placer_->finder().arrival(b, m));
+        const DataBlock& blk = pool.block(b);
+        start = std::max(start, c ? s.copy_ready(*c)
+                                  : blk.movable && g.memories[static_cast<std::size_t>(m)].capacity >= blk.bytes
+                                        ? placer_->finder().arrival_within(b, m, start, loses)
+                                        : placer_->finder().arrival(b, m));
       }
       if (start == kNever || loses(start)) continue;
       Choice c;
