@@ -25,6 +25,11 @@ class Scheduler {
   // Extend `schedule` with jobs from the queue of `pool`, planning every compute device up
   // to now + horizon (Sec. 4.2). New activities are appended (ids >= the count before).
   virtual PlanStats plan(Time now, JobPool& pool, Schedule& schedule) = 0;
+  // The runtime loop plans when a compute device enters the idle state or new jobs
+  // arrive while one is idle (Sec. 4.2). True: also at every other batch of events while
+  // any device stays idle (a plan may still top up timelines as `now` moves on); false:
+  // only at those two events. GMB in plan cells answers false (docs/scheduler.md).
+  virtual bool plans_while_idle() const { return true; }
 };
 
 }  // namespace rayline

@@ -80,9 +80,17 @@ bool RuntimeLoop::handle(std::vector<ExecutorEvent>& events, RunStats& st) {
   if (pool_.queued_count() == 0) return false;
   if (recovered) return true;
   const auto& g = schedule_.graph();
+  auto idle = [&](DeviceId d) { return schedule_.unfinished_on_device(d) == 0 && schedule_.compute_alive(d); };
+  if (!scheduler_.plans_while_idle()) {
+    // Only at the events: a device that ran dry in this batch, or new jobs while one is idle.
+    for (const ExecutorEvent& e : events)
+      if (e.type == ExecutorEvent::Type::Finished && schedule_.activity(e.activity).kind == ActivityKind::Exec &&
+          idle(schedule_.activity(e.activity).device))
+        return true;
+    if (!new_jobs) return false;
+  }
   for (std::size_t d = 0; d < g.computes.size(); ++d)
-    if (schedule_.unfinished_on_device(static_cast<DeviceId>(d)) == 0 && schedule_.compute_alive(static_cast<DeviceId>(d)))
-      return true;
+    if (idle(static_cast<DeviceId>(d))) return true;
   return new_jobs && schedule_.unfinished() == 0;
 }
 

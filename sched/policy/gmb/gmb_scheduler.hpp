@@ -59,6 +59,9 @@ class GmbScheduler final : public Scheduler {
   std::string name() const override { return "gmb"; }
   std::string describe() const override;
   PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
+  // One cell (the paper's GMB): yes. In plan cells, some device of a large cluster is
+  // always idle, and a plan at every event would mostly find nothing new to place.
+  bool plans_while_idle() const override { return cells_.flat(); }
   const GmbOptions& options() const { return opt_; }
   Time aging_threshold() const;
   const GmbSearchStats& last_search_stats() const { return search_stats_; }
