@@ -560,37 +560,28 @@ TEST(FetchPath, EarlyStoppedSearchesEqualPlainDijkstra) {
     std::vector<MemId> rams;
     for (MemId m : r.m)
       if (r.g.memories[static_cast<std::size_t>(m)].kind == MemoryKind::Host) rams.push_back(m);
-    // Book the NICs of three RAMs: every block but the last two moved into them.
-    for (int k = 0; k < 3; ++k) {
-      const MemId d = rams[std::uniform_int_distribution<std::size_t>(0, rams.size() - 1)(rng)];
-      for (std::size_t bi = 0; bi + 2 < r.blocks.size(); ++bi) {
-        const BlockId blk = r.blocks[bi];
-        if (s.copy_at(blk, d)) continue;
-        for (ChannelId c : r.g.in_channels(d)) {
-          const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
-          if (r.g.memories[static_cast<std::size_t>(ch.from)].kind != MemoryKind::Host || !s.copy_at(blk, ch.from)) continue;
-          const auto adm = s.admission(d, r.pool.block(blk).bytes, {});
-          if (adm.at != kNever) s.commit_transfer(blk, c, kNone, 0, adm);
-          break;
+    // Every block but the last two moved into `count` random RAMs from a memory of `from`
+    // kind: their channels in are booked far ahead.
+    auto book = [&](int count, MemoryKind from) {
+      for (int k = 0; k < count; ++k) {
+        const MemId d = rams[std::uniform_int_distribution<std::size_t>(0, rams.size() - 1)(rng)];
+        for (std::size_t bi = 0; bi + 2 < r.blocks.size(); ++bi) {
+          const BlockId blk = r.blocks[bi];
+          if (s.copy_at(blk, d)) continue;
+          for (ChannelId c : r.g.in_channels(d)) {
+            const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
+            if (r.g.memories[static_cast<std::size_t>(ch.from)].kind != from || !s.copy_at(blk, ch.from)) continue;
+            const auto adm = s.admission(d, r.pool.block(blk).bytes, {});
+            if (adm.at != kNever) s.commit_transfer(blk, c, kNone, 0, adm);
+            break;
+          }
         }
       }
-    }
-    // Book the disks of four RAMs: their own disk becomes their slow way, so a search's
-    // first label there is often beaten later through the network.
-    for (int k = 0; k < 4; ++k) {
-      const MemId d = rams[std::uniform_int_distribution<std::size_t>(0, rams.size() - 1)(rng)];
-      for (std::size_t bi = 0; bi + 2 < r.blocks.size(); ++bi) {
-        const BlockId blk = r.blocks[bi];
-        if (s.copy_at(blk, d)) continue;
-        for (ChannelId c : r.g.in_channels(d)) {
-          const Channel& ch = r.g.channels[static_cast<std::size_t>(c)];
-          if (r.g.memories[static_cast<std::size_t>(ch.from)].kind != MemoryKind::Disk || !s.copy_at(blk, ch.from)) continue;
-          const auto adm = s.admission(d, r.pool.block(blk).bytes, {});
-          if (adm.at != kNever) s.commit_transfer(blk, c, kNone, 0, adm);
-          break;
-        }
-      }
-    }
+    };
+    book(3, MemoryKind::Host);  // three RAMs' NICs
+    // Four RAMs' disks: their own disk becomes their slow way, so a search's first label
+    // there is often beaten later through the network.
+    book(4, MemoryKind::Disk);
     const Time now = u(rng) * 0.1;
     FetchPathFinder fast(s), reused(s);
     fast.set_now(now);
