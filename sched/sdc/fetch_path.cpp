@@ -408,6 +408,15 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
   // the same way. Checked every 64 settled devices (set_early_stop()), O(in-degree) each
   // time, so searches that settle few devices (every one on the paper's cluster) never pay
   // for it.
+  // A device's stamp once its path is final: its parent's plus its incoming channel's.
+  auto final_stamp = [&](MemId q) {
+    return via[q] == kNone ? 0 : stamp[g.channels[via[q]].from] + channel_stamp(via[q]);
+  };
+  // Every device not settled (but `keep`) marked so: tree_valid() never answers for it.
+  auto unsettle_rest = [&](MemId keep_a, MemId keep_b) {
+    for (std::size_t q = 0; q < nm; ++q)
+      if (!done_[q] && static_cast<MemId>(q) != keep_a && static_cast<MemId>(q) != keep_b) stamp[q] = kUnsettled;
+  };
   std::size_t settled = 0, next_check = early_stop_;
   auto only_from = [&](MemId p, MemId q) {
     for (ChannelId c : g.in_channels(p))
@@ -427,7 +436,7 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
   // True when stop's label and path are final; then they are set, with their stamps.
   auto stop_early = [&](Time L, MemId& final_host) {
     if (is_final(stop, L)) {
-      stamp[stop] = via[stop] == kNone ? 0 : stamp[g.channels[via[stop]].from] + channel_stamp(via[stop]);
+      stamp[stop] = final_stamp(stop);
       return true;
     }
     const std::vector<ChannelId>& in = g.in_channels(stop);
@@ -436,7 +445,7 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
     const MemId p = g.channels[static_cast<std::size_t>(c)].from;
     if (done_[p] || holder_[p] || g.memories[static_cast<std::size_t>(p)].capacity < blk.bytes || !is_final(p, L))
       return false;
-    stamp[p] = stamp[g.channels[via[p]].from] + channel_stamp(via[p]);
+    stamp[p] = final_stamp(p);
     final_host = p;
     arrival[stop] = std::max(arrival[p], schedule_->channel_finish(c)) + g.transfer_time(c, blk.bytes);  // Eq. 3
     via[stop] = c;
@@ -452,13 +461,12 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
       if (done_[p]) continue;
       done_[p] = 1;
       // p's tree path is final now, and its parent's stamp was taken before.
-      if (via[p] != kNone) stamp[p] = stamp[g.channels[via[p]].from] + channel_stamp(via[p]);
+      stamp[p] = final_stamp(p);
       if (p == stop) {
         // The asked destination is final (so is every device settled before it, the path
         // to it included): stop. The others are left unsettled, their stamps set to a
         // value no path's sum of versions takes, so tree_valid() never answers for them.
-        for (std::size_t q = 0; q < nm; ++q)
-          if (!done_[q]) stamp[q] = kUnsettled;
+        unsettle_rest(kNone, kNone);
         break;
       }
       const std::span<const Hop> hs = out_hops(p);
@@ -486,8 +494,7 @@ void FetchPathFinder::search(BlockId b, Tree& t, MemId stop) {
         next_check += early_stop_;
         MemId final_host = kNone;
         if (stop_early(lp, final_host)) {
-          for (std::size_t q = 0; q < nm; ++q)
-            if (!done_[q] && static_cast<MemId>(q) != stop && static_cast<MemId>(q) != final_host) stamp[q] = kUnsettled;
+          unsettle_rest(stop, final_host);
           ++early_stops_;
           break;
         }

@@ -213,13 +213,11 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
       } else {
         // When the best direct hop meets the lower bound, that is SDC's answer too.
         const Time ub = bound_time_->direct_upper_bound(s, bk.key, m, now);
-        const DataBlock& kb = pool.block(bk.key);
         Time at = ub;
         if (!(ub <= blb * (1 + 1e-12))) {
           // The exact arrival from a search cut at losing labels where SDC searches (kNever
           // when it loses: skipped below either way), else from the tree.
-          at = kb.movable && g.memories[static_cast<std::size_t>(m)].capacity >= kb.bytes &&
-                       !placer_->finder().scene_from_origin_or_local()
+          at = cut_searchable(s, bk.key, m) && !placer_->finder().scene_from_origin_or_local()
                    ? placer_->finder().arrival_within(bk.key, m, -kNever, loses)
                    : placer_->finder().arrival(bk.key, m);
         }
@@ -250,11 +248,9 @@ GmbScheduler::Choice GmbScheduler::select_pruned(DeviceId d, Time ready, Time no
           break;
         }
         const Copy* c = s.copy_at(b, m);
-        const DataBlock& blk = pool.block(b);
-        start = std::max(start, c ? s.copy_ready(*c)
-                                  : blk.movable && g.memories[static_cast<std::size_t>(m)].capacity >= blk.bytes
-                                        ? placer_->finder().arrival_within(b, m, start, loses)
-                                        : placer_->finder().arrival(b, m));
+        start = std::max(start, c                          ? s.copy_ready(*c)
+                                : cut_searchable(s, b, m) ? placer_->finder().arrival_within(b, m, start, loses)
+                                                           : placer_->finder().arrival(b, m));
       }
       if (start == kNever || loses(start)) continue;
       Choice c;
@@ -392,8 +388,7 @@ Time GmbScheduler::fold_input(BlockId b, MemId m, Time start, Time now, const Sc
     if (loses(r)) return lost_at = r, kNever;
     return std::max(start, s.copy_ready(*c));
   }
-  const DataBlock& blk = s.pool().block(b);
-  if (blk.movable && s.graph().memories[static_cast<std::size_t>(m)].capacity >= blk.bytes)
+  if (cut_searchable(s, b, m))
     return std::max(start, placer_->finder().arrival_within(b, m, start, loses, &lost_at));
   if (bound_time_->direct_upper_bound(s, b, m, now) <= start) return start;
   if (const Time lb = bound_time_->lower_bound_once(s, b, m, now); loses(lb)) return lost_at = lb, kNever;
@@ -441,9 +436,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
     if (key_copy) {
       key_at = std::max(ready, s.copy_ready(*key_copy));
     } else {
-      const DataBlock& kb = pool.block(bk.key);
-      if (kb.movable && g.memories[static_cast<std::size_t>(m)].capacity >= kb.bytes &&
-          !placer_->finder().scene_from_origin_or_local()) {
+      if (cut_searchable(s, bk.key, m) && !placer_->finder().scene_from_origin_or_local()) {
         // select_pruned(): the one/two-hop upper bound when it meets the lower bound, else
         // the SDC arrival. Both are the arrival when a best path has at most two hops.
         Time proven = kNever;

@@ -127,6 +127,12 @@ class GmbScheduler final : public Scheduler {
   void build_index(Time now, const JobPool& pool);
   // Reference selection: every bucket's bound recomputed and sorted at every step.
   Choice select_pruned(DeviceId d, Time ready, Time now, const JobPool& pool, const Schedule& s);
+  // SDC's cut search (FetchPathFinder::arrival_within) answers for b at m: b may move and
+  // fits in m. Otherwise the tree's arrival() is asked.
+  static bool cut_searchable(const Schedule& s, BlockId b, MemId m) {
+    const DataBlock& blk = s.pool().block(b);
+    return blk.movable && s.graph().memories[static_cast<std::size_t>(m)].capacity >= blk.bytes;
+  }
   // Incremental selection (same choice): per memory device, a persistent order of holder
   // groups of buckets (arrival_bound.hpp) keyed by lower bounds that commits can only make
   // stale from below (bucket_order.hpp); within a group, buckets smallest key block first;
