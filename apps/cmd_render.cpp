@@ -158,6 +158,8 @@ engine::RenderOptions render_options(const RenderCliOptions& opt) {
   ro.bvh_quality = opt.bvh_quality;
   ro.read_ahead = opt.read_ahead == "on";
   ro.skip_empty = opt.skip_empty == "on";
+  ro.batching.continue_in_cell = opt.continue_in_cell == "on";
+  ro.batching.camera_jobs = opt.camera_jobs == "on";
   ro.loaders = opt.loaders;
   parse_resolution(opt.resolution, ro.width, ro.height);
   if (!opt.memory_budget.empty()) ro.memory_budget = size_flag("--memory-budget", opt.memory_budget);
@@ -198,6 +200,8 @@ void write_twin(const RenderCliOptions& opt, engine::RayLogRecorder& rec, const 
   t.scheduler = r.scheduler;
   t.horizon = duration_flag("--horizon", opt.horizon);
   t.path_cap = r.path_cap, t.min_batch = r.min_batch, t.max_batch = r.max_batch;
+  t.continue_in_cell = r.continue_in_cell;
+  t.camera_jobs = r.camera_jobs;
   t.memory_budget = r.memory_budget;
   t.blocks = r.block_bytes;
   const std::string rays = twin_rays_file(opt.record_twin);

@@ -25,6 +25,8 @@ struct RenderCliOptions {
   std::string bvh_quality = "auto";
   std::string read_ahead = "on";     // --read-ahead on|off
   std::string skip_empty = "on";     // --skip-empty on|off
+  std::string continue_in_cell = "on";  // --continue-in-cell on|off
+  std::string camera_jobs = "on";       // --camera-jobs on|off
   int loaders = 0;                   // --loaders N (0 = the platform's)
   std::string gpu = "auto";          // none | auto | index | name
   std::string gpu_memory_budget;     // "4GiB"; empty: half of the device's memory

@@ -305,6 +305,17 @@ void add_render(CLI::App& app, std::function<int()>& action) {
                 "visited; the image is the same")
       ->default_val(opt->skip_empty)
       ->check(CLI::IsMember({"on", "off"}));
+  r->add_option("--continue-in-cell", opt->continue_in_cell,
+                "on = the rays a CPU job makes in its own cell (shadow rays, continuations) are traced in that "
+                "job; off = every ray waits in its cell's queue for a job of its own; the image is the same")
+      ->default_val(opt->continue_in_cell)
+      ->check(CLI::IsMember({"on", "off"}));
+  r->add_option("--camera-jobs", opt->camera_jobs,
+                "on = with a scene of one block and CPU threads only, each job makes the camera rays it traces "
+                "(no camera ray waits in a queue); off = camera rays are made on the loop's thread and queued; "
+                "the image is the same")
+      ->default_val(opt->camera_jobs)
+      ->check(CLI::IsMember({"on", "off"}));
   r->add_option("--loaders", opt->loaders,
                 "disk->RAM channels: block loads (read + BVH build) in flight at once; 0 = the platform's "
                 "(one with --platform auto)")

@@ -267,6 +267,12 @@ std::int64_t BasicJsonField<Json>::integer() const {
 }
 
 template <class Json>
+bool BasicJsonField<Json>::boolean() const {
+  if (!value_->is_boolean()) wrong_type("true or false");
+  return value_->template get<bool>();
+}
+
+template <class Json>
 std::uint64_t BasicJsonField<Json>::unsigned_integer() const {
   if (!value_->is_number_unsigned()) wrong_type("a non-negative integer");
   return value_->template get<std::uint64_t>();

@@ -115,6 +115,7 @@ class BasicJsonField {
   std::string string() const;
   std::string non_empty_string() const;
   double number() const;
+  bool boolean() const;
   std::int64_t integer() const;
   std::uint64_t unsigned_integer() const;  // "a non-negative integer"
   // "an integer from LO to HI": the range is the message, whatever the value's type.

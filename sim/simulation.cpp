@@ -437,6 +437,8 @@ struct Engine {
     o.path_cap = in.twin_paths;
     o.min_batch = in.twin.min_batch;
     o.max_batch = in.twin.max_batch;
+    o.continue_in_cell = in.twin.continue_in_cell;
+    o.camera_jobs = in.twin.camera_jobs;
     std::unique_ptr<TwinOracle> oracle;
     if (in.twin_fidelity == Fidelity::Replay)
       oracle = std::make_unique<ReplayOracle>(in.twin_rays);

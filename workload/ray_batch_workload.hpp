@@ -4,7 +4,9 @@
 // `rayline simulate --like` with the records of a ray log, whose outcomes were recorded
 // from a render (workload/render_twin.hpp, docs/validation.md). Only the ray-outcome oracle
 // differs; every rule below is shared:
-//   * camera rays are generated in waves, at most `path_cap` paths alive (ray memory);
+//   * camera rays are generated in waves, at most `path_cap` paths alive (ray memory); with
+//     `camera_jobs` (one cell), by the E-jobs that trace them (Fig. 3's GenerateRays fused
+//     into the first RayIntersect): a job then carries a range of camera indices, not rays;
 //   * every ray waits in the queue of its cell and slot (path / shadow, and the same kinds
 //     flagged CPU-only); a queue becomes a RayIntersect / ShadowIntersect E-job on
 //     (SceneData_b, RayQueue_b);
@@ -24,6 +26,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -50,6 +53,17 @@ struct RayBatchOptions {
   std::uint32_t path_cap = 1u << 17;   // paths alive at once (the renderer: 0 = auto, renderer.cpp)
   std::uint32_t min_batch = 4096;      // rays per job before a resident cell's queue is worth a job
   std::uint32_t max_batch = 1u << 16;  // rays per job at most (load balance)
+  // Rays a job makes in its own cell (shadow rays, continuations that start there) are
+  // traced in that job by an engine that traces in place (the CPU), instead of waiting in
+  // the cell's queue for a job of their own: Fig. 3's loop closed inside the resident block.
+  // With one block, a job traces its camera rays' whole paths.
+  bool continue_in_cell = true;
+  // Camera rays are made by the job that traces them, on the compute device, instead of on
+  // the loop's thread and through a queue; only where the scene is one cell (every camera
+  // ray that meets the scene enters it), elsewhere ignored. Camera jobs hold a quarter of
+  // the paths in flight per compute device, so each device has planned work queued behind
+  // the job it runs.
+  bool camera_jobs = true;
 };
 
 // The rays of one E-job and what it produced (written by whoever traces it, read by the
@@ -60,14 +74,19 @@ struct RayBatchJob {
   std::uint32_t cell = 0;
   std::vector<Ray> rays;
   std::uint64_t input = 0;  // rays handed to the job
+  // A camera job (RayBatchOptions::camera_jobs): camera rays [camera_first, camera_first +
+  // camera_count) in the workload's order (pixel = i % pixels, sample = i / pixels), made by
+  // whoever traces the job; `rays` is empty.
+  std::uint64_t camera_first = 0, camera_count = 0;
   // The job's ray queues (RayQueue/ShadowRayQueue blocks merged into it, Sec. 5.1) and
   // their ray counts, in the order of `rays`: a queue moves RAM->GPU as its own T-job.
   std::vector<std::pair<BlockId, std::uint32_t>> parts;
   std::vector<Ray> out;
   Counts counts;
-  // The input rays' identities, where the engine keeps them for a ray log (the renderer
-  // frees the rays themselves on the worker thread).
-  std::vector<std::uint64_t> input_ids;
+  // The job's passes as a ray log sees them, in order (the renderer frees the rays
+  // themselves on the worker thread): the identities of each pass's input rays and the rays
+  // it made. One pass, or more under continue_in_cell.
+  std::vector<std::pair<std::vector<std::uint64_t>, std::vector<Ray>>> log_passes;
 };
 
 template <class Ray, class Counts, class Traits>
@@ -81,6 +100,7 @@ class RayBatchWorkload : public Workload {
                    std::uint64_t total_camera_rays)
       : g_(g), ram_(ram), scene_blocks_(std::move(scene_blocks)), opt_(opt), staging_(scene_blocks_.size()),
         open_(scene_blocks_.size(), {kNone, kNone, kNone, kNone}), total_camera_(total_camera_rays) {
+    opt_.camera_jobs = opt_.camera_jobs && scene_blocks_.size() == 1;
     type_[0] = g.job_type("RayIntersect");
     type_[1] = g.job_type("ShadowIntersect");
     type_[2] = g.job_type("RayIntersectCpu");
@@ -91,7 +111,7 @@ class RayBatchWorkload : public Workload {
   }
 
   void start(Time now, JobPool& pool, Schedule& s) override {
-    generate();
+    generate(now, pool, s);
     flush(now, pool, s, false);
   }
   void on_job_finished(JobId j, Time now, JobPool& pool, Schedule& s) override {
@@ -104,11 +124,11 @@ class RayBatchWorkload : public Workload {
     paths_alive_ -= done->counts.paths_ended;
     stage(done->out);
     done.reset();
-    generate();
+    generate(now, pool, s);
     flush(now, pool, s, false);
   }
   void on_idle(Time now, JobPool& pool, Schedule& s) override {
-    generate();
+    generate(now, pool, s);
     flush(now, pool, s, true);
   }
   bool finished() const override {
@@ -132,7 +152,8 @@ class RayBatchWorkload : public Workload {
         for (JobId& o : slots)
           if (o == j) o = kNone;
       in_jobs_ -= lost->input;
-      stage(lost->rays);
+      if (lost->camera_count > 0) make_camera_job(lost->camera_first, lost->camera_count, now, pool, s, false);
+      else stage(lost->rays);
     }
     flush(now, pool, s, false);
   }
@@ -164,6 +185,7 @@ class RayBatchWorkload : public Workload {
   std::uint64_t merges() const { return merges_; }
   std::uint64_t jobs_created() const { return jobs_created_; }
   std::uint64_t paths_alive() const { return paths_alive_; }
+  // The options in force (camera_jobs off where the scene has more than one cell).
   const RayBatchOptions& options() const { return opt_; }
 
  protected:
@@ -195,8 +217,18 @@ class RayBatchWorkload : public Workload {
 
  private:
   // Camera rays in sample-major scanline order (coherent waves), while paths_alive < cap.
-  void generate() {
+  void generate(Time now, JobPool& pool, Schedule& s) {
     if (aborted_) return;
+    if (opt_.camera_jobs) {
+      const std::uint64_t size = std::clamp<std::uint64_t>(opt_.path_cap / (4 * std::max<std::size_t>(1, g_.computes.size())),
+                                                           std::min(opt_.min_batch, opt_.max_batch), opt_.max_batch);
+      while (next_camera_ < total_camera_ && paths_alive_ < opt_.path_cap) {
+        const std::uint64_t n = std::min({total_camera_ - next_camera_, opt_.path_cap - paths_alive_, size});
+        make_camera_job(next_camera_, n, now, pool, s, true);
+        next_camera_ += n;
+      }
+      return;
+    }
     while (next_camera_ < total_camera_ && paths_alive_ < opt_.path_cap) {
       const std::uint64_t n = std::min<std::uint64_t>(total_camera_ - next_camera_, opt_.path_cap - paths_alive_);
       const Counts c = make_camera_rays(next_camera_, n);
@@ -217,6 +249,27 @@ class RayBatchWorkload : public Workload {
     staged_ += rays.size();
     rays.clear();
     rays.shrink_to_fit();
+  }
+
+  // A RayIntersect E-job on the one cell that makes camera rays [first, first + n) itself:
+  // its input is the scene block alone (the rays never wait in a queue); its n paths are
+  // alive from now on (`fresh`; a lost job's range is made again, already counted).
+  void make_camera_job(std::uint64_t first, std::uint64_t n, Time now, JobPool& pool, Schedule&, bool fresh) {
+    rayline::Job j;
+    j.name = "camera" + std::to_string(first);
+    j.type = type_[0];
+    j.inputs = {scene_blocks_[0]};
+    j.created = now;
+    j.work = n;
+    const JobId id = pool.add_job(std::move(j));
+    if (static_cast<std::size_t>(id) >= jobs_.size()) jobs_.resize(static_cast<std::size_t>(id) + 1);
+    jobs_[static_cast<std::size_t>(id)] = std::make_unique<Job>();
+    Job& job = *jobs_[static_cast<std::size_t>(id)];
+    job.camera_first = first, job.camera_count = n;
+    job.input = n;
+    in_jobs_ += n;
+    if (fresh) paths_alive_ += n;
+    ++jobs_created_;
   }
 
   void make_job(int k, std::uint32_t cell, Staged& rays, std::size_t n, Time now, JobPool& pool, Schedule& s) {

@@ -29,16 +29,32 @@ TwinCounts RenderTwinWorkload::make_camera_rays(std::uint64_t first, std::uint64
   return c;
 }
 
+// Under continue_in_cell the rays a visit hands on in the job's own cell are visited in the
+// same job, as the renderer's CPU aggregate traces them (render/accel/aggregate.cpp); only
+// rays for other cells leave through `out`.
 void RenderTwinWorkload::job_done(Job& job) {
   job.out.clear();
-  for (const TwinRay& r : job.rays) {
-    const std::size_t before = job.out.size();
-    oracle_->visit(r, job.out);
+  // A camera job's rays: the oracle's entries of its camera indices, made in the job.
+  for (std::uint64_t i = job.camera_first; i < job.camera_first + job.camera_count; ++i) {
+    TwinRay r;
+    if (oracle_->entry(i, r)) job.rays.push_back(r);
+    else ++job.counts.paths_ended;  // missed the scene: ended at once
+  }
+  const bool stay = options().continue_in_cell;
+  std::vector<TwinRay> made;
+  for (std::size_t i = 0; i < job.rays.size(); ++i) {
+    const TwinRay r = job.rays[i];  // job.rays may grow below
+    made.clear();
+    oracle_->visit(r, made);
     ++job.counts.traced;
-    if (job.out.size() == before) ++job.counts.ended_here;
+    if (made.empty()) ++job.counts.ended_here;
     // A path ray that handed on no path ray ended its path (shadow rays never do).
     bool continues = r.kind != 0;
-    for (std::size_t k = before; k < job.out.size(); ++k) continues = continues || job.out[k].kind == 0;
+    for (const TwinRay& m : made) {
+      continues = continues || m.kind == 0;
+      if (stay && m.cell == job.cell) job.rays.push_back(m);
+      else job.out.push_back(m);
+    }
     if (!continues) ++job.counts.paths_ended;
   }
   std::vector<TwinRay>().swap(job.rays);

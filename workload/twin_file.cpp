@@ -32,7 +32,11 @@ std::string twin_json(const TwinSpec& t) {
   j["seed"] = t.seed;
   j["scheduler"] = t.scheduler;
   j["horizon_s"] = t.horizon;
-  j["batching"] = {{"path_cap", t.path_cap}, {"min_batch", t.min_batch}, {"max_batch", t.max_batch}};
+  j["batching"] = {{"path_cap", t.path_cap},
+                   {"min_batch", t.min_batch},
+                   {"max_batch", t.max_batch},
+                   {"continue_in_cell", t.continue_in_cell},
+                   {"camera_jobs", t.camera_jobs}};
   j["memory_budget_bytes"] = t.memory_budget;
   j["blocks"] = t.blocks;
   j["rays"] = t.rays;
@@ -72,11 +76,13 @@ TwinSpec load_twin(const std::string& path) {
   if (!(t.horizon > 0)) root.fail_at("horizon_s", "must be more than 0");
   const JsonField b = root.at("batching");
   b.object();
-  b.only_keys({"path_cap", "min_batch", "max_batch"});
+  b.only_keys({"path_cap", "min_batch", "max_batch", "continue_in_cell", "camera_jobs"});
   t.path_cap = u32(b.at("path_cap"), 1);
   t.min_batch = u32(b.at("min_batch"), 1);
   t.max_batch = u32(b.at("max_batch"), 1);
   if (t.max_batch < t.min_batch) b.fail_at("max_batch", "must be at least min_batch");
+  if (b.has("continue_in_cell")) t.continue_in_cell = b.at("continue_in_cell").boolean();
+  if (b.has("camera_jobs")) t.camera_jobs = b.at("camera_jobs").boolean();
   t.memory_budget = root.at("memory_budget_bytes").unsigned_integer();
   for (const JsonField& e : root.at("blocks").elements()) {
     const std::uint64_t v = e.unsigned_integer();

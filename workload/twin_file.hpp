@@ -20,6 +20,10 @@ struct TwinSpec {
   std::string scheduler = "gmb";
   double horizon = 2.0;
   std::uint32_t path_cap = 0, min_batch = 0, max_batch = 0;
+  // Rays traced in their job's own cell (RayBatchOptions::continue_in_cell); twin files
+  // without the key come from renders that queued every ray.
+  bool continue_in_cell = false;
+  bool camera_jobs = false;  // camera rays made by the jobs that trace them (RayBatchOptions)
   Bytes memory_budget = 0;          // 0: in core
   std::vector<Bytes> blocks;        // charged bytes of each cell's block
   std::string rays;                 // the ray log, relative to the twin file's folder

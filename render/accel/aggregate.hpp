@@ -10,6 +10,7 @@
 // One virtual call per E-job, none per ray.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <utility>
 #include <vector>
@@ -42,9 +43,28 @@ class Aggregate {
   virtual void intersect_shadow(const trace::TraceSettings& ts, const QueueJob& job,
                                 std::vector<trace::RayRecord>& out, trace::RayCounts& counts) = 0;
 
-  // The E-job of `job.kind` rays.
+  // Whether rays can be handed to this aggregate straight from a job's output, without a
+  // queue of their own (true for the CPU: the block's RAM copy is where the rays are; the GPU
+  // finds rays only in ray queues moved to it by T-jobs).
+  virtual bool traces_in_place() const { return false; }
+
+  // One pass of a job: its input rays, then (continuation) the rays they made in the same
+  // cell, as a ray log sees them: rays of one kind in, every ray they made out.
+  using PassObserver = std::function<void(trace::RayKind kind, std::span<const trace::RayRecord> in,
+                                          std::span<const trace::RayRecord> out)>;
+
+  // The E-job of `job.kind` rays. With `ts.continue_in_cell` on an aggregate that traces in
+  // place, the rays the job makes in its own cell (shadow rays and continuations that start
+  // there, Fig. 3's loop) are traced in the same job, pass after pass, instead of waiting in
+  // a ray queue for a job of their own: the block is resident and the rays are in the cache.
+  // Only rays for other cells reach `out`. Every ray is still traced once, in the same cell,
+  // with the same query interval, so counts and the image are those of the queued route.
   void intersect(const trace::TraceSettings& ts, const QueueJob& job, std::vector<trace::RayRecord>& out,
-                 trace::RayCounts& counts) {
+                 trace::RayCounts& counts, const PassObserver& observe = {});
+
+ private:
+  void pass(const trace::TraceSettings& ts, const QueueJob& job, std::vector<trace::RayRecord>& out,
+            trace::RayCounts& counts) {
     if (job.kind == trace::RayKind::Path) intersect_closest(ts, job, out, counts);
     else intersect_shadow(ts, job, out, counts);
   }

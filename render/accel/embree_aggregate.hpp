@@ -17,6 +17,7 @@ class EmbreeAggregate final : public Aggregate {
                          trace::RayCounts& counts) override;
   void intersect_shadow(const trace::TraceSettings& ts, const QueueJob& job, std::vector<trace::RayRecord>& out,
                         trace::RayCounts& counts) override;
+  bool traces_in_place() const override { return true; }
 
  private:
   engine::BlockStore& ram_;

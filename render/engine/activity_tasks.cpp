@@ -1,5 +1,6 @@
 #include "render/engine/activity_tasks.hpp"
 
+#include <algorithm>
 #include <span>
 #include <utility>
 
@@ -65,12 +66,31 @@ LocalExecutor::Task ActivityTasks::exec_task(const Activity& a, Victims v) {
   return [this, job, aggregate, log, v = std::move(v)] {
     evict(v);
     const auto kind = static_cast<trace::RayKind>(job->slot % 2);
-    aggregate->intersect(s_.ts, accel::QueueJob{job->cell, kind, job->rays, job->parts}, job->out, job->counts);
-    if (log) {  // the ray log's identities of the inputs, kept past the rays (ray_log_recorder.hpp)
-      job->input_ids.reserve(job->rays.size());
-      for (const trace::RayRecord& r : job->rays) job->input_ids.push_back(log->id(r));
+    accel::Aggregate::PassObserver observe;
+    if (log)  // each pass as the ray log sees it: the identities of its inputs, the rays it made
+      observe = [job, log](trace::RayKind, std::span<const trace::RayRecord> in, std::span<const trace::RayRecord> out) {
+        auto& pass = job->log_passes.emplace_back();
+        pass.first.reserve(in.size());
+        for (const trace::RayRecord& r : in) pass.first.push_back(log->id(r));
+        pass.second.assign(out.begin(), out.end());
+      };
+    if (job->camera_count == 0) {
+      aggregate->intersect(s_.ts, accel::QueueJob{job->cell, kind, job->rays, job->parts}, job->out, job->counts, observe);
+      std::vector<trace::RayRecord>().swap(job->rays);
+      return;
     }
-    std::vector<trace::RayRecord>().swap(job->rays);
+    // A camera job (one cell): its camera rays made here and traced, a chunk at a time so
+    // that a chunk's rays and the rays they make stay in this core's caches.
+    constexpr std::uint64_t kChunk = 2048;
+    std::vector<trace::RayRecord> rays;
+    rays.reserve(kChunk);
+    for (std::uint64_t first = job->camera_first, end = first + job->camera_count; first < end; first += kChunk) {
+      rays.clear();
+      s_.workload.camera_job_rays(first, std::min(kChunk, end - first), rays, job->counts);
+      if (observe) observe(trace::RayKind::Path, {}, rays);
+      aggregate->intersect(s_.ts, accel::QueueJob{job->cell, trace::RayKind::Path, rays, {}}, job->out, job->counts,
+                           observe);
+    }
   };
 }
 

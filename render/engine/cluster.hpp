@@ -30,6 +30,7 @@ struct ClusterFrame {
   int width = 0, height = 0, spp = 0, max_depth = 0, threads = 1, build_threads = 1, quality = 1;
   std::uint64_t seed = 1;
   bool skip_empty = true;
+  bool continue_in_cell = true;
   std::vector<std::uint64_t> footprint;  // bytes the plan charges per block
   std::string gpu;                       // the Vulkan device every node opens (rank 0's name); "" = none
 };

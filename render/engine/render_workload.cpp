@@ -69,10 +69,24 @@ trace::RayCounts RenderWorkload::make_camera_rays(std::uint64_t first, std::uint
   return total;
 }
 
+void RenderWorkload::camera_job_rays(std::uint64_t first, std::uint64_t n, std::vector<RayRecord>& placed,
+                                     trace::RayCounts& counts) const {
+  const std::uint64_t pixels = std::uint64_t(camera_.width()) * std::uint64_t(camera_.height());
+  for (std::uint64_t i = first; i < first + n; ++i) {
+    const auto pixel = static_cast<std::uint32_t>(i % pixels), sample = static_cast<std::uint32_t>(i / pixels);
+    trace::generate_camera_ray(ts_, camera_.position(), camera_.direction(pixel, sample, ts_.seed), pixel, sample, placed,
+                               counts);
+  }
+}
+
 void RenderWorkload::job_done(RayJob& job) {
   if (!ray_log_) return;
-  ray_log_->job(job.cell, job.input_ids, job.out);
-  std::vector<std::uint64_t>().swap(job.input_ids);
+  // A pass without input rays is a camera job's camera rays (activity_tasks.cpp).
+  for (const auto& [in, out] : job.log_passes) {
+    if (in.empty()) ray_log_->camera_rays(out);
+    else ray_log_->job(job.cell, in, out);
+  }
+  decltype(job.log_passes)().swap(job.log_passes);
 }
 
 }  // namespace rayline::engine

@@ -39,6 +39,11 @@ class RenderWorkload final : public RayBatchWorkload<trace::RayRecord, trace::Ra
                  MemId ram, std::vector<BlockId> scene_blocks, RenderWorkloadOptions opt);
   // The ray log being recorded (nullptr: none): a job's kernel keeps its input rays' ids.
   const RayLogRecorder* ray_log() const { return ray_log_; }
+  // A camera job's rays (RayBatchOptions::camera_jobs), made on the job's thread: camera
+  // rays [first, first + n) exactly as the loop would make them; those that enter a cell go
+  // to `placed`, those that miss every cell end at once (film and counts). Thread-safe.
+  void camera_job_rays(std::uint64_t first, std::uint64_t n, std::vector<trace::RayRecord>& placed,
+                       trace::RayCounts& counts) const;
 
  private:
   trace::RayCounts make_camera_rays(std::uint64_t first, std::uint64_t n) override;

@@ -340,6 +340,7 @@ trace::TraceSettings trace_settings(const RenderOptions& opt, const Frame& f, co
   // One block: no other cell to go on to, so the walk can spare a ray nothing but one Embree
   // query of the BVH that does the same test faster (in core, 11 % more rays/s without it).
   ts.skip_empty = opt.skip_empty && b.index.blocks.size() > 1;
+  ts.continue_in_cell = opt.batching.continue_in_cell;
   return ts;
 }
 
@@ -499,7 +500,7 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
   if (opt.cluster) {  // the other ranks get the frame, then the executor's lanes reach them
     opt.cluster->start({opt.scene, b.dir, res.width, res.height, res.spp, res.max_depth, f.threads,
                         opt.build_threads > 0 ? opt.build_threads : f.threads, int(f.quality), opt.seed,
-                        ts.skip_empty, b.footprint, p.gpu_ctx ? res.gpu_device : std::string()});
+                        ts.skip_empty, ts.continue_in_cell, b.footprint, p.gpu_ctx ? res.gpu_device : std::string()});
     executor_ptr =
         opt.cluster->executor({p.g, schedule, workload, ts, sb.cell_of, store, opt.read_ahead, gpu_store.get()});
   } else {
@@ -570,8 +571,13 @@ RenderResult render(const RenderOptions& opt) {
   const Bytes ram_capacity = size_paths(opt, blocks, wo, res);
   Platform platform;
   make_platform(opt, blocks, wo, ram_capacity, platform, res);
+  // Camera jobs are traced by the CPU aggregate in place: not with a GPU in the plan, a
+  // per-ray profile recorder or other ranks.
+  wo.camera_jobs = wo.camera_jobs && blocks.index.blocks.size() == 1 && !platform.gpu_ctx && !wo.recorder && !opt.cluster;
   res.min_batch = wo.min_batch;
   res.max_batch = wo.max_batch;
+  res.continue_in_cell = wo.continue_in_cell;
+  res.camera_jobs = wo.camera_jobs;
   res.block_bytes = blocks.footprint;
   res.workstation = platform.wm;
   res.platform_json = workstation_json(platform.wm, "the platform of a render (" + res.platform + ")");

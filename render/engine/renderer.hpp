@@ -95,6 +95,7 @@ struct RenderResult {
   Bytes memory_budget = 0;
   std::uint32_t path_cap = 0;             // paths alive at once (lowered to fit the budget)
   std::uint32_t min_batch = 0, max_batch = 0;  // the batching settings used
+  bool continue_in_cell = false, camera_jobs = false;
   std::vector<Bytes> block_bytes;         // each cell's block as the plan charges it
   std::string platform_json;              // the DCG driven, as a platform file (memory budget = RAM capacity)
   WorkstationModel workstation;           // ... and as its model

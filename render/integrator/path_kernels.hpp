@@ -35,6 +35,9 @@ struct TraceSettings {
   // Empty-space skipping (cell_walk.hpp, segment_may_hit): a ray skips cells whose
   // occupancy grid its segment misses. The image is the same either way (tested).
   bool skip_empty = true;
+  // Rays a job makes in its own cell are traced in that job (accel::Aggregate::intersect),
+  // not queued (RayBatchOptions::continue_in_cell). The image is the same either way.
+  bool continue_in_cell = false;
   void set_bounds(const scene::Bounds& b);
 };
 

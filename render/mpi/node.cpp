@@ -18,7 +18,7 @@ Buffer encode_frame(const engine::ClusterFrame& f) {
   h.op = Op::Setup;
   Writer w(h);
   const std::int64_t ints[] = {f.width, f.height, f.spp, f.max_depth, f.threads, f.build_threads, f.quality,
-                               std::int64_t(f.seed), f.skip_empty};
+                               std::int64_t(f.seed), f.skip_empty, f.continue_in_cell};
   w.text(f.scene).text(f.blocks_dir).records(std::span<const std::int64_t>(ints)).records(f.footprint).text(f.gpu);
   return std::move(w.buffer());
 }
@@ -29,9 +29,10 @@ engine::ClusterFrame decode_frame(const Buffer& b) {
   f.scene = r.text();
   f.blocks_dir = r.text();
   const auto v = r.records<std::int64_t>();
-  if (v.size() != 9) throw std::runtime_error("MPI message: bad Setup");
+  if (v.size() != 10) throw std::runtime_error("MPI message: bad Setup");
   f.width = int(v[0]), f.height = int(v[1]), f.spp = int(v[2]), f.max_depth = int(v[3]), f.threads = int(v[4]);
   f.build_threads = int(v[5]), f.quality = int(v[6]), f.seed = std::uint64_t(v[7]), f.skip_empty = v[8] != 0;
+  f.continue_in_cell = v[9] != 0;
   f.footprint = r.records<std::uint64_t>();
   f.gpu = r.text();
   return f;
@@ -53,6 +54,7 @@ Node::Node(Comm& comm, const engine::ClusterFrame& f, engine::BlockStore* store,
   ts_.seed = f.seed;
   ts_.max_depth = f.max_depth;
   ts_.skip_empty = f.skip_empty;
+  ts_.continue_in_cell = f.continue_in_cell;
   if (!f.gpu.empty()) {  // every node has rank 0's GPU (the graph is homogeneous)
     std::string status;
     gpu_ctx_ = engine::select_gpu(f.gpu, status);

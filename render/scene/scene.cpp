@@ -171,13 +171,14 @@ void frame_bounds(Scene& s, const Bounds& b) {
   cam.look_at = c;
   cam.up = {0, 1, 0};
   s.cameras = {cam};
-  // A square light above the mesh, a diameter wide, facing down.
+  // A square light above the mesh, a diameter wide, facing down: it emits along
+  // edge_u x edge_v (path_kernels.cpp, next-event estimation), here (0, -w^2, 0).
   const float w = 2.0f * radius;
   AreaLight l;
   l.name = "key";
   l.corner = {c.x - 0.5f * w, b.hi.y + radius, c.z - 0.5f * w};
-  l.edge_u = {0, 0, w};
-  l.edge_v = {w, 0, 0};
+  l.edge_u = {w, 0, 0};
+  l.edge_v = {0, 0, w};
   l.emission = {4, 4, 4};
   s.area_lights = {l};
   s.environment.radiance = {0.3f, 0.3f, 0.35f};

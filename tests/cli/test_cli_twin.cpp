@@ -140,6 +140,15 @@ TEST_F(CliTwin, BadTwinInputsExitTwoNamingFileAndField) {
   EXPECT_EQ(r.code, 2) << r.all;
   EXPECT_NE(r.err.find("bad.twin.json: batching.max_batch"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(path("s2")));
+  // A batching switch that is not true or false.
+  t = json_of("rec.twin.json");
+  EXPECT_TRUE(t["batching"]["continue_in_cell"].get<bool>()) << "renders continue rays in their cell by default";
+  t["batching"]["continue_in_cell"] = "yes";
+  std::ofstream(path("bad.twin.json")) << t.dump();
+  r = rayline_cli("simulate -q --like " + path("bad.twin.json") + " --out " + path("s2"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("bad.twin.json: batching.continue_in_cell"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("s2")));
 
   // A truncated ray log.
   fs::resize_file(path("rec.twin.rays"), fs::file_size(path("rec.twin.rays")) / 2);

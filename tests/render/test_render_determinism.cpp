@@ -177,21 +177,50 @@ TEST(RenderDeterminism, ReadAheadSameImage) {
   EXPECT_EQ(ra.sums, in_core.sums);
 }
 
-// Recording a ray log (render --record-twin) changes nothing in the image, and the log is
-// the render: one visit per cell visit, one entry per camera ray that met a cell, every
-// child recorded after its parent, and a path ray that hands on no path ray ends its path
-// once per camera ray (the twin's conservation). Under a budget, with two threads.
-TEST(RenderDeterminism, RayLogRecordingSameImageAndItsLogIsTheRender) {
-  RenderOptions a = base();
-  const RenderResult plain = render(a);
-  RenderOptions b = base();
-  b.memory_budget = plain.scene_block_bytes / 4;
-  rayline::engine::RayLogRecorder recorder;
-  b.batching.ray_log = &recorder;
-  const RenderResult rec = render(b);
-  expect_sane(rec);
-  EXPECT_EQ(plain.sums, rec.sums);
-  const rayline::RayLog& log = recorder.finish();
+TEST(RenderDeterminism, ContinuationInCellSameImage) {
+  // Rays a CPU job makes in its own cell are traced in that job instead of waiting in a
+  // queue: the same visits, the same rays and the same image, in fewer jobs.
+  const auto [in_core, ra, rb] = quarter_budget_pair([](RenderOptions& a, RenderOptions& b) {
+    a.batching.continue_in_cell = true;
+    b.batching.continue_in_cell = false;
+  });
+  EXPECT_TRUE(ra.continue_in_cell);
+  EXPECT_FALSE(rb.continue_in_cell);
+  EXPECT_EQ(ra.counts.traced, rb.counts.traced);
+  EXPECT_EQ(ra.counts.created, rb.counts.created);
+  EXPECT_EQ(ra.counts.occluded, rb.counts.occluded);
+  EXPECT_LT(ra.jobs, rb.jobs) << "rays that stay in their cell need no job of their own";
+  EXPECT_EQ(ra.sums, rb.sums);
+  EXPECT_EQ(ra.sums, in_core.sums);
+}
+
+TEST(RenderDeterminism, CameraJobsSameImage) {
+  // One block in core: each job makes the camera rays it traces (and, continuing in the
+  // cell, their whole paths). The image and every count are those of camera rays made on
+  // the loop's thread and queued; eight blocks (no camera jobs there) agree too.
+  RenderOptions a = base(), b = base(), c = base();
+  a.blocks = b.blocks = 1;
+  b.batching.camera_jobs = false;
+  b.batching.continue_in_cell = false;
+  const RenderResult ra = render(a), rb = render(b), rc = render(c);
+  expect_sane(ra);
+  expect_sane(rb);
+  EXPECT_TRUE(ra.camera_jobs);
+  EXPECT_FALSE(rb.camera_jobs);
+  EXPECT_FALSE(rc.camera_jobs) << "camera jobs only with one cell";
+  EXPECT_EQ(ra.counts.traced, rb.counts.traced);
+  EXPECT_EQ(ra.counts.created, rb.counts.created);
+  EXPECT_EQ(ra.counts.paths_ended, rb.counts.paths_ended);
+  EXPECT_EQ(ra.sums, rb.sums);
+  EXPECT_EQ(ra.sums, rc.sums);
+}
+
+namespace {
+
+// The log is the render: one visit per cell visit, one entry per camera ray that met a
+// cell, every child recorded after its parent, and a path ray that hands on no path ray
+// ends its path once per camera ray (the twin's conservation).
+void expect_log_is_render(const rayline::RayLog& log, const RenderResult& rec) {
   EXPECT_EQ(log.visits.size(), rec.counts.traced);
   EXPECT_EQ(log.camera_rays(), rec.camera_rays);
   std::uint64_t ended_paths = 0, entered = 0;
@@ -207,4 +236,36 @@ TEST(RenderDeterminism, RayLogRecordingSameImageAndItsLogIsTheRender) {
     ended_paths += continues ? 0 : 1;
   }
   EXPECT_EQ(ended_paths, entered) << "every path that met a cell ends exactly once in the log";
+}
+
+}  // namespace
+
+// Recording a ray log (render --record-twin) changes nothing in the image, and the log is
+// the render; under a budget, with two threads, rays continuing in their cell.
+TEST(RenderDeterminism, RayLogRecordingSameImageAndItsLogIsTheRender) {
+  RenderOptions a = base();
+  const RenderResult plain = render(a);
+  RenderOptions b = base();
+  b.memory_budget = plain.scene_block_bytes / 4;
+  rayline::engine::RayLogRecorder recorder;
+  b.batching.ray_log = &recorder;
+  const RenderResult rec = render(b);
+  expect_sane(rec);
+  EXPECT_TRUE(rec.continue_in_cell);
+  EXPECT_EQ(plain.sums, rec.sums);
+  expect_log_is_render(recorder.finish(), rec);
+}
+
+// The same in core with one block, where jobs make their camera rays and trace whole paths.
+TEST(RenderDeterminism, RayLogOfCameraJobsIsTheRender) {
+  RenderOptions a = base();
+  a.blocks = 1;
+  const RenderResult plain = render(a);
+  rayline::engine::RayLogRecorder recorder;
+  a.batching.ray_log = &recorder;
+  const RenderResult rec = render(a);
+  expect_sane(rec);
+  EXPECT_TRUE(rec.camera_jobs);
+  EXPECT_EQ(plain.sums, rec.sums);
+  expect_log_is_render(recorder.finish(), rec);
 }

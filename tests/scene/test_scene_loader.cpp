@@ -155,6 +155,8 @@ TEST_F(Loader, BareMeshIsFramed) {
   EXPECT_EQ(s.area_lights.size(), 1u);
   EXPECT_GT(s.environment.radiance.x, 0);
   EXPECT_GT(s.area_lights[0].corner.y, 2.0f);
+  // The key light shines down onto the mesh: it emits along edge_u x edge_v.
+  EXPECT_LT(cross(s.area_lights[0].edge_u, s.area_lights[0].edge_v).y, 0.0f);
   EXPECT_EQ(scene_stats(s).triangles, 2u);
 }
 

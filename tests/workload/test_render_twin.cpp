@@ -138,6 +138,56 @@ TEST(RenderTwin, EveryVisitTracedOnceEveryPathEndsOnRandomLogs) {
     }
 }
 
+// The renderer's two in-job shortcuts, in the twin: rays continuing in their job's cell
+// and, with one cell, jobs that make their own camera rays. Every visit is still traced
+// once and every path ends; continuing takes fewer jobs; with both, in one cell, no ray
+// ever waits in a queue: every job's only input is the scene block.
+TEST(RenderTwin, ContinuationAndCameraJobsTraceEveryVisitOnce) {
+  for (const std::uint32_t cells : {1u, 4u}) {
+    auto log = std::make_shared<RayLog>(random_log(cells, 24, 16, 2, 5, 11));
+    std::uint64_t leaves = 0;
+    for (const RayVisit& v : log->visits) leaves += v.children == 0;
+    std::size_t jobs[2][2] = {};
+    for (const bool stay : {false, true})
+      for (const bool camera : {false, true}) {
+        SCOPED_TRACE(std::to_string(cells) + " cells, continue " + std::to_string(stay) + ", camera jobs " +
+                     std::to_string(camera));
+        const DeviceGraph g = workstation(Bytes(cells) * 1'000'000 + Bytes(2'000'000));
+        JobPool pool;
+        Schedule s(g, pool);
+        std::vector<BlockId> blocks;
+        for (std::uint32_t c = 0; c < cells; ++c) {
+          DataBlock d;
+          d.name = "scene" + std::to_string(c);
+          d.kind = DataKind::SceneData;
+          d.bytes = 1'000'000;
+          blocks.push_back(pool.add_block(d));
+          s.put_initial(blocks.back(), 0, 0, true);
+        }
+        RayBatchOptions o;
+        o.spp = 2, o.path_cap = 200, o.min_batch = 16, o.max_batch = 64;
+        o.continue_in_cell = stay, o.camera_jobs = camera;
+        RenderTwinWorkload wl(g, 1, blocks, o, std::make_unique<ReplayOracle>(log));
+        EXPECT_EQ(wl.options().camera_jobs, camera && cells == 1);
+        auto sched = make_scheduler("gmb", 2.0);
+        ExactExecutor ex(s);
+        RuntimeLoop loop(*sched, ex, wl, pool, s);
+        ASSERT_FALSE(loop.run().stalled);
+        EXPECT_EQ(wl.counts().traced, log->visits.size());
+        EXPECT_EQ(wl.counts().paths_ended, log->camera_rays());
+        EXPECT_EQ(wl.counts().ended_here, leaves);
+        for (std::size_t j = 0; j < pool.job_count(); ++j) {
+          EXPECT_EQ(pool.state(static_cast<JobId>(j)), JobState::Done);
+          if (wl.options().camera_jobs && stay) EXPECT_EQ(pool.job(static_cast<JobId>(j)).inputs.size(), 1u);
+        }
+        jobs[stay][camera] = pool.job_count();
+        const auto c = rayline::testing::check_schedule(s, pool);
+        for (const auto& e : c.errors) ADD_FAILURE() << e;
+      }
+    if (cells == 1) EXPECT_LT(jobs[1][0], jobs[0][0]) << "in one cell, continuing leaves no ray for another job";
+  }
+}
+
 // The Markov oracle: per (cell, kind, bounce) outcome statistics of a log, sampled per ray.
 // Every path still ends; the visits per camera ray, the visits per cell and the entry
 // cells per tile match the log's within sampling noise; and it describes the scene at
