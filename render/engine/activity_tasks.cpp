@@ -81,12 +81,13 @@ LocalExecutor::Task ActivityTasks::exec_task(const Activity& a, Victims v) {
     }
     // A camera job (one cell): its camera rays made here and traced, a chunk at a time so
     // that a chunk's rays and the rays they make stay in this core's caches.
-    constexpr std::uint64_t kChunk = 2048;
+    constexpr std::size_t kChunk = 2048;
+    const std::vector<std::uint64_t> order = s_.workload.tile_order(job->camera_first, job->camera_count);
     std::vector<trace::RayRecord> rays;
     rays.reserve(kChunk);
-    for (std::uint64_t first = job->camera_first, end = first + job->camera_count; first < end; first += kChunk) {
+    for (std::size_t at = 0; at < order.size(); at += kChunk) {
       rays.clear();
-      s_.workload.camera_job_rays(first, std::min(kChunk, end - first), rays, job->counts);
+      s_.workload.camera_job_rays(std::span(order).subspan(at, std::min(kChunk, order.size() - at)), rays, job->counts);
       if (observe) observe(trace::RayKind::Path, {}, rays);
       aggregate->intersect(s_.ts, accel::QueueJob{job->cell, trace::RayKind::Path, rays, {}}, job->out, job->counts,
                            observe);

@@ -69,14 +69,32 @@ trace::RayCounts RenderWorkload::make_camera_rays(std::uint64_t first, std::uint
   return total;
 }
 
-void RenderWorkload::camera_job_rays(std::uint64_t first, std::uint64_t n, std::vector<RayRecord>& placed,
+void RenderWorkload::camera_job_rays(std::span<const std::uint64_t> indices, std::vector<RayRecord>& placed,
                                      trace::RayCounts& counts) const {
   const std::uint64_t pixels = std::uint64_t(camera_.width()) * std::uint64_t(camera_.height());
-  for (std::uint64_t i = first; i < first + n; ++i) {
+  for (const std::uint64_t i : indices) {
     const auto pixel = static_cast<std::uint32_t>(i % pixels), sample = static_cast<std::uint32_t>(i / pixels);
     trace::generate_camera_ray(ts_, camera_.position(), camera_.direction(pixel, sample, ts_.seed), pixel, sample, placed,
                                counts);
   }
+}
+
+std::vector<std::uint64_t> RenderWorkload::tile_order(std::uint64_t first, std::uint64_t n) const {
+  const std::uint64_t w = std::uint64_t(camera_.width()), pixels = w * std::uint64_t(camera_.height());
+  std::vector<std::uint64_t> out;
+  out.reserve(n);
+  // Rows of the range, one sample at a time (a range may span the end of one sample's image).
+  for (std::uint64_t row = first / w; row * w < first + n; row += kTile) {
+    const std::uint64_t row_end = std::min(row + kTile, (row / (pixels / w) + 1) * (pixels / w));
+    for (std::uint64_t x0 = 0; x0 < w; x0 += kTile)
+      for (std::uint64_t y = row; y < row_end; ++y)
+        for (std::uint64_t x = x0; x < std::min(x0 + kTile, w); ++x) {
+          const std::uint64_t i = y * w + x;
+          if (i >= first && i < first + n) out.push_back(i);
+        }
+    if (row_end < row + kTile) row = row_end - kTile;  // the next sample's first row next
+  }
+  return out;
 }
 
 void RenderWorkload::job_done(RayJob& job) {

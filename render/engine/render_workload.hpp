@@ -5,6 +5,7 @@
 // twin (ray_log_recorder.hpp, docs/validation.md).
 #pragma once
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "render/integrator/camera.hpp"
@@ -42,8 +43,13 @@ class RenderWorkload final : public RayBatchWorkload<trace::RayRecord, trace::Ra
   // A camera job's rays (RayBatchOptions::camera_jobs), made on the job's thread: camera
   // rays [first, first + n) exactly as the loop would make them; those that enter a cell go
   // to `placed`, those that miss every cell end at once (film and counts). Thread-safe.
-  void camera_job_rays(std::uint64_t first, std::uint64_t n, std::vector<trace::RayRecord>& placed,
+  void camera_job_rays(std::span<const std::uint64_t> indices, std::vector<trace::RayRecord>& placed,
                        trace::RayCounts& counts) const;
+  // Camera indices [first, first + n) in the order a camera job traces them: image tiles of
+  // kTile x kTile pixels (clipped to the range), tile after tile, so that neighbouring rays
+  // follow each other through the BVH and find its nodes in the cache.
+  static constexpr std::uint32_t kTile = 8;
+  std::vector<std::uint64_t> tile_order(std::uint64_t first, std::uint64_t n) const;
 
  private:
   trace::RayCounts make_camera_rays(std::uint64_t first, std::uint64_t n) override;

@@ -200,6 +200,9 @@ TEST(RenderDeterminism, CameraJobsSameImage) {
   // the loop's thread and queued; eight blocks (no camera jobs there) agree too.
   RenderOptions a = base(), b = base(), c = base();
   a.blocks = b.blocks = 1;
+  // A size that is no multiple of the camera jobs' 8 x 8 tiles, and jobs that end mid-row.
+  a.width = b.width = c.width = 37;
+  a.height = b.height = c.height = 29;
   b.batching.camera_jobs = false;
   b.batching.continue_in_cell = false;
   const RenderResult ra = render(a), rb = render(b), rc = render(c);
