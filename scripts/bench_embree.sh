@@ -11,9 +11,14 @@
 # light. Paths therefore differ in length and in shadow rays, so the ratio is indicative;
 # samples per second is compared because the tutorial counts no rays.
 #
+# A mesh file instead of the generated museum: MESH=assets/bunny.obj (OBJ or ASCII PLY). Rayline
+# renders it as a bare mesh (its framing camera, key area light above and environment,
+# README "Render"); the tutorial gets the same camera, computed here the same way.
+#
 # Usage: scripts/bench_embree.sh [TRIANGLES=1000000] [RES=512] [SPP=16] [DEPTH=5] [REPS=3]
 # Environment: RAYLINE_BIN (another rayline binary), BENCH_DIR (default out/bench-embree),
-# THREADS (default: all hardware threads).
+# THREADS (default: all hardware threads), MESH (a mesh file; TRIANGLES is then ignored),
+# RAYLINE_ARGS (more `rayline render` flags, e.g. "--camera-jobs off").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TRIS="${1:-1000000}"; RES="${2:-512}"; SPP="${3:-16}"; DEPTH="${4:-5}"; REPS="${5:-3}"
@@ -23,19 +28,46 @@ command -v pathtracer > /dev/null || { echo "Embree's pathtracer tutorial is mis
 THREADS="${THREADS:-$(nproc)}"
 WORK="${BENCH_DIR:-out/bench-embree}"
 mkdir -p "$WORK"
-PLY="$WORK/museum-$TRIS.ply"
-SCENE="$WORK/museum-$TRIS.json"
-[ -f "$PLY" ] || "$BIN" generate museum-like -q --triangles "$TRIS" --out "$PLY" > /dev/null
-read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$(/usr/bin/python3 -c "
+if [ -n "${MESH:-}" ]; then
+  [ -f "$MESH" ] || { echo "MESH=$MESH: no such file" >&2; exit 2; }
+  PLY="$MESH"; SCENE="$MESH"; TRIS="$(basename "$MESH")"
+  # The framing camera of a bare mesh (render/scene/scene.cpp, frame_bounds).
+  read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$(/usr/bin/python3 -c "
+import math, sys
+f = open('$MESH'); lo = [math.inf] * 3; hi = [-math.inf] * 3
+def add(v):
+    for k in range(3): lo[k] = min(lo[k], v[k]); hi[k] = max(hi[k], v[k])
+if '$MESH'.lower().endswith('.obj'):
+    for l in f:
+        if l.startswith('v '): add(list(map(float, l.split()[1:4])))
+else:
+    n = 0
+    for l in f:
+        if l.startswith('format') and 'ascii' not in l: sys.exit('MESH: only ASCII PLY')
+        if l.startswith('element vertex'): n = int(l.split()[2])
+        if l.strip() == 'end_header': break
+    for _ in range(n): add(list(map(float, f.readline().split()[:3])))
+c = [(a + b) / 2 for a, b in zip(lo, hi)]
+r = max(0.5 * math.dist(lo, hi), 1e-3); d = r / math.sin(math.radians(20)) * 1.05
+u = [0.35, 0.45, 1.0]; n = math.hypot(*u)
+print(*[c[k] + u[k] / n * d for k in range(3)], *c, 0, 1, 0, 40)")"
+  BLOCKS="$WORK/blocks-1-$(basename "$MESH")"
+else
+  PLY="$WORK/museum-$TRIS.ply"
+  SCENE="$WORK/museum-$TRIS.json"
+  [ -f "$PLY" ] || "$BIN" generate museum-like -q --triangles "$TRIS" --out "$PLY" > /dev/null
+  read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$(/usr/bin/python3 -c "
 import json; c = next(iter(json.load(open('$SCENE'))['cameras'].values()))
 print(*c['position'], *c['look_at'], *c['up'], c['fov_deg'])")"
-[ -f "$WORK/blocks-1/blocks.json" ] || "$BIN" partition -q --scene "$SCENE" --blocks 1 --out "$WORK/blocks-1" > /dev/null
+  BLOCKS="$WORK/blocks-1-museum-$TRIS"
+fi
+[ -f "$BLOCKS/blocks.json" ] || "$BIN" partition -q --scene "$SCENE" --blocks 1 --out "$BLOCKS" > /dev/null
 
 now() { date +%s.%N; }
 ours() {  # spp -> wall seconds of one in-core render
   local t0; t0=$(now)
-  "$BIN" render -q --scene "$SCENE" --blocks-dir "$WORK/blocks-1" --resolution "${RES}x${RES}" --spp "$1" \
-    --max-depth "$DEPTH" -j "$THREADS" --out "$WORK/ours-$1.exr" > /dev/null
+  "$BIN" render -q --scene "$SCENE" --blocks-dir "$BLOCKS" --resolution "${RES}x${RES}" --spp "$1" \
+    --max-depth "$DEPTH" -j "$THREADS" ${RAYLINE_ARGS:-} --out "$WORK/ours-$1.exr" > /dev/null
   /usr/bin/python3 -c "print($(now) - $t0)"
 }
 theirs() {  # spp -> wall seconds of one tutorial run
@@ -45,7 +77,7 @@ theirs() {  # spp -> wall seconds of one tutorial run
     --directionallight 0 -1 0 8 8 7.5 --ambientlight 0.55 0.65 0.85 -o "$WORK/embree-$1.ppm" > "$WORK/embree.log" 2>&1
   /usr/bin/python3 -c "print($(now) - $t0)"
 }
-echo "scene: $TRIS triangles, ${RES}x${RES}, $SPP and $((2 * SPP)) spp, max depth $DEPTH, $THREADS threads, $REPS rounds"
+echo "scene: ${MESH:-$TRIS triangles}, ${RES}x${RES}, $SPP and $((2 * SPP)) spp, max depth $DEPTH, $THREADS threads, $REPS rounds"
 rows=()
 for i in $(seq 1 "$REPS"); do
   o1=$(ours "$SPP"); e1=$(theirs "$SPP"); o2=$(ours $((2 * SPP))); e2=$(theirs $((2 * SPP)))

@@ -75,8 +75,8 @@ struct RayBatchJob {
   std::vector<Ray> rays;
   std::uint64_t input = 0;  // rays handed to the job
   // A camera job (RayBatchOptions::camera_jobs): camera rays [camera_first, camera_first +
-  // camera_count) in the workload's order (pixel = i % pixels, sample = i / pixels), made by
-  // whoever traces the job; `rays` is empty.
+  // camera_count) of the camera order (workload/camera_order.hpp: tiles, then pixels, then
+  // samples), made by whoever traces the job; `rays` is empty.
   std::uint64_t camera_first = 0, camera_count = 0;
   // The job's ray queues (RayQueue/ShadowRayQueue blocks merged into it, Sec. 5.1) and
   // their ray counts, in the order of `rays`: a queue moves RAM->GPU as its own T-job.

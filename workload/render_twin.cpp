@@ -3,6 +3,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "workload/camera_order.hpp"
+
 namespace rayline {
 
 RenderTwinWorkload::RenderTwinWorkload(const DeviceGraph& g, MemId ram, std::vector<BlockId> scene_blocks,
@@ -34,10 +36,12 @@ TwinCounts RenderTwinWorkload::make_camera_rays(std::uint64_t first, std::uint64
 // rays for other cells leave through `out`.
 void RenderTwinWorkload::job_done(Job& job) {
   job.out.clear();
-  // A camera job's rays: the oracle's entries of its camera indices, made in the job.
-  for (std::uint64_t i = job.camera_first; i < job.camera_first + job.camera_count; ++i) {
+  // A camera job's rays: the oracle's entries of its camera rays (in the camera order,
+  // workload/camera_order.hpp), made in the job.
+  const CameraOrder order{oracle_->width(), oracle_->height(), oracle_->spp()};
+  for (std::uint64_t j = job.camera_first; j < job.camera_first + job.camera_count; ++j) {
     TwinRay r;
-    if (oracle_->entry(i, r)) job.rays.push_back(r);
+    if (oracle_->entry(order.camera_index(j), r)) job.rays.push_back(r);
     else ++job.counts.paths_ended;  // missed the scene: ended at once
   }
   const bool stay = options().continue_in_cell;

@@ -29,6 +29,8 @@ class TwinOracle {
   virtual ~TwinOracle() = default;
   virtual std::uint64_t camera_rays() const = 0;
   virtual std::uint32_t spp() const = 0;
+  virtual std::uint32_t width() const = 0;
+  virtual std::uint32_t height() const = 0;
   // Camera ray i (pixel i % pixels, sample i / pixels): its first ray, or false when it
   // misses every cell.
   virtual bool entry(std::uint64_t i, TwinRay& r) = 0;
@@ -41,6 +43,8 @@ class ReplayOracle final : public TwinOracle {
   explicit ReplayOracle(std::shared_ptr<const RayLog> log) : log_(std::move(log)) {}
   std::uint64_t camera_rays() const override { return log_->camera_rays(); }
   std::uint32_t spp() const override { return log_->spp; }
+  std::uint32_t width() const override { return log_->width; }
+  std::uint32_t height() const override { return log_->height; }
   bool entry(std::uint64_t i, TwinRay& r) override;
   void visit(const TwinRay& r, std::vector<TwinRay>& out) override;
 
@@ -55,6 +59,8 @@ class MarkovOracle final : public TwinOracle {
   MarkovOracle(const RayLog& log, std::uint32_t width, std::uint32_t height, std::uint32_t spp, std::uint64_t seed);
   std::uint64_t camera_rays() const override { return std::uint64_t(width_) * height_ * spp_; }
   std::uint32_t spp() const override { return spp_; }
+  std::uint32_t width() const override { return width_; }
+  std::uint32_t height() const override { return height_; }
   bool entry(std::uint64_t i, TwinRay& r) override;
   void visit(const TwinRay& r, std::vector<TwinRay>& out) override;
   std::size_t states() const { return states_.size(); }

@@ -80,18 +80,24 @@ LocalExecutor::Task ActivityTasks::exec_task(const Activity& a, Victims v) {
       return;
     }
     // A camera job (one cell): its camera rays made here and traced, a chunk at a time so
-    // that a chunk's rays and the rays they make stay in this core's caches.
-    constexpr std::size_t kChunk = 2048;
-    const std::vector<std::uint64_t> order = s_.workload.tile_order(job->camera_first, job->camera_count);
+    // that a chunk's rays and the rays they make stay in this core's caches. Every ray of
+    // the job belongs to one of its camera rays' pixels, a few rows of tiles, so the film is
+    // a window over those rows, summed without atomics and added once at the end (the same
+    // sums, film.hpp).
+    const auto [pixel0, pixels] = s_.workload.camera_order().pixel_span(job->camera_first, job->camera_count);
+    trace::Film window = trace::Film::window(*s_.ts.film, pixel0, pixels);
+    trace::TraceSettings ts = s_.ts;
+    ts.film = &window;
+    constexpr std::uint64_t kChunk = 2048;
     std::vector<trace::RayRecord> rays;
     rays.reserve(kChunk);
-    for (std::size_t at = 0; at < order.size(); at += kChunk) {
+    for (std::uint64_t first = job->camera_first, end = first + job->camera_count; first < end; first += kChunk) {
       rays.clear();
-      s_.workload.camera_job_rays(std::span(order).subspan(at, std::min(kChunk, order.size() - at)), rays, job->counts);
+      s_.workload.camera_job_rays(ts, first, std::min(kChunk, end - first), rays, job->counts);
       if (observe) observe(trace::RayKind::Path, {}, rays);
-      aggregate->intersect(s_.ts, accel::QueueJob{job->cell, trace::RayKind::Path, rays, {}}, job->out, job->counts,
-                           observe);
+      aggregate->intersect(ts, accel::QueueJob{job->cell, trace::RayKind::Path, rays, {}}, job->out, job->counts, observe);
     }
+    s_.ts.film->merge(window);
   };
 }
 

@@ -14,7 +14,9 @@ RenderWorkload::RenderWorkload(const trace::TraceSettings& ts, const trace::Pinh
                                RenderWorkloadOptions opt)
     : RayBatchWorkload(g, ram, std::move(scene_blocks), opt,
                        std::uint64_t(camera.width()) * std::uint64_t(camera.height()) * std::uint64_t(opt.spp)),
-      ts_(ts), camera_(camera), recorder_(opt.recorder), ray_log_(opt.ray_log) {}
+      ts_(ts), camera_(camera),
+      order_{std::uint32_t(camera.width()), std::uint32_t(camera.height()), std::uint32_t(opt.spp)},
+      recorder_(opt.recorder), ray_log_(opt.ray_log) {}
 
 // A wave of camera rays in chunks of 8192 on oneTBB's threads (each chunk its own vector
 // and counts, and its rays' indices grouped by queue; the film's sample counts are
@@ -69,32 +71,13 @@ trace::RayCounts RenderWorkload::make_camera_rays(std::uint64_t first, std::uint
   return total;
 }
 
-void RenderWorkload::camera_job_rays(std::span<const std::uint64_t> indices, std::vector<RayRecord>& placed,
-                                     trace::RayCounts& counts) const {
-  const std::uint64_t pixels = std::uint64_t(camera_.width()) * std::uint64_t(camera_.height());
-  for (const std::uint64_t i : indices) {
-    const auto pixel = static_cast<std::uint32_t>(i % pixels), sample = static_cast<std::uint32_t>(i / pixels);
-    trace::generate_camera_ray(ts_, camera_.position(), camera_.direction(pixel, sample, ts_.seed), pixel, sample, placed,
+void RenderWorkload::camera_job_rays(const trace::TraceSettings& ts, std::uint64_t first, std::uint64_t n,
+                                     std::vector<RayRecord>& placed, trace::RayCounts& counts) const {
+  for (std::uint64_t j = first; j < first + n; ++j) {
+    const auto [pixel, sample] = order_.at(j);
+    trace::generate_camera_ray(ts, camera_.position(), camera_.direction(pixel, sample, ts.seed), pixel, sample, placed,
                                counts);
   }
-}
-
-std::vector<std::uint64_t> RenderWorkload::tile_order(std::uint64_t first, std::uint64_t n) const {
-  const std::uint64_t w = std::uint64_t(camera_.width()), pixels = w * std::uint64_t(camera_.height());
-  std::vector<std::uint64_t> out;
-  out.reserve(n);
-  // Rows of the range, one sample at a time (a range may span the end of one sample's image).
-  for (std::uint64_t row = first / w; row * w < first + n; row += kTile) {
-    const std::uint64_t row_end = std::min(row + kTile, (row / (pixels / w) + 1) * (pixels / w));
-    for (std::uint64_t x0 = 0; x0 < w; x0 += kTile)
-      for (std::uint64_t y = row; y < row_end; ++y)
-        for (std::uint64_t x = x0; x < std::min(x0 + kTile, w); ++x) {
-          const std::uint64_t i = y * w + x;
-          if (i >= first && i < first + n) out.push_back(i);
-        }
-    if (row_end < row + kTile) row = row_end - kTile;  // the next sample's first row next
-  }
-  return out;
 }
 
 void RenderWorkload::job_done(RayJob& job) {

@@ -10,6 +10,7 @@
 
 #include "render/integrator/camera.hpp"
 #include "render/integrator/path_kernels.hpp"
+#include "workload/camera_order.hpp"
 #include "workload/ray_batch_workload.hpp"
 
 namespace rayline::engine {
@@ -41,15 +42,13 @@ class RenderWorkload final : public RayBatchWorkload<trace::RayRecord, trace::Ra
   // The ray log being recorded (nullptr: none): a job's kernel keeps its input rays' ids.
   const RayLogRecorder* ray_log() const { return ray_log_; }
   // A camera job's rays (RayBatchOptions::camera_jobs), made on the job's thread: camera
-  // rays [first, first + n) exactly as the loop would make them; those that enter a cell go
-  // to `placed`, those that miss every cell end at once (film and counts). Thread-safe.
-  void camera_job_rays(std::span<const std::uint64_t> indices, std::vector<trace::RayRecord>& placed,
-                       trace::RayCounts& counts) const;
-  // Camera indices [first, first + n) in the order a camera job traces them: image tiles of
-  // kTile x kTile pixels (clipped to the range), tile after tile, so that neighbouring rays
-  // follow each other through the BVH and find its nodes in the cache.
-  static constexpr std::uint32_t kTile = 8;
-  std::vector<std::uint64_t> tile_order(std::uint64_t first, std::uint64_t n) const;
+  // rays [first, first + n) of the camera order (workload/camera_order.hpp), each exactly as
+  // the loop would make it; those that enter a cell go to `placed`, those that miss every
+  // cell end at once (film and counts). `ts` is this workload's settings, or a copy whose
+  // film is the job's window. Thread-safe.
+  void camera_job_rays(const trace::TraceSettings& ts, std::uint64_t first, std::uint64_t n,
+                       std::vector<trace::RayRecord>& placed, trace::RayCounts& counts) const;
+  const CameraOrder& camera_order() const { return order_; }
 
  private:
   trace::RayCounts make_camera_rays(std::uint64_t first, std::uint64_t n) override;
@@ -57,6 +56,7 @@ class RenderWorkload final : public RayBatchWorkload<trace::RayRecord, trace::Ra
 
   trace::TraceSettings ts_;
   const trace::PinholeCamera& camera_;
+  CameraOrder order_;
   ProfileRecorder* recorder_;
   RayLogRecorder* ray_log_;
 };

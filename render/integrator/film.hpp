@@ -29,7 +29,16 @@ class Film {
   // instead of summing it (one E-job of a distributed render on another rank, whose
   // contributions travel back with the job's outputs, render/mpi/README.md). Used by one
   // thread; count_sample() is not for journals.
-  static Film journal() { return Film(0, 0, true); }
+  static Film journal() { return Film(0, 0, true, 0, 0); }
+  // A window: the contributions and samples of one camera job, whose camera rays cover the
+  // `count` pixels from `first` on (modulo the image), summed without atomics by the one
+  // thread that runs the job, then added to `film` by merge() in one pass. Every
+  // contribution is rounded as a dense film rounds it, so the sums are the same bit for bit.
+  static Film window(const Film& film, std::uint32_t first, std::uint32_t count) {
+    return Film(film.width_, film.height_, false, first, count);
+  }
+  // Adds a window's sums, samples and dropped / clamped counts (thread-safe).
+  void merge(const Film& window);
   std::vector<FilmEntry> take_journal() { return std::move(journal_entries_); }
   // Adds a journal's records and its dropped / clamped counts (thread-safe): the sums are
   // those the contributions would have made here, bit for bit.
@@ -41,7 +50,10 @@ class Film {
   // kMaxContribution are clamped (and counted).
   void add(std::uint32_t pixel, scene::Float3 radiance);
   // One more camera sample for `pixel` (conservation: every pixel gets exactly spp).
-  void count_sample(std::uint32_t pixel) { std::atomic_ref<std::uint32_t>(samples_[pixel]).fetch_add(1); }
+  void count_sample(std::uint32_t pixel) {
+    if (window_count_) ++samples_[slot(pixel)];
+    else std::atomic_ref<std::uint32_t>(samples_[pixel]).fetch_add(1);
+  }
 
   std::uint32_t samples(std::uint32_t pixel) const { return samples_[pixel]; }
   std::uint64_t dropped() const { return dropped_.load(); }
@@ -52,9 +64,15 @@ class Film {
   const std::vector<std::int64_t>& sums() const { return sums_; }
 
  private:
-  Film(int width, int height, bool journal) : width_(width), height_(height), journal_(journal) {}
+  Film(int width, int height, bool journal, std::uint32_t first, std::uint32_t count);
+  // A window's slot of `pixel` (window_first_ <= pixel, or pixel wrapped past the image's end).
+  std::size_t slot(std::uint32_t pixel) const {
+    const std::uint32_t pixels = std::uint32_t(width_) * std::uint32_t(height_);
+    return pixel >= window_first_ ? pixel - window_first_ : pixel + pixels - window_first_;
+  }
   int width_, height_;
   bool journal_ = false;
+  std::uint32_t window_first_ = 0, window_count_ = 0;  // a window's pixels (count 0: not a window)
   std::vector<FilmEntry> journal_entries_;
   std::vector<std::int64_t> sums_;      // 3 per pixel
   std::vector<std::uint32_t> samples_;  // per pixel
