@@ -18,7 +18,9 @@
 # Usage: scripts/bench_embree.sh [TRIANGLES=1000000] [RES=512] [SPP=16] [DEPTH=5] [REPS=3]
 # Environment: RAYLINE_BIN (another rayline binary), BENCH_DIR (default out/bench-embree),
 # THREADS (default: all hardware threads), MESH (a mesh file; TRIANGLES is then ignored),
-# RAYLINE_ARGS (more `rayline render` flags, e.g. "--camera-jobs off").
+# RAYLINE_ARGS (more `rayline render` flags, e.g. "--camera-jobs off"), RAYLINE_B_ARGS (a
+# second Rayline configuration timed in the same rounds, e.g. "--camera-jobs off
+# --continue-in-cell off"; its ratio to the first is printed too).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TRIS="${1:-1000000}"; RES="${2:-512}"; SPP="${3:-16}"; DEPTH="${4:-5}"; REPS="${5:-3}"
@@ -64,10 +66,10 @@ fi
 [ -f "$BLOCKS/blocks.json" ] || "$BIN" partition -q --scene "$SCENE" --blocks 1 --out "$BLOCKS" > /dev/null
 
 now() { date +%s.%N; }
-ours() {  # spp -> wall seconds of one in-core render
+ours() {  # spp [flags] -> wall seconds of one in-core render
   local t0; t0=$(now)
   "$BIN" render -q --scene "$SCENE" --blocks-dir "$BLOCKS" --resolution "${RES}x${RES}" --spp "$1" \
-    --max-depth "$DEPTH" -j "$THREADS" ${RAYLINE_ARGS:-} --out "$WORK/ours-$1.exr" > /dev/null
+    --max-depth "$DEPTH" -j "$THREADS" ${2:-${RAYLINE_ARGS:-}} --out "$WORK/ours-$1.exr" > /dev/null
   /usr/bin/python3 -c "print($(now) - $t0)"
 }
 theirs() {  # spp -> wall seconds of one tutorial run
@@ -81,17 +83,25 @@ echo "scene: ${MESH:-$TRIS triangles}, ${RES}x${RES}, $SPP and $((2 * SPP)) spp,
 rows=()
 for i in $(seq 1 "$REPS"); do
   o1=$(ours "$SPP"); e1=$(theirs "$SPP"); o2=$(ours $((2 * SPP))); e2=$(theirs $((2 * SPP)))
-  rows+=("$o1 $o2 $e1 $e2")
-  printf 'round %d: rayline %.2f / %.2f s, tutorial %.2f / %.2f s\n' "$i" "$o1" "$o2" "$e1" "$e2"
+  b1=0; b2=0
+  if [ -n "${RAYLINE_B_ARGS:-}" ]; then b1=$(ours "$SPP" "$RAYLINE_B_ARGS"); b2=$(ours $((2 * SPP)) "$RAYLINE_B_ARGS"); fi
+  rows+=("$o1 $o2 $e1 $e2 $b1 $b2")
+  printf 'round %d: rayline %.2f / %.2f s, tutorial %.2f / %.2f s' "$i" "$o1" "$o2" "$e1" "$e2"
+  [ -z "${RAYLINE_B_ARGS:-}" ] || printf ', rayline B %.2f / %.2f s' "$b1" "$b2"
+  echo
 done
 printf '%s\n' "${rows[@]}" | /usr/bin/python3 -c "
 import statistics, sys
 px = $RES * $RES * $SPP
 r = [tuple(map(float, l.split())) for l in sys.stdin if l.strip()]
-ours = [px / (o2 - o1) for o1, o2, _, _ in r]
-emb = [px / (e2 - e1) for _, _, e1, e2 in r]
+ours = [px / (x[1] - x[0]) for x in r]
+emb = [px / (x[3] - x[2]) for x in r]
 ratio = [a / b for a, b in zip(ours, emb)]
 print(f'steady samples/s (difference of {2 * $SPP} and {$SPP} spp): rayline {statistics.median(ours)/1e3:.1f} k, '
       f'tutorial {statistics.median(emb)/1e3:.1f} k; rayline / tutorial, median of rounds: {statistics.median(ratio):.2f}x '
       '(' + ', '.join(f'{x:.2f}' for x in ratio) + ')')
+if r[0][5] > 0:
+    ab = [(x[5] - x[4]) / (x[1] - x[0]) for x in r]
+    print(f'rayline / rayline B ($RAYLINE_B_ARGS), median of rounds: {statistics.median(ab):.2f}x '
+          '(' + ', '.join(f'{x:.2f}' for x in ab) + ')')
 "

@@ -81,6 +81,20 @@ RayLog random_log(std::uint32_t cells, std::uint32_t w, std::uint32_t h, std::ui
   return log;
 }
 
+// One SceneData block of 1 MB per cell, on the disk (memory 0).
+std::vector<BlockId> scene_blocks(std::uint32_t cells, JobPool& pool, Schedule& s) {
+  std::vector<BlockId> blocks;
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    DataBlock d;
+    d.name = "scene" + std::to_string(c);
+    d.kind = DataKind::SceneData;
+    d.bytes = 1'000'000;
+    blocks.push_back(pool.add_block(d));
+    s.put_initial(blocks.back(), 0, 0, true);
+  }
+  return blocks;
+}
+
 std::string temp_file(const std::string& name) {
   return (std::filesystem::temp_directory_path() / ("rayline-twin-" + std::to_string(::getpid()) + "-" + name)).string();
 }
@@ -97,15 +111,7 @@ TEST(RenderTwin, EveryVisitTracedOnceEveryPathEndsOnRandomLogs) {
       const DeviceGraph g = workstation(Bytes(cells / 3 + 1) * 1'000'000 + Bytes(2'000'000));
       JobPool pool;
       Schedule s(g, pool);
-      std::vector<BlockId> blocks;
-      for (std::uint32_t c = 0; c < cells; ++c) {
-        DataBlock d;
-        d.name = "scene" + std::to_string(c);
-        d.kind = DataKind::SceneData;
-        d.bytes = 1'000'000;
-        blocks.push_back(pool.add_block(d));
-        s.put_initial(blocks.back(), 0, 0, true);
-      }
+      const std::vector<BlockId> blocks = scene_blocks(cells, pool, s);
       RayBatchOptions o;
       o.spp = 2;
       o.path_cap = 200;
@@ -155,15 +161,7 @@ TEST(RenderTwin, ContinuationAndCameraJobsTraceEveryVisitOnce) {
         const DeviceGraph g = workstation(Bytes(cells) * 1'000'000 + Bytes(2'000'000));
         JobPool pool;
         Schedule s(g, pool);
-        std::vector<BlockId> blocks;
-        for (std::uint32_t c = 0; c < cells; ++c) {
-          DataBlock d;
-          d.name = "scene" + std::to_string(c);
-          d.kind = DataKind::SceneData;
-          d.bytes = 1'000'000;
-          blocks.push_back(pool.add_block(d));
-          s.put_initial(blocks.back(), 0, 0, true);
-        }
+        const std::vector<BlockId> blocks = scene_blocks(cells, pool, s);
         RayBatchOptions o;
         o.spp = 2, o.path_cap = 200, o.min_batch = 16, o.max_batch = 64;
         o.continue_in_cell = stay, o.camera_jobs = camera;
