@@ -235,6 +235,11 @@ std::string render_metrics_json(const RenderResult& r, const Schedule& s, const 
   m["platform"] = r.platform;
   m["bvh_quality"] = r.bvh_quality;
   m["threads"] = r.threads;
+  // The batching in force (docs/renderer.md): camera jobs only with one block and CPU threads.
+  m["batching"] = {{"min_batch", r.min_batch},
+                   {"max_batch", r.max_batch},
+                   {"continue_in_cell", r.continue_in_cell},
+                   {"camera_jobs", r.camera_jobs}};
   m["seconds"] = r.seconds;
   m["partition_seconds"] = r.partition_seconds;
   // Tracing throughput without the first load: in core with one block this excludes

@@ -52,6 +52,8 @@ TEST_F(CliRender, SmallRenderWritesEveryOutput) {
   EXPECT_GT(m.at("rays_per_second").get<double>(), 0);
   EXPECT_EQ(m.at("io").at("unplanned_loads"), 0);
   EXPECT_EQ(m.at("devices").size(), m.at("threads").get<std::size_t>());
+  EXPECT_TRUE(m.at("batching").at("continue_in_cell").get<bool>());
+  EXPECT_FALSE(m.at("batching").at("camera_jobs").get<bool>()) << "camera jobs only with one block";
   // The timeline opens in Perfetto: Chrome trace JSON, no two slices overlapping on a track
   // (Perfetto would drop one).
   std::ifstream tl(path("img.timeline.json"));
