@@ -102,6 +102,21 @@ TEST_F(CliRender, MemoryStaysWithinBudgetPlusDocumentedOverhead) {
     EXPECT_GT(io.at("disk_busy_when_io_bound").get<double>(), 0.0);
     EXPECT_LE(io.at("disk_busy_when_io_bound").get<double>(), 1.0 + 1e-12);
   }
+#if !defined(__SANITIZE_ADDRESS__)
+  // The same bound at every budget from 10 % to 100 %, with the blocks `render` picks.
+  for (const int percent : {10, 50, 100}) {
+    const std::string name = "p" + std::to_string(percent);
+    const std::uint64_t b = scene_bytes * std::uint64_t(percent) / 100;
+    r = rayline_cli("render -q --scene " + path("museum.ply") + " --resolution 64x64 --spp 1 --memory-budget " +
+                    std::to_string(b) + "B --out " + path(name + ".exr"));
+    ASSERT_EQ(r.code, 0) << r.all;
+    const auto m = metrics(name).at("memory");
+    const auto grown = m.at("peak_rss_bytes").get<double>() - m.at("rss_at_start_bytes").get<double>();
+    EXPECT_LE(grown, double(b + m.at("overhead_bound_bytes").get<std::uint64_t>()))
+        << "RSS grew by " << grown << " bytes; budget " << b << " (" << percent << " %)";
+    EXPECT_LE(m.at("peak_resident_block_bytes").get<std::uint64_t>(), b);
+  }
+#endif
   // In core with one block the only T-job is its load, during which no E-job can run: the
   // whole window is I/O-bound and the channel busy all of it.
   r = rayline_cli("partition -q --scene " + path("museum.ply") + " --blocks 1 --out " + path("one"));
