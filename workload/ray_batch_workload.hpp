@@ -26,7 +26,6 @@
 #include <cstdint>
 #include <memory>
 #include <span>
-#include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -111,7 +110,7 @@ class RayBatchWorkload : public Workload {
   }
 
   void start(Time now, JobPool& pool, Schedule& s) override {
-    generate(now, pool, s);
+    generate(now, pool);
     flush(now, pool, s, false);
   }
   void on_job_finished(JobId j, Time now, JobPool& pool, Schedule& s) override {
@@ -124,11 +123,11 @@ class RayBatchWorkload : public Workload {
     paths_alive_ -= done->counts.paths_ended;
     stage(done->out);
     done.reset();
-    generate(now, pool, s);
+    generate(now, pool);
     flush(now, pool, s, false);
   }
   void on_idle(Time now, JobPool& pool, Schedule& s) override {
-    generate(now, pool, s);
+    generate(now, pool);
     flush(now, pool, s, true);
   }
   bool finished() const override {
@@ -152,7 +151,7 @@ class RayBatchWorkload : public Workload {
         for (JobId& o : slots)
           if (o == j) o = kNone;
       in_jobs_ -= lost->input;
-      if (lost->camera_count > 0) make_camera_job(lost->camera_first, lost->camera_count, now, pool, s, false);
+      if (lost->camera_count > 0) make_camera_job(lost->camera_first, lost->camera_count, now, pool, false);
       else stage(lost->rays);
     }
     flush(now, pool, s, false);
@@ -217,14 +216,14 @@ class RayBatchWorkload : public Workload {
 
  private:
   // Camera rays in sample-major scanline order (coherent waves), while paths_alive < cap.
-  void generate(Time now, JobPool& pool, Schedule& s) {
+  void generate(Time now, JobPool& pool) {
     if (aborted_) return;
     if (opt_.camera_jobs) {
       const std::uint64_t size = std::clamp<std::uint64_t>(opt_.path_cap / (4 * std::max<std::size_t>(1, g_.computes.size())),
                                                            std::min(opt_.min_batch, opt_.max_batch), opt_.max_batch);
       while (next_camera_ < total_camera_ && paths_alive_ < opt_.path_cap) {
         const std::uint64_t n = std::min({total_camera_ - next_camera_, opt_.path_cap - paths_alive_, size});
-        make_camera_job(next_camera_, n, now, pool, s, true);
+        make_camera_job(next_camera_, n, now, pool, true);
         next_camera_ += n;
       }
       return;
@@ -251,22 +250,27 @@ class RayBatchWorkload : public Workload {
     rays.shrink_to_fit();
   }
 
+  // A job into the pool, with its (empty) rays and outputs kept here under its id.
+  JobId add_job(JobPool& pool, rayline::Job j) {
+    const JobId id = pool.add_job(std::move(j));
+    if (static_cast<std::size_t>(id) >= jobs_.size()) jobs_.resize(static_cast<std::size_t>(id) + 1);
+    jobs_[static_cast<std::size_t>(id)] = std::make_unique<Job>();
+    return id;
+  }
+
   // A RayIntersect E-job on the one cell that makes camera rays [first, first + n) itself:
   // its input is the scene block alone (the rays never wait in a queue); its n paths are
   // alive from now on (`fresh`; a lost job's range is made again, already counted).
-  void make_camera_job(std::uint64_t first, std::uint64_t n, Time now, JobPool& pool, Schedule&, bool fresh) {
+  void make_camera_job(std::uint64_t first, std::uint64_t n, Time now, JobPool& pool, bool fresh) {
     rayline::Job j;
     j.name = "camera" + std::to_string(first);
     j.type = type_[0];
     j.inputs = {scene_blocks_[0]};
     j.created = now;
     j.work = n;
-    const JobId id = pool.add_job(std::move(j));
-    if (static_cast<std::size_t>(id) >= jobs_.size()) jobs_.resize(static_cast<std::size_t>(id) + 1);
-    jobs_[static_cast<std::size_t>(id)] = std::make_unique<Job>();
-    Job& job = *jobs_[static_cast<std::size_t>(id)];
-    job.camera_first = first, job.camera_count = n;
-    job.input = n;
+    Job& cj = job(add_job(pool, std::move(j)));
+    cj.camera_first = first, cj.camera_count = n;
+    cj.input = n;
     in_jobs_ += n;
     if (fresh) paths_alive_ += n;
     ++jobs_created_;
@@ -299,10 +303,8 @@ class RayBatchWorkload : public Workload {
       j.inputs = {scene_blocks_[cell], qb};
       j.created = now;
       j.work = n;
-      const JobId id = pool.add_job(std::move(j));
-      if (static_cast<std::size_t>(id) >= jobs_.size()) jobs_.resize(static_cast<std::size_t>(id) + 1);
-      jobs_[static_cast<std::size_t>(id)] = std::make_unique<Job>();
-      target = jobs_[static_cast<std::size_t>(id)].get();
+      const JobId id = add_job(pool, std::move(j));
+      target = &job(id);
       target->slot = k;
       target->cell = cell;
       consumer_[qb] = id;

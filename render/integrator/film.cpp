@@ -1,6 +1,5 @@
 #include "render/integrator/film.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -13,7 +12,7 @@ Film::Film(int width, int height)
 
 Film::Film(int width, int height, bool journal, std::uint32_t first, std::uint32_t count)
     : width_(width), height_(height), journal_(journal), window_first_(first),
-      window_count_(std::min(count, std::uint32_t(width) * std::uint32_t(height))),
+      window_count_(count),
       sums_(std::size_t(window_count_) * 3, 0), samples_(window_count_, 0) {}
 
 // Rounding half away from zero, as std::llround, for 0 <= v < 2^63: v - trunc(v) is exact.
@@ -57,9 +56,8 @@ void Film::apply(std::span<const FilmEntry> entries, std::uint64_t dropped, std:
 }
 
 void Film::merge(const Film& w) {
-  const std::uint32_t pixels = std::uint32_t(width_) * std::uint32_t(height_);
   for (std::uint32_t i = 0; i < w.window_count_; ++i) {
-    const std::uint32_t p = (w.window_first_ + i) % pixels;
+    const std::uint32_t p = w.window_first_ + i;
     for (std::size_t k = 0; k < 3; ++k)
       if (const std::int64_t u = w.sums_[std::size_t(i) * 3 + k])
         std::atomic_ref<std::int64_t>(sums_[std::size_t(p) * 3 + k]).fetch_add(u, std::memory_order_relaxed);

@@ -30,8 +30,8 @@ class Film {
   // contributions travel back with the job's outputs, render/mpi/README.md). Used by one
   // thread; count_sample() is not for journals.
   static Film journal() { return Film(0, 0, true, 0, 0); }
-  // A window: the contributions and samples of one camera job, whose camera rays cover the
-  // `count` pixels from `first` on (modulo the image), summed without atomics by the one
+  // A window: the contributions and samples of one camera job, whose camera rays cover
+  // pixels [first, first + count) of the image, summed without atomics by the one
   // thread that runs the job, then added to `film` by merge() in one pass. Every
   // contribution is rounded as a dense film rounds it, so the sums are the same bit for bit.
   static Film window(const Film& film, std::uint32_t first, std::uint32_t count) {
@@ -65,11 +65,8 @@ class Film {
 
  private:
   Film(int width, int height, bool journal, std::uint32_t first, std::uint32_t count);
-  // A window's slot of `pixel` (window_first_ <= pixel, or pixel wrapped past the image's end).
-  std::size_t slot(std::uint32_t pixel) const {
-    const std::uint32_t pixels = std::uint32_t(width_) * std::uint32_t(height_);
-    return pixel >= window_first_ ? pixel - window_first_ : pixel + pixels - window_first_;
-  }
+  // A window's slot of `pixel` (in [window_first_, window_first_ + window_count_)).
+  std::size_t slot(std::uint32_t pixel) const { return pixel - window_first_; }
   int width_, height_;
   bool journal_ = false;
   std::uint32_t window_first_ = 0, window_count_ = 0;  // a window's pixels (count 0: not a window)

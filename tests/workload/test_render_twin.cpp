@@ -176,13 +176,17 @@ TEST(RenderTwin, ContinuationAndCameraJobsTraceEveryVisitOnce) {
         EXPECT_EQ(wl.counts().ended_here, leaves);
         for (std::size_t j = 0; j < pool.job_count(); ++j) {
           EXPECT_EQ(pool.state(static_cast<JobId>(j)), JobState::Done);
-          if (wl.options().camera_jobs && stay) EXPECT_EQ(pool.job(static_cast<JobId>(j)).inputs.size(), 1u);
+          if (wl.options().camera_jobs && stay) {
+            EXPECT_EQ(pool.job(static_cast<JobId>(j)).inputs.size(), 1u);
+          }
         }
         jobs[stay][camera] = pool.job_count();
         const auto c = rayline::testing::check_schedule(s, pool);
         for (const auto& e : c.errors) ADD_FAILURE() << e;
       }
-    if (cells == 1) EXPECT_LT(jobs[1][0], jobs[0][0]) << "in one cell, continuing leaves no ray for another job";
+    if (cells == 1) {
+      EXPECT_LT(jobs[1][0], jobs[0][0]) << "in one cell, continuing leaves no ray for another job";
+    }
   }
 }
 
