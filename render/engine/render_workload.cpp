@@ -73,11 +73,11 @@ trace::RayCounts RenderWorkload::make_camera_rays(std::uint64_t first, std::uint
 
 void RenderWorkload::camera_job_rays(const trace::TraceSettings& ts, std::uint64_t first, std::uint64_t n,
                                      std::vector<RayRecord>& placed, trace::RayCounts& counts) const {
-  for (std::uint64_t j = first; j < first + n; ++j) {
-    const auto [pixel, sample] = order_.at(j);
-    trace::generate_camera_ray(ts, camera_.position(), camera_.direction(pixel, sample, ts.seed), pixel, sample, placed,
-                               counts);
-  }
+  const trace::SeedKey key(ts.seed);
+  CameraOrder::Walk w = order_.walk(first);
+  for (std::uint64_t j = 0; j < n; ++j, w.next())
+    trace::generate_camera_ray(ts, camera_.position(), camera_.direction(w.x, w.y, w.sample, key), w.pixel(), w.sample,
+                               placed, counts);
 }
 
 void RenderWorkload::job_done(RayJob& job) {

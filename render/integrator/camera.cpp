@@ -2,7 +2,6 @@
 
 #include <cmath>
 
-#include "render/integrator/sampler.hpp"
 
 namespace rayline::trace {
 
@@ -19,11 +18,16 @@ PinholeCamera::PinholeCamera(const scene::Camera& c, int width, int height)
 }
 
 scene::Float3 PinholeCamera::direction(std::uint32_t pixel, std::uint32_t sample, std::uint64_t seed) const {
-  const KeyedRng rng(seed, pixel, sample, 0, Purpose::PixelJitter);
-  const float x = float(pixel % std::uint32_t(width_)) + rng.uniform(0);
-  const float y = float(pixel / std::uint32_t(width_)) + rng.uniform(1);
-  const float sx = (2 * x / float(width_) - 1) * tan_half_ * aspect_;
-  const float sy = (1 - 2 * y / float(height_)) * tan_half_;
+  const auto w = std::uint32_t(width_);
+  return direction(pixel % w, pixel / w, sample, SeedKey(seed));
+}
+
+scene::Float3 PinholeCamera::direction(std::uint32_t x, std::uint32_t y, std::uint32_t sample, SeedKey seed) const {
+  const KeyedRng rng(seed, y * std::uint32_t(width_) + x, sample, 0, Purpose::PixelJitter);
+  const float fx = float(x) + rng.uniform(0);
+  const float fy = float(y) + rng.uniform(1);
+  const float sx = (2 * fx / float(width_) - 1) * tan_half_ * aspect_;
+  const float sy = (1 - 2 * fy / float(height_)) * tan_half_;
   return normalize(forward_ + right_ * sx + up_ * sy);
 }
 

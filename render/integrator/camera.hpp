@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 
+#include "render/integrator/sampler.hpp"
 #include "render/scene/scene.hpp"
 
 namespace rayline::trace {
@@ -15,6 +16,9 @@ class PinholeCamera {
   scene::Float3 position() const { return pos_; }
   // Unit direction of sample `sample` through pixel `pixel` (= y·width + x).
   scene::Float3 direction(std::uint32_t pixel, std::uint32_t sample, std::uint64_t seed) const;
+  // The same direction, for a caller that walks pixels by column x and row y and keys the
+  // seed once (camera jobs: no division, one hash fewer per ray).
+  scene::Float3 direction(std::uint32_t x, std::uint32_t y, std::uint32_t sample, SeedKey seed) const;
 
  private:
   int width_, height_;

@@ -86,14 +86,15 @@ void shade(const TraceSettings& ts, const HitTriangle& h, const RayRecord& r, fl
   const std::uint32_t hit = r.bounce + 1u;  // 1-based surface hit count
   const Float3 f = m.albedo * kInvPi;       // Lambertian BRDF
   const Float3 o = offset_ray_origin(p, n);
+  const SeedKey seed(ts.seed);
 
   // Next-event estimation towards one area light.
   const auto& lights = ts.scene->area_lights;
   if (!lights.empty() && !is_black(m.albedo)) {
-    const KeyedRng pick(ts.seed, r.pixel, r.sample, hit, Purpose::LightPick);
+    const KeyedRng pick(seed, r.pixel, r.sample, hit, Purpose::LightPick);
     const auto li = std::min<std::size_t>(std::size_t(pick.uniform(0) * float(lights.size())), lights.size() - 1);
     const scene::AreaLight& L = lights[li];
-    const KeyedRng pt(ts.seed, r.pixel, r.sample, hit, Purpose::LightPoint);
+    const KeyedRng pt(seed, r.pixel, r.sample, hit, Purpose::LightPoint);
     const Float3 q = L.corner + L.edge_u * pt.uniform(0) + L.edge_v * pt.uniform(1);
     const Float3 ln = cross(L.edge_u, L.edge_v);
     const float area = scene::length(ln);
@@ -132,7 +133,7 @@ void shade(const TraceSettings& ts, const HitTriangle& h, const RayRecord& r, fl
   Float3 weight = mul(r.weight, m.albedo);
   if (hit >= 3) {
     const float q = std::min(0.95f, max_component(weight));
-    const KeyedRng rr(ts.seed, r.pixel, r.sample, hit, Purpose::Roulette);
+    const KeyedRng rr(seed, r.pixel, r.sample, hit, Purpose::Roulette);
     if (!(rr.uniform(0) < q)) {
       ++counts.terminated;
       ++counts.paths_ended;
@@ -145,7 +146,7 @@ void shade(const TraceSettings& ts, const HitTriangle& h, const RayRecord& r, fl
     ++counts.paths_ended;
     return;
   }
-  const KeyedRng bs(ts.seed, r.pixel, r.sample, hit, Purpose::Bounce);
+  const KeyedRng bs(seed, r.pixel, r.sample, hit, Purpose::Bounce);
   const float u1 = bs.uniform(0), u2 = bs.uniform(1);
   const float rad = std::sqrt(u1), phi = 6.28318530717958647692f * u2;
   Float3 tx, ty;

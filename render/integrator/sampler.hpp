@@ -16,11 +16,18 @@ inline std::uint64_t mix64(std::uint64_t z) {
   return z ^ (z >> 31);
 }
 
+// The seed's part of every key, computed once per render instead of once per number.
+struct SeedKey {
+  std::uint64_t key;
+  explicit SeedKey(std::uint64_t seed) : key(mix64(seed + 0x9E3779B97F4A7C15ull)) {}
+};
+
 class KeyedRng {
  public:
-  KeyedRng(std::uint64_t seed, std::uint32_t pixel, std::uint32_t sample, std::uint32_t bounce, Purpose purpose) {
-    std::uint64_t k = mix64(seed + 0x9E3779B97F4A7C15ull);
-    k = mix64(k ^ (std::uint64_t(pixel) << 32 | sample));
+  KeyedRng(std::uint64_t seed, std::uint32_t pixel, std::uint32_t sample, std::uint32_t bounce, Purpose purpose)
+      : KeyedRng(SeedKey(seed), pixel, sample, bounce, purpose) {}
+  KeyedRng(SeedKey seed, std::uint32_t pixel, std::uint32_t sample, std::uint32_t bounce, Purpose purpose) {
+    std::uint64_t k = mix64(seed.key ^ (std::uint64_t(pixel) << 32 | sample));
     k = mix64(k ^ (std::uint64_t(bounce) << 32 | std::uint32_t(purpose)));
     key_ = k;
   }

@@ -1,7 +1,7 @@
 // The camera jobs' order (workload/camera_order.hpp): a bijection between the order and the
 // sample-major numbering on images of any size (edge tiles narrower), whose pixels come in
 // tiles, whose samples of a pixel are consecutive, and whose pixel spans hold every pixel of
-// a range.
+// a range; a walk from any ray meets the rays in that order.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -54,4 +54,22 @@ TEST(CameraOrder, PixelsComeInTilesAndSpansHoldTheirRange) {
       }
       EXPECT_LE(first + count, 37u * 29u);
     }
+}
+
+TEST(CameraOrder, WalkFollowsTheOrderFromAnyRay) {
+  for (const auto [w, h, spp] : {std::array<std::uint32_t, 3>{8, 8, 1}, {37, 29, 3}, {1, 5, 2}, {17, 1, 4}, {64, 40, 2}}) {
+    SCOPED_TRACE(std::to_string(w) + "x" + std::to_string(h) + "x" + std::to_string(spp));
+    const CameraOrder o{w, h, spp};
+    const std::uint64_t n = std::uint64_t(w) * h * spp;
+    for (const std::uint64_t start : {std::uint64_t(0), n / 3, n - 1}) {
+      CameraOrder::Walk walk = o.walk(start);
+      for (std::uint64_t j = start; j < n; ++j, walk.next()) {
+        const auto [pixel, sample] = o.at(j);
+        ASSERT_EQ(walk.pixel(), pixel) << "ray " << j << " from " << start;
+        ASSERT_EQ(walk.sample, sample) << "ray " << j << " from " << start;
+        ASSERT_EQ(walk.x, pixel % w);
+        ASSERT_EQ(walk.y, pixel / w);
+      }
+    }
+  }
 }
