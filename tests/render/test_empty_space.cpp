@@ -76,6 +76,8 @@ Case make_case(std::mt19937& rng) {
       tb.extend(p);
     }
     mark_occupancy(c.cell, tb, c.block.occupancy);
+    c.block.geometry.extend(tb.lo);  // the block's geometry bounds, as the partitioner keeps them
+    c.block.geometry.extend(tb.hi);
     c.tris.push_back(t);
   }
   return c;
