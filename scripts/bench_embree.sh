@@ -102,6 +102,6 @@ print(f'steady samples/s (difference of {2 * $SPP} and {$SPP} spp): rayline {sta
       '(' + ', '.join(f'{x:.2f}' for x in ratio) + ')')
 if r[0][5] > 0:
     ab = [(x[5] - x[4]) / (x[1] - x[0]) for x in r]
-    print(f'rayline / rayline B ($RAYLINE_B_ARGS), median of rounds: {statistics.median(ab):.2f}x '
+    print(f'rayline / rayline B (${RAYLINE_B_ARGS:-}), median of rounds: {statistics.median(ab):.2f}x '
           '(' + ', '.join(f'{x:.2f}' for x in ab) + ')')
 "
