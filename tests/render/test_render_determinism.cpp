@@ -8,6 +8,7 @@
 
 #include "render/engine/ray_log_recorder.hpp"
 #include "render/engine/renderer.hpp"
+#include "fine_geometry_scene.hpp"
 #include "small_render.hpp"
 #include "z_fighting_scene.hpp"
 
@@ -123,6 +124,40 @@ TEST(RenderDeterminism, BvhQualitySameImageOnZFighting) {
   for (std::size_t i = 0; i < sums[0].size(); ++i) differ += sums[0][i] != sums[1][i];
   EXPECT_EQ(differ, 0u) << "of " << sums[0].size() << " film sums differ between medium and low";
   EXPECT_EQ(sums[0], sums[2]) << "medium vs high";
+}
+
+// Many blocks over fine geometry: thousands of small triangles cut by split planes, hits
+// close to planes on both sides. The image of one block in core (medium BVH) equals the
+// image at 17 and 64 blocks, every BVH quality, in core and at 25 % and 10 % budgets.
+TEST(RenderDeterminism, FineGeometryManyBlocksEveryBudgetAndQualitySameImage) {
+  rayline::testing::FineGeometryScene fine;
+  rayline::testing::write_fine_geometry_scene(fine);
+  auto options = [&](std::uint32_t blocks, const char* quality) {
+    RenderOptions o = rayline::testing::small_render(48, 48, 4, 19, 4096, "none");
+    o.scene = fine.path;
+    o.blocks = blocks;
+    o.bvh_quality = quality;
+    o.max_depth = 6;
+    return o;
+  };
+  const RenderResult ref = render(options(1, "medium"));
+  expect_sane(ref);
+  ASSERT_GT(ref.counts.occluded, 0u) << "shadow rays must meet the geometry";
+  for (const std::uint32_t blocks : {17u, 64u})
+    for (const char* quality : {"low", "medium", "high"}) {
+      if (blocks == 17 && std::string(quality) != "low") continue;
+      const RenderResult in_core = render(options(blocks, quality));
+      expect_sane(in_core);
+      EXPECT_EQ(in_core.sums, ref.sums) << blocks << " blocks, " << quality << ", in core";
+      for (const int percent : {25, 10}) {
+        RenderOptions o = options(blocks, quality);
+        o.memory_budget = in_core.scene_block_bytes * static_cast<std::uint64_t>(percent) / 100;
+        const RenderResult r = render(o);
+        expect_sane(r);
+        EXPECT_GT(r.store.evictions, 0u);
+        EXPECT_EQ(r.sums, ref.sums) << blocks << " blocks, " << quality << ", " << percent << " % budget";
+      }
+    }
 }
 
 TEST(RenderDeterminism, BvhQualitySameImage) {

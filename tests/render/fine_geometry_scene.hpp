@@ -1,0 +1,78 @@
+// Test support: a scene of fine geometry — a terrain (2 × 160² triangles, half flat, half
+// rippled) with a sphere of 2 × 96 × 64 triangles resting on it, under an area light — so
+// that a partition into many blocks cuts thousands of small triangles, rays cross many split
+// planes between close hits, and shadow rays graze the surfaces. Written to a fresh folder under the system
+// temp dir, removed again when the returned FineGeometryScene goes out of scope.
+#pragma once
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <system_error>
+
+namespace rayline::testing {
+
+struct FineGeometryScene {
+  std::filesystem::path dir;
+  std::string path;  // scene.json
+  FineGeometryScene() = default;
+  FineGeometryScene(const FineGeometryScene&) = delete;
+  FineGeometryScene& operator=(const FineGeometryScene&) = delete;
+  ~FineGeometryScene() {
+    std::error_code ec;
+    if (!dir.empty()) std::filesystem::remove_all(dir, ec);
+  }
+};
+
+inline void write_fine_geometry_scene(FineGeometryScene& out) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("rayline-fine-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  out.dir = dir;
+  {  // the terrain over [0, 1]^2: flat (y = 0) for x < 0.5, where a median split lands on it
+     // (a hit exactly on a split plane), then y = 0.03 sin(23 (x - 0.5)) cos(17 z)
+    std::ofstream f(dir / "terrain.obj");
+    const int n = 160;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const double x = double(i) / n, z = double(j) / n;
+        f << "v " << x << " " << (x < 0.5 ? 0.0 : 0.03 * std::sin(23 * (x - 0.5)) * std::cos(17 * z)) << " " << z << "\n";
+      }
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const int a = j * (n + 1) + i + 1, b = a + 1, c = a + n + 1, d = c + 1;  // OBJ: 1-based
+        f << "f " << a << " " << b << " " << d << "\nf " << a << " " << d << " " << c << "\n";
+      }
+  }
+  {  // the sphere: centre (0.55, 0.2, 0.45), radius 0.18, 96 x 64 quads
+    std::ofstream f(dir / "sphere.obj");
+    const int nu = 96, nv = 64;
+    for (int v = 0; v <= nv; ++v)
+      for (int u = 0; u <= nu; ++u) {
+        const double th = M_PI * v / nv, ph = 2 * M_PI * u / nu;
+        f << "v " << 0.55 + 0.18 * std::sin(th) * std::cos(ph) << " " << 0.2 + 0.18 * std::cos(th) << " "
+          << 0.45 + 0.18 * std::sin(th) * std::sin(ph) << "\n";
+      }
+    for (int v = 0; v < nv; ++v)
+      for (int u = 0; u < nu; ++u) {
+        const int a = v * (nu + 1) + u + 1, b = a + 1, c = a + nu + 1, d = c + 1;
+        f << "f " << a << " " << c << " " << d << "\nf " << a << " " << d << " " << b << "\n";
+      }
+  }
+  const nlohmann::json scene = {
+      {"version", 1},
+      {"materials", {{"sand", {{"albedo", {0.75, 0.65, 0.45}}}}, {"blue", {{"albedo", {0.2, 0.35, 0.8}}}}}},
+      {"meshes", {{{"name", "terrain"}, {"file", "terrain.obj"}, {"material", "sand"}},
+                  {{"name", "sphere"}, {"file", "sphere.obj"}, {"material", "blue"}}}},
+      {"lights", {{{"type", "area"}, {"corner", {0.2, 1.2, 0.2}}, {"edge_u", {0.3, 0, 0}}, {"edge_v", {0, 0, 0.3}},
+                   {"emission", {10, 10, 10}}},
+                  {{"type", "environment"}, {"radiance", {0.25, 0.3, 0.4}}}}},
+      {"cameras", {{"main", {{"position", {0.5, 0.55, 1.35}}, {"look_at", {0.5, 0.05, 0.45}}, {"fov_deg", 50}}}}}};
+  std::ofstream(dir / "scene.json") << scene.dump(2);
+  out.path = (dir / "scene.json").string();
+}
+
+}  // namespace rayline::testing
