@@ -1,39 +1,24 @@
 // Test support: a scene of fine geometry — a terrain (2 × 160² triangles, half flat, half
 // rippled) with a sphere of 2 × 96 × 64 triangles resting on it, under an area light — so
 // that a partition into many blocks cuts thousands of small triangles, rays cross many split
-// planes between close hits, and shadow rays graze the surfaces. Written to a fresh folder under the system
-// temp dir, removed again when the returned FineGeometryScene goes out of scope.
+// planes between close hits, and shadow rays graze the surfaces (in a TempScene).
 #pragma once
-#include <unistd.h>
-
 #include <cmath>
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <string>
-#include <system_error>
+
+#include "temp_scene.hpp"
 
 namespace rayline::testing {
 
-struct FineGeometryScene {
-  std::filesystem::path dir;
-  std::string path;  // scene.json
-  FineGeometryScene() = default;
-  FineGeometryScene(const FineGeometryScene&) = delete;
-  FineGeometryScene& operator=(const FineGeometryScene&) = delete;
-  ~FineGeometryScene() {
-    std::error_code ec;
-    if (!dir.empty()) std::filesystem::remove_all(dir, ec);
-  }
+struct FineGeometryScene : TempScene {
+  FineGeometryScene() : TempScene("rayline-fine-") {}
 };
 
 inline void write_fine_geometry_scene(FineGeometryScene& out) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("rayline-fine-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  out.dir = dir;
-  {  // the terrain over [0, 1]^2: flat (y = 0) for x < 0.5, where a median split lands on it
-     // (a hit exactly on a split plane), then y = 0.03 sin(23 (x - 0.5)) cos(17 z)
+  const std::filesystem::path& dir = out.dir;
+  {  // the terrain over [0, 1]^2: flat (y = 0) for x < 0.5, many triangles in one plane,
+     // then y = 0.03 sin(23 (x - 0.5)) cos(17 z)
     std::ofstream f(dir / "terrain.obj");
     const int n = 160;
     for (int j = 0; j <= n; ++j)
@@ -71,8 +56,7 @@ inline void write_fine_geometry_scene(FineGeometryScene& out) {
                    {"emission", {10, 10, 10}}},
                   {{"type", "environment"}, {"radiance", {0.25, 0.3, 0.4}}}}},
       {"cameras", {{"main", {{"position", {0.5, 0.55, 1.35}}, {"look_at", {0.5, 0.05, 0.45}}, {"fov_deg", 50}}}}}};
-  std::ofstream(dir / "scene.json") << scene.dump(2);
-  out.path = (dir / "scene.json").string();
+  std::ofstream(out.path) << scene.dump(2);
 }
 
 }  // namespace rayline::testing

@@ -2,16 +2,12 @@
 // [0, 1]^2, tessellated differently, with different materials: every ray that meets the
 // floor meets two triangles at the same t up to rounding, so the image depends on every
 // last bit of the triangle test (which engine, which Embree kernel) unless the renderer
-// makes it not. Written to a fresh folder under the system temp dir, removed again when the
-// returned ZFightingScene goes out of scope.
+// makes it not. Written to a TempScene.
 #pragma once
-#include <unistd.h>
-
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <string>
-#include <system_error>
+
+#include "temp_scene.hpp"
 
 namespace rayline::testing {
 
@@ -21,23 +17,12 @@ namespace rayline::testing {
 // up to rounding, and Embree (t = T * rcp(|den|), fused multiply-adds) and the kernel (T /
 // |den|; lavapipe does not fuse) round differently, so without the doubtful-ray hand-over
 // the two images differ in many pixels; the grid's shared edges add edge cracks.
-struct ZFightingScene {
-  std::filesystem::path dir;
-  std::string path;  // scene.json
-  ZFightingScene() = default;
-  ZFightingScene(const ZFightingScene&) = delete;
-  ZFightingScene& operator=(const ZFightingScene&) = delete;
-  ~ZFightingScene() {
-    std::error_code ec;
-    if (!dir.empty()) std::filesystem::remove_all(dir, ec);
-  }
+struct ZFightingScene : TempScene {
+  ZFightingScene() : TempScene("rayline-zfight-") {}
 };
 
 inline void write_z_fighting_scene(ZFightingScene& out) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("rayline-zfight-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  out.dir = dir;
+  const std::filesystem::path& dir = out.dir;
   auto grid = [&](const char* name, int n, bool other_diagonal) {
     std::ofstream f(dir / name);
     for (int j = 0; j <= n; ++j)
@@ -63,8 +48,7 @@ inline void write_z_fighting_scene(ZFightingScene& out) {
                    {"emission", {8, 8, 8}}},
                   {{"type", "environment"}, {"radiance", {0.3, 0.4, 0.5}}}}},
       {"cameras", {{"main", {{"position", {0.5, 1.3, 1.6}}, {"look_at", {0.5, 0, 0.45}}, {"fov_deg", 45}}}}}};
-  std::ofstream(dir / "scene.json") << scene.dump(2);
-  out.path = (dir / "scene.json").string();
+  std::ofstream(out.path) << scene.dump(2);
 }
 
 }  // namespace rayline::testing
