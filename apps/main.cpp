@@ -291,7 +291,7 @@ void add_render(CLI::App& app, std::function<int()>& action) {
       ->default_val(opt->paths)
       ->check(CLI::Range(0, 1 << 26));
   r->add_option("--bvh-quality", opt->bvh_quality,
-                "auto (low under a budget, else medium) | low (fast low-quality build) | medium | high; the image is the same")
+                "auto (low under a budget or at 4+ triangles per camera ray, else medium) | low (fast low-quality build) | medium | high; the image is the same")
       ->default_val(opt->bvh_quality)
       ->check(CLI::IsMember({"auto", "low", "medium", "high"}));
   r->add_option("--read-ahead", opt->read_ahead,

@@ -160,6 +160,25 @@ TEST(RenderDeterminism, FineGeometryManyBlocksEveryBudgetAndQualitySameImage) {
     }
 }
 
+// `--bvh-quality auto` in core: low at 4 or more triangles per camera ray, else medium; the
+// image does not depend on it.
+TEST(RenderDeterminism, AutoBvhQualityFollowsTrianglesPerCameraRay) {
+  rayline::testing::FineGeometryScene fine;  // 63 488 triangles
+  rayline::testing::write_fine_geometry_scene(fine);
+  RenderOptions few = rayline::testing::small_render(16, 16, 2, 5, 4096, "none");  // 512 camera rays
+  few.scene = fine.path;
+  const RenderResult low = render(few);
+  expect_sane(low);
+  EXPECT_EQ(low.bvh_quality, "low");
+  few.bvh_quality = "medium";
+  const RenderResult medium = render(few);
+  EXPECT_EQ(medium.bvh_quality, "medium");
+  EXPECT_EQ(low.sums, medium.sums);
+  RenderOptions many = rayline::testing::small_render(128, 128, 1, 5, 4096, "none");  // 16 384 camera rays
+  many.scene = fine.path;
+  EXPECT_EQ(render(many).bvh_quality, "medium");
+}
+
 TEST(RenderDeterminism, BvhQualitySameImage) {
   RenderOptions a = base();
   a.bvh_quality = "medium";
