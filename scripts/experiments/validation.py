@@ -4,8 +4,8 @@ and their simulated twins (`rayline simulate --like`), point by point.
 Grid: generated museum-like scenes of three sizes x memory budgets (in core, 50, 25, 10 %
 of the scene's block bytes) x schedulers (gmb, budge, loadanyonce). Per scene, `rayline
 calibrate` at the grid's resolution and spp gives the platform every render drives: with
-the low-quality BVH builder for the budgets, the medium one in core (what `render
---bvh-quality auto` uses). Per point:
+the low-quality BVH builder for the budgets, the medium one in core (the renders ask for
+it: `render --bvh-quality auto` would take the low one in core on the 10 M scene). Per point:
   * real: R unrecorded renders, alternated across the schedulers (the machine is shared:
     alternating spreads its noise over all of them); their median and spread
     ((max - min) / median);
@@ -88,8 +88,8 @@ def scene_files(out, name, triangles, blocks, log):
 
 
 def calibrate(out, name, scene, blocks, res, spp, quality):
-    """`rayline calibrate` with the BVH builder the renders use (`render --bvh-quality auto`:
-    low under a budget, medium in core; a load's time is mostly its build)."""
+    """`rayline calibrate` with the BVH builder the renders use (low under a budget, medium in
+    core, as the renders ask for; a load's time is mostly its build)."""
     cal = os.path.join(out, "scenes", name, f"calibrated-{quality}.json")
     if not os.path.exists(cal):
         run(["calibrate", "--scene", scene, "-n", str(blocks), "--resolution", res, "--spp", str(spp),
@@ -118,7 +118,7 @@ def run_grid(reduced, out):
         total = scene_bytes(out, name, scene, parts, cals["low"])
         for budget in g["budgets"]:
             cal = cals["medium" if budget >= 1 else "low"]
-            flags = [] if budget >= 1 else ["--memory-budget", f"{int(total * budget)}B"]
+            flags = ["--bvh-quality", "medium"] if budget >= 1 else ["--memory-budget", f"{int(total * budget)}B"]
             tag = f"{name}-b{int(round(budget * 100))}"
             base = ["render", "--scene", scene, "--blocks-dir", parts, "--platform", cal, "--resolution", res,
                     "--spp", str(spp), "--max-depth", str(DEPTH), "--threads", str(THREADS), "-q"] + flags
