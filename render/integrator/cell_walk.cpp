@@ -109,7 +109,7 @@ bool segment_may_hit(const partition::BlockInfo& block, scene::Float3 o, scene::
   // The block's triangles lie in its geometry bounds, and every voxel the grid sets lies
   // within those bounds grown by two voxels (a triangle's voxels, grown by one). Outside that
   // box the segment meets no set voxel, so the walk covers only the part inside it, and a
-  // segment that misses it is answered without a walk (70 % of the cells a ray skips around
+  // segment that misses it is answered without a walk (half of the cells a ray skips around
   // the dragon in 16 blocks, where the walk would step through every voxel to learn it).
   if (!clip_to_grown_box(block.geometry, vs, o, d, lo, hi)) return false;
   // 3D DDA (Amanatides & Woo) from the clipped segment's start, indices clamped to the grid.
