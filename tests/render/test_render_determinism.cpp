@@ -5,10 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "render/engine/ray_log_recorder.hpp"
 #include "render/engine/renderer.hpp"
 #include "fine_geometry_scene.hpp"
+#include "temp_scene.hpp"
 #include "small_render.hpp"
 #include "z_fighting_scene.hpp"
 
@@ -177,6 +180,54 @@ TEST(RenderDeterminism, AutoBvhQualityFollowsTrianglesPerCameraRay) {
   RenderOptions many = rayline::testing::small_render(128, 128, 1, 5, 4096, "none");  // 16 384 camera rays
   many.scene = fine.path;
   EXPECT_EQ(render(many).bvh_quality, "medium");
+}
+
+// A wall of many triangles in the plane x = 0.5 holds most of the scene's centroids, so the
+// median split of the first kd node lies in that plane: every ray that meets the wall meets
+// it exactly on a split plane, where each cell's query interval ends. The interval's
+// widening (query_interval) keeps such hits from being rejected by both cells.
+TEST(RenderDeterminism, HitsOnASplitPlaneSameImage) {
+  rayline::testing::TempScene ts("rayline-splitwall-");
+  {
+    std::ofstream f(ts.dir / "wall.obj");  // x = 0.5, y and z in [0, 1], 40 x 40 quads
+    const int n = 40;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) f << "v 0.5 " << double(i) / n << " " << double(j) / n << "\n";
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const int a = j * (n + 1) + i + 1, b = a + 1, c = a + n + 1, d = c + 1;
+        f << "f " << a << " " << b << " " << d << "\nf " << a << " " << d << " " << c << "\n";
+      }
+    std::ofstream g(ts.dir / "floor.obj");  // a floor at y = 0 across x in [0, 1.2]
+    g << "v 0 0 0\nv 1.2 0 0\nv 1.2 0 1\nv 0 0 1\nf 1 2 3\nf 1 3 4\n";
+    // Two small triangles far out along x, so that x has the widest centroid spread.
+    std::ofstream h(ts.dir / "far.obj");
+    h << "v -2 0 0\nv -1.9 0 0\nv -2 0.1 0\nv 3 0 0\nv 3.1 0 0\nv 3 0.1 0\nf 1 2 3\nf 4 5 6\n";
+  }
+  const nlohmann::json scene = {
+      {"version", 1},
+      {"materials", {{"white", {{"albedo", {0.7, 0.7, 0.7}}}}, {"red", {{"albedo", {0.8, 0.2, 0.1}}}}}},
+      {"meshes", {{{"name", "wall"}, {"file", "wall.obj"}, {"material", "red"}},
+                  {{"name", "floor"}, {"file", "floor.obj"}, {"material", "white"}},
+                  {{"name", "far"}, {"file", "far.obj"}, {"material", "white"}}}},
+      {"lights", {{{"type", "area"}, {"corner", {0.8, 1.5, 0.4}}, {"edge_u", {0.2, 0, 0}}, {"edge_v", {0, 0, 0.2}},
+                   {"emission", {12, 12, 12}}},
+                  {{"type", "environment"}, {"radiance", {0.3, 0.35, 0.4}}}}},
+      {"cameras", {{"main", {{"position", {1.6, 0.7, 1.3}}, {"look_at", {0.5, 0.45, 0.5}}, {"fov_deg", 50}}}}}};
+  std::ofstream(ts.path) << scene.dump(2);
+  auto options = [&](std::uint32_t blocks) {
+    RenderOptions o = rayline::testing::small_render(64, 64, 4, 23, 4096, "none");
+    o.scene = ts.path;
+    o.blocks = blocks;
+    return o;
+  };
+  const RenderResult one = render(options(1));
+  expect_sane(one);
+  for (const std::uint32_t blocks : {2u, 3u, 8u}) {
+    const RenderResult r = render(options(blocks));
+    expect_sane(r);
+    EXPECT_EQ(r.sums, one.sums) << blocks << " blocks";
+  }
 }
 
 TEST(RenderDeterminism, BvhQualitySameImage) {
