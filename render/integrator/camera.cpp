@@ -2,7 +2,6 @@
 
 #include <cmath>
 
-
 namespace rayline::trace {
 
 using scene::cross;
