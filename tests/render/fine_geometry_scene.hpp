@@ -17,36 +17,18 @@ struct FineGeometryScene : TempScene {
 
 inline void write_fine_geometry_scene(FineGeometryScene& out) {
   const std::filesystem::path& dir = out.dir;
-  {  // the terrain over [0, 1]^2: flat (y = 0) for x < 0.5, many triangles in one plane,
-     // then y = 0.03 sin(23 (x - 0.5)) cos(17 z)
-    std::ofstream f(dir / "terrain.obj");
-    const int n = 160;
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) {
-        const double x = double(i) / n, z = double(j) / n;
-        f << "v " << x << " " << (x < 0.5 ? 0.0 : 0.03 * std::sin(23 * (x - 0.5)) * std::cos(17 * z)) << " " << z << "\n";
-      }
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const int a = j * (n + 1) + i + 1, b = a + 1, c = a + n + 1, d = c + 1;  // OBJ: 1-based
-        f << "f " << a << " " << b << " " << d << "\nf " << a << " " << d << " " << c << "\n";
-      }
-  }
-  {  // the sphere: centre (0.55, 0.2, 0.45), radius 0.18, 96 x 64 quads
-    std::ofstream f(dir / "sphere.obj");
-    const int nu = 96, nv = 64;
-    for (int v = 0; v <= nv; ++v)
-      for (int u = 0; u <= nu; ++u) {
-        const double th = M_PI * v / nv, ph = 2 * M_PI * u / nu;
-        f << "v " << 0.55 + 0.18 * std::sin(th) * std::cos(ph) << " " << 0.2 + 0.18 * std::cos(th) << " "
-          << 0.45 + 0.18 * std::sin(th) * std::sin(ph) << "\n";
-      }
-    for (int v = 0; v < nv; ++v)
-      for (int u = 0; u < nu; ++u) {
-        const int a = v * (nu + 1) + u + 1, b = a + 1, c = a + nu + 1, d = c + 1;
-        f << "f " << a << " " << c << " " << d << "\nf " << a << " " << d << " " << b << "\n";
-      }
-  }
+  // The terrain over [0, 1]^2: flat (y = 0) for x < 0.5, many triangles in one plane, then
+  // y = 0.03 sin(23 (x - 0.5)) cos(17 z).
+  write_grid_obj(dir / "terrain.obj", 160, 160, [](int i, int j) {
+    const double x = i / 160.0, z = j / 160.0;
+    return std::array<double, 3>{x, x < 0.5 ? 0.0 : 0.03 * std::sin(23 * (x - 0.5)) * std::cos(17 * z), z};
+  });
+  // The sphere: centre (0.55, 0.2, 0.45), radius 0.18, 96 x 64 quads.
+  write_grid_obj(dir / "sphere.obj", 96, 64, [](int u, int v) {
+    const double th = M_PI * v / 64, ph = 2 * M_PI * u / 96;
+    return std::array<double, 3>{0.55 + 0.18 * std::sin(th) * std::cos(ph), 0.2 + 0.18 * std::cos(th),
+                                 0.45 + 0.18 * std::sin(th) * std::sin(ph)};
+  });
   const nlohmann::json scene = {
       {"version", 1},
       {"materials", {{"sand", {{"albedo", {0.75, 0.65, 0.45}}}}, {"blue", {{"albedo", {0.2, 0.35, 0.8}}}}}},

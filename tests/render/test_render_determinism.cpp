@@ -184,20 +184,14 @@ TEST(RenderDeterminism, AutoBvhQualityFollowsTrianglesPerCameraRay) {
 
 // A wall of many triangles in the plane x = 0.5 holds most of the scene's centroids, so the
 // median split of the first kd node lies in that plane: every ray that meets the wall meets
-// it exactly on a split plane, where each cell's query interval ends. The interval's
-// widening (query_interval) keeps such hits from being rejected by both cells.
+// it exactly on a split plane, where one cell's query interval ends and the next one's
+// begins. The image must be the one-block image at any block count.
 TEST(RenderDeterminism, HitsOnASplitPlaneSameImage) {
   rayline::testing::TempScene ts("rayline-splitwall-");
-  {
-    std::ofstream f(ts.dir / "wall.obj");  // x = 0.5, y and z in [0, 1], 40 x 40 quads
-    const int n = 40;
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) f << "v 0.5 " << double(i) / n << " " << double(j) / n << "\n";
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const int a = j * (n + 1) + i + 1, b = a + 1, c = a + n + 1, d = c + 1;
-        f << "f " << a << " " << b << " " << d << "\nf " << a << " " << d << " " << c << "\n";
-      }
+  {  // the wall: x = 0.5, y and z in [0, 1], 40 x 40 quads
+    rayline::testing::write_grid_obj(ts.dir / "wall.obj", 40, 40, [](int i, int j) {
+      return std::array<double, 3>{0.5, i / 40.0, j / 40.0};
+    });
     std::ofstream g(ts.dir / "floor.obj");  // a floor at y = 0 across x in [0, 1.2]
     g << "v 0 0 0\nv 1.2 0 0\nv 1.2 0 1\nv 0 0 1\nf 1 2 3\nf 1 3 4\n";
     // Two small triangles far out along x, so that x has the widest centroid spread.

@@ -24,15 +24,9 @@ struct ZFightingScene : TempScene {
 inline void write_z_fighting_scene(ZFightingScene& out) {
   const std::filesystem::path& dir = out.dir;
   auto grid = [&](const char* name, int n, bool other_diagonal) {
-    std::ofstream f(dir / name);
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) f << "v " << float(i) / float(n) << " 0 " << float(j) / float(n) << "\n";
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const int a = j * (n + 1) + i + 1, b = a + 1, c = a + n + 1, d = c + 1;  // OBJ: 1-based
-        if (other_diagonal) f << "f " << a << " " << b << " " << c << "\nf " << b << " " << d << " " << c << "\n";
-        else f << "f " << a << " " << b << " " << d << "\nf " << a << " " << d << " " << c << "\n";
-      }
+    write_grid_obj(dir / name, n, n, [n](int i, int j) {
+      return std::array<double, 3>{float(i) / float(n), 0.0, float(j) / float(n)};
+    }, other_diagonal);
   };
   grid("a.obj", 70, false);
   grid("b.obj", 90, true);
