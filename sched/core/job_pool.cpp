@@ -19,6 +19,7 @@ JobId JobPool::add_job(Job j) {
     producer_[o] = id;
   }
   for (BlockId i : j.inputs) ++demand_.at(i);
+  input_count_.push_back(static_cast<std::uint32_t>(j.inputs.size()));
   jobs_.push_back(std::move(j));
   state_.push_back(JobState::Queued);
   activity_.push_back(kNone);
@@ -60,6 +61,7 @@ void JobPool::mark_discarded(JobId j) {
 void JobPool::add_input(JobId j, BlockId b) {
   if (state_[j] != JobState::Queued) throw std::logic_error("can only merge into a queued job");
   jobs_[j].inputs.push_back(b);
+  ++input_count_[j];
   ++demand_.at(b);
 }
 

@@ -23,6 +23,9 @@ class JobPool {
   const Job& job(JobId j) const { return jobs_[j]; }
   Job& job(JobId j) { return jobs_[j]; }
   JobState state(JobId j) const { return state_[j]; }
+  // How many inputs job j has: job(j).inputs.size(), from a dense array (a policy that
+  // caches what a queued job's inputs say checks it for merges without reading the Job).
+  std::uint32_t input_count(JobId j) const { return input_count_[j]; }
   ActivityId activity(JobId j) const { return activity_[j]; }  // its E-job activity once planned
   JobId producer(BlockId b) const { return producer_[b]; }     // kNone: initial data
 
@@ -56,6 +59,7 @@ class JobPool {
   std::vector<int> demand_;
   std::vector<Job> jobs_;
   std::vector<JobState> state_;
+  std::vector<std::uint32_t> input_count_;
   std::vector<ActivityId> activity_;
   // The queue keeps its arrival order. A job leaving it leaves a hole (job kNone), so no
   // removal moves the rest (a plan takes hundreds of jobs out of a queue of thousands);

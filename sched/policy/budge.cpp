@@ -44,6 +44,16 @@ NodeId home_node(JobId j, const Job& job, const JobPool& pool, const Schedule& s
 }
 }  // namespace
 
+Bytes BudgeScheduler::rays_of(Queued& q, const JobPool& pool) {
+  if (q.live_rays || q.seen != pool.input_count(q.job)) {
+    const InputSummaries::Summary& in = inputs_.of(q.job, pool);
+    q.rays = inputs_.rays(q.job, pool);
+    q.seen = static_cast<std::uint32_t>(in.seen);
+    q.live_rays = !in.live.empty();
+  }
+  return q.rays;
+}
+
 PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   const auto t0 = std::chrono::steady_clock::now();
   PlanStats st;
@@ -110,7 +120,8 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     Bytes scene = 0;
     for (BlockId b : in.scene) scene += pool.block(b).bytes;
     by_node_[home == kNone ? any_bucket : static_cast<std::size_t>(home)].push_back(
-        {j, pool.queue_number(j), in.scene.size() == 1 ? in.scene[0] : kNone, scene, in.scene.size() > 1});
+        {j, pool.queue_number(j), in.scene.size() == 1 ? in.scene[0] : kNone, scene, in.scene.size() > 1, true,
+         pool.job(j).type, 0, 0});
   }
   bucketed_ = pool.appended();
   for (DeviceId d : idle) {
@@ -129,21 +140,25 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       std::vector<Queued>& bucket = by_node_[k];
       std::size_t keep = 0;  // entries of jobs still queued under the same number, in order
       for (std::size_t i = 0; i < bucket.size(); ++i) {
-        const Queued& q = bucket[i];
-        if (pool.queue_number(q.job) != q.number) continue;  // planned, or queued again later
+        if (pool.queue_number(bucket[i].job) != bucket[i].number) continue;  // planned, or queued again later
+        Queued* qp = nullptr;  // the entry as kept (by_node_ may grow below: a copy for the test)
         if (k == any_bucket) {
           // "Any node" until its inputs say where it belongs (home_of is asked again).
-          if (const NodeId h = home_of(q.job); h != kNone) {
-            by_node_[static_cast<std::size_t>(h)].push_back(q);  // order: `number` decides, not the bucket
+          if (const NodeId h = home_of(bucket[i].job); h != kNone) {
+            std::vector<Queued>& to = by_node_[static_cast<std::size_t>(h)];
+            to.push_back(bucket[i]);  // order: `number` decides, not the bucket
             if (h != node) continue;
+            qp = &to.back();
           } else {
-            bucket[keep++] = q;
+            bucket[keep] = bucket[i];
+            qp = &bucket[keep++];
           }
         } else {
-          bucket[keep++] = q;
+          bucket[keep] = bucket[i];
+          qp = &bucket[keep++];
         }
-        const Job& job = pool.job(q.job);
-        if (!g.timing.supports(d, job.type)) continue;
+        Queued& q = *qp;
+        if (!g.timing.supports(d, q.type)) continue;
         bool resident = true;
         const Bytes scene = q.scene_bytes;
         if (q.many_scenes) {
@@ -153,9 +168,7 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
         }
         if (idle_gpu_mem != kNone && scene > 0 && scene <= g.memories[idle_gpu_mem].capacity) continue;  // GPU's
         Bytes rays = 0;
-        if (opt_.largest_queue) {
-          rays = inputs_.rays(q.job, pool);
-        }
+        if (opt_.largest_queue) rays = rays_of(q, pool);
         cand.push_back({q.job, opt_.resident_first && resident, rays, static_cast<std::size_t>(q.number)});
       }
       bucket.resize(keep);

@@ -57,13 +57,22 @@ class BudgeScheduler final : public Scheduler {
   // across calls: each call adds the jobs queued since the last one and drops, while
   // scanning a bucket, entries whose job left the queue (or was queued again: a new
   // number). After a lost device (homes can change) they are rebuilt at every call.
+  // An entry holds what the scan reads, so that it reads the pool only for the queue
+  // number and the input count (dense arrays), not the job: its type never changes, and
+  // its ray bytes are refreshed when a merge added inputs (or, with inputs whose bytes can
+  // change, at every read).
   struct Queued {
     JobId job;
     std::int64_t number;  // its append number in the queue (the queue order)
     BlockId scene0;       // its one scene input (kNone: none, or several: see inputs_)
     Bytes scene_bytes;    // all its scene inputs
     bool many_scenes;
+    bool live_rays;       // inputs whose bytes can change: rays summed at every read
+    JobTypeId type;
+    std::uint32_t seen;   // the input count `rays` was summed at
+    Bytes rays;           // its non-scene input bytes (InputSummaries::rays)
   };
+  Bytes rays_of(Queued& q, const JobPool& pool);
   std::vector<std::vector<Queued>> by_node_;
   std::int64_t bucketed_ = 0;  // queue numbers below this are in by_node_
 };

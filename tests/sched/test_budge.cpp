@@ -53,6 +53,37 @@ TEST(Budge, ResidentDataFirstThenLargestQueue) {
   }
 }
 
+// A queued job that grew by merges (Sec. 5.1: a ray queue arriving for the same block joins
+// it) ranks by its rays now, not by what it held when the policy first saw it.
+TEST(Budge, AJobThatGrewByMergesRanksByItsRaysNow) {
+  Nodes t(1, false);
+  JobPool pool;
+  Schedule s(t.g, pool);
+  const BlockId sc = rayline::testing::add_block(pool, "scene", DataKind::SceneData, 100'000'000);
+  s.put_initial(sc, t.disk[0]);
+  s.put_initial(sc, t.ram[0], 0, false);
+  auto queue = [&](const std::string& name, Bytes bytes) {
+    const BlockId q = rayline::testing::add_block(pool, name, DataKind::RayQueue, bytes);
+    s.put_initial(q, t.ram[0]);
+    return q;
+  };
+  const JobId large = rayline::testing::add_job(pool, "large", 0, {sc, queue("large", 30'000'000)});
+  const JobId grows = rayline::testing::add_job(pool, "grows", 0, {sc, queue("grows", 1'000'000)});
+  const JobId middle = rayline::testing::add_job(pool, "middle", 0, {sc, queue("middle", 20'000'000)});
+  BudgeScheduler bs;
+  bs.plan(0, pool, s);
+  ASSERT_EQ(pool.state(large), JobState::Planned);
+  ASSERT_EQ(pool.state(grows), JobState::Queued);
+  pool.add_input(grows, queue("merged", 40'000'000));  // now 41 MB against 20 MB
+  const ActivityId a = pool.activity(large);
+  s.on_started(a, 0);
+  s.on_finished(a, s.activity(a).end);
+  pool.mark_done(large);
+  bs.plan(s.activity(a).end, pool, s);
+  EXPECT_EQ(pool.state(grows), JobState::Planned);
+  EXPECT_EQ(pool.state(middle), JobState::Queued);
+}
+
 TEST(Budge, RaysNeverLeaveTheirNodeAndSceneComesFromTheNodesOwnDisk) {
   Nodes t(2, false);
   JobPool pool;
