@@ -11,7 +11,9 @@
 namespace rayline {
 
 namespace {
-}
+// reproject(): dependency lists longer than this are read through OpenDeps.
+constexpr std::uint32_t kFewDeps = 16;
+}  // namespace
 
 Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
     : graph_(&graph),
@@ -145,6 +147,44 @@ void Schedule::put_initial(BlockId b, MemId m, Time ready, bool origin) {
   add_copy(b, std::move(c));
 }
 
+// admission()'s order of device m's live leaving entries (schedule.hpp, LeavingOrder):
+// sorted afresh once an activity's end may have moved, else the entries made since are
+// merged in. Any other change to an entry (taken bytes, its activities ending) is read
+// from the entry where admission() meets it.
+Schedule::LeavingOrder& Schedule::leaving_order(MemId m) const {
+  if (leaving_order_.size() < leaving_.size()) leaving_order_.resize(leaving_.size());
+  LeavingOrder& o = leaving_order_[static_cast<std::size_t>(m)];
+  const std::vector<Leaving>& lv = leaving_[static_cast<std::size_t>(m)];
+  if (o.epoch != ends_epoch_ || !kept_leaving_order_) {
+    o.epoch = ends_epoch_;
+    o.head = 0;
+    o.sorted.clear();
+    o.recent.clear();
+    for (const Leaving& l : lv)
+      if (!l.after.empty()) o.sorted.push_back({leaving_at(l), l.block, l.serial});
+    std::sort(o.sorted.begin(), o.sorted.end());
+    o.next_serial = next_leaving_serial_;
+    return o;
+  }
+  if (o.next_serial == next_leaving_serial_) return o;
+  const auto first = std::lower_bound(lv.begin(), lv.end(), o.next_serial, [](const Leaving& l, std::uint64_t x) { return l.serial < x; });
+  const std::size_t had = o.recent.size();
+  for (auto it = first; it != lv.end(); ++it)
+    if (!it->after.empty()) o.recent.push_back({leaving_at(*it), it->block, it->serial});
+  std::sort(o.recent.begin() + static_cast<std::ptrdiff_t>(had), o.recent.end());
+  std::inplace_merge(o.recent.begin(), o.recent.begin() + static_cast<std::ptrdiff_t>(had), o.recent.end());
+  if (o.recent.size() > 64 && o.recent.size() * 8 > o.sorted.size() - o.head) {
+    o.sorted.erase(o.sorted.begin(), o.sorted.begin() + static_cast<std::ptrdiff_t>(o.head));
+    o.head = 0;
+    const std::size_t n = o.sorted.size();
+    o.sorted.insert(o.sorted.end(), o.recent.begin(), o.recent.end());
+    std::inplace_merge(o.sorted.begin(), o.sorted.begin() + static_cast<std::ptrdiff_t>(n), o.sorted.end());
+    o.recent.clear();
+  }
+  o.next_serial = next_leaving_serial_;
+  return o;
+}
+
 // Capacity: eviction is a decision the plan makes and can explain. Candidates,
 // cheapest first:
 //   1. bytes already leaving m at a planned time (a consumed ray queue, a queue moved on);
@@ -175,14 +215,48 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
   constexpr std::uint32_t kCopy = ~std::uint32_t{0};
   struct Cand { int value; Time at; Bytes bytes; BlockId block; std::uint32_t leaving; };
   std::vector<Cand> cands;
+  const auto free0 = static_cast<std::int64_t>(cap) - static_cast<std::int64_t>(used_[m]);
+  const auto want = static_cast<std::int64_t>(bytes);
+  std::vector<std::uint32_t> chosen;
+  std::int64_t free = free0;
+  // Leaving bytes come first in either policy's order (below), by (at, block, then the
+  // order they were made): taken from the kept order until the room suffices.
   if (static_cast<std::size_t>(m) < leaving_.size()) {
     const std::vector<Leaving>& lv = leaving_[static_cast<std::size_t>(m)];
-    for (std::uint32_t i = 0; i < lv.size(); ++i)
-      if (!lv[i].after.empty()) cands.push_back({-1, leaving_at(lv[i]), lv[i].bytes, lv[i].block, i});
+    LeavingOrder& order = leaving_order(m);
+    // An entry gone (taken whole, or compacted away once its activities ended) or dead
+    // stays so: its key is dropped where it is met, so later admissions do not meet it.
+    auto take = [&](const LeavingKey& k) {
+      const auto it = std::lower_bound(lv.begin(), lv.end(), k.serial, [](const Leaving& l, std::uint64_t x) { return l.serial < x; });
+      if (it == lv.end() || it->serial != k.serial || it->after.empty()) return false;
+      chosen.push_back(static_cast<std::uint32_t>(cands.size()));
+      cands.push_back({-1, k.at, it->bytes, it->block, static_cast<std::uint32_t>(it - lv.begin())});
+      free += static_cast<std::int64_t>(it->bytes);
+      return true;
+    };
+    std::vector<LeavingKey>& sorted = order.sorted;
+    std::vector<LeavingKey>& recent = order.recent;
+    std::size_t a = order.head, r = 0, sorted_kept = 0, recent_kept = 0;
+    while (free < want && (a < sorted.size() || r < recent.size())) {
+      if (r == recent.size() || (a < sorted.size() && sorted[a] < recent[r])) {
+        if (take(sorted[a])) sorted[order.head + sorted_kept++] = sorted[a];
+        ++a;
+      } else {
+        if (take(recent[r])) recent[recent_kept++] = recent[r];
+        ++r;
+      }
+    }
+    // The live keys walked, moved up against the rest (the order is kept).
+    std::move_backward(sorted.begin() + static_cast<std::ptrdiff_t>(order.head),
+                       sorted.begin() + static_cast<std::ptrdiff_t>(order.head + sorted_kept),
+                       sorted.begin() + static_cast<std::ptrdiff_t>(a));
+    order.head = a - sorted_kept;
+    recent.erase(recent.begin() + static_cast<std::ptrdiff_t>(recent_kept), recent.begin() + static_cast<std::ptrdiff_t>(r));
   }
+  const std::size_t leaving_chosen = chosen.size();
   std::vector<BlockId>* cached = static_cast<std::size_t>(m) < cache_candidates_.size() ? &cache_candidates_[static_cast<std::size_t>(m)] : nullptr;
   std::size_t kept = 0;
-  for (std::size_t i = 0; cached && i < cached->size(); ++i) {
+  for (std::size_t i = 0; free < want && cached && i < cached->size(); ++i) {
     const auto b = static_cast<std::size_t>((*cached)[i]);
     if (!copy_at(static_cast<BlockId>(b), m)) continue;  // gone: dropped from the list
     (*cached)[kept++] = static_cast<BlockId>(b);
@@ -197,7 +271,7 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
       cands.push_back({pool_->queued_demand(static_cast<BlockId>(b)), at, blk.bytes, static_cast<BlockId>(b), kCopy});
     }
   }
-  if (cached) cached->resize(kept);
+  if (cached && free < want) cached->resize(kept);
   const bool lru = eviction_policy_ == EvictionPolicy::Lru;
   // The order (ties, rare, by the order the candidates were listed in): only its first
   // candidates are needed, so they are drawn from a heap rather than sorting all of them
@@ -212,16 +286,14 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
     return x < y;
   };
   const auto later = [&](std::uint32_t x, std::uint32_t y) { return first(y, x); };
-  std::vector<std::uint32_t> heap(cands.size());
-  for (std::uint32_t i = 0; i < heap.size(); ++i) heap[i] = i;
-  std::make_heap(heap.begin(), heap.end(), later);
-  const auto free0 = static_cast<std::int64_t>(cap) - static_cast<std::int64_t>(used_[m]);
-  const auto want = static_cast<std::int64_t>(bytes);
   // Candidates in that order until the room suffices, then those no longer needed dropped,
   // the one that frees last first: a late leaving entry taken before a victim that alone
-  // suffices would only delay the incoming data.
-  std::vector<std::uint32_t> chosen;
-  std::int64_t free = free0;
+  // suffices would only delay the incoming data. (The leaving entries taken above are
+  // the first ones; cached copies follow.)
+  std::vector<std::uint32_t> heap;
+  if (free < want)
+    for (std::uint32_t i = static_cast<std::uint32_t>(leaving_chosen); i < cands.size(); ++i) heap.push_back(i);
+  std::make_heap(heap.begin(), heap.end(), later);
   for (auto end = heap.end(); end != heap.begin() && free < want; --end) {
     std::pop_heap(heap.begin(), end, later);
     const std::uint32_t i = *(end - 1);
@@ -501,6 +573,7 @@ bool Schedule::read_after_eviction(ActivityId producer) const {
 }
 
 bool Schedule::cancel(ActivityId id) {
+  ++ends_epoch_;  // (leaving_order)
   Activity& a = acts_[id];
   if (a.state != ActivityState::Planned || a.cancelled) return false;
   auto unused = [&](BlockId b, MemId m) {
@@ -530,6 +603,7 @@ bool Schedule::cancel(ActivityId id) {
 }
 
 bool Schedule::retime(ActivityId id, Time duration) {
+  ++ends_epoch_;  // (leaving_order)
   Activity& a = acts_[id];
   if (a.kind != ActivityKind::Exec || a.state != ActivityState::Planned || a.cancelled) return false;
   a.duration = duration;
@@ -558,6 +632,7 @@ Schedule::CancelCount Schedule::cancel_job(JobId j) {
 }
 
 void Schedule::on_started(ActivityId id, Time t) {
+  ++ends_epoch_;  // (leaving_order)
   Activity& a = acts_[id];
   if (a.state == ActivityState::Failed) return;  // aborted by fail() before it was reported
   a.state = ActivityState::Running;
@@ -566,6 +641,7 @@ void Schedule::on_started(ActivityId id, Time t) {
 }
 
 void Schedule::on_finished(ActivityId id, Time t) {
+  ++ends_epoch_;  // (leaving_order)
   Activity& a = acts_[id];
   if (a.state == ActivityState::Done || a.state == ActivityState::Failed) return;
   if (a.state == ActivityState::Planned) a.start = t;
@@ -613,7 +689,32 @@ void Schedule::wait_for_end(Leaving& l, ActivityId a) {
   head = static_cast<std::int32_t>(wait_nodes_.size() - 1);
 }
 
+// The latest end among a's dependencies, as the plain loop over a.deps gives it: the done
+// ones are folded into done_end once and dropped (their ends no longer change).
+Time Schedule::latest_dep_end(ActivityId id, const Activity& a) {
+  OpenDeps& o = open_deps_[id];
+  if (o.of_size != a.deps.size()) {
+    o.of_size = a.deps.size();
+    o.done_end = -kNever;
+    o.open.assign(a.deps.begin(), a.deps.end());
+  }
+  Time t = o.done_end;
+  std::size_t w = 0;
+  for (const ActivityId p : o.open) {
+    const Activity& d = acts_[p];
+    if (d.state == ActivityState::Done) {
+      o.done_end = std::max(o.done_end, d.end);
+    } else {
+      o.open[w++] = p;
+    }
+    t = std::max(t, d.end);
+  }
+  o.open.resize(w);
+  return t;
+}
+
 void Schedule::reproject(Time now) {
+  ++ends_epoch_;  // (leaving_order)
   // Over the activities not done yet, in id order (a dependency and a timeline predecessor
   // always have a smaller id), dropping the ones that finished since the last call.
   // Activities finish out of commit order, so "everything after the oldest unfinished
@@ -622,7 +723,10 @@ void Schedule::reproject(Time now) {
   for (std::size_t r = 0; r < pending_.size(); ++r) {
     const ActivityId id = pending_[r];
     Activity& a = acts_[id];
-    if (a.state == ActivityState::Done || (a.state == ActivityState::Failed && !a.placeholder)) continue;
+    if (a.state == ActivityState::Done || (a.state == ActivityState::Failed && !a.placeholder)) {
+      if (a.deps.size() > kFewDeps) open_deps_.erase(id);
+      continue;
+    }
     if (a.placeholder) {  // aborted before it started (fail()): ends when its predecessors do
       Time s = now;
       bool settled = true;
@@ -645,7 +749,11 @@ void Schedule::reproject(Time now) {
       continue;
     }
     Time s = now;
-    for (ActivityId p : a.deps) s = std::max(s, acts_[p].end);
+    if (a.deps.size() > kFewDeps) {
+      s = std::max(s, latest_dep_end(id, a));
+    } else {
+      for (ActivityId p : a.deps) s = std::max(s, acts_[p].end);
+    }
     for (ActivityId p : a.timeline_prev) s = std::max(s, acts_[p].end);
     a.start = s;
     a.end = s + a.duration;

@@ -80,6 +80,10 @@ class Schedule {
   // the queue) for baselines that model LRU caches (Budge 2009).
   enum class EvictionPolicy : std::uint8_t { QueueAware, Lru };
   void set_eviction_policy(EvictionPolicy p) { eviction_policy_ = p; }
+  // admission() keeps each device's leaving entries sorted while no activity's end moves
+  // (the default). Off: it sorts them afresh at every call, the reference the kept order
+  // is tested against (the same admissions either way).
+  void set_kept_leaving_order(bool on) { kept_leaving_order_ = on; }
   const JobPool& pool() const { return *pool_; }
   // After copying a Schedule together with its JobPool, point the copy at the new pool.
   void rebind(const JobPool& pool) { pool_ = &pool; }
@@ -316,6 +320,31 @@ class Schedule {
   std::vector<std::size_t> dead_leaving_;  // per memory device
   std::uint64_t next_leaving_serial_ = 0;
   Leaving& add_leaving(Leaving l);
+  // admission()'s order of a device's live leaving entries, (leaving_at, block, serial),
+  // kept while no activity's end moves (ends_epoch_): a full device under a long plan holds
+  // thousands of entries, and one plan asks for room there hundreds of times. Entries made
+  // since it was sorted wait, sorted, in `recent` until they are many. An entry gone or
+  // dead since is skipped where it is met.
+  struct LeavingKey {
+    Time at;
+    BlockId block;
+    std::uint64_t serial;
+    bool operator<(const LeavingKey& o) const {
+      if (at != o.at) return at < o.at;
+      if (block != o.block) return block < o.block;
+      return serial < o.serial;
+    }
+  };
+  struct LeavingOrder {
+    std::uint64_t epoch = ~std::uint64_t{0};
+    std::uint64_t next_serial = 0;  // entries with a serial below this are sorted in
+    std::size_t head = 0;           // sorted's keys before it are dropped
+    std::vector<LeavingKey> sorted, recent;
+  };
+  mutable std::vector<LeavingOrder> leaving_order_;
+  bool kept_leaving_order_ = true;
+  std::uint64_t ends_epoch_ = 0;  // moves whenever a planned or running activity's end may
+  LeavingOrder& leaving_order(MemId m) const;  // brought up to date
   // Per activity, the entries that wait for it (a list through wait_nodes_, head per
   // activity): on_finished visits those alone, not every entry of the run.
   struct WaitNode {
@@ -337,6 +366,16 @@ class Schedule {
   std::size_t unfinished_ = 0;
   EvictionPolicy eviction_policy_ = EvictionPolicy::QueueAware;
   std::vector<ActivityId> pending_;  // activities not known to be done, in id order (reproject)
+  // reproject() of a waiting activity with many dependencies (an E-job of thousands of
+  // merged ray queues): the ones not seen done yet, and the latest end of those that were
+  // (a done activity's end is final), so each dependency is read done only once.
+  struct OpenDeps {
+    std::uint32_t of_size = 0;  // deps.size() it was made from (rebuilt if that changes)
+    Time done_end = -kNever;
+    std::vector<ActivityId> open;
+  };
+  std::unordered_map<ActivityId, OpenDeps> open_deps_;
+  Time latest_dep_end(ActivityId id, const Activity& a);
   std::vector<char> dead_compute_, dead_memory_, dead_channel_;  // empty until the first fault
 };
 

@@ -12,6 +12,7 @@ namespace rayline {
 
 Schedule::Failure Schedule::fail(Time now, const std::vector<ActivityId>& seeds, const std::vector<DeviceId>& computes,
                                  const std::vector<MemId>& memories) {
+  ++ends_epoch_;  // (leaving_order)
   Failure f;
   const DeviceGraph& g = *graph_;
   if (dead_compute_.empty()) {

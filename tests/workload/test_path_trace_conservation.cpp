@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <fstream>
 #include <functional>
+#include <memory>
+#include <random>
 #include <sstream>
 
 #include "common/error.hpp"
@@ -448,5 +450,56 @@ TEST(PathTraceClients, PartialTilesIsTheExpectedCoverage) {
     EXPECT_GE(t, last);
     EXPECT_LE(t, 64u);
     last = t;
+  }
+}
+
+// Schedule::admission keeps each device's leaving entries sorted while no activity's end
+// moves (new entries merged in, gone ones dropped where met). It must choose exactly what
+// a fresh sort at every call chooses: the same plan, activity by activity, for GMB and
+// Rayline's policy on memories too small for the scene, with reality off the plan and
+// predictions withdrawn (ends move, entries come and go).
+TEST(PathTraceDeterminism, KeptLeavingOrderPlansAsAFreshSort) {
+  const SceneProfile prof = load_scene_profile(kProfile);
+  Bytes scene = 0;
+  for (const ProfileBlock& b : prof.blocks) scene += b.bytes;
+  for (const std::string scheduler : {"gmb", "rayline"}) {
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      std::vector<Activity> plan[2];
+      for (int kept = 0; kept < 2; ++kept) {
+        DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
+        for (MemoryDevice& m : g.memories) {
+          if (m.kind == MemoryKind::Host) m.capacity = scene / 2;
+          if (m.kind == MemoryKind::Gpu) m.capacity = scene / 4;
+        }
+        PathTraceOptions o;
+        o.clients = 3;
+        o.frames_per_client = 2;
+        o.prediction_depth = 2;
+        o.seed = seed;
+        JobPool pool;
+        Schedule s(g, pool);
+        s.set_kept_leaving_order(kept == 1);
+        PathTraceWorkload wl(g, prof, o);
+        const std::unique_ptr<Scheduler> sched = make_scheduler(scheduler, 2.0);
+        ExactExecutor ex(s);
+        auto rng = std::make_shared<std::mt19937>(static_cast<std::uint32_t>(seed));
+        ex.perturb = [rng](ActivityId, const Activity& a) {
+          return a.duration * std::uniform_real_distribution<double>(0.5, 1.8)(*rng);
+        };
+        RuntimeLoop loop(*sched, ex, wl, pool, s);
+        ASSERT_FALSE(loop.run().stalled) << scheduler << " seed " << seed;
+        for (std::size_t i = 0; i < s.activity_count(); ++i) plan[kept].push_back(s.activity(static_cast<ActivityId>(i)));
+      }
+      ASSERT_EQ(plan[0].size(), plan[1].size()) << scheduler << " seed " << seed;
+      for (std::size_t i = 0; i < plan[0].size(); ++i) {
+        const Activity& a = plan[0][i];
+        const Activity& b = plan[1][i];
+        ASSERT_TRUE(a.kind == b.kind && a.job == b.job && a.device == b.device && a.channel == b.channel &&
+                    a.block == b.block && a.planned_start == b.planned_start && a.planned_end == b.planned_end &&
+                    a.start == b.start && a.end == b.end && a.state == b.state && a.cancelled == b.cancelled &&
+                    std::equal(a.deps.begin(), a.deps.end(), b.deps.begin(), b.deps.end()))
+            << scheduler << " seed " << seed << ": activity " << i << " differs";
+      }
+    }
   }
 }
