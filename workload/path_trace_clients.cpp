@@ -29,7 +29,14 @@ void add_count(RayCounts& c, std::uint64_t key, std::uint64_t n) {
 }
 
 void merge_into(RayCounts& into, const RayCounts& add) {
-  RayCounts out;
+  if (add.empty()) return;
+  if (into.empty() || into.back().first < add.front().first) {  // the usual case: later keys
+    into.insert(into.end(), add.begin(), add.end());
+    return;
+  }
+  // Merged into a buffer kept between calls, which then trades places with `into`'s.
+  thread_local RayCounts out;
+  out.clear();
   out.reserve(into.size() + add.size());
   std::size_t i = 0, j = 0;
   while (i < into.size() || j < add.size()) {

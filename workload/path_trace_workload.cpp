@@ -317,15 +317,25 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
   const Activity& act = s.activity(pool.activity(j));
   const MemId mem = g_.computes[act.device].memory;
   const Time started = std::min(act.start, now);
-  // The rays going to (kind, block), routed below. Every key of the job sends to the same
-  // few destinations, so each caller slot looks its destination up once, at first use
-  // (exactly the destinations used are created; map references stay valid).
-  std::map<std::pair<int, int>, Dest> dests;
+  // The rays going to (kind, block), routed below in (kind, block) order. Every key of the
+  // job sends to the same few destinations, so each caller slot looks its destination up
+  // once, at first use (exactly the destinations used are made). There are at most as many
+  // as blocks, plus two, so the reserved list never moves them.
+  std::vector<Dest>& dests = dests_;
+  dests.clear();
+  dests.reserve(p_.blocks.size() + 2);
   std::vector<RayCounts*>& to = dest_cache_;
   to.assign(to.size(), nullptr);
   auto dest = [&](std::size_t slot, PtJob k, int b) -> RayCounts& {
     if (slot >= to.size()) to.resize(slot + 1, nullptr);
-    if (!to[slot]) to[slot] = &dests.try_emplace({static_cast<int>(k), b}, Dest{k, b, {}}).first->second.rays;
+    if (!to[slot]) {
+      auto it = std::find_if(dests.begin(), dests.end(), [&](const Dest& d) { return d.kind == k && d.block == b; });
+      if (it == dests.end()) {
+        if (dests.size() == dests.capacity()) throw std::logic_error("more destinations than blocks");
+        it = dests.insert(dests.end(), Dest{k, b, {}});
+      }
+      to[slot] = &it->rays;
+    }
     return *to[slot];
   };
   RayCounts recs, samples;
@@ -443,7 +453,10 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
   }
   if (ended) ended_.push_back({started, now, ended});
   if (created) created_.push_back({started, now, created});
-  for (auto& [k, d] : dests) route(j, d, mem, now, pool, s);
+  std::sort(dests.begin(), dests.end(), [](const Dest& a, const Dest& b) {
+    return std::pair(static_cast<int>(a.kind), a.block) < std::pair(static_cast<int>(b.kind), b.block);
+  });
+  for (Dest& d : dests) route(j, d, mem, now, pool, s);
   if (predictor_) {  // children it produced nothing for: failed (Sec. 5.2)
     predictor_->finish(j, pool);
     // Planned failures (deepest first): nothing to process; withdrawn with their T-jobs.

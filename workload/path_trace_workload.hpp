@@ -190,6 +190,7 @@ class PathTraceWorkload final : public Workload {
   JobPool* pool_ = nullptr;  // for exec_scale
   std::vector<std::uint64_t> scratch_;
   std::vector<RayCounts*> dest_cache_;  // on_job_finished: its destinations, by slot
+  std::vector<Dest> dests_;             // on_job_finished: the destinations themselves
 };
 
 }  // namespace rayline

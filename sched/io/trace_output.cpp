@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <sstream>
 #include <string_view>
+#include <system_error>
 #include <vector>
 
 namespace rayline {
@@ -259,14 +260,30 @@ std::string chrome_trace_json(const Schedule& s, bool include_actual) {
 namespace {
 
 // RFC 4180: a field with a comma, quote or line break is quoted, its quotes doubled.
-std::string csv_field(const std::string& v) {
-  if (v.find_first_of(",\"\r\n") == std::string::npos) return v;
-  std::string q = "\"";
-  for (const char c : v) {
-    if (c == '"') q += '"';
-    q += c;
+void append_csv_field(std::string& row, std::string_view v) {
+  if (v.find_first_of(",\"\r\n") == std::string_view::npos) {
+    row += v;
+    return;
   }
-  return q + '"';
+  row += '"';
+  for (const char c : v) {
+    if (c == '"') row += '"';
+    row += c;
+  }
+  row += '"';
+}
+
+// As printf's "%.9f" writes it (std::to_chars with a precision: the same digits).
+void append_fixed9(std::string& row, double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed, 9);
+  row.append(buf, r.ec == std::errc() ? r.ptr : buf);
+}
+
+template <class Int>
+void append_int(std::string& row, Int v) {
+  char buf[24];
+  row.append(buf, std::to_chars(buf, buf + sizeof buf, v).ptr);
 }
 
 }  // namespace
@@ -278,33 +295,49 @@ void write_jobs_csv(const Schedule& s, std::ostream& out) {
   // its wait is actual_start - created.
   out << "activity,kind,job,type,device_or_channel,block,bytes,planned_start,planned_end,actual_start,actual_end,state,"
          "created\n";
-  char buf[256];
+  // Rows are built in one buffer and written in chunks (a long run has ~10^6 of them).
+  std::string rows;
   for (ActivityId id = 0; id < static_cast<ActivityId>(s.activity_count()); ++id) {
     const Activity& a = s.activity(id);
     const bool done = a.state == ActivityState::Done;
+    const bool exec = a.kind == ActivityKind::Exec;
     Bytes bytes = a.bytes;
-    if (a.kind == ActivityKind::Exec)
+    if (exec)
       for (BlockId b : pool.job(a.job).inputs) bytes += pool.block(b).bytes;
-    out << id << ',' << (a.kind == ActivityKind::Exec ? "E" : "T") << ','
-        << (a.job == kNone ? std::string() : csv_field(pool.job(a.job).name)) << ','
-        << csv_field(a.kind == ActivityKind::Exec ? g.job_types[pool.job(a.job).type] : std::string("transfer")) << ','
-        << csv_field(a.kind == ActivityKind::Exec ? g.computes[a.device].name : g.channels[a.channel].name) << ','
-        << (a.block == kNone ? std::string() : csv_field(pool.block(a.block).name)) << ',' << bytes << ',';
-    std::snprintf(buf, sizeof buf, "%.9f,%.9f,", a.planned_start, a.planned_end);
-    out << buf;
+    append_int(rows, id);
+    rows += exec ? ",E," : ",T,";
+    if (a.job != kNone) append_csv_field(rows, pool.job(a.job).name);
+    rows += ',';
+    append_csv_field(rows, exec ? std::string_view(g.job_types[pool.job(a.job).type]) : std::string_view("transfer"));
+    rows += ',';
+    append_csv_field(rows, exec ? g.computes[a.device].name : g.channels[a.channel].name);
+    rows += ',';
+    if (a.block != kNone) append_csv_field(rows, pool.block(a.block).name);
+    rows += ',';
+    append_int(rows, bytes);
+    rows += ',';
+    append_fixed9(rows, a.planned_start);
+    rows += ',';
+    append_fixed9(rows, a.planned_end);
+    rows += ',';
     if (done) {
-      std::snprintf(buf, sizeof buf, "%.9f,%.9f,", a.start, a.end);
-      out << buf;
+      append_fixed9(rows, a.start);
+      rows += ',';
+      append_fixed9(rows, a.end);
+      rows += ',';
     } else {
-      out << ",,";
+      rows += ",,";
     }
-    out << (a.state == ActivityState::Failed ? "aborted" : a.cancelled ? "cancelled" : done ? "done" : "planned") << ',';
-    if (a.job != kNone) {
-      std::snprintf(buf, sizeof buf, "%.9f", pool.job(a.job).created);
-      out << buf;
+    rows += a.state == ActivityState::Failed ? "aborted" : a.cancelled ? "cancelled" : done ? "done" : "planned";
+    rows += ',';
+    if (a.job != kNone) append_fixed9(rows, pool.job(a.job).created);
+    rows += '\n';
+    if (rows.size() > (1u << 20)) {
+      out.write(rows.data(), static_cast<std::streamsize>(rows.size()));
+      rows.clear();
     }
-    out << '\n';
   }
+  out.write(rows.data(), static_cast<std::streamsize>(rows.size()));
 }
 
 std::string jobs_csv(const Schedule& s) {
