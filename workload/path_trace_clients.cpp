@@ -12,7 +12,7 @@ std::uint64_t total(const RayCounts& c) {
 }
 
 void normalize(RayCounts& c) {
-  std::sort(c.begin(), c.end());
+  if (!std::is_sorted(c.begin(), c.end())) std::sort(c.begin(), c.end());  // (counts are mostly made in key order)
   std::size_t w = 0;
   for (std::size_t r = 0; r < c.size(); ++r) {
     if (c[r].second == 0) continue;

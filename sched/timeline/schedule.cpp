@@ -764,7 +764,8 @@ void Schedule::reproject(Time now) {
   for (std::size_t r = 0; r < resource_tl_.size(); ++r) {
     Timeline& tl = resource_tl_[r];
     const Time nb = tl.items.empty() ? 0 : acts_[tl.items.back()].end;
-    if (nb != tl.busy_until) ++resource_version_[r];
+    if (nb == tl.busy_until) continue;  // its channels' finish times stand (commits raise them)
+    ++resource_version_[r];
     tl.busy_until = nb;
     resource_busy_changed(static_cast<ResourceId>(r));
   }
