@@ -3,8 +3,8 @@
 # under the saturating ray stream, for a few settings; prints a Markdown table built from
 # each run's metrics.json. Usage: scripts/bench_simulate.sh [DURATION=60s] [REPEATS=3]
 # The last two rows are a path-tracing run at 14 and 18 simulated seconds (fixed): it turns
-# compute-bound after ~13 s and makes ~10^5 activities per simulated second from then on, so
-# equal activities per wall second in both rows means the cost per event does not grow.
+# compute-bound after ~13 s and makes ~10^5 activities per simulated second from then on;
+# the activities per wall second of the two rows show whether the cost per event grows.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DURATION="${1:-60s}"

@@ -185,6 +185,39 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, Rea
     if (std::find(reach[i].begin(), reach[i].end(), true) == reach[i].end()) reach[i].clear();
     return reach[i];
   };
+  // Whether memory device m could take the job: room for it all, every input there or
+  // able to get there.
+  auto takes = [&](MemId m, std::string* reason) {
+    const MemoryDevice& mem = g.memories[static_cast<std::size_t>(m)];
+    for (std::size_t i = 0; i < job.inputs.size(); ++i) {
+      const BlockId b = job.inputs[i];
+      if (s.copy_at(b, m)) continue;
+      const std::string& bn = pool.block(b).name;
+      if (!Placer::may_fetch(job, b, s)) {
+        if (reason) *reason = "input '" + bn + "' may not move (a framebuffer moves only for AdditiveCompose, Sec. 5.1) and is not on " + mem.name;
+        return false;
+      }
+      if (const std::vector<bool>& r = reach_of(i); !r.empty() && !r[static_cast<std::size_t>(m)]) {
+        if (reason)
+          *reason = "no chain of channels, each hop with room for input '" + bn + "' (" +
+                    gb(static_cast<double>(pool.block(b).bytes)) + "), leads from its holders to " + mem.name;
+        return false;
+      }
+    }
+    return true;
+  };
+  // Most queued jobs can run where their last input is (a merged job holds thousands of
+  // ray queues there): asked first, so the walk below, which may read every input on
+  // every memory device before it, is left to the jobs that might not run at all.
+  if (!job.inputs.empty())
+    if (const std::vector<Copy>& cs = s.copies(job.inputs.back()); !cs.empty()) {
+      const MemId m = cs.front().mem;
+      for (DeviceId d : g.computes_on(m))
+        if (g.timing.supports(d, job.type) && s.compute_alive(d)) {
+          if (need <= static_cast<double>(g.memories[static_cast<std::size_t>(m)].capacity) && takes(m, nullptr)) return "";
+          break;
+        }
+    }
   // Reasons by preference: the one of a device whose memory is big enough says more.
   std::string too_small, blocked;
   double largest = -1;
@@ -206,21 +239,7 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, Rea
       continue;
     }
     std::string reason;
-    for (std::size_t i = 0; i < job.inputs.size(); ++i) {
-      const BlockId b = job.inputs[i];
-      if (s.copy_at(b, m)) continue;
-      const std::string& bn = pool.block(b).name;
-      if (!Placer::may_fetch(job, b, s)) {
-        reason = "input '" + bn + "' may not move (a framebuffer moves only for AdditiveCompose, Sec. 5.1) and is not on " + mem.name;
-        break;
-      }
-      if (const std::vector<bool>& r = reach_of(i); !r.empty() && !r[static_cast<std::size_t>(m)]) {
-        reason = "no chain of channels, each hop with room for input '" + bn + "' (" +
-                 gb(static_cast<double>(pool.block(b).bytes)) + "), leads from its holders to " + mem.name;
-        break;
-      }
-    }
-    if (reason.empty()) return "";  // d could take it: the obstacle is what else is planned
+    if (takes(m, &reason)) return "";  // d could take it: the obstacle is what else is planned
     if (blocked.empty()) blocked = "on " + g.computes[d].name + ": " + reason;
   }
   if (!any_device)
