@@ -141,7 +141,7 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       std::size_t keep = 0;  // entries of jobs still queued under the same number, in order
       for (std::size_t i = 0; i < bucket.size(); ++i) {
         if (pool.queue_number(bucket[i].job) != bucket[i].number) continue;  // planned, or queued again later
-        Queued* qp = nullptr;  // the entry as kept (by_node_ may grow below: a copy for the test)
+        Queued* qp = nullptr;  // the entry as kept, whose cached rays rays_of() refreshes
         if (k == any_bucket) {
           // "Any node" until its inputs say where it belongs (home_of is asked again).
           if (const NodeId h = home_of(bucket[i].job); h != kNone) {

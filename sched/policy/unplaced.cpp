@@ -185,8 +185,8 @@ std::string why_unplaceable(JobId j, const JobPool& pool, const Schedule& s, Rea
     if (std::find(reach[i].begin(), reach[i].end(), true) == reach[i].end()) reach[i].clear();
     return reach[i];
   };
-  // Whether memory device m could take the job: room for it all, every input there or
-  // able to get there.
+  // Whether every input of the job is on memory device m or can get there (its room is
+  // the caller's check); `reason`: why not.
   auto takes = [&](MemId m, std::string* reason) {
     const MemoryDevice& mem = g.memories[static_cast<std::size_t>(m)];
     for (std::size_t i = 0; i < job.inputs.size(); ++i) {
