@@ -343,13 +343,19 @@ const GmbScheduler::Sorted& GmbScheduler::sorted_jobs(std::int32_t i, DeviceId d
                            static_cast<std::size_t>(classes_) +
                        static_cast<std::size_t>(class_of_device_[d])];
   if (so.built) {
-    // Planned jobs leave lazily; compact once they are the majority.
+    // Planned jobs leave lazily: those in front at once, the rest once they are the
+    // majority.
+    while (so.head < so.jobs.size() && pool.state(so.jobs[so.head].second) != JobState::Queued) ++so.head;
     const Bucket& bk = buckets_[static_cast<std::size_t>(i)];
-    if (so.jobs.size() > 8 && static_cast<std::size_t>(bk.queued) * 2 < so.jobs.size())
+    if (so.jobs.size() > 8 && static_cast<std::size_t>(bk.queued) * 2 < so.jobs.size() - so.head) {
+      so.jobs.erase(so.jobs.begin(), so.jobs.begin() + static_cast<std::ptrdiff_t>(so.head));
+      so.head = 0;
       std::erase_if(so.jobs, [&](const auto& e) { return pool.state(e.second) != JobState::Queued; });
+    }
     return so;
   }
   so.built = true;
+  so.head = 0;
   so.jobs.clear();
   for (JobId j : buckets_[static_cast<std::size_t>(i)].jobs)
     if (pool.state(j) == JobState::Queued && cells_.eligible(j, m)) so.jobs.emplace_back(granularity(j, d, pool, s), j);
@@ -471,6 +477,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
   const Sorted& so = sorted_jobs(i, d, m, pool, s);
   const bool in_order = so.monotone;  // else: every job, no early stop
   const std::size_t n = in_order ? so.jobs.size() : bk.jobs.size();
+  const std::size_t k0 = in_order ? so.head : 0;  // (the planned jobs in front: skipped)
   auto job_at = [&](std::size_t k) { return in_order ? so.jobs[k].second : bk.jobs[k]; };
   // Can j run on d at all, its key block being fetchable? (Per bucket: whether the key
   // must be fetched and is a framebuffer, which only some job types may fetch.)
@@ -525,7 +532,7 @@ void GmbScheduler::evaluate_bucket(std::int32_t i, DeviceId d, MemId m, Time rea
   // job here can, ends an in-order scan: later jobs have no smaller granularity (then a
   // larger id) and start no earlier. Jobs before it are folded with prefer_checked(), so
   // the order only decides how soon `loses` prunes, never the choice.
-  for (std::size_t k = 0; k < n; ++k)
+  for (std::size_t k = k0; k < n; ++k)
     if (evaluate(k) == key_at && in_order) break;
 }
 
@@ -726,6 +733,7 @@ PlanStats GmbScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   for (std::size_t k = 0; k < n_sorted; ++k) {
     sorted_[k].built = false;
     sorted_[k].monotone = true;
+    sorted_[k].head = 0;
     sorted_[k].jobs.clear();
   }
   const std::uint64_t searches0 = placer_->finder().searches(), hits0 = placer_->finder().hits();

@@ -194,6 +194,10 @@ class GmbScheduler final : public Scheduler {
     bool built = false;
     bool monotone = true;  // no two granularities within nearly_equal but different
     std::vector<std::pair<double, JobId>> jobs;
+    // jobs[0, head) are planned: within a pass a job leaves the queue for good, and the
+    // front of the order is what gets planned first (a long run's lists were half planned
+    // jobs, each weighed again at every selection).
+    std::size_t head = 0;
   };
   std::vector<Sorted> sorted_;  // bucket x cell x class (never shrunk: the lists keep their capacity)
   std::vector<DeviceId> class_reps_;  // build_classes(): one device per class
