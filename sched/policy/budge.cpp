@@ -120,8 +120,8 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     Bytes scene = 0;
     for (BlockId b : in.scene) scene += pool.block(b).bytes;
     by_node_[home == kNone ? any_bucket : static_cast<std::size_t>(home)].push_back(
-        {j, pool.queue_number(j), in.scene.size() == 1 ? in.scene[0] : kNone, scene, in.scene.size() > 1, true,
-         pool.job(j).type, 0, 0});
+        {j, pool.queue_number(j), in.scene.size() == 1 ? in.scene[0] : kNone, scene, in.scene.size() > 1, false,
+         pool.job(j).type, ~std::uint32_t{0}, 0});  // (rays summed at the first read)
   }
   bucketed_ = pool.appended();
   for (DeviceId d : idle) {

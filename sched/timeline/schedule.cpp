@@ -15,6 +15,12 @@ namespace {
 constexpr std::uint32_t kFewDeps = 16;
 }  // namespace
 
+// A device's leaving entries are in serial order: the first with a serial >= `serial`.
+template <class List>
+auto Schedule::first_leaving(List& lv, std::uint64_t serial) {
+  return std::lower_bound(lv.begin(), lv.end(), serial, [](const Leaving& l, std::uint64_t x) { return l.serial < x; });
+}
+
 Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
     : graph_(&graph),
       pool_(&pool),
@@ -167,7 +173,7 @@ Schedule::LeavingOrder& Schedule::leaving_order(MemId m) const {
     return o;
   }
   if (o.next_serial == next_leaving_serial_) return o;
-  const auto first = std::lower_bound(lv.begin(), lv.end(), o.next_serial, [](const Leaving& l, std::uint64_t x) { return l.serial < x; });
+  const auto first = first_leaving(lv, o.next_serial);
   const std::size_t had = o.recent.size();
   for (auto it = first; it != lv.end(); ++it)
     if (!it->after.empty()) o.recent.push_back({leaving_at(*it), it->block, it->serial});
@@ -219,15 +225,16 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
   const auto want = static_cast<std::int64_t>(bytes);
   std::vector<std::uint32_t> chosen;
   std::int64_t free = free0;
-  // Leaving bytes come first in either policy's order (below), by (at, block, then the
-  // order they were made): taken from the kept order until the room suffices.
+  // Leaving bytes come first under either eviction policy (they free without evicting
+  // anything), by (at, block, then the order they were made): taken from the kept order
+  // until the room suffices. Cached copies follow, in the policy's order below.
   if (static_cast<std::size_t>(m) < leaving_.size()) {
     const std::vector<Leaving>& lv = leaving_[static_cast<std::size_t>(m)];
     LeavingOrder& order = leaving_order(m);
     // An entry gone (taken whole, or compacted away once its activities ended) or dead
     // stays so: its key is dropped where it is met, so later admissions do not meet it.
     auto take = [&](const LeavingKey& k) {
-      const auto it = std::lower_bound(lv.begin(), lv.end(), k.serial, [](const Leaving& l, std::uint64_t x) { return l.serial < x; });
+      const auto it = first_leaving(lv, k.serial);
       if (it == lv.end() || it->serial != k.serial || it->after.empty()) return false;
       chosen.push_back(static_cast<std::uint32_t>(cands.size()));
       cands.push_back({-1, k.at, it->bytes, it->block, static_cast<std::uint32_t>(it - lv.begin())});
@@ -273,14 +280,13 @@ Schedule::Admission Schedule::admission(MemId m, Bytes bytes, const std::vector<
   }
   if (cached && free < want) cached->resize(kept);
   const bool lru = eviction_policy_ == EvictionPolicy::Lru;
-  // The order (ties, rare, by the order the candidates were listed in): only its first
+  // The cached copies' order (ties, rare, by the order they were listed in): only its first
   // candidates are needed, so they are drawn from a heap rather than sorting all of them
   // (a full device under a long plan lists thousands).
   const auto first = [&](std::uint32_t x, std::uint32_t y) {
     const Cand& a = cands[x];
     const Cand& b = cands[y];
     if (!lru && a.value != b.value) return a.value < b.value;
-    if (lru && (a.value < 0) != (b.value < 0)) return a.value < 0;  // leaving bytes are free either way
     if (a.at != b.at) return a.at < b.at;
     if (a.block != b.block) return a.block < b.block;
     return x < y;
@@ -653,7 +659,7 @@ void Schedule::on_finished(ActivityId id, Time t) {
   for (std::int32_t n = wait_head_[static_cast<std::size_t>(id)]; n >= 0; n = wait_nodes_[static_cast<std::size_t>(n)].next) {
     const WaitNode& w = wait_nodes_[static_cast<std::size_t>(n)];
     std::vector<Leaving>& lv = leaving_[static_cast<std::size_t>(w.mem)];
-    const auto it = std::lower_bound(lv.begin(), lv.end(), w.serial, [](const Leaving& l, std::uint64_t x) { return l.serial < x; });
+    const auto it = first_leaving(lv, w.serial);
     if (it == lv.end() || it->serial != w.serial || it->after.empty()) continue;  // gone (fail(), a handover)
     Leaving& l = *it;
     if (std::find(l.after.begin(), l.after.end(), id) == l.after.end()) continue;

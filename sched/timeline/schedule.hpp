@@ -345,6 +345,8 @@ class Schedule {
   bool kept_leaving_order_ = true;
   std::uint64_t ends_epoch_ = 0;  // moves whenever a planned or running activity's end may
   LeavingOrder& leaving_order(MemId m) const;  // brought up to date
+  template <class List>
+  static auto first_leaving(List& lv, std::uint64_t serial);
   // Per activity, the entries that wait for it (a list through wait_nodes_, head per
   // activity): on_finished visits those alone, not every entry of the run.
   struct WaitNode {
