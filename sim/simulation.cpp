@@ -287,6 +287,7 @@ std::unique_ptr<Inputs> load_inputs(const SimulationConfig& cfg) {
       for (const ProfileBlock& b : in->profile->blocks) bytes.push_back(b.bytes);
       pto.warm_start.placement = warm_placement(cfg.scheduler, in->graph, bytes);
     }
+    pto.job_bytes_cap = job_caps(cfg.scheduler, in->graph);  // the policy's device-sized jobs, if any
     pto.frames_in_flight = cfg.frames_in_flight;
     pto.frames_per_client = cfg.frames_per_client;
     pto.retime_merged = cfg.retime_merged;

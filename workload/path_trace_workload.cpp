@@ -107,6 +107,13 @@ Bytes PathTraceWorkload::merge_cap(PtJob kind, int block) const {
   return room > scene ? room - scene : 0;
 }
 
+std::uint64_t PathTraceWorkload::capped_rays(PtJob kind) const {
+  if (kind != PtJob::Intersect && kind != PtJob::Shadow && kind != PtJob::Shade) return ~std::uint64_t{0};
+  const JobTypeId t = type_[static_cast<std::size_t>(kind)];
+  const Bytes cap = t >= 0 && static_cast<std::size_t>(t) < opt_.job_bytes_cap.size() ? opt_.job_bytes_cap[static_cast<std::size_t>(t)] : 0;
+  return cap > 0 ? std::max<std::uint64_t>(1, cap / std::max<Bytes>(1, bytes_per(kind))) : ~std::uint64_t{0};
+}
+
 Job PathTraceWorkload::make_job(PtJob kind, int block, BlockId queue, std::uint64_t work, Time now) const {
   Job j;
   j.name = std::string(kPtJobTypeNames[static_cast<std::size_t>(kind)]) + (block >= 0 ? "@" + std::to_string(block) : "");
@@ -195,6 +202,25 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
                                   JobPool& pool, Schedule& s) {
   const std::uint64_t n = kind == PtJob::Accumulate ? total(records) : total(rays);
   if (n == 0) return;
+  // A device-sized cap (job_cap): a queue larger than it is split, in key order, into
+  // queues of at most the cap, each joining or making a job as below.
+  if (const std::uint64_t most = capped_rays(kind); n > most && records.empty()) {
+    RayCounts part;
+    std::uint64_t room = most;
+    for (auto [k, c] : rays)
+      while (c > 0) {
+        const std::uint64_t take = std::min(c, room);
+        part.emplace_back(k, take);
+        c -= take, room -= take;
+        if (room == 0) {
+          add_queue(kind, block, mem, std::move(part), {}, now, pool, s);
+          part.clear();
+          room = most;
+        }
+      }
+    if (!part.empty()) add_queue(kind, block, mem, std::move(part), {}, now, pool, s);
+    return;
+  }
   const std::size_t key = queue_slot(static_cast<int>(kind), block, mem);
   // Sec. 5.1: rays arriving where a planned job will process a queue of the same kind and
   // block, before it started, join that queue (its E-job then runs for the merged size,
@@ -203,7 +229,9 @@ void PathTraceWorkload::add_queue(PtJob kind, int block, MemId mem, RayCounts ra
   // takes them only while its queue stays within merge_cap (else it would grow without
   // bound, unaccounted, while it waits to start); past that they open a new job.
   const auto held = [&](JobId j) { return kind == PtJob::Accumulate ? total(info(j).records) : total(info(j).rays); };
-  const auto fits = [&](JobId j) { return held(j) + n <= merge_cap(kind, block) / std::max<Bytes>(1, bytes_per(kind)); };
+  const auto fits = [&](JobId j) {
+    return held(j) + n <= std::min(merge_cap(kind, block) / std::max<Bytes>(1, bytes_per(kind)), capped_rays(kind));
+  };
   scan_planned(s, pool);
   if (opt_.merge_planned && planned_at_[key] != kNone) {
     const JobId j = planned_at_[key];

@@ -45,6 +45,11 @@ struct PathTraceOptions {
   // A planned prediction that failed is withdrawn with its T-jobs (Sec. 5.2, Schedule::
   // cancel_job). Off: it runs empty (0 s) and its prefetches still move their blocks.
   bool cancel_failed = true;
+  // Per job type (JobTypeId): the most queue bytes one ray job (RayIntersect,
+  // ShadowIntersect, Shade) holds: a queue stops taking merges there, and a larger one is
+  // split into jobs of at most this size. 0 or absent: no cap but merge_cap (a policy's
+  // device-sized jobs, scheduler_factory.hpp job_caps).
+  std::vector<Bytes> job_bytes_cap;
   // Warm start (warm_start.hpp): memories begin holding the blocks used most.
   bool warm = false;
   WarmStart warm_start;
@@ -166,6 +171,9 @@ class PathTraceWorkload final : public Workload {
   // job takes merged queues only while they fit there next to its scene block.
   std::array<Bytes, kPtJobCount> room_{};
   Bytes merge_cap(PtJob kind, int block) const;
+  // The most rays (records) one ray job of `kind` holds under opt_.job_bytes_cap (no cap:
+  // the largest count).
+  std::uint64_t capped_rays(PtJob kind) const;
   std::vector<BlockId> scene_;
   std::vector<ClientState> clients_;
   std::vector<FrameState> frames_;

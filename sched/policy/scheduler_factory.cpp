@@ -6,6 +6,7 @@
 #include "sched/policy/budge.hpp"
 #include "sched/policy/gmb/gmb_scheduler.hpp"
 #include "sched/policy/load_any_once.hpp"
+#include "sched/policy/rayline/job_size.hpp"
 #include "sched/policy/rayline/rayline_scheduler.hpp"
 
 namespace rayline {
@@ -46,6 +47,11 @@ std::vector<std::vector<MemId>> warm_placement(const SchedulerChoice& c, const D
                                                const std::vector<Bytes>& scene_bytes) {
   if (c.kind != SchedulerKind::Rayline || !rayline_options(c.horizon / 4, c.rayline_off).ownership) return {};
   return ownership_warm_placement(plan_ownership(g, scene_bytes), g, scene_bytes);
+}
+
+std::vector<Bytes> job_caps(const SchedulerChoice& c, const DeviceGraph& g) {
+  if (c.kind != SchedulerKind::Rayline) return {};
+  return device_sized_job_caps(g, rayline_options(c.horizon / 4, c.rayline_off).job_seconds);
 }
 
 std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon, Time aging, bool adaptive_aging) {

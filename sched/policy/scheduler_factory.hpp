@@ -43,6 +43,9 @@ std::unique_ptr<Scheduler> make_scheduler(const SchedulerChoice& choice);
 // for the policies whose caches converge to the blocks used most (the default placement).
 std::vector<std::vector<MemId>> warm_placement(const SchedulerChoice& choice, const DeviceGraph& g,
                                                const std::vector<Bytes>& scene_bytes);
+// Per job type (JobTypeId): the most queue bytes one ray job may take by merging, for the
+// policies that size jobs to devices (Rayline's rule 7, job_size.hpp); empty: no cap.
+std::vector<Bytes> job_caps(const SchedulerChoice& choice, const DeviceGraph& g);
 // By name (the renderer's options): InputError for a name not listed above.
 std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon, Time aging = -1,
                                           bool adaptive_aging = false);

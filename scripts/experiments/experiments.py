@@ -146,7 +146,7 @@ def peak(c):
                   label=LABEL[base] + " free I/O", duration=dur, extra=["--start", "warm", "--no-timeline"])
 
 
-RAYLINE_RULES = ["ownership", "image-split", "completion", "batching", "no-waiting"]  # docs/rayline-policy.md
+RAYLINE_RULES = ["ownership", "image-split", "completion", "batching", "no-waiting", "job-size"]  # docs/rayline-policy.md
 
 
 def ablation(c):

@@ -7,6 +7,8 @@
 #include <random>
 
 #include "dcg_fixture.hpp"
+#include "sched/io/platform_loader.hpp"
+#include "sched/policy/rayline/job_size.hpp"
 #include "sched/policy/rayline/ownership.hpp"
 #include "sched/policy/rayline/rayline_scheduler.hpp"
 #include "sched/runtime/exact_executor.hpp"
@@ -291,6 +293,7 @@ TEST(RaylineRules, NamesSwitchOffTheirRule) {
   EXPECT_EQ(rayline_rules_off(""), 0u);
   EXPECT_EQ(rayline_rules_off("ownership,batching"), 1u | 8u);
   EXPECT_EQ(rayline_rules_off("no-waiting,,completion"), 16u | 4u);
+  EXPECT_EQ(rayline_rules_off("job-size"), 32u);
   EXPECT_FALSE(rayline_rules_off("ownership,teleport").has_value());
   const RaylineOptions all = rayline_options(0.5, 0);
   EXPECT_TRUE(all.ownership && all.image_split && all.completion_aware && all.no_waiting);
@@ -299,6 +302,22 @@ TEST(RaylineRules, NamesSwitchOffTheirRule) {
   EXPECT_FALSE(none.ownership || none.image_split || none.completion_aware || none.no_waiting);
   EXPECT_EQ(none.min_remote_bytes, 0u);
   EXPECT_EQ(none.horizon, 0.25);
+}
+
+// Rule 7: the cap of a job type is what its fastest device traces in the given seconds, by
+// Eq. 2's rate on the queue (paper node A: the GPU's 640 MB/s of RayQueue, 2 560 MB/s of
+// hit records for Shade, 896 MB/s of shadow rays; the CPU threads' rates are slower).
+TEST(RaylineRules, JobSizeCapIsWhatTheFastestDeviceTracesInItsSeconds) {
+  const DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-A.json");
+  const std::vector<Bytes> caps = device_sized_job_caps(g, 0.125);
+  ASSERT_EQ(caps.size(), g.job_types.size());
+  const auto cap = [&](const char* type) { return static_cast<double>(caps.at(static_cast<std::size_t>(g.job_type(type)))); };
+  EXPECT_NEAR(cap("RayIntersect"), 0.125 * 640e6, 1.0);
+  EXPECT_NEAR(cap("ShadowIntersect"), 0.125 * 896e6, 1.0);
+  EXPECT_NEAR(cap("Shade"), 0.125 * 2560e6, 1.0);
+  for (const Bytes c : device_sized_job_caps(g, 0)) EXPECT_EQ(c, 0u) << "no seconds, no cap";
+  EXPECT_EQ(rayline_options(0.5, 0).job_seconds, 0.125);
+  EXPECT_EQ(rayline_options(0.5, *rayline_rules_off("job-size")).job_seconds, 0.0);
 }
 
 TEST(RaylineRules, WithoutOwnershipRaysStayAndTheSceneComesToThem) {

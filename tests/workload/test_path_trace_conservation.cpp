@@ -47,7 +47,7 @@ using Inspect = std::function<void(const DeviceGraph&, const JobPool&, const Sch
 Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr, ReplayLog* record = nullptr,
         int clients = 2, int frames = 2, std::uint64_t seed = 7, bool merge_planned = true, bool cancel_failed = true,
         bool retime_merged = true, const Inspect& inspect = {}, const std::string& scheduler = "gmb",
-        Bytes host_capacity = 0, Bytes gpu_capacity = 0) {
+        Bytes host_capacity = 0, Bytes gpu_capacity = 0, const std::vector<Bytes>* job_caps_override = nullptr) {
   DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
   for (MemoryDevice& m : g.memories) {  // smaller memories: a scene that no node holds alone
     if (m.kind == MemoryKind::Host && host_capacity > 0) m.capacity = host_capacity;
@@ -65,6 +65,8 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   o.merge_planned = merge_planned;
   o.cancel_failed = cancel_failed;
   o.retime_merged = retime_merged;
+  // The policy's device-sized jobs, as `rayline simulate` sets them (sim/simulation.cpp).
+  o.job_bytes_cap = job_caps_override ? *job_caps_override : job_caps(SchedulerChoice{.kind = *scheduler_kind(scheduler)}, g);
   JobPool pool;
   Schedule s(g, pool);
   PathTraceWorkload wl(g, prof, o);
@@ -184,6 +186,41 @@ TEST(PathTraceConservation, RaylinePolicyReplicatedAndSplit) {
                        200'000'000),
                    2, 2);
   EXPECT_GT(lan_queues, 0u) << "split ownership moves ray queues to their owners";
+}
+
+// Device-sized jobs (Rayline's rule 7): no ray job holds more than its type's cap, queues
+// larger than it are split into several jobs, and every ray and sample is still accounted
+// for. A cap of 16 KiB (256 rays of 64 B) splits nearly every queue; the policy's own caps
+// (a quarter of its look-ahead on paper-2A's fastest device) leave the same run conserved.
+TEST(PathTraceConservation, DeviceSizedJobsHoldAtMostTheirCapAndConserveRays) {
+  const std::vector<Bytes> tiny(16, 16 << 10);
+  for (const std::vector<Bytes>* caps : {static_cast<const std::vector<Bytes>*>(nullptr), &tiny}) {
+    std::size_t ray_jobs = 0, over = 0;
+    std::uint64_t rays = 0;
+    const Inspect check = [&](const DeviceGraph& g, const JobPool& pool, const Schedule&, const PathTraceWorkload& wl) {
+      const std::vector<Bytes> in_force = caps ? *caps : job_caps(SchedulerChoice{.kind = SchedulerKind::Rayline}, g);
+      const SceneProfile prof = load_scene_profile(kProfile);
+      for (std::size_t j = 0; j < pool.job_count(); ++j) {
+        const JobTypeId t = pool.job(static_cast<JobId>(j)).type;
+        const std::string& name = g.job_types[static_cast<std::size_t>(t)];
+        const Bytes per = name == "RayIntersect" ? prof.ray_bytes : name == "ShadowIntersect" ? prof.shadow_ray_bytes
+                          : name == "Shade"      ? prof.hit_bytes : 0;
+        if (per == 0) continue;
+        const std::uint64_t n = wl.job_rays(static_cast<JobId>(j));
+        ++ray_jobs;
+        rays += n;
+        if (n > std::max<std::uint64_t>(1, in_force.at(static_cast<std::size_t>(t)) / per)) ++over;
+      }
+    };
+    const Outcome r = run(Fidelity::Markov, 0, nullptr, nullptr, 2, 2, 7, true, true, true, check, "rayline", 0, 0, caps);
+    expect_conserved(r, 2, 2);
+    EXPECT_GT(ray_jobs, 0u);
+    EXPECT_GT(rays, 0u);
+    EXPECT_EQ(over, 0u) << "ray jobs above their cap, of " << ray_jobs;
+    if (caps) {
+      EXPECT_GE(ray_jobs, rays / 256) << "a 256-ray cap makes at least one job per 256 rays";
+    }
+  }
 }
 
 TEST(PathTraceConservation, OneClientManyFrames) { expect_conserved(run(Fidelity::Markov, 1, nullptr, nullptr, 1, 4), 1, 4); }

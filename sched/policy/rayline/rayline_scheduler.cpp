@@ -29,6 +29,7 @@ RaylineOptions rayline_options(Time horizon, unsigned off) {
   o.completion_aware = on("completion");
   if (!on("batching")) o.min_remote_bytes = 0;
   o.no_waiting = on("no-waiting");
+  o.job_seconds = on("job-size") ? horizon / 4 : 0;
   return o;
 }
 
@@ -37,7 +38,7 @@ std::string RaylineScheduler::describe() const {
          "; image_split=" + (opt_.image_split ? "1" : "0") + "; completion_aware=" + (opt_.completion_aware ? "1" : "0") +
          "; min_remote_bytes=" + std::to_string(opt_.min_remote_bytes) + "; hold=" + std::to_string(opt_.hold) +
          "s; no_waiting=" + (opt_.no_waiting ? "1" : "0") + "; slack=" + std::to_string(opt_.slack) +
-         "s; groups=" + std::to_string(own_.groups.size()) + "}";
+         "s; job_seconds=" + std::to_string(opt_.job_seconds) + "s; groups=" + std::to_string(own_.groups.size()) + "}";
 }
 
 // Rule 1's input: the scene blocks, in id order, as they appear in the pool.

@@ -22,7 +22,9 @@
 //      previous such job has started;
 //   6. look-ahead: each device is planned up to now + horizon, so ray queues travel to
 //      their owner while the device still works, and a node is planned again only once
-//      one of its devices has less than half the horizon left.
+//      one of its devices has less than half the horizon left;
+//   7. device-sized jobs (job_size.hpp): a ray job stops taking merged queues once it holds
+//      what the fastest device traces in a quarter of the horizon.
 #pragma once
 #include <memory>
 #include <optional>
@@ -46,13 +48,16 @@ struct RaylineOptions {
   Time hold = 0.1;                     // rule 4, seconds
   bool no_waiting = true;              // rule 5 (off: jobs in priority order, whatever they wait for)
   Time slack = 1e-3;                   // rule 5, seconds; also the least time between two plans of a node
+  // Rule 7 (job_size.hpp): a ray job holds at most what the fastest device traces in this
+  // many seconds (a quarter of the horizon; 0: off).
+  Time job_seconds = 0.125;
 };
 
 // The rules that can be switched off (docs/rayline-policy.md), for the ablation: bit i is
 // rule kRaylineRuleNames[i]. rayline_rules_off("ownership,batching") gives their mask;
 // std::nullopt names an unknown rule.
 inline constexpr std::string_view kRaylineRuleNames[] = {"ownership", "image-split", "completion", "batching",
-                                                         "no-waiting"};
+                                                         "no-waiting", "job-size"};
 constexpr unsigned rayline_rule_bit(std::string_view name) {
   for (unsigned i = 0; i < std::size(kRaylineRuleNames); ++i)
     if (kRaylineRuleNames[i] == name) return 1u << i;
