@@ -384,7 +384,7 @@ def main():
     a = ap.parse_args()
     reduced = rx.is_reduced(a.mode)
     out = a.out or os.path.join(rx.REPO, "out/experiments-reduced" if reduced else "notebooks/results")
-    print(f"rayline: {rx.shown(rx.rayline_bin())}  mode: {'reduced' if reduced else 'full'}  results: {rx.shown(out)}")
+    print(f"rayline: {rx.shown(rx.rayline_bin_source())}  mode: {'reduced' if reduced else 'full'}  results: {rx.shown(out)}")
     for name in (list(EXPERIMENTS) if a.name == "all" else [a.name]):
         c = Ctx(name, reduced, out)
         EXPERIMENTS[name](c)

@@ -7,6 +7,7 @@ variants (generated from the committed platforms/*.json, never hand-edited).
 Every number a notebook shows comes from a row written here by a real `rayline` run. A run
 that fails (non-zero exit), stalls (jobs no device can take) or exceeds its wall-clock limit
 is kept as a row with `status` = failed / stalled / timeout, so a chart can mark it."""
+import atexit
 import copy
 import csv
 import json
@@ -15,6 +16,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
@@ -33,19 +35,33 @@ def scrub(text):
     return text.replace(REPO + os.sep, "")
 
 
+_BIN = {}
+
+
+def rayline_bin_source():
+    """RAYLINE_BIN, else build/apps/rayline, else any build*/apps/rayline of the checkout:
+    the binary an experiment runs, chosen once per process."""
+    if "source" not in _BIN:
+        env = os.environ.get("RAYLINE_BIN")
+        cands = [env] if env else [os.path.join(REPO, "build", "apps", "rayline")] + [
+            os.path.join(REPO, d, "apps", "rayline") for d in sorted(os.listdir(REPO)) if d.startswith("build")]
+        found = next((c for c in cands if os.access(c, os.X_OK)), None)
+        if not found:
+            sys.exit("rayline binary not found: build it (ninja -C build rayline) or set RAYLINE_BIN")
+        _BIN["source"] = found
+    return _BIN["source"]
+
+
 def rayline_bin():
-    """RAYLINE_BIN, else build/apps/rayline, else any build*/apps/rayline of the checkout."""
-    env = os.environ.get("RAYLINE_BIN")
-    if env:
-        return env
-    cands = [os.path.join(REPO, "build", "apps", "rayline")]
-    for d in sorted(os.listdir(REPO)):
-        if d.startswith("build"):
-            cands.append(os.path.join(REPO, d, "apps", "rayline"))
-    for c in cands:
-        if os.access(c, os.X_OK):
-            return c
-    sys.exit("rayline binary not found: build it (ninja -C build rayline) or set RAYLINE_BIN")
+    """A private copy of rayline_bin_source(), made once per process: every run of an
+    experiment uses the same binary even if the build tree is relinked meanwhile (a binary
+    being relinked is briefly missing, and a fresh search would fall through to another
+    build folder). The copy finds its data through the source tree, as the build's does."""
+    if "copy" not in _BIN:
+        folder = tempfile.mkdtemp(prefix="rayline-bin-")
+        atexit.register(shutil.rmtree, folder, True)
+        _BIN["copy"] = shutil.copy2(rayline_bin_source(), os.path.join(folder, "rayline"))
+    return _BIN["copy"]
 
 
 def is_reduced(argv_mode=None):
@@ -73,15 +89,17 @@ def run_rayline(cmd, out_dir, timeout):
     shutil.rmtree(out_dir, ignore_errors=True)
     t0 = time.monotonic()
     status, rc = "ok", 0
+    # As logged: the binary the copy was made from, not the private copy's path.
+    shown_cmd = " ".join([rayline_bin_source() if c == _BIN.get("copy") else c for c in cmd])
     try:
         p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=timeout)
         rc = p.returncode
         if rc != 0:
             status = "stalled" if "could not be placed" in p.stderr else "failed"
-            sys.stderr.write(scrub(f"[{status}] {' '.join(cmd)}\n{p.stderr[-2000:]}\n"))
+            sys.stderr.write(scrub(f"[{status}] {shown_cmd}\n{p.stderr[-2000:]}\n"))
     except subprocess.TimeoutExpired:
         status, rc = "timeout", 124
-        sys.stderr.write(scrub(f"[timeout after {timeout} s] {' '.join(cmd)}\n"))
+        sys.stderr.write(scrub(f"[timeout after {timeout} s] {shown_cmd}\n"))
     return status, rc, time.monotonic() - t0
 
 
