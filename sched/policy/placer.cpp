@@ -29,13 +29,50 @@ Time Placer::earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s) 
   const Job& job = s.pool().job(j);
   arrive = std::max(ready, arrive);
   const auto never_lost = [](Time) { return false; };
+  // A job that merged many ray queues (Sec. 5.1) reads hundreds of blocks, each with one
+  // copy, on a few memory devices. For movable blocks of one kind (not scene data, whose
+  // paths may be restricted) from one memory device the SDC search differs only in the
+  // bytes moved and the time the copy is ready, and its arrival does not decrease with
+  // either: each hop's slot and Eq. 1 time grow with the bytes, a memory device too small
+  // for a block only removes paths, and nothing starts before the copy is ready. So only
+  // the blocks that no other one matches in both (the Pareto front of ready time and
+  // size) can arrive last, and only they are searched.
+  constexpr std::size_t kFewInputs = 4;
+  const bool front = job.inputs.size() > kFewInputs;
+  one_copy_.clear();
   for (BlockId b : job.inputs) {
     const Copy* c = s.copy_at(b, m);
     if (!c && !may_fetch(job, b, s)) return kNever;
+    if (c) {
+      arrive = std::max(arrive, s.copy_ready(*c));
+      continue;
+    }
+    const DataBlock& blk = s.pool().block(b);
+    if (front && blk.movable && blk.kind != DataKind::SceneData && s.copies(b).size() == 1) {
+      const Copy& from = s.copies(b).front();
+      one_copy_.push_back({from.mem, blk.kind, s.copy_ready(from), blk.bytes, b});
+      continue;
+    }
     // Only max(arrive, SDC arrival) matters: arrival_within answers "by then" without a
     // full search when it can, and the exact arrival (arrival()'s value) otherwise.
-    arrive = std::max(arrive, c ? s.copy_ready(*c) : finder_.arrival_within(b, m, arrive, never_lost));
+    arrive = std::max(arrive, finder_.arrival_within(b, m, arrive, never_lost));
     if (arrive == kNever) return kNever;
+  }
+  // Per (memory device, kind): the latest ready first, the larger first among equals; a
+  // block is on the front when it is larger than every block ready later.
+  std::sort(one_copy_.begin(), one_copy_.end(), [](const OneCopyInput& x, const OneCopyInput& y) {
+    if (x.from != y.from) return x.from < y.from;
+    if (x.kind != y.kind) return x.kind < y.kind;
+    if (x.ready != y.ready) return x.ready > y.ready;
+    return x.bytes > y.bytes;
+  });
+  Bytes larger_than = 0;
+  for (std::size_t i = 0; i < one_copy_.size() && arrive != kNever; ++i) {
+    const OneCopyInput& in = one_copy_[i];
+    const bool first = i == 0 || in.from != one_copy_[i - 1].from || in.kind != one_copy_[i - 1].kind;
+    if (!first && in.bytes <= larger_than) continue;  // a block ready no earlier is no smaller
+    larger_than = in.bytes;
+    arrive = std::max(arrive, finder_.arrival_within(in.block, m, arrive, never_lost));
   }
   return arrive;
 }

@@ -28,7 +28,8 @@ class Placer {
   static Time exec_estimate(JobId j, DeviceId d, const Schedule& s);
 
   // Earliest time job j could start on d if the device is free from `ready` (kNever if an
-  // input cannot reach d's memory device or a job it follows is not planned).
+  // input cannot reach d's memory device or a job it follows is not planned). A job of many
+  // inputs searches only those that can arrive last (placer.cpp).
   Time earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s);
 
   // Commit j on d (T-jobs first, then the E-job not before `ready`). False when capacity
@@ -41,6 +42,15 @@ class Placer {
   std::vector<ChannelId> path_;
   std::vector<ChannelId> paths_;      // place(): the feasibility pass's paths, concatenated
   std::vector<std::size_t> path_end_;
+  // earliest_start(): the movable inputs with one copy elsewhere, for their Pareto front.
+  struct OneCopyInput {
+    MemId from;
+    DataKind kind;
+    Time ready;
+    Bytes bytes;
+    BlockId block;
+  };
+  std::vector<OneCopyInput> one_copy_;
 };
 
 }  // namespace rayline
