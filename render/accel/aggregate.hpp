@@ -28,9 +28,6 @@ struct QueueJob {
   // The queues (ray queue block, ray count) in the order of `rays`; a queue moves to a GPU
   // as its own T-job, so the GPU finds it by its block.
   std::span<const std::pair<BlockId, std::uint32_t>> parts;
-  // Camera rays in camera order (neighbouring directions): an engine may trace them as
-  // packets (embree_kernels.hpp). The same hits either way.
-  bool coherent = false;
 };
 
 class Aggregate {

@@ -7,7 +7,7 @@ namespace rayline::accel {
 void EmbreeAggregate::intersect_closest(const trace::TraceSettings& ts, const QueueJob& job,
                                         std::vector<trace::RayRecord>& out, trace::RayCounts& counts) {
   const auto geo = ram_.get(job.cell);
-  trace::ray_intersect(ts, *geo, job.rays, out, counts, job.coherent);
+  trace::ray_intersect(ts, *geo, job.rays, out, counts);
 }
 
 void EmbreeAggregate::intersect_shadow(const trace::TraceSettings& ts, const QueueJob& job,

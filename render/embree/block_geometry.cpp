@@ -123,22 +123,18 @@ std::vector<unsigned char> BlockGeometry::records() const {
 }
 
 void smaller_prim_wins_ties(const RTCFilterFunctionNArguments* args) {
-  // Every closest-hit query carries a TieBreakContext (embree_kernels.cpp), a slot per lane:
-  // a packet's filter calls keep its lanes (N = the packet's width, the candidates' lanes
-  // valid), a single ray's is lane 0.
-  if (args->N > static_cast<unsigned>(TieBreakContext::kLanes)) return;
+  // Only rtcIntersect1 queries carry a TieBreakContext (path_kernels.cpp); a packet (N > 1)
+  // would need per-lane state, and none is traced here.
+  if (args->N != 1 || args->valid[0] != -1) return;
   auto* c = const_cast<TieBreakContext*>(reinterpret_cast<const TieBreakContext*>(args->context));
-  for (unsigned i = 0; i < args->N; ++i) {
-    if (args->valid[i] != -1) continue;
-    const float t = RTCRayN_tfar(args->ray, args->N, i);  // the candidate's distance
-    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
-    if (t == c->best_t[i] && prim > c->best_prim[i]) {
-      args->valid[i] = 0;  // keep the smaller prim met earlier
-      continue;
-    }
-    c->best_t[i] = t;
-    c->best_prim[i] = prim;
+  const float t = RTCRayN_tfar(args->ray, 1, 0);  // the candidate's distance
+  const unsigned prim = RTCHitN_primID(args->hit, 1, 0);
+  if (t == c->best_t && prim > c->best_prim) {
+    args->valid[0] = 0;  // keep the smaller prim met earlier
+    return;
   }
+  c->best_t = t;
+  c->best_prim = prim;
 }
 
 }  // namespace rayline::trace

@@ -4,8 +4,6 @@
 
 #include "render/embree/tie_break.hpp"
 
-#include <algorithm>
-
 namespace rayline::trace {
 
 namespace {
@@ -36,56 +34,13 @@ RTCIntersectContext incoherent_context() {
   return ctx;
 }
 
-// Camera rays, 8 to a packet: neighbours in camera order (the samples of a pixel, then the
-// pixels of a tile) take nearly the same path through the BVH, so a packet's traversal
-// serves them together. Each lane keeps its own tie state (tie_break.hpp), and the rays
-// go on to the integrator in their order, as one at a time.
-void ray_intersect_packets(const TraceSettings& ts, RTCScene scene, const BlockGeometry& block,
-                           std::span<const RayRecord> rays, std::vector<RayRecord>& out, RayCounts& counts) {
-  constexpr std::size_t kWidth = 8;
-  TieBreakContext tie;
-  rtcInitIntersectContext(&tie.ctx);
-  tie.ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  alignas(32) RTCRayHit8 rh;
-  alignas(32) int valid[kWidth];
-  for (std::size_t first = 0; first < rays.size(); first += kWidth) {
-    const std::size_t n = std::min(kWidth, rays.size() - first);
-    for (std::size_t i = 0; i < kWidth; ++i) {
-      valid[i] = i < n ? -1 : 0;
-      const RTCRay x = to_rtc(ts, rays[first + (i < n ? i : 0)]);  // idle lanes: a copy of the first
-      rh.ray.org_x[i] = x.org_x, rh.ray.org_y[i] = x.org_y, rh.ray.org_z[i] = x.org_z;
-      rh.ray.dir_x[i] = x.dir_x, rh.ray.dir_y[i] = x.dir_y, rh.ray.dir_z[i] = x.dir_z;
-      rh.ray.tnear[i] = x.tnear, rh.ray.tfar[i] = x.tfar;
-      rh.ray.time[i] = 0, rh.ray.mask[i] = 0xFFFFFFFFu, rh.ray.id[i] = 0, rh.ray.flags[i] = 0;
-      rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-      rh.hit.primID[i] = RTC_INVALID_GEOMETRY_ID;
-    }
-    tie.reset(static_cast<int>(kWidth));
-    rtcIntersect8(valid, scene, &tie.ctx, &rh);
-    for (std::size_t i = 0; i < n; ++i) {
-      const RayRecord& r = rays[first + i];
-      if (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID) {
-        const std::uint32_t prim = rh.hit.primID[i];
-        const HitTriangle h{block.vertex(prim, 0), block.vertex(prim, 1), block.vertex(prim, 2), block.material(prim)};
-        after_closest_hit(ts, r, &h, rh.ray.tfar[i], out, counts);
-      } else {
-        after_closest_hit(ts, r, nullptr, 0.0f, out, counts);
-      }
-    }
-  }
-}
-
 }  // namespace
 
 void ray_intersect(const TraceSettings& ts, const BlockGeometry& block, std::span<const RayRecord> rays,
-                   std::vector<RayRecord>& out, RayCounts& counts, bool coherent) {
-  auto scene = static_cast<RTCScene>(block.scene());
-  if (coherent && scene) {
-    ray_intersect_packets(ts, scene, block, rays, out, counts);
-    return;
-  }
+                   std::vector<RayRecord>& out, RayCounts& counts) {
   TieBreakContext tie;  // the GPU kernel's tie rule (tie_break.hpp)
   tie.ctx = incoherent_context();
+  auto scene = static_cast<RTCScene>(block.scene());
   for (const RayRecord& r : rays) {
     if (scene) {
       RTCRayHit rh;

@@ -2,8 +2,7 @@
 // of two triangles met at exactly the same t, the smaller prim wins — whatever order the
 // traversal meets them in. Embree keeps the last candidate it accepts, so an intersection
 // filter (block_geometry.cpp) rejects a candidate at the current best t with a larger prim;
-// the per-ray best lives in this extended intersect context (the usual Embree 3 idiom),
-// one slot per lane of a packet (camera rays are traced 8 at a time: embree_kernels.cpp).
+// the per-ray best lives in this extended intersect context (the usual Embree 3 idiom).
 // Included only by .cpp files that use Embree.
 #pragma once
 #include <embree3/rtcore.h>
@@ -13,16 +12,12 @@
 namespace rayline::trace {
 
 struct TieBreakContext {
-  static constexpr int kLanes = 16;  // the widest Embree packet
   RTCIntersectContext ctx;  // first member: Embree passes &ctx to the filter
-  float best_t[kLanes];
-  unsigned best_prim[kLanes];
-  // Before a query of `lanes` rays (1: rtcIntersect1).
-  void reset(int lanes = 1) {
-    for (int i = 0; i < lanes; ++i) {
-      best_t[i] = std::numeric_limits<float>::infinity();
-      best_prim[i] = RTC_INVALID_GEOMETRY_ID;
-    }
+  float best_t = std::numeric_limits<float>::infinity();
+  unsigned best_prim = RTC_INVALID_GEOMETRY_ID;
+  void reset() {
+    best_t = std::numeric_limits<float>::infinity();
+    best_prim = RTC_INVALID_GEOMETRY_ID;
   }
 };
 

@@ -95,7 +95,7 @@ LocalExecutor::Task ActivityTasks::exec_task(const Activity& a, Victims v) {
       rays.clear();
       s_.workload.camera_job_rays(ts, first, std::min(kChunk, end - first), rays, job->counts);
       if (observe) observe(trace::RayKind::Path, {}, rays);
-      aggregate->intersect(ts, accel::QueueJob{job->cell, trace::RayKind::Path, rays, {}, true}, job->out, job->counts, observe);
+      aggregate->intersect(ts, accel::QueueJob{job->cell, trace::RayKind::Path, rays, {}}, job->out, job->counts, observe);
     }
     s_.ts.film->merge(window);
   };
