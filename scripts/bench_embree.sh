@@ -8,15 +8,19 @@
 # Same mesh, camera, resolution, path length and threads on both sides. The lights are alike,
 # not equal: Rayline uses the generated scene's overhead area light and environment; the
 # tutorial (which reads only the mesh) gets one directional light from above and an ambient
-# light. Paths therefore differ in length and in shadow rays, so the ratio is indicative;
-# samples per second is compared because the tutorial counts no rays.
+# light. Paths therefore differ in length and in shadow rays, so the ratio is indicative.
+# Both samples per second and rays per second are compared: the tutorial counts no rays, so
+# one untimed run at each spp counts its rtcIntersect1 and rtcOccluded1 calls through
+# bench/embree_ray_counter.cpp (LD_PRELOAD), against Rayline's `rays.created` (every ray
+# shot, traced to its end once); without that library only samples/s is printed.
 #
 # A mesh file instead of the generated museum: MESH=assets/bunny.obj (OBJ or ASCII PLY). Rayline
 # renders it as a bare mesh (its framing camera, key area light above and environment,
 # README "Render"); the tutorial gets the same camera, computed here the same way.
 #
 # Usage: scripts/bench_embree.sh [TRIANGLES=1000000] [RES=512] [SPP=16] [DEPTH=5] [REPS=3]
-# Environment: RAYLINE_BIN (another rayline binary), BENCH_DIR (default out/bench-embree),
+# Environment: RAYLINE_BIN (another rayline binary), RAY_COUNTER (the counting library,
+# default build/bench/libembree_ray_counter.so), BENCH_DIR (default out/bench-embree),
 # THREADS (default: all hardware threads), MESH (a mesh file; TRIANGLES is then ignored),
 # RAYLINE_ARGS (more `rayline render` flags, e.g. "--camera-jobs off"), RAYLINE_B_ARGS (a
 # second Rayline configuration timed in the same rounds, e.g. "--camera-jobs off
@@ -74,10 +78,21 @@ ours() {  # spp [flags] -> wall seconds of one in-core render
 }
 theirs() {  # spp -> wall seconds of one tutorial run
   local t0; t0=$(now)
-  pathtracer -i "$PLY" --vp "$PX" "$PY" "$PZ" --vi "$LX" "$LY" "$LZ" --vu "$UX" "$UY" "$UZ" --fov "$FOV" \
+  local counted=()  # COUNT_TO set: an untimed run that counts its rays into that file
+  [ -z "${COUNT_TO:-}" ] || counted=(env RAYLINE_RAY_COUNT_FILE="$COUNT_TO" LD_PRELOAD="$(readlink -f "$COUNTER")")
+  "${counted[@]}" pathtracer -i "$PLY" --vp "$PX" "$PY" "$PZ" --vi "$LX" "$LY" "$LZ" --vu "$UX" "$UY" "$UZ" --fov "$FOV" \
     --size "$RES" "$RES" --spp "$1" --max-path-length "$DEPTH" --threads "$THREADS" \
     --directionallight 0 -1 0 8 8 7.5 --ambientlight 0.55 0.65 0.85 -o "$WORK/embree-$1.ppm" > "$WORK/embree.log" 2>&1
   /usr/bin/python3 -c "print($(now) - $t0)"
+}
+COUNTER="${RAY_COUNTER:-build/bench/libembree_ray_counter.so}"
+theirs_rays() {  # spp -> rays the tutorial traces (an untimed run)
+  [ -f "$COUNTER" ] || { echo 0; return; }
+  COUNT_TO="$WORK/embree-rays.txt" theirs "$1" > /dev/null
+  cat "$WORK/embree-rays.txt"
+}
+ours_rays() {  # spp -> rays.created of the last timed run at that spp
+  /usr/bin/python3 -c "import json; print(json.load(open('$WORK/ours-$1.metrics.json'))['rays']['created'])"
 }
 echo "scene: ${MESH:-$TRIS triangles}, ${RES}x${RES}, $SPP and $((2 * SPP)) spp, max depth $DEPTH, $THREADS threads, $REPS rounds"
 rows=()
@@ -86,6 +101,10 @@ for i in $(seq 1 "$REPS"); do
   b1=0; b2=0
   if [ -n "${RAYLINE_B_ARGS:-}" ]; then b1=$(ours "$SPP" "$RAYLINE_B_ARGS"); b2=$(ours $((2 * SPP)) "$RAYLINE_B_ARGS"); fi
   rows+=("$o1 $o2 $e1 $e2 $b1 $b2")
+  if [ "$i" = 1 ]; then
+    r1=$(ours_rays "$SPP"); r2=$(ours_rays $((2 * SPP)))
+    t1=$(theirs_rays "$SPP"); t2=$(theirs_rays $((2 * SPP)))
+  fi
   printf 'round %d: rayline %.2f / %.2f s, tutorial %.2f / %.2f s' "$i" "$o1" "$o2" "$e1" "$e2"
   [ -z "${RAYLINE_B_ARGS:-}" ] || printf ', rayline B %.2f / %.2f s' "$b1" "$b2"
   echo
@@ -93,6 +112,7 @@ done
 printf '%s\n' "${rows[@]}" | /usr/bin/python3 -c "
 import statistics, sys
 px = $RES * $RES * $SPP
+our_rays, their_rays = $r2 - $r1, $t2 - $t1  # rays of SPP samples per pixel, each side
 r = [tuple(map(float, l.split())) for l in sys.stdin if l.strip()]
 ours = [px / (x[1] - x[0]) for x in r]
 emb = [px / (x[3] - x[2]) for x in r]
@@ -100,6 +120,15 @@ ratio = [a / b for a, b in zip(ours, emb)]
 print(f'steady samples/s (difference of {2 * $SPP} and {$SPP} spp): rayline {statistics.median(ours)/1e3:.1f} k, '
       f'tutorial {statistics.median(emb)/1e3:.1f} k; rayline / tutorial, median of rounds: {statistics.median(ratio):.2f}x '
       '(' + ', '.join(f'{x:.2f}' for x in ratio) + ')')
+if their_rays > 0:
+    ours_r = [our_rays / (x[1] - x[0]) for x in r]
+    emb_r = [their_rays / (x[3] - x[2]) for x in r]
+    ratio_r = [a / b for a, b in zip(ours_r, emb_r)]
+    print(f'steady rays/s: rayline {statistics.median(ours_r)/1e6:.2f} M ({our_rays / px:.2f} rays per sample), '
+          f'tutorial {statistics.median(emb_r)/1e6:.2f} M ({their_rays / px:.2f} per sample); rayline / tutorial, '
+          f'median of rounds: {statistics.median(ratio_r):.2f}x (' + ', '.join(f'{x:.2f}' for x in ratio_r) + ')')
+else:
+    print('rays/s not compared: build the counting library (ninja -C build embree_ray_counter)')
 if r[0][5] > 0:
     ab = [(x[5] - x[4]) / (x[1] - x[0]) for x in r]
     print(f'rayline / rayline B (${RAYLINE_B_ARGS:-}), median of rounds: {statistics.median(ab):.2f}x '
