@@ -5,18 +5,24 @@
 # is the time of SPP samples per pixel of steady tracing (loading, BVH build and output are
 # in both runs and cancel). The runs alternate, REPS rounds; medians are printed.
 #
-# Same mesh, camera, resolution, path length and threads on both sides. The lights are alike,
-# not equal: Rayline uses the generated scene's overhead area light and environment; the
-# tutorial (which reads only the mesh) gets one directional light from above and an ambient
-# light. Paths therefore differ in length and in shadow rays, so the ratio is indicative.
+# Same mesh, camera, resolution, path length and threads on both sides. With a mesh file
+# (MESH=, below) the light and the surfaces match too. On the generated museum the lights
+# are alike, not equal: Rayline uses the scene's overhead area light, materials and
+# environment; the tutorial (which reads only the mesh) gets one directional light from
+# above and an ambient light. Paths there differ in length and in shadow rays, so its
+# ratios are indicative.
 # Both samples per second and rays per second are compared: the tutorial counts no rays, so
 # one untimed run at each spp counts its rtcIntersect1 and rtcOccluded1 calls through
 # bench/embree_ray_counter.cpp (LD_PRELOAD), against Rayline's `rays.created` (every ray
 # shot, traced to its end once); without that library only samples/s is printed.
 #
-# A mesh file instead of the generated museum: MESH=assets/bunny.obj (OBJ or ASCII PLY). Rayline
-# renders it as a bare mesh (its framing camera, key area light above and environment,
-# README "Render"); the tutorial gets the same camera, computed here the same way.
+# A mesh file instead of the generated museum: MESH=assets/bunny.obj (OBJ or ASCII PLY). Both
+# sides then see the same light and surfaces: the tutorial one directional light from
+# above (--directionallight 0 -1 0 with irradiance pi) and its default white material;
+# Rayline a scene file written here, the mesh with albedo 1, no environment, and a small
+# square light 1000 radii above it whose radiance gives the same irradiance, so its rays
+# arrive as parallel as the tutorial's. The camera is Rayline's framing camera of a bare
+# mesh (render/scene/scene.cpp, frame_bounds), computed here for both.
 #
 # Usage: scripts/bench_embree.sh [TRIANGLES=1000000] [RES=512] [SPP=16] [DEPTH=5] [REPS=3]
 # Environment: RAYLINE_BIN (another rayline binary), RAY_COUNTER (the counting library,
@@ -36,8 +42,9 @@ WORK="${BENCH_DIR:-out/bench-embree}"
 mkdir -p "$WORK"
 if [ -n "${MESH:-}" ]; then
   [ -f "$MESH" ] || { echo "MESH=$MESH: no such file" >&2; exit 2; }
-  PLY="$MESH"; SCENE="$MESH"; TRIS="$(basename "$MESH")"
-  # The framing camera of a bare mesh (render/scene/scene.cpp, frame_bounds).
+  PLY="$MESH"; TRIS="$(basename "$MESH")"; SCENE="$WORK/matched-$TRIS.json"
+  LIGHT=(--directionallight 0 -1 0 3.14159 3.14159 3.14159)
+  # The framing camera of a bare mesh (render/scene/scene.cpp, frame_bounds), and the scene.
   read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$(/usr/bin/python3 -c "
 import math, sys
 f = open('$MESH'); lo = [math.inf] * 3; hi = [-math.inf] * 3
@@ -56,11 +63,24 @@ else:
 c = [(a + b) / 2 for a, b in zip(lo, hi)]
 r = max(0.5 * math.dist(lo, hi), 1e-3); d = r / math.sin(math.radians(20)) * 1.05
 u = [0.35, 0.45, 1.0]; n = math.hypot(*u)
-print(*[c[k] + u[k] / n * d for k in range(3)], *c, 0, 1, 0, 40)")"
-  BLOCKS="$WORK/blocks-1-$(basename "$MESH")"
+pos = [c[k] + u[k] / n * d for k in range(3)]
+# The light: a square of side w at height R above the centre, facing down (edge_u x edge_v
+# points along -y); radiance L gives irradiance L * w^2 / R^2 = pi at normal incidence.
+R = 1000 * r; w = 10 * r; L = math.pi * R * R / (w * w)
+import json
+json.dump({'version': 1, 'materials': {'white': {'albedo': [1, 1, 1], 'emission': [0, 0, 0]}},
+           'meshes': [{'name': 'mesh', 'file': '$(readlink -f "$MESH")', 'material': 'white'}],
+           'lights': [{'type': 'area', 'name': 'sun', 'corner': [c[0] - w / 2, c[1] + R, c[2] - w / 2],
+                       'edge_u': [w, 0, 0], 'edge_v': [0, 0, w], 'emission': [L, L, L]},
+                      {'type': 'environment', 'radiance': [0, 0, 0]}],
+           'cameras': {'main': {'position': pos, 'look_at': c, 'up': [0, 1, 0], 'fov_deg': 40}}},
+          open('$SCENE', 'w'), indent=1)
+print(*pos, *c, 0, 1, 0, 40)")"
+  BLOCKS="$WORK/blocks-1-matched-$TRIS"
 else
   PLY="$WORK/museum-$TRIS.ply"
   SCENE="$WORK/museum-$TRIS.json"
+  LIGHT=(--directionallight 0 -1 0 8 8 7.5 --ambientlight 0.55 0.65 0.85)  # alike, not equal (above)
   [ -f "$PLY" ] || "$BIN" generate museum-like -q --triangles "$TRIS" --out "$PLY" > /dev/null
   read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$(/usr/bin/python3 -c "
 import json; c = next(iter(json.load(open('$SCENE'))['cameras'].values()))
@@ -82,7 +102,7 @@ theirs() {  # spp -> wall seconds of one tutorial run
   [ -z "${COUNT_TO:-}" ] || counted=(env RAYLINE_RAY_COUNT_FILE="$COUNT_TO" LD_PRELOAD="$(readlink -f "$COUNTER")")
   "${counted[@]}" pathtracer -i "$PLY" --vp "$PX" "$PY" "$PZ" --vi "$LX" "$LY" "$LZ" --vu "$UX" "$UY" "$UZ" --fov "$FOV" \
     --size "$RES" "$RES" --spp "$1" --max-path-length "$DEPTH" --threads "$THREADS" \
-    --directionallight 0 -1 0 8 8 7.5 --ambientlight 0.55 0.65 0.85 -o "$WORK/embree-$1.ppm" > "$WORK/embree.log" 2>&1
+    "${LIGHT[@]}" -o "$WORK/embree-$1.ppm" > "$WORK/embree.log" 2>&1
   /usr/bin/python3 -c "print($(now) - $t0)"
 }
 COUNTER="${RAY_COUNTER:-build/bench/libembree_ray_counter.so}"
