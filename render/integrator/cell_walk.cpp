@@ -12,6 +12,22 @@ namespace rayline::trace {
 bool enter_cell(const partition::BlockIndex& index, scene::Float3 o, scene::Float3 d, float tmin, float tmax,
                 CellSpan& out) {
   if (index.nodes.empty()) return false;
+  // One cell, a fresh ray (tmin = 0 < tmax) from strictly inside it: every slab's entry
+  // (lo - o) / d is behind the origin and its exit ahead (the differences are nonzero and
+  // of opposite signs), so the clip below keeps [tmin, tmax] whole; skipped (the shadow
+  // and bounce rays of an in-core render, which all start inside the scene). The same
+  // answer to the bit (CellWalk.OneCellShortcutIsTheSlabClip).
+  if (index.nodes[0].leaf() && tmin == 0 && tmin < tmax) {
+    const partition::Bounds& b = index.bounds;
+    bool inside = true;
+    for (int a = 0; a < 3; ++a) inside = inside && b.lo[a] < o[a] && o[a] < b.hi[a];
+    if (inside) {
+      out.cell = index.nodes[0].block;
+      out.tenter = tmin;
+      out.texit = tmax;
+      return true;
+    }
+  }
   // Clip to the root cell (slab test, same arithmetic on every call).
   float lo = tmin, hi = tmax;
   bool thin = false;  // the ray crosses some slab in no time: a flat scene, or one thinner than an ulp of t

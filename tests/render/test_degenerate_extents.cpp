@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <random>
 #include <filesystem>
 #include <limits>
 
@@ -113,4 +116,63 @@ TEST(DegenerateExtents, FramingRefusesBoundsItCannotPlaceACameraOn) {
   EXPECT_THROW(rayline::scene::frame_mesh("huge.obj", box({-3e38f, 0, 0}, {3e38f, 3e38f, 1})), InputError);
   EXPECT_NO_THROW(rayline::scene::frame_mesh("point.obj", box({0, 0, 0}, {1e-40f, 1e-40f, 1e-41f})));
   EXPECT_NO_THROW(rayline::scene::frame_mesh("flat.obj", box({0, 0, 0}, {1, 0, 1})));
+}
+
+namespace {
+// The slab clip of a one-leaf index as enter_cell documents it (cell_walk.hpp), written out
+// here as the reference for its shortcut.
+bool reference_one_cell(const BlockIndex& idx, Float3 o, Float3 d, float tmin, float tmax, rayline::trace::CellSpan& out) {
+  float lo = tmin, hi = tmax;
+  bool thin = false;
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) {
+      if (o[a] < idx.bounds.lo[a] || o[a] > idx.bounds.hi[a]) return false;
+      continue;
+    }
+    float t0 = (idx.bounds.lo[a] - o[a]) / d[a], t1 = (idx.bounds.hi[a] - o[a]) / d[a];
+    if (t0 > t1) std::swap(t0, t1);
+    thin = thin || t0 == t1;
+    lo = std::max(lo, t0), hi = std::min(hi, t1);
+  }
+  if (!(lo < hi || (thin && lo == hi))) return false;
+  out.cell = idx.nodes[0].block;
+  out.tenter = tmin;  // the root leaf's interval reaches the ray's own ends
+  out.texit = tmax;
+  return true;
+}
+}  // namespace
+
+// enter_cell skips the slab clip for a fresh ray from strictly inside a one-cell scene; its
+// answer is the clip's to the bit, for origins inside, on the faces and outside, any
+// direction (axis-parallel ones included), tmin 0, -0 or later, any tmax.
+TEST(CellWalk, OneCellShortcutIsTheSlabClip) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (int scene = 0; scene < 50; ++scene) {
+    const Float3 lo{u(rng) * 10, u(rng) * 10, u(rng) * 10};
+    const Float3 hi{lo.x + 1 + 5 * std::fabs(u(rng)), lo.y + 1e-3f + std::fabs(u(rng)), lo.z + 2};
+    const BlockIndex idx = single_cell(box(lo, hi));
+    int inside = 0;
+    for (int k = 0; k < 2000; ++k) {
+      Float3 o, d{u(rng), u(rng), u(rng)};
+      for (int a = 0; a < 3; ++a) {
+        const float f = u(rng) * 0.7f + 0.5f;  // [-0.2, 1.2]: inside, and outside the box
+        o[a] = lo[a] + f * (hi[a] - lo[a]);
+        if (k % 7 == a) o[a] = (k % 2) ? lo[a] : hi[a];  // on a face
+        if (k % 11 == a) d[a] = 0;                         // parallel to a slab
+      }
+      inside += lo.x < o.x && o.x < hi.x && lo.y < o.y && o.y < hi.y && lo.z < o.z && o.z < hi.z;
+      const float tmin = k % 5 == 0 ? -0.0f : (k % 5 == 1 ? std::fabs(u(rng)) * 3 : 0.0f);
+      const float tmax = k % 3 == 0 ? std::numeric_limits<float>::infinity() : std::fabs(u(rng)) * 4;
+      rayline::trace::CellSpan got, want;
+      const bool g = rayline::trace::enter_cell(idx, o, d, tmin, tmax, got);
+      const bool w = reference_one_cell(idx, o, d, tmin, tmax, want);
+      ASSERT_EQ(g, w) << "scene " << scene << " ray " << k;
+      if (!g) continue;
+      EXPECT_EQ(got.cell, want.cell);
+      EXPECT_EQ(std::bit_cast<std::uint32_t>(got.tenter), std::bit_cast<std::uint32_t>(want.tenter)) << k;
+      EXPECT_EQ(std::bit_cast<std::uint32_t>(got.texit), std::bit_cast<std::uint32_t>(want.texit)) << k;
+    }
+    EXPECT_GT(inside, 300) << "the shortcut must be exercised";
+  }
 }
