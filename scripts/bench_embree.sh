@@ -25,6 +25,8 @@
 # mesh (render/scene/scene.cpp, frame_bounds), computed here for both.
 #
 # Usage: scripts/bench_embree.sh [TRIANGLES=1000000] [RES=512] [SPP=16] [DEPTH=5] [REPS=3]
+# COPIES=N with an ASCII PLY MESH: N copies of it in rows of 4, written once as a binary PLY
+# (COPIES=12 with the dragon: 10.5 M triangles, the large scene with the same light).
 # Environment: RAYLINE_BIN (another rayline binary), RAY_COUNTER (the counting library,
 # default build/bench/libembree_ray_counter.so), BENCH_DIR (default out/bench-embree),
 # THREADS (default: all hardware threads), MESH (a mesh file; TRIANGLES is then ignored),
@@ -32,6 +34,7 @@
 # second Rayline configuration timed in the same rounds, e.g. "--camera-jobs off
 # --continue-in-cell off"; its ratio to the first is printed too).
 set -euo pipefail
+if [[ "${1:-}" == "--help" || "${1:-}" == "-h" ]]; then sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'; exit 0; fi
 cd "$(dirname "$0")/.."
 TRIS="${1:-1000000}"; RES="${2:-512}"; SPP="${3:-16}"; DEPTH="${4:-5}"; REPS="${5:-3}"
 BIN="${RAYLINE_BIN:-build/apps/rayline}"
@@ -42,24 +45,64 @@ WORK="${BENCH_DIR:-out/bench-embree}"
 mkdir -p "$WORK"
 if [ -n "${MESH:-}" ]; then
   [ -f "$MESH" ] || { echo "MESH=$MESH: no such file" >&2; exit 2; }
+  COPIES="${COPIES:-1}"
+  [[ "$COPIES" =~ ^[1-9][0-9]*$ ]] || { echo "COPIES=$COPIES: a positive whole number" >&2; exit 2; }
+  if [ "$COPIES" -gt 1 ]; then  # a large scene: copies of the mesh in rows of 4 (binary PLY)
+    case "$MESH" in *.ply|*.PLY) ;; *) echo "COPIES needs an ASCII PLY mesh, not $MESH" >&2; exit 2 ;; esac
+    GEN="$WORK/$(basename "${MESH%.*}")-x$COPIES.ply"
+    [ -f "$GEN" ] || /usr/bin/python3 - "$MESH" "$COPIES" "$GEN" <<'PY'
+import sys
+import numpy as np
+src, copies, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+with open(src) as f:
+    nv = nf = 0
+    for l in f:
+        if l.startswith('format') and 'ascii' not in l: sys.exit('COPIES: only an ASCII PLY source')
+        if l.startswith('element vertex'): nv = int(l.split()[2])
+        if l.startswith('element face'): nf = int(l.split()[2])
+        if l.strip() == 'end_header': break
+    v = np.loadtxt(f, max_rows=nv, dtype=np.float32, usecols=(0, 1, 2), ndmin=2)
+    fc = np.loadtxt(f, max_rows=nf, dtype=np.int64, ndmin=2)
+if fc.shape[1] != 4 or (fc[:, 0] != 3).any(): sys.exit('COPIES: only triangles')
+ext = v.max(0) - v.min(0)
+V = np.concatenate([v + np.array([k % 4 * ext[0] * 1.1, 0, k // 4 * ext[2] * 1.3], np.float32) for k in range(copies)])
+F = np.zeros(nf * copies, dtype=[('n', 'u1'), ('i', '<i4', 3)])
+F['n'] = 3
+F['i'] = np.concatenate([fc[:, 1:4] + k * nv for k in range(copies)])
+with open(out + '.tmp', 'wb') as o:
+    o.write(f'ply\nformat binary_little_endian 1.0\nelement vertex {len(V)}\nproperty float x\nproperty float y\n'
+            f'property float z\nelement face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n'.encode())
+    o.write(V.astype('<f4').tobytes())
+    o.write(F.tobytes())
+import os
+os.replace(out + '.tmp', out)
+PY
+    MESH="$GEN"
+  fi
   PLY="$MESH"; TRIS="$(basename "$MESH")"; SCENE="$WORK/matched-$TRIS.json"
   LIGHT=(--directionallight 0 -1 0 3.14159 3.14159 3.14159)
   # The framing camera of a bare mesh (render/scene/scene.cpp, frame_bounds), and the scene.
   read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$(/usr/bin/python3 -c "
 import math, sys
-f = open('$MESH'); lo = [math.inf] * 3; hi = [-math.inf] * 3
+f = open('$MESH', encoding='latin-1'); lo = [math.inf] * 3; hi = [-math.inf] * 3
 def add(v):
     for k in range(3): lo[k] = min(lo[k], v[k]); hi[k] = max(hi[k], v[k])
 if '$MESH'.lower().endswith('.obj'):
     for l in f:
         if l.startswith('v '): add(list(map(float, l.split()[1:4])))
 else:
-    n = 0
+    n = 0; binary = False
     for l in f:
-        if l.startswith('format') and 'ascii' not in l: sys.exit('MESH: only ASCII PLY')
+        binary = binary or l.startswith('format binary_little_endian')  # (the copies written above)
         if l.startswith('element vertex'): n = int(l.split()[2])
         if l.strip() == 'end_header': break
-    for _ in range(n): add(list(map(float, f.readline().split()[:3])))
+    if binary:
+        import numpy as np
+        b = open('$MESH', 'rb'); b.seek(b.read().index(b'end_header\n') + 11)
+        v = np.frombuffer(b.read(12 * n), dtype='<f4').reshape(n, 3)
+        lo = [float(x) for x in v.min(0)]; hi = [float(x) for x in v.max(0)]
+    else:
+        for _ in range(n): add(list(map(float, f.readline().split()[:3])))
 c = [(a + b) / 2 for a, b in zip(lo, hi)]
 r = max(0.5 * math.dist(lo, hi), 1e-3); d = r / math.sin(math.radians(20)) * 1.05
 u = [0.35, 0.45, 1.0]; n = math.hypot(*u)
