@@ -82,24 +82,25 @@ PY
   PLY="$MESH"; TRIS="$(basename "$MESH")"; SCENE="$WORK/matched-$TRIS.json"
   LIGHT=(--directionallight 0 -1 0 3.14159 3.14159 3.14159)
   # The framing camera of a bare mesh (render/scene/scene.cpp, frame_bounds), and the scene.
-  read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$(/usr/bin/python3 -c "
+  CAM="$(/usr/bin/python3 -c "
 import math, sys
-f = open('$MESH', encoding='latin-1'); lo = [math.inf] * 3; hi = [-math.inf] * 3
+f = open('$MESH', 'rb'); lo = [math.inf] * 3; hi = [-math.inf] * 3
 def add(v):
     for k in range(3): lo[k] = min(lo[k], v[k]); hi[k] = max(hi[k], v[k])
 if '$MESH'.lower().endswith('.obj'):
     for l in f:
-        if l.startswith('v '): add(list(map(float, l.split()[1:4])))
-else:
+        if l.startswith(b'v '): add(list(map(float, l.split()[1:4])))
+else:  # ASCII PLY, or the binary little-endian copies written above (x, y, z floats first)
     n = 0; binary = False
     for l in f:
-        binary = binary or l.startswith('format binary_little_endian')  # (the copies written above)
-        if l.startswith('element vertex'): n = int(l.split()[2])
-        if l.strip() == 'end_header': break
+        if l.startswith(b'format'):
+            if l.split()[1] not in (b'ascii', b'binary_little_endian'): sys.exit('MESH: ASCII or little-endian PLY')
+            binary = l.split()[1] == b'binary_little_endian'
+        if l.startswith(b'element vertex'): n = int(l.split()[2])
+        if l.strip() == b'end_header': break
     if binary:
         import numpy as np
-        b = open('$MESH', 'rb'); b.seek(b.read().index(b'end_header\n') + 11)
-        v = np.frombuffer(b.read(12 * n), dtype='<f4').reshape(n, 3)
+        v = np.frombuffer(f.read(12 * n), dtype='<f4').reshape(n, 3)
         lo = [float(x) for x in v.min(0)]; hi = [float(x) for x in v.max(0)]
     else:
         for _ in range(n): add(list(map(float, f.readline().split()[:3])))
@@ -118,7 +119,8 @@ json.dump({'version': 1, 'materials': {'white': {'albedo': [1, 1, 1], 'emission'
                       {'type': 'environment', 'radiance': [0, 0, 0]}],
            'cameras': {'main': {'position': pos, 'look_at': c, 'up': [0, 1, 0], 'fov_deg': 40}}},
           open('$SCENE', 'w'), indent=1)
-print(*pos, *c, 0, 1, 0, 40)")"
+print(*pos, *c, 0, 1, 0, 40)")" || exit 2  # a mesh it cannot read (its message above)
+  read -r PX PY PZ LX LY LZ UX UY UZ FOV <<< "$CAM"
   BLOCKS="$WORK/blocks-1-matched-$TRIS"
 else
   PLY="$WORK/museum-$TRIS.ply"
