@@ -131,7 +131,7 @@ class FetchPathFinder {
 
  private:
   // Per block: its tree's arrays live in slot `slot` of the flat arrays below (n_ entries
-  // each), allocated on the block's first search.
+  // each), handed out at the block's first search after clear().
   struct Tree {
     bool valid = false;
     std::int32_t slot = -1;
@@ -194,6 +194,7 @@ class FetchPathFinder {
   }
   std::vector<Tree> trees_;            // per block
   std::vector<BlockId> valid_trees_;   // the blocks whose tree is valid (what clear() resets)
+  std::vector<BlockId> tree_slotted_;  // the blocks given a slot since clear() (which takes them back)
   std::vector<Time> arrival_;          // slot x memory device
   std::vector<ChannelId> via_;         // incoming tree channel (kNone at roots)
   std::vector<std::uint64_t> stamp_;   // sum of resource versions on the tree path
