@@ -163,6 +163,7 @@ void path_trace_config(const SimulateOptions& opt, sim::SimulationConfig& cfg) {
 void engine_config(const SimulateOptions& opt, Time horizon, const AgingSetting& aging, sim::SimulationConfig& cfg) {
   cfg.scheduler = scheduler_choice(opt.scheduler, horizon, aging);
   cfg.scheduler.rayline_off = rayline_rules_flag(opt.rayline_off, cfg.scheduler.kind);
+  cfg.scheduler.rayline_on = rayline_rules_flag(opt.rayline_on, cfg.scheduler.kind, "--rayline-on");
   if (opt.plan_cell < 0) throw InputError("--plan-cell", "", "must be >= 0 (0: one cell)");
   cfg.scheduler.plan_cell = opt.plan_cell;
   // Shorter than a microsecond nothing can happen (the shortest latency modelled is ~1 us),

@@ -390,6 +390,8 @@ struct Engine {
         executor(platform, schedule, executor_options(cfg, path_trace)),
         loop(*scheduler, executor, *workload, pool, schedule) {
     for (const Fault& f : in.faults) loop.add_fault(f);
+    if (path_trace && scheduler->places_ray_origins())  // Rayline's rule 8
+      path_trace->set_ray_origin([this](std::uint64_t wave, BlockId entry) { return scheduler->ray_origin(wave, entry, pool, schedule); });
     loop.on_fault = [this](const Fault& f, const RunStats& st) { faults.push_back({f, st, executor.now()}); };
   }
 

@@ -175,25 +175,58 @@ void PathTraceWorkload::top_up(Time now, JobPool& pool, Schedule& s) {
       FrameState& f = frames_[uid];
       while (f.next_unit < f.units_total && (f.alive == 0 || f.alive + p_.wave_rays <= p_.inflight_rays)) {
         RayCounts wave = next_wave(p_, uid, f, per_tile());
-        const std::uint64_t n = total(wave);
-        f.alive += n;
-        ++f.generate_pending;
-        DataBlock req;
-        req.name = "request" + std::to_string(pool.block_count());
-        req.kind = DataKind::Generic;
-        req.bytes = p_.request_bytes;
-        req.consumed = true;
-        const BlockId rb = pool.add_block(req);
-        s.put_initial(rb, cl.memory, now, false);
-        const JobId j = pool.add_job(make_job(PtJob::Generate, -1, rb, 0, now));
-        JobInfo& I = info(j);
-        I.kind = PtJob::Generate;
-        I.mem = cl.memory;
-        I.rays = std::move(wave);
-        I.frame = uid;
-        ++jobs_by_kind_[static_cast<int>(PtJob::Generate)];
+        f.alive += total(wave);
+        if (ray_origin_) split_wave(uid, wave, now, pool, s);
+        else add_generate(uid, std::move(wave), kNone, now, pool, s);
       }
     }
+}
+
+JobId PathTraceWorkload::add_generate(std::uint32_t uid, RayCounts rays, NodeId hint, Time now, JobPool& pool, Schedule& s) {
+  FrameState& f = frames_[uid];
+  const MemId client_memory = clients_[static_cast<std::size_t>(f.client)].memory;
+  ++f.generate_pending;
+  DataBlock req;
+  req.name = "request" + std::to_string(pool.block_count());
+  req.kind = DataKind::Generic;
+  req.bytes = p_.request_bytes;
+  req.consumed = true;
+  const BlockId rb = pool.add_block(req);
+  s.put_initial(rb, client_memory, now, false);
+  Job job = make_job(PtJob::Generate, -1, rb, 0, now);
+  job.node_hint = hint;
+  const JobId j = pool.add_job(std::move(job));
+  JobInfo& I = info(j);
+  I.kind = PtJob::Generate;
+  I.mem = client_memory;
+  I.rays = std::move(rays);
+  I.frame = uid;
+  ++jobs_by_kind_[static_cast<int>(PtJob::Generate)];
+  return j;
+}
+
+// Rule 8 (set_ray_origin): the wave's entry split drawn now, one job per node named.
+void PathTraceWorkload::split_wave(std::uint32_t uid, const RayCounts& wave, Time now, JobPool& pool, Schedule& s) {
+  const FrameState& f = frames_[uid];
+  const std::uint64_t number = waves_++;
+  std::map<NodeId, EntryPart> parts;  // by node: the jobs in node order
+  RayCounts background;
+  std::vector<std::uint64_t>& out = scratch_;
+  for (const auto& [key, n] : wave) {
+    model_.split(context(RayStage::Entry, key, f.keyframe), n, out);
+    if (out[0]) background.emplace_back(key, out[0]);
+    for (std::size_t b = 1; b < out.size(); ++b)
+      if (out[b]) parts[ray_origin_(number, scene_[b - 1])].entry.emplace_back(static_cast<int>(b - 1), key, out[b]);
+  }
+  if (parts.empty()) parts[kNone];  // every ray misses the scene: one job for the background
+  parts.begin()->second.background = std::move(background);
+  for (auto& [node, part] : parts) {
+    RayCounts rays = part.background;
+    for (const auto& [b, key, n] : part.entry) add_count(rays, key, n);
+    normalize(rays);
+    const JobId j = add_generate(uid, std::move(rays), node, now, pool, s);
+    entry_parts_.emplace(j, std::move(part));
+  }
 }
 
 // A queue of `kind` for `block` now sits on `mem`: merge it into the queued job holding one
@@ -373,6 +406,23 @@ void PathTraceWorkload::on_job_finished(JobId j, Time now, JobPool& pool, Schedu
     case PtJob::Generate: {
       FrameState& f = frames_[I.frame];
       --f.generate_pending;
+      if (auto it = entry_parts_.find(j); it != entry_parts_.end()) {  // split when requested (rule 8)
+        for (const auto& [key, n] : it->second.background) {
+          tally_.primary += n;
+          created += n;
+          tally_.escaped += n;
+          ended += n;
+          f.alive -= n;
+          sample_records(recs, samples, I.frame, key_tile(key), n, n);
+        }
+        for (const auto& [b, key, n] : it->second.entry) {
+          tally_.primary += n;
+          created += n;
+          add_count(dest(static_cast<std::size_t>(b) + 1, PtJob::Intersect, b), key, n);
+        }
+        entry_parts_.erase(it);
+        break;
+      }
       for (const auto& [key, n] : I.rays) {
         model_.split(context(RayStage::Entry, key, f.keyframe), n, out);
         tally_.primary += n;
@@ -599,6 +649,7 @@ void PathTraceWorkload::on_lost(Time now, const std::vector<JobId>& jobs, const 
       case PtJob::Generate: {  // the wave's primary rays are never made: they were counted alive
         FrameState& f = frames_[I.frame];
         const std::uint64_t n = total(I.rays);
+        entry_parts_.erase(j);
         f.alive -= std::min(f.alive, n);
         --f.generate_pending;
         frame_hit(I.frame);

@@ -10,8 +10,10 @@
 // that AdditiveCompose brings to the client = spp x pixels: per tile under replay, for the
 // frame otherwise, since the Markov and analytic counts carry no tile; path_trace_clients.hpp).
 #pragma once
+#include <functional>
 #include <map>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "sched/core/device_graph.hpp"
@@ -124,6 +126,14 @@ class PathTraceWorkload final : public Workload {
   const std::vector<RaySpan>& created_series() const { return created_; }
   // Per job: the rays it processed (for replay checks), by JobId; 0 for non-ray jobs.
   std::uint64_t job_rays(JobId j) const;
+  // Camera rays made where they enter the scene (Scheduler::ray_origin, Rayline's rule 8):
+  // `origin(wave, scene block)` names the node that should make a wave's rays entering that
+  // block (kNone: no preference). Set before start(). Each wave's entry split is then drawn
+  // when the wave is requested, and the wave becomes one GenerateRays job per node named,
+  // each with that Job::node_hint and only the rays it was given (the wave's background
+  // rays, which enter no block, go with its first job). Unset: one job per wave that draws
+  // the split when it ends, as in the paper.
+  void set_ray_origin(std::function<NodeId(std::uint64_t wave, BlockId entry)> origin) { ray_origin_ = std::move(origin); }
 
  private:
   struct JobInfo {
@@ -152,6 +162,9 @@ class PathTraceWorkload final : public Workload {
   void route(JobId parent, Dest& d, MemId mem, Time now, JobPool& pool, Schedule& s);
   void request_frame(int client, Time now, int index = -1);  // -1: the client's next frame
   void top_up(Time now, JobPool& pool, Schedule& s);
+  // One GenerateRays job of frame `uid` for `rays` (per key), at the client's memory.
+  JobId add_generate(std::uint32_t uid, RayCounts rays, NodeId hint, Time now, JobPool& pool, Schedule& s);
+  void split_wave(std::uint32_t uid, const RayCounts& wave, Time now, JobPool& pool, Schedule& s);
   void check_frames(Time now, JobPool& pool, Schedule& s);
   void scan_planned(const Schedule& s, const JobPool& pool);
   void sample_records(RayCounts& recs, RayCounts& samples, std::uint32_t frame, int tile, std::uint64_t completed,
@@ -199,6 +212,14 @@ class PathTraceWorkload final : public Workload {
   std::vector<std::uint64_t> scratch_;
   std::vector<RayCounts*> dest_cache_;  // on_job_finished: its destinations, by slot
   std::vector<Dest> dests_;             // on_job_finished: the destinations themselves
+  // set_ray_origin(): the hook, the waves split so far, and each part job's drawn split.
+  std::function<NodeId(std::uint64_t, BlockId)> ray_origin_;
+  std::uint64_t waves_ = 0;
+  struct EntryPart {
+    std::vector<std::tuple<int, std::uint64_t, std::uint64_t>> entry;  // (block, key, rays) in key order
+    RayCounts background;                                              // rays that enter no block
+  };
+  std::unordered_map<JobId, EntryPart> entry_parts_;
 };
 
 }  // namespace rayline

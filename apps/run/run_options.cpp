@@ -44,15 +44,15 @@ SchedulerChoice scheduler_choice(const std::string& name, Time horizon, const Ag
   return c;
 }
 
-unsigned rayline_rules_flag(const std::string& list, SchedulerKind kind) {
+unsigned rayline_rules_flag(const std::string& list, SchedulerKind kind, const std::string& flag) {
   if (list.empty()) return 0;
   const std::optional<unsigned> mask = rayline_rules_off(list);
   if (!mask) {
     std::string names;
     for (std::string_view n : kRaylineRuleNames) (names.empty() ? names : names.append(", ")).append(n);
-    throw InputError("--rayline-off", "", "unknown rule in '" + list + "' (rules: " + names + ")");
+    throw InputError(flag, "", "unknown rule in '" + list + "' (rules: " + names + ")");
   }
-  if (kind != SchedulerKind::Rayline) throw InputError("--rayline-off", "", "applies to --scheduler rayline only");
+  if (kind != SchedulerKind::Rayline) throw InputError(flag, "", "applies to --scheduler rayline only");
   return *mask;
 }
 

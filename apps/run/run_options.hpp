@@ -33,6 +33,6 @@ SchedulerChoice scheduler_choice(const std::string& name, Time horizon, const Ag
 
 // --rayline-off: Rayline's rules to switch off (SchedulerChoice::rayline_off), for an
 // ablation; only with the rayline scheduler (given with another `kind`: InputError).
-unsigned rayline_rules_flag(const std::string& list, SchedulerKind kind);
+unsigned rayline_rules_flag(const std::string& list, SchedulerKind kind, const std::string& flag = "--rayline-off");
 
 }  // namespace rayline::cli

@@ -20,6 +20,9 @@ struct Job {
   Time created = 0;              // when it entered the global job queue (aging, Sec. 4.3)
   std::uint64_t work = 0;        // work units (rays) for throughput metrics
   JobId predicted_from = kNone;  // Sec. 5.2: the job whose outcome this one was predicted from
+  // The node the workload made this job for (kNone: any). Set only when the scheduler asked
+  // for it (Scheduler::ray_origin); a policy that never asks ignores it.
+  NodeId node_hint = kNone;
 };
 
 enum class JobState : std::uint8_t { Queued, Planned, Done, Discarded };

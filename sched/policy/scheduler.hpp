@@ -30,6 +30,17 @@ class Scheduler {
   // any device stays idle (a plan may still top up timelines as `now` moves on); false:
   // only at those two events. GMB in plan cells answers false (docs/scheduler.md).
   virtual bool plans_while_idle() const { return true; }
+  // Where camera rays should be made (Rayline's policy, rule 8): true when the policy wants
+  // each wave of camera rays made on the node that owns the block they enter. A workload
+  // that can then asks ray_origin() for the node of each (wave, entry block), makes one
+  // GenerateRays job per node with that node as its Job::node_hint, and the policy runs it
+  // there. False (the paper's GMB and the baselines): one job per wave, placed as usual.
+  virtual bool places_ray_origins() const { return false; }
+  // The node that should make wave `wave`'s rays entering scene block `entry` (kNone: no
+  // preference). `wave` numbers the waves of a run; the same arguments give the same node.
+  virtual NodeId ray_origin(std::uint64_t /*wave*/, BlockId /*entry*/, const JobPool& /*pool*/, const Schedule& /*s*/) {
+    return kNone;
+  }
 };
 
 }  // namespace rayline

@@ -38,20 +38,20 @@ std::unique_ptr<Scheduler> make_scheduler(const SchedulerChoice& c) {
     case SchedulerKind::LoadAnyOnce: return std::make_unique<LoadAnyOnceScheduler>();
     // Rayline's policy places each job where it finishes first, so it looks a quarter as
     // far ahead as GMB's k (0.5 s at the default k = 2 s; docs/rayline-policy.md, rule 6).
-    case SchedulerKind::Rayline: return std::make_unique<RaylineScheduler>(rayline_options(c.horizon / 4, c.rayline_off));
+    case SchedulerKind::Rayline: return std::make_unique<RaylineScheduler>(rayline_options(c.horizon / 4, c.rayline_off, c.rayline_on));
   }
   throw std::logic_error("make_scheduler: no such scheduler kind");
 }
 
 std::vector<std::vector<MemId>> warm_placement(const SchedulerChoice& c, const DeviceGraph& g,
                                                const std::vector<Bytes>& scene_bytes) {
-  if (c.kind != SchedulerKind::Rayline || !rayline_options(c.horizon / 4, c.rayline_off).ownership) return {};
+  if (c.kind != SchedulerKind::Rayline || !rayline_options(c.horizon / 4, c.rayline_off, c.rayline_on).ownership) return {};
   return ownership_warm_placement(plan_ownership(g, scene_bytes), g, scene_bytes);
 }
 
 std::vector<Bytes> job_caps(const SchedulerChoice& c, const DeviceGraph& g) {
   if (c.kind != SchedulerKind::Rayline) return {};
-  return device_sized_job_caps(g, rayline_options(c.horizon / 4, c.rayline_off).job_seconds);
+  return device_sized_job_caps(g, rayline_options(c.horizon / 4, c.rayline_off, c.rayline_on).job_seconds);
 }
 
 std::unique_ptr<Scheduler> make_scheduler(const std::string& name, Time horizon, Time aging, bool adaptive_aging) {

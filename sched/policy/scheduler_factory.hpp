@@ -32,6 +32,7 @@ struct SchedulerChoice {
   Time aging = -1;
   bool adaptive_aging = false;
   unsigned rayline_off = 0;  // Rayline's rules switched off (rayline_rules_off)
+  unsigned rayline_on = 0;   // ... and switched on (those off by default, kRaylineRulesOffByDefault)
   // GMB's plan cells (GmbOptions::cell_nodes, plan_cells.hpp): at most this many nodes per
   // cell, 0 for one cell. The default, 32, is a rack of the generated scale platforms: a
   // cluster of up to 32 nodes (the paper's 8 included) is planned as the paper describes.

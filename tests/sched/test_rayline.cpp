@@ -5,6 +5,7 @@
 
 #include <numeric>
 #include <random>
+#include <set>
 
 #include "dcg_fixture.hpp"
 #include "sched/io/platform_loader.hpp"
@@ -302,6 +303,39 @@ TEST(RaylineRules, NamesSwitchOffTheirRule) {
   EXPECT_FALSE(none.ownership || none.image_split || none.completion_aware || none.no_waiting);
   EXPECT_EQ(none.min_remote_bytes, 0u);
   EXPECT_EQ(none.horizon, 0.25);
+  // Rule 8 is off unless switched on, and switching it off wins.
+  const unsigned generation = rayline_rule_bit("generation");
+  EXPECT_EQ(rayline_rules_off("generation"), generation);
+  EXPECT_FALSE(all.owner_generation);
+  EXPECT_TRUE(rayline_options(0.5, 0, generation).owner_generation);
+  EXPECT_FALSE(rayline_options(0.5, generation, generation).owner_generation);
+}
+
+// Rule 8: the node that makes a wave's camera rays entering a block is that block's owner in
+// the wave's group (here one group: the two nodes split the eight blocks), whatever the wave;
+// the rule needs ownership and the image split, and names nothing for a block that is not
+// scene data.
+TEST(RaylineRules, GenerationNamesTheOwnerOfTheEntryBlock) {
+  const unsigned generation = rayline_rule_bit("generation");
+  EightQueuesOnNode0 r{rayline_options(0.5, 0, generation)};
+  ASSERT_FALSE(r.stalled);
+  ASSERT_TRUE(r.rs.places_ray_origins());
+  const Ownership& o = r.rs.ownership();
+  ASSERT_EQ(o.groups.size(), 1u);
+  ASSERT_FALSE(o.replicated());
+  std::set<NodeId> owners;
+  for (const std::uint64_t wave : {0ull, 1ull, 977ull})
+    for (BlockId b = 0; b < 8; ++b) {  // the scene blocks are the first eight
+      EXPECT_EQ(r.rs.ray_origin(wave, b, r.pool, r.s), o.owner[0][static_cast<std::size_t>(b)]) << "block " << b;
+      owners.insert(r.rs.ray_origin(wave, b, r.pool, r.s));
+    }
+  EXPECT_EQ(owners.size(), 2u) << "both nodes own blocks";
+  EXPECT_EQ(r.rs.ray_origin(0, 8, r.pool, r.s), kNone) << "a ray queue is no entry block";
+  for (const char* rule : {"ownership", "image-split", "generation"}) {
+    RaylineScheduler off{rayline_options(0.5, *rayline_rules_off(rule), generation)};
+    EXPECT_FALSE(off.places_ray_origins()) << rule;
+    EXPECT_EQ(off.ray_origin(0, 0, r.pool, r.s), kNone) << rule;
+  }
 }
 
 // Rule 7: the cap of a job type is what its fastest device traces in the given seconds, by

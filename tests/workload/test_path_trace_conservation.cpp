@@ -12,12 +12,14 @@
 #include <functional>
 #include <memory>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include "common/error.hpp"
 #include "sched/runtime/exact_executor.hpp"
 #include "sched/policy/gmb/gmb_scheduler.hpp"
 #include "sched/policy/placer.hpp"
+#include "sched/policy/rayline/rayline_scheduler.hpp"
 #include "sched/policy/scheduler_factory.hpp"
 #include "workload/path_trace_workload.hpp"
 #include "sched/io/platform_loader.hpp"
@@ -48,7 +50,8 @@ using Inspect = std::function<void(const DeviceGraph&, const JobPool&, const Sch
 Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr, ReplayLog* record = nullptr,
         int clients = 2, int frames = 2, std::uint64_t seed = 7, bool merge_planned = true, bool cancel_failed = true,
         bool retime_merged = true, const Inspect& inspect = {}, const std::string& scheduler = "gmb",
-        Bytes host_capacity = 0, Bytes gpu_capacity = 0, const std::vector<Bytes>* job_caps_override = nullptr) {
+        Bytes host_capacity = 0, Bytes gpu_capacity = 0, const std::vector<Bytes>* job_caps_override = nullptr,
+        bool ray_origins = false, const std::function<NodeId(std::uint64_t, BlockId)>& origin = {}) {
   DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
   for (MemoryDevice& m : g.memories) {  // smaller memories: a scene that no node holds alone
     if (m.kind == MemoryKind::Host && host_capacity > 0) m.capacity = host_capacity;
@@ -71,7 +74,13 @@ Outcome run(Fidelity fid, int depth, std::shared_ptr<ReplayLog> replay = nullptr
   JobPool pool;
   Schedule s(g, pool);
   PathTraceWorkload wl(g, prof, o);
-  const std::unique_ptr<Scheduler> sched = make_scheduler(scheduler, 2.0);
+  // Rayline's rule 8 switched on, wired as `rayline simulate --rayline-on generation` does.
+  const std::unique_ptr<Scheduler> sched =
+      ray_origins ? std::make_unique<RaylineScheduler>(rayline_options(0.5, 0, rayline_rule_bit("generation")))
+                  : make_scheduler(scheduler, 2.0);
+  if (sched->places_ray_origins())
+    wl.set_ray_origin([&](std::uint64_t wave, BlockId entry) { return sched->ray_origin(wave, entry, pool, s); });
+  if (origin) wl.set_ray_origin(origin);
   ExactExecutor ex(s);
   RuntimeLoop loop(*sched, ex, wl, pool, s);
   const RunStats st = loop.run();
@@ -187,6 +196,67 @@ TEST(PathTraceConservation, RaylinePolicyReplicatedAndSplit) {
                        200'000'000),
                    2, 2);
   EXPECT_GT(lan_queues, 0u) << "split ownership moves ray queues to their owners";
+}
+
+// Rayline's rule 8: with the scene split between the two nodes, each wave becomes one
+// GenerateRays job per owner of the blocks its rays enter (on this profile a wave's rays enter
+// one block), each runs on its owner, and every
+// ray and sample is still accounted for (the entry split is drawn when the wave is
+// requested, the rays counted when each job ends).
+TEST(PathTraceConservation, RaylineCameraRaysMadeByTheirOwners) {
+  std::size_t generate = 0, hinted = 0;
+  std::set<NodeId> nodes;
+  const Inspect where = [&](const DeviceGraph& g, const JobPool& pool, const Schedule& s, const PathTraceWorkload&) {
+    for (std::size_t i = 0; i < s.activity_count(); ++i) {
+      const Activity& a = s.activity(static_cast<ActivityId>(i));
+      if (a.kind != ActivityKind::Exec || g.job_types[static_cast<std::size_t>(pool.job(a.job).type)] != "GenerateRays") continue;
+      ++generate;
+      const NodeId hint = pool.job(a.job).node_hint;
+      if (hint == kNone) continue;
+      ++hinted;
+      nodes.insert(hint);
+      EXPECT_EQ(g.computes[a.device].node, hint) << "job " << a.job << " runs on the node it was made for";
+    }
+  };
+  const Outcome on = run(Fidelity::Markov, 0, nullptr, nullptr, 2, 2, 7, true, true, true, where, "rayline", 500'000'000,
+                         200'000'000, nullptr, true);
+  expect_conserved(on, 2, 2);
+  EXPECT_EQ(hinted, generate) << "every wave was split by owner";
+  EXPECT_EQ(nodes.size(), 2u) << "both owners make rays";
+  const std::size_t with_rule = generate;
+  generate = hinted = 0;
+  expect_conserved(run(Fidelity::Markov, 0, nullptr, nullptr, 2, 2, 7, true, true, true, where, "rayline", 500'000'000,
+                       200'000'000),
+                   2, 2);
+  EXPECT_EQ(hinted, 0u) << "off by default";
+  EXPECT_GE(with_rule, generate) << "a wave is at least one job";
+}
+
+// The workload's side of rule 8 on its own, under GMB (which ignores the hints): an origin
+// that splits every wave by its entry blocks' parity makes waves of two jobs, hinted 0 and
+// 1, and the rays and samples stay exact.
+TEST(PathTraceConservation, WavesSplitByRayOriginConserveRays) {
+  std::size_t generate = 0;
+  std::set<NodeId> hints;
+  const Inspect count = [&](const DeviceGraph& g, const JobPool& pool, const Schedule&, const PathTraceWorkload&) {
+    for (std::size_t j = 0; j < pool.job_count(); ++j) {
+      const Job& job = pool.job(static_cast<JobId>(j));
+      if (g.job_types[static_cast<std::size_t>(job.type)] != "GenerateRays") continue;
+      ++generate;
+      hints.insert(job.node_hint);
+    }
+  };
+  expect_conserved(run(Fidelity::Markov, 0, nullptr, nullptr, 2, 2, 7, true, true, true, count), 2, 2);
+  const std::size_t whole = generate;
+  EXPECT_EQ(hints, std::set<NodeId>{kNone});
+  generate = 0;
+  hints.clear();
+  const auto parity = [](std::uint64_t, BlockId entry) { return static_cast<NodeId>(entry % 2); };
+  for (const Fidelity fid : {Fidelity::Analytic, Fidelity::Markov})
+    expect_conserved(run(fid, 0, nullptr, nullptr, 2, 2, 7, true, true, true, count, "gmb", 0, 0, nullptr, false, parity), 2,
+                     2);
+  EXPECT_EQ(hints, (std::set<NodeId>{0, 1}));
+  EXPECT_GT(generate, 2 * whole) << "waves entering blocks of both parities are two jobs";
 }
 
 // Device-sized jobs (Rayline's rule 7): no ray job holds more than its type's cap, queues

@@ -21,8 +21,9 @@ std::optional<unsigned> rayline_rules_off(std::string_view list) {
   return mask;
 }
 
-RaylineOptions rayline_options(Time horizon, unsigned off) {
+RaylineOptions rayline_options(Time horizon, unsigned off, unsigned on_rules) {
   RaylineOptions o{.horizon = horizon};
+  off |= kRaylineRulesOffByDefault & ~on_rules;
   const auto on = [off](std::string_view rule) { return (off & rayline_rule_bit(rule)) == 0; };
   o.ownership = on("ownership");
   o.image_split = on("image-split");
@@ -30,6 +31,7 @@ RaylineOptions rayline_options(Time horizon, unsigned off) {
   if (!on("batching")) o.min_remote_bytes = 0;
   o.no_waiting = on("no-waiting");
   o.job_seconds = on("job-size") ? horizon / 4 : 0;
+  o.owner_generation = on("generation");
   return o;
 }
 
@@ -38,7 +40,8 @@ std::string RaylineScheduler::describe() const {
          "; image_split=" + (opt_.image_split ? "1" : "0") + "; completion_aware=" + (opt_.completion_aware ? "1" : "0") +
          "; min_remote_bytes=" + std::to_string(opt_.min_remote_bytes) + "; hold=" + std::to_string(opt_.hold) +
          "s; no_waiting=" + (opt_.no_waiting ? "1" : "0") + "; slack=" + std::to_string(opt_.slack) +
-         "s; job_seconds=" + std::to_string(opt_.job_seconds) + "s; groups=" + std::to_string(own_.groups.size()) + "}";
+         "s; job_seconds=" + std::to_string(opt_.job_seconds) +
+         "s; owner_generation=" + (places_ray_origins() ? "1" : "0") + "; groups=" + std::to_string(own_.groups.size()) + "}";
 }
 
 // Rule 1's input: the scene blocks, in id order, as they appear in the pool.
@@ -96,8 +99,10 @@ NodeId RaylineScheduler::home(JobId j, const JobPool& pool, const Schedule& s) {
   rays_at_[static_cast<std::size_t>(j)] = at;
   NodeId pick = at;
   const InputSummaries::Summary& in = inputs_.of(j, pool);
-  if (opt_.image_split && generic_only && g.job_types[static_cast<std::size_t>(job.type)] == "GenerateRays" &&
-      !own_.groups.empty()) {
+  if (places_ray_origins() && job.node_hint != kNone) {
+    pick = job.node_hint;  // Rule 8: made for the owner of the blocks its rays enter (ray_origin)
+  } else if (opt_.image_split && generic_only && g.job_types[static_cast<std::size_t>(job.type)] == "GenerateRays" &&
+             !own_.groups.empty()) {
     // Rule 2: an image split, group first, then a node of the group (another hash of the id).
     const int k = weighted_pick(static_cast<std::uint64_t>(j), group_weight_);
     if (k >= 0) {
@@ -113,6 +118,17 @@ NodeId RaylineScheduler::home(JobId j, const JobPool& pool, const Schedule& s) {
   if (pick != kNone && !runs_it(pick)) pick = kNone;
   h = pick;
   return h;
+}
+
+NodeId RaylineScheduler::ray_origin(std::uint64_t wave, BlockId entry, const JobPool& pool, const Schedule& s) {
+  if (!places_ray_origins()) return kNone;
+  if (blocks_seen_ < pool.block_count()) update_scene(pool, s.graph());
+  const auto e = static_cast<std::size_t>(entry);
+  if (own_.groups.empty() || entry < 0 || e >= scene_index_.size() || scene_index_[e] < 0) return kNone;
+  // Rule 2's group for the wave (a well-mixed point per wave), then the block's owner there.
+  const int k = weighted_pick(wave, group_weight_);
+  if (k < 0) return kNone;
+  return own_.owner[static_cast<std::size_t>(k)][static_cast<std::size_t>(scene_index_[e])];
 }
 
 // A device with nothing unfinished is free now whatever its last projection says (the
