@@ -32,6 +32,7 @@ RaylineOptions rayline_options(Time horizon, unsigned off, unsigned on_rules) {
   o.no_waiting = on("no-waiting");
   o.job_seconds = on("job-size") ? horizon / 4 : 0;
   o.owner_generation = on("generation");
+  if (!on("batching")) o.min_local_bytes = 0;
   return o;
 }
 
@@ -41,7 +42,8 @@ std::string RaylineScheduler::describe() const {
          "; min_remote_bytes=" + std::to_string(opt_.min_remote_bytes) + "; hold=" + std::to_string(opt_.hold) +
          "s; no_waiting=" + (opt_.no_waiting ? "1" : "0") + "; slack=" + std::to_string(opt_.slack) +
          "s; job_seconds=" + std::to_string(opt_.job_seconds) +
-         "s; owner_generation=" + (places_ray_origins() ? "1" : "0") + "; groups=" + std::to_string(own_.groups.size()) + "}";
+         "s; owner_generation=" + (places_ray_origins() ? "1" : "0") +
+         "; min_local_bytes=" + std::to_string(places_ray_origins() ? opt_.min_local_bytes : 0) + "; groups=" + std::to_string(own_.groups.size()) + "}";
 }
 
 // Rule 1's input: the scene blocks, in id order, as they appear in the pool.
@@ -188,6 +190,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   if (fresh_.size() != g.nodes.size() + 1) fresh_.assign(g.nodes.size() + 1, true);
   if (recheck_.size() != g.nodes.size()) recheck_.assign(g.nodes.size(), -kNever);
   if (planned_at_.size() != g.nodes.size()) planned_at_.assign(g.nodes.size(), -kNever);
+  if (held_until_.size() != g.nodes.size()) held_until_.assign(g.nodes.size(), -kNever);
   for (JobId j : pool.queued_since(bucketed_)) {
     const NodeId h = home(j, pool, s);
     const std::size_t k = h == kNone ? g.nodes.size() : static_cast<std::size_t>(h);
@@ -206,7 +209,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     // New jobs are looked at no more than once per `slack` unless a device is idle, or
     // nothing at all is in flight (no later event would call again).
     const bool due = (fresh_[n] || fresh_[any_bucket]) ? now >= planned_at_[n] + opt_.slack : now >= recheck_[n];
-    if (!due && !drained && idle(n) == 0) continue;
+    if (!due && !drained && (idle(n) == 0 || now < held_until_[n])) continue;
     if (wants_work(n)) todo.push_back(n);
   }
   if (todo.empty()) return done();
@@ -238,6 +241,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   std::sort(devices_.begin(), devices_.end());
   // Rule 4 holds rays back only while the node has other work: an idle device takes them.
   const bool idle = !devices_.empty() && devices_.front().first <= now;
+  held_until_[n] = -kNever;
   cand_.clear();
   const std::size_t any_bucket = g.nodes.size();
   for (const std::size_t k : {n, any_bucket}) {
@@ -269,6 +273,15 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       if (!idle && at != kNone && static_cast<std::size_t>(at) != n && rays < opt_.min_remote_bytes &&
           now - pool.job(q.job).created < opt_.hold)
         continue;
+      // Rule 8's batching: with camera rays made by their owners, a ray job on its own node
+      // waits to hold min_local_bytes (or `hold`), idle devices or not, while anything runs
+      // anywhere (a later event plans again); its node is planned again when it may go.
+      if (places_ray_origins() && opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes &&
+          !inputs_.of(q.job, pool).scene.empty() && s.unfinished() > 0 && now - pool.job(q.job).created < opt_.hold) {
+        const Time until = pool.job(q.job).created + opt_.hold;
+        held_until_[n] = held_until_[n] == -kNever ? until : std::min(held_until_[n], until);
+        continue;
+      }
       cand_.push_back({q.job, resident, rays, q.number});
     }
     bucket.resize(keep);

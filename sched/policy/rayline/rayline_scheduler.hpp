@@ -54,6 +54,9 @@ struct RaylineOptions {
   // Rule 8: each wave's camera rays are made by the owners of the blocks they enter (one
   // GenerateRays job per owner; needs rules 1 and 2). Off: a wave is one job, placed by rule 2.
   bool owner_generation = true;
+  // Rule 8's batching (with rule 4's `hold`): a ray job on its own node waits until it holds
+  // this many bytes of rays (0: off; off with rule 4).
+  Bytes min_local_bytes = 1 << 20;
 };
 
 // The rules that can be switched off (docs/rayline-policy.md), for the ablation: bit i is
@@ -112,6 +115,7 @@ class RaylineScheduler final : public Scheduler {
   std::vector<bool> fresh_;    // per bucket: jobs joined since its node was last planned
   std::vector<Time> recheck_;  // per node: when held jobs are looked at again
   std::vector<Time> planned_at_;  // per node: its last plan
+  std::vector<Time> held_until_;  // per node: when its first held job may go (kNever: none held)
   std::vector<std::size_t> todo_;
   Time reprojected_ = -kNever;
   std::vector<JobId> long_wait_job_;  // per node: its last job placed beyond the horizon
