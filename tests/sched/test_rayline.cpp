@@ -368,3 +368,32 @@ TEST(RaylineRules, WithoutOwnershipRaysStayAndTheSceneComesToThem) {
   }
   r.expect_done_and_valid();
 }
+
+// Rule 8's batching: a small ray job on its own node waits for rule 4's hold (0.1 s) while
+// other work is in flight, even with a device idle (node 0's GPU); without rule 8 it goes at
+// once.
+TEST(RaylineRules, GenerationHoldsSmallLocalJobsWhileOtherWorkRuns) {
+  for (const bool rule8 : {false, true}) {
+    const Cluster c(2, true);
+    JobPool pool;
+    Schedule s(c.g, pool);
+    const std::vector<BlockId> scene = eight_blocks(pool, s, c);
+    for (int b = 0; b < 2; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[0], 0, false);  // warm
+    RaylineScheduler rs(rayline_options(0.5, 0, rule8 ? rayline_rule_bit("generation") : 0u));
+    const JobId busy = ray_job(pool, s, scene[0], 6'400'000, c.ram[0], "busy");  // 0.2 s on a CPU
+    rs.plan(0, pool, s);
+    ASSERT_EQ(pool.state(busy), JobState::Planned);
+    ASSERT_EQ(rs.ownership().owner[0][1], 0) << "node 0 owns block 1: its rays are local";
+    const JobId few = ray_job(pool, s, scene[1], 64'000, c.ram[0], "few", 0.01);
+    rs.plan(0.01, pool, s);
+    if (!rule8) {
+      EXPECT_EQ(pool.state(few), JobState::Planned) << "without rule 8, at once";
+      continue;
+    }
+    EXPECT_EQ(pool.state(few), JobState::Queued) << "under 1 MiB: held";
+    rs.plan(0.05, pool, s);
+    EXPECT_EQ(pool.state(few), JobState::Queued) << "held for 0.1 s";
+    rs.plan(0.12, pool, s);
+    EXPECT_EQ(pool.state(few), JobState::Planned) << "held no longer than 0.1 s";
+  }
+}
