@@ -147,25 +147,29 @@ def peak(c):
 
 
 RAYLINE_RULES = ["ownership", "image-split", "completion", "batching", "no-waiting", "job-size"]  # docs/rayline-policy.md
+RAYLINE_RULES_ON = ["generation"]  # off by default (rule 8)
 
 
 def ablation(c):
-    """Rayline's policy with each rule switched off in turn (`--rayline-off RULE`), on the
-    8 warm nodes, each variant at its best of a short client sweep around the full policy's
-    peak (museum 16-64 clients, Boeing 64-256), 12 s as `peak` measures Fig. 8. Reduced:
-    one node, 1 and 2 clients, 4 s."""
+    """Rayline's policy with each rule switched off in turn (`--rayline-off RULE`), and with
+    rule 8, off by default, switched on (`--rayline-on generation`), on the 8 warm nodes,
+    each variant at its best of a short client sweep around the full policy's peak (museum
+    16-64 clients, Boeing 64-256), 12 s as `peak` measures Fig. 8. Reduced: one node, 1 and
+    2 clients, 4 s."""
     plat = "paper-A" if c.reduced else "paper-cluster"
     dur = "4s" if c.reduced else "12s"
     for scene, sweep in [("museum", "1,2" if c.reduced else "16,32,64"), ("boeing", "1,2" if c.reduced else "64,128,256")]:
-        for rule in [""] + RAYLINE_RULES:
-            folder = os.path.join(c.runs, f"{scene}-{plat}-{rule or 'every-rule'}")
+        for rule in [""] + RAYLINE_RULES + ["+" + r for r in RAYLINE_RULES_ON]:
+            on = rule.startswith("+")
+            folder = os.path.join(c.runs, f"{scene}-{plat}-{('with-' + rule[1:]) if on else (rule or 'every-rule')}")
             done = os.path.join(folder, "sweep.done")
-            label = f"without {rule}" if rule else "every rule"
+            label = f"with {rule[1:]}" if on else f"without {rule}" if rule else "every rule"
+            extra = ["--rayline-on", rule[1:]] if on else ["--rayline-off", rule] if rule else []
             if os.path.exists(done):
                 rows = rx.read_peak(folder, plat, scene, "rayline", duration=dur, experiment=c.name, label=label)
             else:
                 rows = rx.simulate_peak(folder, plat, scene, "rayline", duration=dur, timeout=c.timeout * 12,
-                                        clients=sweep, extra=["--rayline-off", rule] if rule else [],
+                                        clients=sweep, extra=extra,
                                         experiment=c.name, label=label)
                 if any(r["status"] == "ok" for r in rows):
                     open(done, "w").close()
