@@ -84,13 +84,7 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   std::stable_sort(idle.begin(), idle.end(), [&](DeviceId a, DeviceId b) {
     return g.computes[a].kind == ComputeKind::Gpu && g.computes[b].kind != ComputeKind::Gpu;
   });
-  struct Cand {
-    JobId job;
-    bool resident;
-    Bytes rays;
-    std::size_t pos;
-  };
-  std::vector<Cand> cand;
+  std::vector<Cand>& cand = cand_;
   // A job's home node never changes once known (its rays never leave their node), so it is
   // remembered across calls; "any node" (kNone) is recomputed.
   if (homes_.size() < pool.job_count()) homes_.resize(pool.job_count(), kNone);
@@ -136,6 +130,14 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     // checked only in priority order, so the first feasible one is the same pick as the
     // best feasible one: resident first, then the largest queue, then queue order.
     cand.clear();
+    // The job types d runs, as bits (the scan asks for every queued job).
+    std::uint64_t runs = 0;
+    bool runs_all_known = g.job_types.size() <= 64;
+    for (std::size_t t = 0; runs_all_known && t < g.job_types.size(); ++t)
+      if (g.timing.supports(d, static_cast<JobTypeId>(t))) runs |= std::uint64_t{1} << t;
+    auto supported = [&](JobTypeId t) {
+      return runs_all_known ? t >= 0 && (runs >> static_cast<unsigned>(t) & 1) != 0 : g.timing.supports(d, t);
+    };
     for (const std::size_t k : {static_cast<std::size_t>(node), any_bucket}) {
       std::vector<Queued>& bucket = by_node_[k];
       std::size_t keep = 0;  // entries of jobs still queued under the same number, in order
@@ -158,7 +160,7 @@ PlanStats BudgeScheduler::plan(Time now, JobPool& pool, Schedule& s) {
           qp = &bucket[keep++];
         }
         Queued& q = *qp;
-        if (!g.timing.supports(d, q.type)) continue;
+        if (!supported(q.type)) continue;
         bool resident = true;
         const Bytes scene = q.scene_bytes;
         if (q.many_scenes) {

@@ -74,6 +74,13 @@ class BudgeScheduler final : public Scheduler {
   };
   Bytes rays_of(Queued& q, const JobPool& pool);
   std::vector<std::vector<Queued>> by_node_;
+  struct Cand {  // a device's candidate with its priority key (plan())
+    JobId job;
+    bool resident;
+    Bytes rays;
+    std::size_t pos;
+  };
+  std::vector<Cand> cand_;  // (kept: its capacity outlives a plan)
   std::int64_t bucketed_ = 0;  // queue numbers below this are in by_node_
 };
 
