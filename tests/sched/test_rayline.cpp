@@ -369,9 +369,9 @@ TEST(RaylineRules, WithoutOwnershipRaysStayAndTheSceneComesToThem) {
   r.expect_done_and_valid();
 }
 
-// Rule 8's batching: a small ray job on its own node waits for rule 4's hold (0.1 s) while
-// other work is in flight, even with a device idle (node 0's GPU); without rule 8 it goes at
-// once.
+// Rule 8's batching: a small ray job (here one on its own node) waits for rule 4's hold
+// (0.1 s) while other work is in flight, even with a device idle (node 0's GPU); without
+// rule 8 it goes at once.
 TEST(RaylineRules, GenerationHoldsSmallLocalJobsWhileOtherWorkRuns) {
   for (const bool rule8 : {false, true}) {
     const Cluster c(2, true);

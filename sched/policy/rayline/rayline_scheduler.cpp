@@ -273,9 +273,10 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       if (!idle && at != kNone && static_cast<std::size_t>(at) != n && rays < opt_.min_remote_bytes &&
           now - pool.job(q.job).created < opt_.hold)
         continue;
-      // Rule 8's batching: with camera rays made by their owners, a ray job on its own node
-      // waits to hold min_local_bytes (or `hold`), idle devices or not, while anything runs
-      // anywhere (a later event plans again); its node is planned again when it may go.
+      // Rule 8's batching: with camera rays made by their owners, a ray job (its rays here or
+      // elsewhere) waits to hold min_local_bytes (or `hold`), idle devices or not, while
+      // anything runs anywhere (a later event plans again); its node is planned again when
+      // it may go.
       if (places_ray_origins() && opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes &&
           !inputs_.of(q.job, pool).scene.empty() && s.unfinished() > 0 && now - pool.job(q.job).created < opt_.hold) {
         const Time until = pool.job(q.job).created + opt_.hold;

@@ -54,8 +54,8 @@ struct RaylineOptions {
   // Rule 8: each wave's camera rays are made by the owners of the blocks they enter (one
   // GenerateRays job per owner; needs rules 1 and 2). Off: a wave is one job, placed by rule 2.
   bool owner_generation = true;
-  // Rule 8's batching (with rule 4's `hold`): a ray job on its own node waits until it holds
-  // this many bytes of rays (0: off; off with rule 4).
+  // Rule 8's batching (with rule 4's `hold`): a ray job, its rays here or elsewhere, waits
+  // until it holds this many bytes of rays, idle devices or not (0: off; off with rule 4).
   Bytes min_local_bytes = 1 << 20;
 };
 
