@@ -94,6 +94,11 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
       std::printf("note: not a steady state: the rays alive grew by %.0f%% of the rays shot after the warm-up (more "
                   "offered load than the cluster absorbs, or a run too short to fill it); read the rate with care\n",
                   100 * s.alive_growth_share);
+    else if (s.draining)
+      std::printf("note: the rays alive shrank by %.0f%% of the rays shot after the warm-up: part of the rate is rays "
+                  "made before it (frames longer than the run); a run over whole frames measures what the cluster "
+                  "sustains\n",
+                  -100 * s.alive_growth_share);
     if (s.prediction_accuracy >= 0)
       std::printf("prediction accuracy %.1f%% (jobs), %.1f%% (rays)\n", 100 * s.prediction_accuracy,
                   100 * s.prediction_ray_accuracy);

@@ -88,6 +88,11 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
                         static_cast<double>(prof.inflight_rays);
   const double budget_share = budget > 0 ? static_cast<double>(pt.rays_alive()) / budget : 0.0;
   const bool steady = growth_share <= kSteadyGrowth || budget_share >= kBudgetFull;
+  // The other way: rays alive that shrink by more than that (frames longer than the run,
+  // whose rays were made before the window) mean part of the rate is a backlog traced. It
+  // counts as steady (no overload), and is reported so that a reader knows the rate is
+  // the frames' first seconds, not what the cluster sustains frame after frame.
+  const bool draining = growth_share < -kSteadyGrowth;
   // Rays shot per simulated second [k, k + 1), each job's rays pro rata to its run.
   std::vector<double> shot_series(static_cast<std::size_t>(std::max(0.0, std::ceil(end - 1e-9))), 0.0);
   for (const RaySpan& r : pt.ended_series()) {
@@ -124,6 +129,7 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   j["steady_rays_ended_per_second"] = ended / span;
   j["rays_shot_per_second_series"] = shot_series;
   j["steady"] = {{"steady", steady},
+                 {"draining", draining},
                  {"alive_growth", growth},
                  {"alive_growth_share_of_shot", growth_share},
                  {"limit", kSteadyGrowth},
@@ -159,6 +165,7 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   sum.steady_rays_shot_per_second = ended / span;
   sum.steady = steady;
   sum.alive_growth_share = growth_share;
+  sum.draining = draining;
   sum.frames_delivered = pt.frames().size();
 }
 

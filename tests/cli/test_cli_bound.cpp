@@ -62,10 +62,28 @@ TEST_F(CliBound, SteadyStateIsToldFromAnOverload) {
   EXPECT_FALSE(o["steady"]["steady"].get<bool>()) << o["steady"].dump();
   EXPECT_GT(o["steady"]["alive_growth_share_of_shot"].get<double>(), 0.05);
   EXPECT_NE(b.out.find("not a steady state"), std::string::npos) << b.out;
+  EXPECT_FALSE(s["steady"]["draining"].get<bool>()) << s["steady"].dump();
+  EXPECT_EQ(a.out.find("shrank"), std::string::npos) << a.out;
   for (const auto* pt : {&s, &o}) {
     double sum = 0;
     for (const auto& v : (*pt)["rays_shot_per_second_series"]) sum += v.get<double>();
     EXPECT_EQ((*pt)["rays_shot_per_second_series"].size(), 8u);
     EXPECT_NEAR(sum, (*pt)["rays"]["ended"].get<double>(), 1e-6 * sum + 1);
   }
+}
+
+// The other side: Boeing under Rayline's policy on one node A with 32 clients, whose frames
+// last longer than the 8 s run, traces rays made before the window; the rays alive shrink.
+// Steady (no overload), but the rate is the frames' first seconds: told, not hidden.
+TEST_F(CliBound, ABacklogDrainedIsTold) {
+  const fs::path out = dir_ / "draining";
+  const auto r = rayline_cli("simulate --workload boeing --scheduler rayline --clients 32 --platform paper-A --start warm "
+                             "--duration 8s --no-progress --no-timeline --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.all;
+  const auto p = path_trace(out);
+  EXPECT_TRUE(p["steady"]["steady"].get<bool>()) << p["steady"].dump();
+  EXPECT_TRUE(p["steady"]["draining"].get<bool>()) << p["steady"].dump();
+  EXPECT_LT(p["steady"]["alive_growth_share_of_shot"].get<double>(), -0.05);
+  EXPECT_NE(r.out.find("the rays alive shrank by"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("not a steady state"), std::string::npos) << r.out;
 }
