@@ -14,6 +14,7 @@ struct SimulateOptions {
   std::string aging = "auto";      // GMB (Sec. 4.3): auto (5k, at least 1 s), adaptive, off, or a duration
   std::string rayline_off;         // Rayline's rules switched off, comma-separated (ablation)
   std::string rayline_on;          // Rayline's rules off by default switched on (generation)
+  std::string steady = "loose";    // how a client sweep judges a point: loose, or strict (a backlog drained is not steady)
   int plan_cell = 32;              // GMB: nodes per plan cell (0: one cell; plan_cells.hpp)
   std::string duration = "60s";
   std::uint64_t seed = 1;

@@ -101,6 +101,9 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->type_name(kAging)->default_val(opt->aging);
   sim->add_option("--rayline-off", opt->rayline_off, "Rayline's rules to switch off, comma-separated, for an ablation: ownership, image-split, completion, batching, no-waiting, job-size, generation (docs/rayline-policy.md)")->type_name("RULES");
   sim->add_option("--rayline-on", opt->rayline_on, "Rayline's rules that are off by default to switch on: generation (rule 8, camera rays made by the owners of the blocks they enter; docs/rayline-policy.md)")->type_name("RULES");
+  sim->add_option("--steady", opt->steady, "How a client sweep judges its points: loose counts a run whose rays alive shrank (a backlog of rays made before the window traced: frames longer than the run) as steady, strict does not (docs/simulator.md, \"Steady state\")")
+      ->default_val(opt->steady)
+      ->check(CLI::IsMember({"loose", "strict"}));
   sim->add_option("--plan-cell", opt->plan_cell, "GMB on large clusters: plan in cells of at most this many nodes (racks split, never joined); each device considers the jobs homed in its cell, and a cluster-level pass moves jobs to cells that run dry (docs/scheduler.md, \"Plan cells\"). 0: one cell, the paper's flat GMB at any size")->default_val(opt->plan_cell)->check(CLI::NonNegativeNumber);
   sim->add_option("--duration", opt->duration, "Simulated time for the ray stream")->type_name(kDuration)->default_val(opt->duration);
   sim->add_option("--seed", opt->seed, "Workload seed")->default_val(opt->seed)->check(kSeed);

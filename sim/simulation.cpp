@@ -81,7 +81,7 @@ void path_trace_metrics(nlohmann::json& m, const PathTraceWorkload& pt, const Sc
   // A population that fills (nearly: kBudgetFull) the clients' in-flight budgets cannot
   // grow further: the clients throttle themselves, and what remains of the filling is the
   // last few per cent of a budget that a short window did not see completed.
-  constexpr double kSteadyGrowth = 0.05, kBudgetFull = 0.9;
+  constexpr double kBudgetFull = 0.9;
   const double growth = created - ended;
   const double growth_share = ended > 0 ? growth / ended : (growth > 0 ? 1.0 : 0.0);
   const double budget = static_cast<double>(cfg.clients) * std::max(1, cfg.frames_in_flight) *

@@ -60,6 +60,10 @@ struct SimulationConfig {
   }
 };
 
+// A window is steady when the rays alive grew by at most this share of the rays shot in it
+// (docs/simulator.md, "Steady state"); shrinking by more marks a backlog drained.
+inline constexpr double kSteadyGrowth = 0.05;
+
 struct SimulationSummary {
   Time simulated = 0;
   double wall_seconds = 0;
@@ -80,7 +84,7 @@ struct SimulationSummary {
   double steady_rays_shot_per_second = 0;  // the paper's metric: rays traced to completion per second after the warm-up
   bool steady = true;             // the rays alive grew by at most 5 % of the rays shot in the window, or fill 90 % of the in-flight budgets
   double alive_growth_share = 0;  // (rays created - rays ended) / rays ended, in the window
-  bool draining = false;          // the rays alive shrank by more than 5 % of the rays shot: part of the rate is a backlog
+  bool draining = false;          // the rays alive shrank by more than kSteadyGrowth of the rays shot: part of the rate is a backlog
   double prediction_accuracy = -1, prediction_ray_accuracy = -1;  // <0: prediction off
   std::uint64_t frames_delivered = 0;
   std::string nothing_delivered;          // path tracing with no ray ended after the warm-up: why, what to change

@@ -87,3 +87,20 @@ TEST_F(CliBound, ABacklogDrainedIsTold) {
   EXPECT_NE(r.out.find("the rays alive shrank by"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("not a steady state"), std::string::npos) << r.out;
 }
+
+// --steady strict: in a client sweep such a point is not steady (no peak); loose, the
+// default, counts it as before.
+TEST_F(CliBound, StrictSweepsTakeNoPeakFromABacklog) {
+  const std::string common = " --workload boeing --scheduler rayline --clients 16,32 --platform paper-A --start warm "
+                             "--duration 8s --no-progress --no-timeline --out ";
+  const auto loose = rayline_cli("simulate" + common + (dir_ / "loose").string());
+  ASSERT_EQ(loose.code, 0) << loose.all;
+  EXPECT_EQ(loose.out.find("no steady point"), std::string::npos) << loose.out;
+  const auto strict = rayline_cli("simulate --steady strict" + common + (dir_ / "strict").string());
+  ASSERT_EQ(strict.code, 0) << strict.all;
+  EXPECT_NE(strict.out.find("not steady under --steady strict"), std::string::npos) << strict.out;
+  EXPECT_NE(strict.out.find("no steady point"), std::string::npos) << strict.out;
+  const auto bad = rayline_cli("simulate --steady tight" + common + (dir_ / "bad").string());
+  EXPECT_EQ(bad.code, 2) << bad.all;
+  EXPECT_NE(bad.err.find("--steady"), std::string::npos) << bad.all;
+}
