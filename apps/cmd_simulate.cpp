@@ -367,7 +367,8 @@ SweepResult sweep_into(const SimulateOptions& opt, const sim::SimulationConfig& 
     const double r = f.size() > 1 ? std::strtod(std::string(f[1]).c_str(), nullptr) : 0.0;
     const bool grows = f.size() > 9 && f[9] == "0";
     // --steady strict: a point whose rays alive shrank (its 11th field) is no peak either.
-    const bool drains = opt.steady == "strict" && f.size() > 10 && std::strtod(std::string(f[10]).c_str(), nullptr) < -sim::kSteadyGrowth;
+    const bool drains = opt.steady == "strict" && f.size() > 10 &&
+                        std::strtod(std::string(f[10]).c_str(), nullptr) < -sim::kSteadyGrowth;
     points.push_back({n, r, !grows && !drains});
     if (grows)
       std::printf("note: with %d client(s) the rays alive still grow (path_trace.steady in its metrics.json): not a "

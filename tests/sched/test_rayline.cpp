@@ -80,6 +80,20 @@ struct EightQueuesOnNode0 {
     for (const auto& e : chk.errors) ADD_FAILURE() << e;
   }
 };
+// Two nodes (with a GPU each, or not), the eight blocks, blocks [first, last) warm in node
+// `warm_node`'s RAM, and Rayline's policy with `o`, for tests that plan step by step.
+struct EightBlocksWarm {
+  Cluster c;
+  JobPool pool;
+  Schedule s{c.g, pool};
+  std::vector<BlockId> scene;
+  RaylineScheduler rs;
+  EightBlocksWarm(bool gpu, int warm_node, int first, int last, RaylineOptions o)
+      : c(2, gpu), scene(eight_blocks(pool, s, c)), rs(o) {
+    for (int b = first; b < last; ++b)
+      s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[static_cast<std::size_t>(warm_node)], 0, false);
+  }
+};
 }  // namespace
 
 TEST(RaylineOwnership, ReplicatedWhenEveryNodeHoldsTheScene) {
@@ -208,13 +222,13 @@ TEST(Rayline, CompletionAwareChoiceTakesTheDeviceThatFinishesFirst) {
 
 TEST(Rayline, RemoteRaysWaitUntilWorthATransferUnlessTheNodeIsIdle) {
   for (const bool batching : {true, false}) {
-    const Cluster c(2, false);
-    JobPool pool;
-    Schedule s(c.g, pool);
-    const std::vector<BlockId> scene = eight_blocks(pool, s, c);
-    for (int b = 5; b < 8; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[1], 0, false);  // warm
     // Horizon 0.5 s, min_remote_bytes 256 KiB, hold 0.1 s (rule 4), or without rule 4.
-    RaylineScheduler rs(rayline_options(0.5, batching ? 0u : *rayline_rules_off("batching")));
+    EightBlocksWarm w(false, 1, 5, 8, rayline_options(0.5, batching ? 0u : *rayline_rules_off("batching")));
+    const Cluster& c = w.c;
+    JobPool& pool = w.pool;
+    Schedule& s = w.s;
+    const std::vector<BlockId>& scene = w.scene;
+    RaylineScheduler& rs = w.rs;
     // Node 1 busy for 0.2 s with rays already there (6.4 MB at 32 MB/s).
     const JobId local = ray_job(pool, s, scene[7], 6'400'000, c.ram[1], "local");
     rs.plan(0, pool, s);
@@ -374,12 +388,12 @@ TEST(RaylineRules, WithoutOwnershipRaysStayAndTheSceneComesToThem) {
 // rule 8 it goes at once.
 TEST(RaylineRules, GenerationHoldsSmallLocalJobsWhileOtherWorkRuns) {
   for (const bool rule8 : {false, true}) {
-    const Cluster c(2, true);
-    JobPool pool;
-    Schedule s(c.g, pool);
-    const std::vector<BlockId> scene = eight_blocks(pool, s, c);
-    for (int b = 0; b < 2; ++b) s.put_initial(scene[static_cast<std::size_t>(b)], c.ram[0], 0, false);  // warm
-    RaylineScheduler rs(rayline_options(0.5, 0, rule8 ? rayline_rule_bit("generation") : 0u));
+    EightBlocksWarm w(true, 0, 0, 2, rayline_options(0.5, 0, rule8 ? rayline_rule_bit("generation") : 0u));
+    const Cluster& c = w.c;
+    JobPool& pool = w.pool;
+    Schedule& s = w.s;
+    const std::vector<BlockId>& scene = w.scene;
+    RaylineScheduler& rs = w.rs;
     const JobId busy = ray_job(pool, s, scene[0], 6'400'000, c.ram[0], "busy");  // 0.2 s on a CPU
     rs.plan(0, pool, s);
     ASSERT_EQ(pool.state(busy), JobState::Planned);

@@ -260,8 +260,9 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       } else {
         bucket[keep++] = q;
       }
+      const std::vector<BlockId>& scene_in = inputs_.of(q.job, pool).scene;
       bool resident = true;  // every scene input on one of this node's working memories
-      for (BlockId b : inputs_.of(q.job, pool).scene) {
+      for (BlockId b : scene_in) {
         bool here = false;
         for (MemId m : g.nodes[n].memories)
           if (g.memories[m].kind != MemoryKind::Disk && s.copy_at(b, m)) here = true;
@@ -278,7 +279,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       // anything runs anywhere (a later event plans again); its node is planned again when
       // it may go.
       if (places_ray_origins() && opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes &&
-          !inputs_.of(q.job, pool).scene.empty() && s.unfinished() > 0 && now - pool.job(q.job).created < opt_.hold) {
+          !scene_in.empty() && s.unfinished() > 0 && now - pool.job(q.job).created < opt_.hold) {
         const Time until = pool.job(q.job).created + opt_.hold;
         held_until_[n] = held_until_[n] == -kNever ? until : std::min(held_until_[n], until);
         continue;

@@ -115,7 +115,7 @@ class RaylineScheduler final : public Scheduler {
   std::vector<bool> fresh_;    // per bucket: jobs joined since its node was last planned
   std::vector<Time> recheck_;  // per node: when held jobs are looked at again
   std::vector<Time> planned_at_;  // per node: its last plan
-  std::vector<Time> held_until_;  // per node: when its first held job may go (kNever: none held)
+  std::vector<Time> held_until_;  // per node: when its first held job may go (-kNever: none held)
   std::vector<std::size_t> todo_;
   Time reprojected_ = -kNever;
   std::vector<JobId> long_wait_job_;  // per node: its last job placed beyond the horizon
