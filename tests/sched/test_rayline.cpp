@@ -236,7 +236,7 @@ TEST(Rayline, RemoteRaysWaitUntilWorthATransferUnlessTheNodeIsIdle) {
     ASSERT_EQ(rs.ownership().owner[0][7], 1);
     // A few remote rays for node 1's block wait while node 1 is busy; a large queue goes.
     const JobId few = ray_job(pool, s, scene[6], 64'000, c.ram[0], "few", 0.01);
-    const JobId many = ray_job(pool, s, scene[5], 1 * kMB, c.ram[0], "many", 0.01);
+    const JobId many = ray_job(pool, s, scene[5], 2 * kMB, c.ram[0], "many", 0.01);  // over 1 MiB
     rs.plan(0.01, pool, s);
     EXPECT_EQ(pool.state(many), JobState::Planned);
     if (!batching) {
@@ -383,12 +383,14 @@ TEST(RaylineRules, WithoutOwnershipRaysStayAndTheSceneComesToThem) {
   r.expect_done_and_valid();
 }
 
-// Rule 8's batching: a small ray job (here one on its own node) waits for rule 4's hold
-// (0.1 s) while other work is in flight, even with a device idle (node 0's GPU); without
-// rule 8 it goes at once.
-TEST(RaylineRules, GenerationHoldsSmallLocalJobsWhileOtherWorkRuns) {
-  for (const bool rule8 : {false, true}) {
-    EightBlocksWarm w(true, 0, 0, 2, rayline_options(0.5, 0, rule8 ? rayline_rule_bit("generation") : 0u));
+// Rule 4 on every ray job: a small one (here on its own node) waits for the hold (0.1 s)
+// while other work is in flight, even with a device idle (node 0's GPU), with rule 8 or
+// without; without rule 4 it goes at once.
+TEST(RaylineRules, BatchingHoldsSmallLocalJobsWhileOtherWorkRuns) {
+  for (const auto& [batching, rule8] : {std::pair{false, false}, {true, false}, {true, true}}) {
+    const unsigned on = rule8 ? rayline_rule_bit("generation") : 0u;
+    const unsigned off = batching ? 0u : rayline_rule_bit("batching");
+    EightBlocksWarm w(true, 0, 0, 2, rayline_options(0.5, off, on));
     const Cluster& c = w.c;
     JobPool& pool = w.pool;
     Schedule& s = w.s;
@@ -400,8 +402,8 @@ TEST(RaylineRules, GenerationHoldsSmallLocalJobsWhileOtherWorkRuns) {
     ASSERT_EQ(rs.ownership().owner[0][1], 0) << "node 0 owns block 1: its rays are local";
     const JobId few = ray_job(pool, s, scene[1], 64'000, c.ram[0], "few", 0.01);
     rs.plan(0.01, pool, s);
-    if (!rule8) {
-      EXPECT_EQ(pool.state(few), JobState::Planned) << "without rule 8, at once";
+    if (!batching) {
+      EXPECT_EQ(pool.state(few), JobState::Planned) << "without rule 4, at once";
       continue;
     }
     EXPECT_EQ(pool.state(few), JobState::Queued) << "under 1 MiB: held";

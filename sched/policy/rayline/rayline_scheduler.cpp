@@ -43,7 +43,7 @@ std::string RaylineScheduler::describe() const {
          "s; no_waiting=" + (opt_.no_waiting ? "1" : "0") + "; slack=" + std::to_string(opt_.slack) +
          "s; job_seconds=" + std::to_string(opt_.job_seconds) +
          "s; owner_generation=" + (places_ray_origins() ? "1" : "0") +
-         "; min_local_bytes=" + std::to_string(places_ray_origins() ? opt_.min_local_bytes : 0) + "; groups=" + std::to_string(own_.groups.size()) + "}";
+         "; min_local_bytes=" + std::to_string(opt_.min_local_bytes) + "; groups=" + std::to_string(own_.groups.size()) + "}";
 }
 
 // Rule 1's input: the scene blocks, in id order, as they appear in the pool.
@@ -274,11 +274,10 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       if (!idle && at != kNone && static_cast<std::size_t>(at) != n && rays < opt_.min_remote_bytes &&
           now - pool.job(q.job).created < opt_.hold)
         continue;
-      // Rule 8's batching: with camera rays made by their owners, a ray job (its rays here or
-      // elsewhere) waits to hold min_local_bytes (or `hold`), idle devices or not, while
-      // anything runs anywhere (a later event plans again); its node is planned again when
-      // it may go.
-      if (places_ray_origins() && opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes &&
+      // Rule 4, every ray job: it waits to hold min_local_bytes (or `hold`), its rays here
+      // or elsewhere, idle devices or not, while anything runs anywhere (a later event
+      // plans again); its node is planned again when it may go.
+      if (opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes &&
           !scene_in.empty() && s.unfinished() > 0 && now - pool.job(q.job).created < opt_.hold) {
         const Time until = pool.job(q.job).created + opt_.hold;
         held_until_[n] = held_until_[n] == -kNever ? until : std::min(held_until_[n], until);

@@ -14,7 +14,9 @@
 //      job's scene block when one of them can take it within the horizon;
 //   4. batching: a job whose rays would cross the LAN waits until they are worth a
 //      transfer (`min_remote_bytes`, so the link's latency is not paid per handful of
-//      rays) or until it has waited `hold`;
+//      rays) or until it has waited `hold`; every ray job, wherever its rays are, waits
+//      to hold `min_local_bytes` (or `hold`) while other work runs, so devices trace
+//      queues, not handfuls of rays;
 //   5. no waiting in line: a job that would leave its device waiting for data longer than
 //      its own run (and than `slack`) is taken only after the jobs that can start at once,
 //      so a slow transfer does not hold up the device's timeline; and one that cannot
@@ -54,8 +56,9 @@ struct RaylineOptions {
   // Rule 8: each wave's camera rays are made by the owners of the blocks they enter (one
   // GenerateRays job per owner; needs rules 1 and 2). Off: a wave is one job, placed by rule 2.
   bool owner_generation = true;
-  // Rule 8's batching (with rule 4's `hold`): a ray job, its rays here or elsewhere, waits
-  // until it holds this many bytes of rays, idle devices or not (0: off; off with rule 4).
+  // Rule 4 for every ray job (with `hold`): a ray job, its rays here or elsewhere, waits
+  // until it holds this many bytes of rays, idle devices or not, while anything runs
+  // anywhere (0: off; off with rule 4).
   Bytes min_local_bytes = 1 << 20;
 };
 
