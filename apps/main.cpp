@@ -99,8 +99,8 @@ void add_simulate(CLI::App& app, std::function<int()>& action) {
   sim->add_option("--scheduler", opt->scheduler, "gmb (the paper), gmb-ca (completion-aware), loadanyonce (Navratil 2014), budge (Budge 2009) or rayline (Rayline's own, docs/rayline-policy.md)")->default_val(opt->scheduler);
   sim->add_option("--horizon,-k", opt->horizon, "Execution time threshold k (Sec. 4.2)")->type_name(kDuration)->default_val(opt->horizon);
   sim->add_option("--aging", opt->aging, "GMB: a job that waited this long jumps the queue, oldest first (Sec. 4.3): auto (5k, at least 1 s), adaptive (auto, and at least twice the median wait of the queue), off, or a duration")->type_name(kAging)->default_val(opt->aging);
-  sim->add_option("--rayline-off", opt->rayline_off, "Rayline's rules to switch off, comma-separated, for an ablation: ownership, image-split, completion, batching, no-waiting, job-size, generation (docs/rayline-policy.md)")->type_name("RULES");
-  sim->add_option("--rayline-on", opt->rayline_on, "Rayline's rules that are off by default to switch on: generation (rule 8, camera rays made by the owners of the blocks they enter; docs/rayline-policy.md)")->type_name("RULES");
+  sim->add_option("--rayline-off", opt->rayline_off, "Rayline's rules to switch off, comma-separated, for an ablation: ownership, image-split, completion, batching, no-waiting, job-size, generation, hold (docs/rayline-policy.md)")->type_name("RULES");
+  sim->add_option("--rayline-on", opt->rayline_on, "Rayline's rules that are off by default to switch on: generation (rule 8, camera rays made by the owners of the blocks they enter), hold (rule 4 holds every small ray job while its node runs something; on with rule 8); docs/rayline-policy.md")->type_name("RULES");
   sim->add_option("--steady", opt->steady, "How a client sweep judges its points: loose counts a run whose rays alive shrank (a backlog of rays made before the window traced: frames longer than the run) as steady, strict does not (docs/simulator.md, \"Steady state\")")
       ->default_val(opt->steady)
       ->check(CLI::IsMember({"loose", "strict"}));

@@ -157,7 +157,7 @@ ab['steady_rays_shot_per_second'] = pd.to_numeric(ab.steady_rays_shot_per_second
 ab = ab[ab.status == 'ok'].copy()
 ab['is_steady'] = ab.steady.astype(str).str.lower().isin(['true', '1'])
 variants = [v for v in ['every rule', 'without ownership', 'without image-split', 'without completion', 'without batching',
-                        'without no-waiting', 'without job-size', 'with generation'] if v in set(ab.label)]
+                        'without no-waiting', 'without job-size', 'with generation', 'with hold'] if v in set(ab.label)]
 bestab = (ab[ab.is_steady].sort_values(['steady_rays_shot_per_second', 'clients'], ascending=[True, False])
           .groupby(['scene', 'label']).tail(1).set_index(['scene', 'label']))
 fig, axes = plt.subplots(1, 2, figsize=(12, 3.6))
@@ -169,7 +169,7 @@ for ax, scene in zip(axes, ['museum', 'boeing']):
     bars = ax.barh(range(len(variants)), [v / 1e6 for v in vals], color=[COLORS['rayline']] + ['0.6'] * (len(variants) - 1))
     ax.bar_label(bars, labels=[f'{v / 1e6:.2f} M ({v / full:.2f}x)' if full > 0 else f'{v / 1e6:.2f} M' for v in vals], fontsize=7, padding=2)
     ax.set_yticks(range(len(variants))); ax.set_yticklabels(variants, fontsize=8); ax.invert_yaxis()
-    ax.set_xlabel('peak rays shot / s (M), steady'); ax.set_title(f'{scene}, {ab[ab.scene == scene].platform.iloc[0]}: each rule off in turn, rule 8 on', fontsize=9)
+    ax.set_xlabel('peak rays shot / s (M), steady'); ax.set_title(f'{scene}, {ab[ab.scene == scene].platform.iloc[0]}: each rule off in turn; rule 8, the hold on', fontsize=9)
     ax.set_xlim(0, max(vals) / 1e6 * 1.35 if max(vals) > 0 else 1)
     for v in variants:
         r = bestab.loc[(scene, v)] if (scene, v) in bestab.index else None

@@ -44,8 +44,27 @@ class Ctx:
         self.rows = []
         self.dur = "8s" if reduced else "20s"
         self.timeout = 90 if reduced else 300
+        # RAYLINE_RERUN_SCHEDULERS=rayline,...: run only those methods again; the others'
+        # rows are taken from the existing DIR/NAME.csv (same run folder) when it has them.
+        self.rerun = [x for x in os.environ.get("RAYLINE_RERUN_SCHEDULERS", "").split(",") if x]
+        self._kept = None
+
+    def kept_rows(self):
+        if self._kept is None:
+            path = os.path.join(self.out, self.name + ".csv")
+            self._kept = []
+            if os.path.exists(path):
+                with open(path, newline="") as f:
+                    self._kept = list(csv.DictReader(f))
+        return self._kept
 
     def run(self, tag, platform, scene, scheduler, **kw):
+        if self.rerun and scheduler not in self.rerun:
+            folder = os.path.join(self.runs, tag)
+            for r in self.kept_rows():
+                if os.path.normpath(r.get("out_dir", "")) == os.path.normpath(folder):
+                    self.rows.append(r)
+                    return r
         kw.setdefault("duration", self.dur)
         kw.setdefault("timeout", self.timeout)
         row = rx.simulate(os.path.join(self.runs, tag), platform, scene, scheduler, experiment=self.name, **kw)
@@ -101,14 +120,11 @@ def peak(c):
     # RAYLINE_PEAK_PLATFORMS=paper-A,paper-cluster limits a run to those platforms; a sweep
     # whose folder holds sweep.done (a finished earlier run) is read, not run again.
     only = [x for x in os.environ.get("RAYLINE_PEAK_PLATFORMS", "").split(",") if x]
-    # RAYLINE_PEAK_SCHEDULERS=rayline sweeps only those methods (and the free-I/O runs are
+    # RAYLINE_RERUN_SCHEDULERS=rayline sweeps only those methods (and the free-I/O runs are
     # skipped); the other methods' rows are kept from the existing DIR/peak.csv.
-    methods = [x for x in os.environ.get("RAYLINE_PEAK_SCHEDULERS", "").split(",") if x]
+    methods = c.rerun
     if methods:
-        kept = os.path.join(c.out, c.name + ".csv")
-        if os.path.exists(kept):
-            with open(kept, newline="") as f:
-                c.rows.extend(r for r in csv.DictReader(f) if r["scheduler"] not in methods)
+        c.rows.extend(r for r in c.kept_rows() if r["scheduler"] not in methods)
     dur = "4s" if c.reduced else "12s"
     for scene in ["museum", "boeing"]:
         # Boeing's sweeps are capped at 256 clients: past that a point costs minutes of wall
@@ -159,12 +175,12 @@ def peak(c):
 
 
 RAYLINE_RULES = ["ownership", "image-split", "completion", "batching", "no-waiting", "job-size"]  # docs/rayline-policy.md
-RAYLINE_RULES_ON = ["generation"]  # off by default (rule 8)
+RAYLINE_RULES_ON = ["generation", "hold"]  # off by default (rule 8; rule 4's hold of every small ray job)
 
 
 def ablation(c):
     """Rayline's policy with each rule switched off in turn (`--rayline-off RULE`), and with
-    rule 8, off by default, switched on (`--rayline-on generation`), on the 8 warm nodes,
+    each rule that is off by default switched on (`--rayline-on generation`, `hold`), on the 8 warm nodes,
     each variant at its best of a short client sweep around the full policy's peak (museum
     16-64 clients, Boeing 64-256), 12 s as `peak` measures Fig. 8. Reduced: one node, 1 and
     2 clients, 4 s."""

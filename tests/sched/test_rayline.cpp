@@ -323,6 +323,12 @@ TEST(RaylineRules, NamesSwitchOffTheirRule) {
   EXPECT_FALSE(all.owner_generation);
   EXPECT_TRUE(rayline_options(0.5, 0, generation).owner_generation);
   EXPECT_FALSE(rayline_options(0.5, generation, generation).owner_generation);
+  // So is rule 4's hold of every small ray job, which rule 8 switches on too.
+  const unsigned hold = rayline_rule_bit("hold");
+  EXPECT_EQ(all.min_local_bytes, 0u);
+  EXPECT_GT(rayline_options(0.5, 0, hold).min_local_bytes, 0u);
+  EXPECT_GT(rayline_options(0.5, 0, generation).min_local_bytes, 0u);
+  EXPECT_EQ(rayline_options(0.5, *rayline_rules_off("batching"), hold).min_local_bytes, 0u);
 }
 
 // Rule 8: the node that makes a wave's camera rays entering a block is that block's owner in
@@ -383,13 +389,13 @@ TEST(RaylineRules, WithoutOwnershipRaysStayAndTheSceneComesToThem) {
   r.expect_done_and_valid();
 }
 
-// Rule 4 on every ray job: a small one (here on its own node) waits for the hold (0.1 s)
-// while other work is in flight, even with a device idle (node 0's GPU), with rule 8 or
-// without; without rule 4 it goes at once.
-TEST(RaylineRules, BatchingHoldsSmallLocalJobsWhileOtherWorkRuns) {
-  for (const auto& [batching, rule8] : {std::pair{false, false}, {true, false}, {true, true}}) {
-    const unsigned on = rule8 ? rayline_rule_bit("generation") : 0u;
-    const unsigned off = batching ? 0u : rayline_rule_bit("batching");
+// Rule 4 on every ray job ("hold", or rule 8): a small one (here on its own node) waits for
+// the hold (0.1 s) while its node runs something, even with a device idle (node 0's GPU);
+// by default, or without rule 4, it goes at once.
+TEST(RaylineRules, HoldKeepsSmallLocalJobsWhileTheirNodeRuns) {
+  const unsigned hold = rayline_rule_bit("hold"), gen = rayline_rule_bit("generation");
+  for (const auto& [off, on, held] : {std::tuple{0u, 0u, false}, {0u, hold, true}, {0u, gen, true},
+                                      {rayline_rule_bit("batching"), hold | gen, false}}) {
     EightBlocksWarm w(true, 0, 0, 2, rayline_options(0.5, off, on));
     const Cluster& c = w.c;
     JobPool& pool = w.pool;
@@ -402,8 +408,8 @@ TEST(RaylineRules, BatchingHoldsSmallLocalJobsWhileOtherWorkRuns) {
     ASSERT_EQ(rs.ownership().owner[0][1], 0) << "node 0 owns block 1: its rays are local";
     const JobId few = ray_job(pool, s, scene[1], 64'000, c.ram[0], "few", 0.01);
     rs.plan(0.01, pool, s);
-    if (!batching) {
-      EXPECT_EQ(pool.state(few), JobState::Planned) << "without rule 4, at once";
+    if (!held) {
+      EXPECT_EQ(pool.state(few), JobState::Planned) << "without the hold, at once";
       continue;
     }
     EXPECT_EQ(pool.state(few), JobState::Queued) << "under 1 MiB: held";
@@ -412,4 +418,24 @@ TEST(RaylineRules, BatchingHoldsSmallLocalJobsWhileOtherWorkRuns) {
     rs.plan(0.12, pool, s);
     EXPECT_EQ(pool.state(few), JobState::Planned) << "held no longer than 0.1 s";
   }
+}
+
+// ... but only while its own node runs something: a node whose devices are all idle takes
+// a small job at once, however busy the other nodes are (a frame's last rays are not held
+// hop after hop while the devices that would trace them wait).
+TEST(RaylineRules, HoldKeepsNothingOnANodeWithEveryDeviceIdle) {
+  EightBlocksWarm w(true, 0, 0, 2, rayline_options(0.5, 0, rayline_rule_bit("hold")));
+  const Cluster& c = w.c;
+  JobPool& pool = w.pool;
+  Schedule& s = w.s;
+  const std::vector<BlockId>& scene = w.scene;
+  RaylineScheduler& rs = w.rs;
+  // With a GPU each node holds the scene: two groups of one node, rays stay on their node.
+  const JobId busy = ray_job(pool, s, scene[7], 6'400'000, c.ram[1], "busy");
+  rs.plan(0, pool, s);
+  ASSERT_EQ(pool.state(busy), JobState::Planned);
+  ASSERT_EQ(c.g.computes[s.activity(pool.activity(busy)).device].node, 1) << "node 0 stays idle";
+  const JobId few = ray_job(pool, s, scene[1], 64'000, c.ram[0], "few", 0.01);
+  rs.plan(0.01, pool, s);
+  EXPECT_EQ(pool.state(few), JobState::Planned) << "node 0 idle: at once";
 }

@@ -32,7 +32,7 @@ RaylineOptions rayline_options(Time horizon, unsigned off, unsigned on_rules) {
   o.no_waiting = on("no-waiting");
   o.job_seconds = on("job-size") ? horizon / 4 : 0;
   o.owner_generation = on("generation");
-  if (!on("batching")) o.min_local_bytes = 0;
+  if (!on("batching") || !(on("hold") || on("generation"))) o.min_local_bytes = 0;
   return o;
 }
 
@@ -241,6 +241,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   std::sort(devices_.begin(), devices_.end());
   // Rule 4 holds rays back only while the node has other work: an idle device takes them.
   const bool idle = !devices_.empty() && devices_.front().first <= now;
+  const bool node_busy = !devices_.empty() && devices_.back().first > now;  // rule 4, every ray job
   held_until_[n] = -kNever;
   cand_.clear();
   const std::size_t any_bucket = g.nodes.size();
@@ -274,11 +275,12 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       if (!idle && at != kNone && static_cast<std::size_t>(at) != n && rays < opt_.min_remote_bytes &&
           now - pool.job(q.job).created < opt_.hold)
         continue;
-      // Rule 4, every ray job: it waits to hold min_local_bytes (or `hold`), its rays here
-      // or elsewhere, idle devices or not, while anything runs anywhere (a later event
-      // plans again); its node is planned again when it may go.
-      if (opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes &&
-          !scene_in.empty() && s.unfinished() > 0 && now - pool.job(q.job).created < opt_.hold) {
+      // Rule 4, every ray job (with "hold" or rule 8 on): it waits to hold min_local_bytes
+      // (or `hold`), its rays here or elsewhere, idle devices or not, while a device of its
+      // node runs something (a later event plans again; a node with every device idle takes
+      // what there is); its node is planned again when it may go.
+      if (node_busy && opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes && !scene_in.empty() &&
+          now - pool.job(q.job).created < opt_.hold) {
         const Time until = pool.job(q.job).created + opt_.hold;
         held_until_[n] = held_until_[n] == -kNever ? until : std::min(held_until_[n], until);
         continue;

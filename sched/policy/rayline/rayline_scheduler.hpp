@@ -14,9 +14,9 @@
 //      job's scene block when one of them can take it within the horizon;
 //   4. batching: a job whose rays would cross the LAN waits until they are worth a
 //      transfer (`min_remote_bytes`, so the link's latency is not paid per handful of
-//      rays) or until it has waited `hold`; every ray job, wherever its rays are, waits
-//      to hold `min_local_bytes` (or `hold`) while other work runs, so devices trace
-//      queues, not handfuls of rays;
+//      rays) or until it has waited `hold`; with `--rayline-on hold` (or rule 8) every
+//      ray job, wherever its rays are, waits to hold `min_local_bytes` (or `hold`) while
+//      a device of its node runs something, so devices trace queues, not handfuls of rays;
 //   5. no waiting in line: a job that would leave its device waiting for data longer than
 //      its own run (and than `slack`) is taken only after the jobs that can start at once,
 //      so a slow transfer does not hold up the device's timeline; and one that cannot
@@ -57,8 +57,9 @@ struct RaylineOptions {
   // GenerateRays job per owner; needs rules 1 and 2). Off: a wave is one job, placed by rule 2.
   bool owner_generation = true;
   // Rule 4 for every ray job (with `hold`): a ray job, its rays here or elsewhere, waits
-  // until it holds this many bytes of rays, idle devices or not, while anything runs
-  // anywhere (0: off; off with rule 4).
+  // until it holds this many bytes of rays, idle devices or not, while a device of its
+  // node runs something (0: off). rayline_options() sets it only with the "hold" rule or
+  // rule 8 switched on, and rule 4 not switched off.
   Bytes min_local_bytes = 1 << 20;
 };
 
@@ -66,16 +67,17 @@ struct RaylineOptions {
 // rule kRaylineRuleNames[i]. rayline_rules_off("ownership,batching") gives their mask;
 // std::nullopt names an unknown rule.
 inline constexpr std::string_view kRaylineRuleNames[] = {"ownership", "image-split", "completion", "batching",
-                                                         "no-waiting", "job-size", "generation"};
+                                                         "no-waiting", "job-size", "generation", "hold"};
 constexpr unsigned rayline_rule_bit(std::string_view name) {
   for (unsigned i = 0; i < std::size(kRaylineRuleNames); ++i)
     if (kRaylineRuleNames[i] == name) return 1u << i;
   return 0;
 }
 std::optional<unsigned> rayline_rules_off(std::string_view list);
-// Rules off unless switched on (`--rayline-on`): rule 8, which the measurements do not yet
-// justify as a default (docs/rayline-policy.md).
-inline constexpr unsigned kRaylineRulesOffByDefault = rayline_rule_bit("generation");
+// Rules off unless switched on (`--rayline-on`), which the measurements do not yet justify
+// as defaults (docs/rayline-policy.md): rule 8, and rule 4's hold of every small ray job
+// ("hold"; rule 8 switches it on too).
+inline constexpr unsigned kRaylineRulesOffByDefault = rayline_rule_bit("generation") | rayline_rule_bit("hold");
 RaylineOptions rayline_options(Time horizon, unsigned rules_off, unsigned rules_on = 0);
 
 class RaylineScheduler final : public Scheduler {
