@@ -458,11 +458,17 @@ void report_samples(const Schedule& schedule, const JobPool& pool, const Platfor
 
 // The dispatch latency of every E-job on a CPU thread (RenderResult::dispatch_gaps): its
 // start minus the latest of its predecessor's end, its inputs' arrival and its creation.
-void report_dispatch(const Schedule& schedule, const JobPool& pool, const Platform& p, RenderResult& res) {
+// The loop's latency samples (RenderResult::loop_samples, calibrate's control_loop) are
+// the jobs planned after their thread ran dry, in answer to a finished E-job: from the
+// later of that ready time and the E-job's end (RuntimeLoop::triggers; a policy that
+// waits for a round's last job, as LoadAnyOnce does, is not the loop's latency), against
+// that E-job's duration, as the simulator charges it (SimExecutor::on_done).
+void report_dispatch(const Schedule& schedule, const JobPool& pool, const Platform& p,
+                     const std::vector<RuntimeLoop::Trigger>& triggers, RenderResult& res) {
   const DeviceGraph& g = p.g;
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
     if (g.computes[d].kind != ComputeKind::Cpu) continue;
-    Time prev_end = -1, prev_len = 0;
+    Time prev_end = -1;
     for (ActivityId id : schedule.device_timeline(DeviceId(d)).items) {
       const Activity& a = schedule.activity(id);
       if (a.state != ActivityState::Done || a.cancelled) continue;
@@ -470,10 +476,11 @@ void report_dispatch(const Schedule& schedule, const JobPool& pool, const Platfo
         const Time ready = std::max({prev_end, a.data_ready, pool.job(a.job).created});
         const Time gap = std::max<Time>(0, a.start - ready);
         res.dispatch_gaps.push_back(gap);
-        if (a.planned_start >= prev_end && a.data_ready <= prev_end) res.loop_samples.emplace_back(prev_len, gap);
+        const auto i = static_cast<std::size_t>(id);
+        if (a.planned_start >= prev_end && a.data_ready <= prev_end && i < triggers.size() && triggers[i].end >= 0)
+          res.loop_samples.emplace_back(triggers[i].exec_seconds, std::max<Time>(0, a.start - std::max(ready, triggers[i].end)));
       }
       prev_end = a.end;
-      prev_len = a.end - a.start;
     }
   }
 }
@@ -531,6 +538,7 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
   res.overhead_bound_bytes = overhead_bound(res, wo, b, p);
 
   RuntimeLoop loop(*scheduler, executor, workload, pool, schedule);
+  loop.record_triggers = true;  // the loop's latency samples (report_dispatch)
   loop.on_progress = [watch = LoopWatch{opt, p, executor, workload, gpu_store.get()}, &opt, &loop, &executor,
                       &g = p.g](Time now, const RunStats& st) mutable {
     watch(now, st);
@@ -564,7 +572,7 @@ void run(const RenderOptions& opt, const Frame& f, const Blocks& b, const Render
 
   report_image(workload, store, film, res);
   report_samples(schedule, pool, p, sb, res);
-  report_dispatch(schedule, pool, p, res);
+  report_dispatch(schedule, pool, p, loop.triggers(), res);
   report_gpu(opt, gpu_store.get(), res);
   res.metrics_json = render_metrics_json(res, schedule, executor.busy_seconds());
   if (opt.keep_schedule_outputs) {

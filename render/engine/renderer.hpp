@@ -112,9 +112,10 @@ struct RenderResult {
   // after the job's inputs and the thread itself were ready, before the job started — the
   // loop's dispatch latency (events, planning, thread wake-up), which the plan does not see.
   std::vector<Time> dispatch_gaps;
-  // The same for E-jobs planned only after the thread's previous job had ended (the thread
-  // ran dry and waited for the loop): (that previous job's duration, the gap). The control
-  // loop's latency (DeviceGraph::loop) is fitted to them.
+  // E-jobs planned only after the thread's previous job had ended (the thread ran dry and
+  // waited for the loop), in answer to a finished E-job: (that E-job's duration, the start
+  // minus the later of the ready time above and that E-job's end). The control loop's
+  // latency (DeviceGraph::loop) is fitted to them.
   std::vector<std::pair<Time, Time>> loop_samples;
   // The GPU: the device used ("" when none), why none or what failed.
   std::string gpu_device, gpu_status = "none";

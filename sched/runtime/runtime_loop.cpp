@@ -13,12 +13,18 @@ void RuntimeLoop::plan_and_dispatch(Time now, RunStats& st) {
   st.execs += static_cast<std::uint64_t>(ps.execs);
   st.transfers += static_cast<std::uint64_t>(ps.transfers);
   st.evictions += static_cast<std::uint64_t>(ps.evictions);
+  if (record_triggers && batch_trigger_.end >= 0 && dispatched_ < schedule_.activity_count()) {
+    triggers_.resize(schedule_.activity_count());
+    for (std::size_t id = dispatched_; id < triggers_.size(); ++id) triggers_[id] = batch_trigger_;
+  }
+  batch_trigger_ = {};
   for (; dispatched_ < schedule_.activity_count(); ++dispatched_)
     executor_.dispatch(static_cast<ActivityId>(dispatched_), schedule_.activity(static_cast<ActivityId>(dispatched_)));
 }
 
 bool RuntimeLoop::absorb(const std::vector<ExecutorEvent>& events, std::vector<ActivityId>& failed) {
   bool new_jobs = false;
+  batch_trigger_ = {};
   for (const ExecutorEvent& e : events) {
     switch (e.type) {
       case ExecutorEvent::Type::Started: schedule_.on_started(e.activity, e.time); break;
@@ -28,6 +34,7 @@ bool RuntimeLoop::absorb(const std::vector<ExecutorEvent>& events, std::vector<A
         schedule_.on_finished(e.activity, e.time);
         const Activity& a = schedule_.activity(e.activity);
         if (a.kind == ActivityKind::Exec) {
+          if (batch_trigger_.end < 0 || e.time < batch_trigger_.end) batch_trigger_ = {e.time, e.time - a.start};
           pool_.mark_done(a.job);
           const std::size_t q = pool_.queued_count();
           workload_.on_job_finished(a.job, e.time, pool_, schedule_);

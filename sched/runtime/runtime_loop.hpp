@@ -5,6 +5,7 @@
 // queued (Sec. 4.2), and whenever new jobs arrive while some device is idle.
 #pragma once
 #include <functional>
+#include <vector>
 
 #include "sched/runtime/executor.hpp"
 #include "sched/runtime/fault.hpp"
@@ -41,6 +42,15 @@ class RuntimeLoop {
   // An activity that fails on its own (an I/O error reading a block) is retried this many
   // times, then the run ends with a std::runtime_error naming it.
   int max_retries = 3;
+  // Per activity (by id; shorter when the last ones had none): the E-job whose end the plan
+  // that committed it answered, the latest to finish in the batch of events before that
+  // plan, as its end and its duration (end < 0: the plan followed no finished E-job). The
+  // renderer fits the loop's latency from a job's start to this end (DeviceGraph::loop).
+  struct Trigger {
+    Time end = -1, exec_seconds = 0;
+  };
+  const std::vector<Trigger>& triggers() const { return triggers_; }
+  bool record_triggers = false;  // off: triggers() stays empty (the simulator needs none)
 
  private:
   void plan_and_dispatch(Time now, RunStats& st);
@@ -64,6 +74,8 @@ class RuntimeLoop {
   std::size_t next_fault_ = 0;
   std::vector<std::pair<std::int64_t, int>> retries_;  // (block or ~job, failures), small
   Time last_end_ = 0;  // the latest Finished event
+  Trigger batch_trigger_;  // the batch's latest finished E-job, for the next plan
+  std::vector<Trigger> triggers_;
 };
 
 }  // namespace rayline

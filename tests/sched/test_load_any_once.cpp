@@ -130,12 +130,41 @@ TEST(LoadAnyOnce, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
     ExactExecutor ex(s);
     StaticWorkload wl;
     RuntimeLoop loop(lao, ex, wl, pool, s);
+    loop.record_triggers = seed % 2 == 0;
     const RunStats st = loop.run();
     ASSERT_FALSE(st.stalled) << seed;
     for (std::size_t j = 0; j < pool.job_count(); ++j) EXPECT_EQ(pool.state(static_cast<JobId>(j)), JobState::Done);
     const auto c = rayline::testing::check_schedule(s, pool);
     for (const auto& e : c.errors) ADD_FAILURE() << "seed " << seed << ": " << e;
     EXPECT_GE(lao.rounds(), 1u);
+    // What each plan answered (RuntimeLoop::triggers, the renderer's loop-latency samples):
+    // a finished E-job, ended by the time the plan committed the activity, with its own
+    // duration; the first plan (before anything ran) answered none; later rounds did.
+    const auto& tr = loop.triggers();
+    if (!loop.record_triggers) {
+      EXPECT_TRUE(tr.empty());
+      continue;
+    }
+    EXPECT_LE(tr.size(), s.activity_count());
+    std::size_t answered = 0;
+    for (std::size_t id = 0; id < tr.size(); ++id) {
+      if (tr[id].end < 0) continue;
+      ++answered;
+      const Activity& a = s.activity(static_cast<ActivityId>(id));
+      EXPECT_LE(tr[id].end, a.start + 1e-12) << "seed " << seed << ": activity " << id;
+      bool found = false;
+      for (std::size_t e = 0; e < s.activity_count() && !found; ++e) {
+        const Activity& x = s.activity(static_cast<ActivityId>(e));
+        found = x.kind == ActivityKind::Exec && x.end == tr[id].end && x.end - x.start == tr[id].exec_seconds;
+      }
+      EXPECT_TRUE(found) << "seed " << seed << ": activity " << id << " answered no E-job that ended at " << tr[id].end;
+    }
+    for (std::size_t id = 0; id < tr.size(); ++id) {
+      if (s.activity(static_cast<ActivityId>(id)).planned_start == 0) EXPECT_LT(tr[id].end, 0) << "seed " << seed;
+    }
+    if (lao.rounds() > 1) {
+      EXPECT_GT(answered, 0u) << "seed " << seed;
+    }
   }
 }
 
