@@ -160,7 +160,9 @@ TEST(LoadAnyOnce, RunsEveryJobOnceWithValidSchedulesOnRandomInstances) {
       EXPECT_TRUE(found) << "seed " << seed << ": activity " << id << " answered no E-job that ended at " << tr[id].end;
     }
     for (std::size_t id = 0; id < tr.size(); ++id) {
-      if (s.activity(static_cast<ActivityId>(id)).planned_start == 0) EXPECT_LT(tr[id].end, 0) << "seed " << seed;
+      if (s.activity(static_cast<ActivityId>(id)).planned_start == 0) {
+        EXPECT_LT(tr[id].end, 0) << "seed " << seed;
+      }
     }
     if (lao.rounds() > 1) {
       EXPECT_GT(answered, 0u) << "seed " << seed;
