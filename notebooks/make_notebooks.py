@@ -157,7 +157,7 @@ ab['steady_rays_shot_per_second'] = pd.to_numeric(ab.steady_rays_shot_per_second
 ab = ab[ab.status == 'ok'].copy()
 ab['is_steady'] = ab.steady.astype(str).str.lower().isin(['true', '1'])
 variants = [v for v in ['every rule', 'without ownership', 'without image-split', 'without completion', 'without batching',
-                        'without no-waiting', 'without job-size', 'with generation', 'with hold'] if v in set(ab.label)]
+                        'without no-waiting', 'without job-size', 'without room', 'with generation', 'with hold'] if v in set(ab.label)]
 bestab = (ab[ab.is_steady].sort_values(['steady_rays_shot_per_second', 'clients'], ascending=[True, False])
           .groupby(['scene', 'label']).tail(1).set_index(['scene', 'label']))
 fig, axes = plt.subplots(1, 2, figsize=(12, 3.6))

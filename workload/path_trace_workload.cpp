@@ -195,6 +195,9 @@ JobId PathTraceWorkload::add_generate(std::uint32_t uid, RayCounts rays, NodeId 
   s.put_initial(rb, client_memory, now, false);
   Job job = make_job(PtJob::Generate, -1, rb, 0, now);
   job.node_hint = hint;
+  std::uint64_t wave = 0;
+  for (const auto& [key, n] : rays) wave += n;
+  job.expected_output_bytes = static_cast<Bytes>(wave) * bytes_per(PtJob::Intersect);  // its camera rays
   const JobId j = pool.add_job(std::move(job));
   JobInfo& I = info(j);
   I.kind = PtJob::Generate;

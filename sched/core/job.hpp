@@ -23,6 +23,9 @@ struct Job {
   // The node the workload made this job for (kNone: any). Set only when the scheduler asked
   // for it (Scheduler::ray_origin); a policy that never asks ignores it.
   NodeId node_hint = kNone;
+  // Bytes the job will write that its outputs do not declare (the rays a GenerateRays job
+  // makes; 0: none or unknown). A policy may keep room for them (docs/rayline-policy.md).
+  Bytes expected_output_bytes = 0;
 };
 
 enum class JobState : std::uint8_t { Queued, Planned, Done, Discarded };

@@ -174,7 +174,7 @@ def peak(c):
                   label=LABEL[base] + " free I/O", duration=dur, extra=["--start", "warm", "--no-timeline"])
 
 
-RAYLINE_RULES = ["ownership", "image-split", "completion", "batching", "no-waiting", "job-size"]  # docs/rayline-policy.md
+RAYLINE_RULES = ["ownership", "image-split", "completion", "batching", "no-waiting", "job-size", "room"]  # docs/rayline-policy.md
 RAYLINE_RULES_ON = ["generation", "hold"]  # off by default (rule 8; rule 4's hold of every small ray job)
 
 

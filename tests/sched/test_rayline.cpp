@@ -439,3 +439,34 @@ TEST(RaylineRules, HoldKeepsNothingOnANodeWithEveryDeviceIdle) {
   rs.plan(0.01, pool, s);
   EXPECT_EQ(pool.state(few), JobState::Planned) << "node 0 idle: at once";
 }
+
+// Rule 9 (room): a wave of camera rays (a job that declares the rays it will write) is made
+// only where three times the rays on the memory device, the wave included, leave room for
+// the largest scene block; a wave that would crowd it out waits. Without the rule, both go.
+TEST(RaylineRules, RoomKeepsWavesThatWouldCrowdOutTheScene) {
+  for (const bool room : {true, false}) {
+    Cluster c(1, false);  // one node: 8 GiB of RAM, one CPU thread
+    JobPool pool;
+    Schedule s(c.g, pool);
+    (void)scene_block(pool, s, c, 1500 * kMB, "0");
+    const BlockId parked = rayline::testing::add_block(pool, "parked", DataKind::RayQueue, 2000 * kMB);
+    s.put_initial(parked, c.ram[0], 0, false);  // 2 GB of rays no job reads yet
+    auto wave = [&](Bytes bytes, const std::string& tag) {
+      const BlockId req = rayline::testing::add_block(pool, "request" + tag, DataKind::Generic, 1000);
+      s.put_initial(req, c.ram[0], 0, false);
+      Job j;
+      j.name = "wave" + tag;
+      j.type = 0;
+      j.inputs = {req};
+      j.expected_output_bytes = bytes;
+      return pool.add_job(std::move(j));
+    };
+    // 8.59 GB - 3 x (2.0 + 0.1) GB = 2.29 GB >= 1.5 GB; with 0.4 GB more, 1.09 GB < 1.5 GB.
+    const JobId small = wave(100 * kMB, "0");
+    const JobId large = wave(400 * kMB, "1");
+    RaylineScheduler rs(rayline_options(0.5, room ? 0u : rayline_rule_bit("room")));
+    rs.plan(0, pool, s);
+    EXPECT_EQ(pool.state(small), JobState::Planned) << "room " << room;
+    EXPECT_EQ(pool.state(large), room ? JobState::Queued : JobState::Planned) << "room " << room;
+  }
+}

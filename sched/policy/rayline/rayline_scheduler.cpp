@@ -32,6 +32,7 @@ RaylineOptions rayline_options(Time horizon, unsigned off, unsigned on_rules) {
   o.no_waiting = on("no-waiting");
   o.job_seconds = on("job-size") ? horizon / 4 : 0;
   o.owner_generation = on("generation");
+  o.room = on("room");
   if (!on("batching") || !(on("hold") || on("generation"))) o.min_local_bytes = 0;
   return o;
 }
@@ -43,7 +44,7 @@ std::string RaylineScheduler::describe() const {
          "s; no_waiting=" + (opt_.no_waiting ? "1" : "0") + "; slack=" + std::to_string(opt_.slack) +
          "s; job_seconds=" + std::to_string(opt_.job_seconds) +
          "s; owner_generation=" + (places_ray_origins() ? "1" : "0") +
-         "; min_local_bytes=" + std::to_string(opt_.min_local_bytes) + "; groups=" + std::to_string(own_.groups.size()) + "}";
+         "; min_local_bytes=" + std::to_string(opt_.min_local_bytes) + "; room=" + (opt_.room ? "1" : "0") + "; groups=" + std::to_string(own_.groups.size()) + "}";
 }
 
 // Rule 1's input: the scene blocks, in id order, as they appear in the pool.
@@ -55,6 +56,7 @@ void RaylineScheduler::update_scene(const JobPool& pool, const DeviceGraph& g) {
     if (pool.block(b).kind != DataKind::SceneData) continue;
     scene_index_[blocks_seen_] = static_cast<std::int32_t>(scene_.size());
     scene_.push_back(b);
+    largest_scene_ = std::max(largest_scene_, pool.block(b).bytes);
     changed = true;
   }
   if (!changed) return;
@@ -151,6 +153,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     bound_ = &s;
     own_ = {};
     scene_.clear();
+    largest_scene_ = 0;
     scene_index_.clear();
     blocks_seen_ = 0;
     inputs_.clear();
@@ -336,9 +339,40 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
     }
     return false;
   };
+  // Rule 9 (room): a wave of camera rays is made only on a memory device where the rays
+  // (all but scene data: nothing evicts them), the wave included, times room_factor, leave
+  // room for the largest scene block. A ray job writes up to two rays per ray it reads (a
+  // continuation and a shadow ray) before its input goes, so rays can triple; without the
+  // rule a node's memories fill with rays that wait for blocks no memory can take any more.
+  // What no eviction frees is computed once per plan of the node.
+  // Waves planned and not yet made count too (their rays are in no memory yet).
+  room_.clear();
+  std::erase_if(waves_, [&](const auto& w) { return pool.state(w.first) != JobState::Planned; });
+  // With nothing in flight anywhere and no wave planned, no later event would ask again:
+  // one wave goes whatever the room (a memory too small for the scene then stalls the run
+  // visibly, on the jobs it cannot place).
+  const bool nothing_in_flight = s.unfinished() == 0;
+  auto room_for = [&](MemId m, Bytes wave) {
+    if (nothing_in_flight && waves_.empty()) return true;
+    auto it = std::find_if(room_.begin(), room_.end(), [m](const auto& r) { return r.first == m; });
+    if (it == room_.end()) {
+      Bytes scene_here = 0, planned = 0;
+      for (BlockId b : scene_)
+        if (s.copy_at(b, m)) scene_here += pool.block(b).bytes;
+      for (const auto& [job, on] : waves_)
+        if (g.computes[s.activity(pool.activity(job)).device].memory == m) planned += pool.job(job).expected_output_bytes;
+      const Bytes fixed = s.used(m) - std::min(s.used(m), scene_here) + planned;
+      const Bytes cap = g.memories[m].capacity;
+      room_.emplace_back(m, cap > fixed ? cap - fixed : 0);
+      it = room_.end() - 1;
+    }
+    const double cap = static_cast<double>(g.memories[m].capacity), rays = cap - static_cast<double>(it->second);
+    return cap - opt_.room_factor * (rays + static_cast<double>(wave)) >= static_cast<double>(largest_scene_);
+  };
   auto pick = [&](JobId j, bool resident) {
     Pick best;
     const JobTypeId type = pool.job(j).type;
+    const Bytes wave = opt_.room ? pool.job(j).expected_output_bytes : 0;
     // Rule 3: among the devices whose memory holds the job's scene blocks when one can
     // take it (moving a block inside the node evicts another, which may then have to come
     // back from the disk), else among all.
@@ -358,6 +392,7 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       // A block already on the node moves inside it only if that keeps every block the
       // node holds in some memory of it.
       if (resident && !holds_scene(j, d) && drops_last_copy(j, d)) continue;
+      if (wave > 0 && !room_for(g.computes[d].memory, wave)) continue;
       const Time start = placer_->earliest_start(j, d, ready, s);
       if (start == kNever) continue;
       const Time exec = Placer::exec_estimate(j, d, s);
@@ -368,6 +403,12 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   };
   auto commit = [&](JobId j, const Pick& p) {
     if (!placer_->place(j, p.d, p.ready, now, pool, s, st)) return;
+    if (const Bytes wave = pool.job(j).expected_output_bytes; opt_.room && wave > 0) {  // rule 9
+      const MemId m = g.computes[p.d].memory;
+      waves_.emplace_back(j, m);
+      for (auto& [rm, free] : room_)
+        if (rm == m) free = free > wave ? free - wave : 0;
+    }
     // Its transfers land in its device's memory and the node's host memory: another GPU's
     // memory keeps what it found.
     for (MemId m : g.nodes[n].memories)

@@ -26,7 +26,10 @@
 //      their owner while the device still works, and a node is planned again only once
 //      one of its devices has less than half the horizon left;
 //   7. device-sized jobs (job_size.hpp): a ray job stops taking merged queues once it holds
-//      what the fastest device traces in a quarter of the horizon.
+//      what the fastest device traces in a quarter of the horizon;
+//   8. (off by default) camera rays made by the owners of the blocks they enter;
+//   9. room: a wave of camera rays is made only where three times the rays on the memory
+//      device, the wave included, leave room for the largest scene block.
 #pragma once
 #include <memory>
 #include <optional>
@@ -61,13 +64,18 @@ struct RaylineOptions {
   // node runs something (0: off). rayline_options() sets it only with the "hold" rule or
   // rule 8 switched on, and rule 4 not switched off.
   Bytes min_local_bytes = 1 << 20;
+  // Rule 9: a wave of camera rays is made only on a memory device where room_factor times its
+  // rays (everything but scene data, the wave included) leaves room for the largest scene
+  // block (rayline_scheduler.cpp, plan_node).
+  bool room = true;
+  double room_factor = 3;
 };
 
 // The rules that can be switched off (docs/rayline-policy.md), for the ablation: bit i is
 // rule kRaylineRuleNames[i]. rayline_rules_off("ownership,batching") gives their mask;
 // std::nullopt names an unknown rule.
 inline constexpr std::string_view kRaylineRuleNames[] = {"ownership", "image-split", "completion", "batching",
-                                                         "no-waiting", "job-size", "generation", "hold"};
+                                                         "no-waiting", "job-size", "generation", "hold", "room"};
 constexpr unsigned rayline_rule_bit(std::string_view name) {
   for (unsigned i = 0; i < std::size(kRaylineRuleNames); ++i)
     if (kRaylineRuleNames[i] == name) return 1u << i;
@@ -104,6 +112,9 @@ class RaylineScheduler final : public Scheduler {
   std::unique_ptr<Placer> placer_;
   Ownership own_;
   std::vector<BlockId> scene_;             // scene blocks in id order
+  Bytes largest_scene_ = 0;                // rule 9: the largest of them
+  std::vector<std::pair<MemId, Bytes>> room_;  // rule 9: per memory device, capacity minus what no eviction frees
+  std::vector<std::pair<JobId, MemId>> waves_;  // rule 9: GenerateRays jobs planned, not yet done
   std::vector<std::int32_t> scene_index_;  // per block id: its index in scene_, or -1
   std::size_t blocks_seen_ = 0;
   std::vector<double> group_weight_;
