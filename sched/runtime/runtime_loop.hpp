@@ -43,7 +43,7 @@ class RuntimeLoop {
   // times, then the run ends with a std::runtime_error naming it.
   int max_retries = 3;
   // Per activity (by id; shorter when the last ones had none): the E-job whose end the plan
-  // that committed it answered, the latest to finish in the batch of events before that
+  // that committed it answered, the earliest to finish in the batch of events before that
   // plan, as its end and its duration (end < 0: the plan followed no finished E-job). The
   // renderer fits the loop's latency from a job's start to this end (DeviceGraph::loop).
   struct Trigger {
@@ -74,7 +74,7 @@ class RuntimeLoop {
   std::size_t next_fault_ = 0;
   std::vector<std::pair<std::int64_t, int>> retries_;  // (block or ~job, failures), small
   Time last_end_ = 0;  // the latest Finished event
-  Trigger batch_trigger_;  // the batch's latest finished E-job, for the next plan
+  Trigger batch_trigger_;  // the batch's earliest finished E-job, for the next plan
   std::vector<Trigger> triggers_;
 };
 

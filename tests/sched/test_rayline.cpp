@@ -425,19 +425,14 @@ TEST(RaylineRules, HoldKeepsSmallLocalJobsWhileTheirNodeRuns) {
 // hop after hop while the devices that would trace them wait).
 TEST(RaylineRules, HoldKeepsNothingOnANodeWithEveryDeviceIdle) {
   EightBlocksWarm w(true, 0, 0, 2, rayline_options(0.5, 0, rayline_rule_bit("hold")));
-  const Cluster& c = w.c;
-  JobPool& pool = w.pool;
-  Schedule& s = w.s;
-  const std::vector<BlockId>& scene = w.scene;
-  RaylineScheduler& rs = w.rs;
   // With a GPU each node holds the scene: two groups of one node, rays stay on their node.
-  const JobId busy = ray_job(pool, s, scene[7], 6'400'000, c.ram[1], "busy");
-  rs.plan(0, pool, s);
-  ASSERT_EQ(pool.state(busy), JobState::Planned);
-  ASSERT_EQ(c.g.computes[s.activity(pool.activity(busy)).device].node, 1) << "node 0 stays idle";
-  const JobId few = ray_job(pool, s, scene[1], 64'000, c.ram[0], "few", 0.01);
-  rs.plan(0.01, pool, s);
-  EXPECT_EQ(pool.state(few), JobState::Planned) << "node 0 idle: at once";
+  const JobId busy = ray_job(w.pool, w.s, w.scene[7], 6'400'000, w.c.ram[1], "busy");
+  w.rs.plan(0, w.pool, w.s);
+  ASSERT_EQ(w.pool.state(busy), JobState::Planned);
+  ASSERT_EQ(w.c.g.computes[w.s.activity(w.pool.activity(busy)).device].node, 1) << "node 0 stays idle";
+  const JobId few = ray_job(w.pool, w.s, w.scene[1], 64'000, w.c.ram[0], "few", 0.01);
+  w.rs.plan(0.01, w.pool, w.s);
+  EXPECT_EQ(w.pool.state(few), JobState::Planned) << "node 0 idle: at once";
 }
 
 // Rule 9 (room): a wave of camera rays (a job that declares the rays it will write) is made

@@ -344,9 +344,9 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   // room for the largest scene block. A ray job writes up to two rays per ray it reads (a
   // continuation and a shadow ray) before its input goes, so rays can triple; without the
   // rule a node's memories fill with rays that wait for blocks no memory can take any more.
-  // What no eviction frees is computed once per plan of the node.
-  // Waves planned and not yet made count too (their rays are in no memory yet).
-  room_.clear();
+  // What no eviction frees is computed once per plan of the node; waves planned and not yet
+  // made count too (their rays are in no memory yet).
+  rays_on_.clear();
   std::erase_if(waves_, [&](const auto& w) { return pool.state(w.first) != JobState::Planned; });
   // With nothing in flight anywhere and no wave planned, no later event would ask again:
   // one wave goes whatever the room (a memory too small for the scene then stalls the run
@@ -354,20 +354,18 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   const bool nothing_in_flight = s.unfinished() == 0;
   auto room_for = [&](MemId m, Bytes wave) {
     if (nothing_in_flight && waves_.empty()) return true;
-    auto it = std::find_if(room_.begin(), room_.end(), [m](const auto& r) { return r.first == m; });
-    if (it == room_.end()) {
-      Bytes scene_here = 0, planned = 0;
+    auto it = std::find_if(rays_on_.begin(), rays_on_.end(), [m](const auto& r) { return r.first == m; });
+    if (it == rays_on_.end()) {
+      Bytes scene_here = 0, rays = 0;
       for (BlockId b : scene_)
         if (s.copy_at(b, m)) scene_here += pool.block(b).bytes;
       for (const auto& [job, on] : waves_)
-        if (g.computes[s.activity(pool.activity(job)).device].memory == m) planned += pool.job(job).expected_output_bytes;
-      const Bytes fixed = s.used(m) - std::min(s.used(m), scene_here) + planned;
-      const Bytes cap = g.memories[m].capacity;
-      room_.emplace_back(m, cap > fixed ? cap - fixed : 0);
-      it = room_.end() - 1;
+        if (on == m) rays += pool.job(job).expected_output_bytes;
+      rays += s.used(m) - std::min(s.used(m), scene_here);
+      it = rays_on_.emplace(rays_on_.end(), m, rays);
     }
-    const double cap = static_cast<double>(g.memories[m].capacity), rays = cap - static_cast<double>(it->second);
-    return cap - opt_.room_factor * (rays + static_cast<double>(wave)) >= static_cast<double>(largest_scene_);
+    const double cap = static_cast<double>(g.memories[m].capacity);
+    return cap - opt_.room_factor * static_cast<double>(it->second + wave) >= static_cast<double>(largest_scene_);
   };
   auto pick = [&](JobId j, bool resident) {
     Pick best;
@@ -406,8 +404,8 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
     if (const Bytes wave = pool.job(j).expected_output_bytes; opt_.room && wave > 0) {  // rule 9
       const MemId m = g.computes[p.d].memory;
       waves_.emplace_back(j, m);
-      for (auto& [rm, free] : room_)
-        if (rm == m) free = free > wave ? free - wave : 0;
+      for (auto& [rm, rays] : rays_on_)
+        if (rm == m) rays += wave;
     }
     // Its transfers land in its device's memory and the node's host memory: another GPU's
     // memory keeps what it found.

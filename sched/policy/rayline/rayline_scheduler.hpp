@@ -113,8 +113,8 @@ class RaylineScheduler final : public Scheduler {
   Ownership own_;
   std::vector<BlockId> scene_;             // scene blocks in id order
   Bytes largest_scene_ = 0;                // rule 9: the largest of them
-  std::vector<std::pair<MemId, Bytes>> room_;  // rule 9: per memory device, capacity minus what no eviction frees
-  std::vector<std::pair<JobId, MemId>> waves_;  // rule 9: GenerateRays jobs planned, not yet done
+  std::vector<std::pair<MemId, Bytes>> rays_on_;  // rule 9: per memory device, what no eviction frees (this plan)
+  std::vector<std::pair<JobId, MemId>> waves_;    // rule 9: waves planned, not yet made, and their memory device
   std::vector<std::int32_t> scene_index_;  // per block id: its index in scene_, or -1
   std::size_t blocks_seen_ = 0;
   std::vector<double> group_weight_;
