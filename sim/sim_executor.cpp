@@ -30,6 +30,7 @@ void SimExecutor::dispatch(ActivityId id, const Activity& a) {
   }
   State& s = st_[id];
   s.dispatched = true;
+  s.placeholder = s.placeholder || a.state == ActivityState::Failed;  // aborted before its dispatch
   s.release = release_;
   if (a.kind == ActivityKind::Transfer) {
     s.channel_prev = last_on_channel_[a.channel];

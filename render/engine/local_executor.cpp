@@ -43,8 +43,9 @@ Time LocalExecutor::now() const {
 }
 
 void LocalExecutor::dispatch(ActivityId id, const Activity& a) {
-  Item it{id, {a.deps.begin(), a.deps.end()}, factory_(id, a), hint_factory_ ? hint_factory_(id, a) : Task{},
-          {a.timeline_prev.begin(), a.timeline_prev.end()}};
+  const bool aborted = a.state == ActivityState::Failed;  // before its dispatch (a fault at the start)
+  Item it{id, {a.deps.begin(), a.deps.end()}, aborted ? Task{} : factory_(id, a),
+          hint_factory_ && !aborted ? hint_factory_(id, a) : Task{}, {a.timeline_prev.begin(), a.timeline_prev.end()}};
   it.wait.insert(it.wait.end(), a.timeline_prev.begin(), a.timeline_prev.end());
   const std::size_t lane = a.kind == ActivityKind::Exec
                                ? static_cast<std::size_t>(a.device)
@@ -55,6 +56,14 @@ void LocalExecutor::dispatch(ActivityId id, const Activity& a) {
     if (static_cast<std::size_t>(id) >= done_.size()) done_.resize(static_cast<std::size_t>(id) + 1, 0);
     if (static_cast<std::size_t>(id) >= lane_of_.size()) lane_of_.resize(static_cast<std::size_t>(id) + 1, -1);
     lane_of_[static_cast<std::size_t>(id)] = static_cast<std::int32_t>(lane);
+    if (aborted) {
+      if (lost_[lane]) {  // nothing runs on a lost lane any more
+        done_[static_cast<std::size_t>(id)] = 1;
+        return;
+      }
+      it.placeholder = true;
+      it.wait = it.prev;
+    }
     lanes_[lane].push_back(std::move(it));
     ++in_flight_;
     // Next behind a running task: its lane's thread is busy, so the hint runs here.

@@ -4,12 +4,13 @@
 
 namespace rayline {
 
-void ExactExecutor::dispatch(ActivityId id, const Activity&) {
+void ExactExecutor::dispatch(ActivityId id, const Activity& a) {
   if (static_cast<std::size_t>(id) >= st_.size()) {
     st_.resize(static_cast<std::size_t>(id) + 1);
     waiters_.resize(static_cast<std::size_t>(id) + 1);
   }
   st_[id].dispatched = true;
+  if (a.state == ActivityState::Failed) st_[id].placeholder = true;  // aborted before its dispatch
   try_start(id);
 }
 

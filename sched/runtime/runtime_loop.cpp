@@ -7,6 +7,11 @@
 namespace rayline {
 
 void RuntimeLoop::plan_and_dispatch(Time now, RunStats& st) {
+  plan(now, st);
+  dispatch_new();
+}
+
+void RuntimeLoop::plan(Time now, RunStats& st) {
   const PlanStats ps = scheduler_.plan(now, pool_, schedule_);
   ++st.plan_calls;
   st.scheduler_wall_seconds += ps.wall_seconds;
@@ -18,6 +23,11 @@ void RuntimeLoop::plan_and_dispatch(Time now, RunStats& st) {
     for (std::size_t id = dispatched_; id < triggers_.size(); ++id) triggers_[id] = batch_trigger_;
   }
   batch_trigger_ = {};
+}
+
+void RuntimeLoop::dispatch_new() {
+  // (Activities aborted before their dispatch, by a fault due at the start, reach the
+  // executor too: each engine ends them at once, after their timeline predecessors.)
   for (; dispatched_ < schedule_.activity_count(); ++dispatched_)
     executor_.dispatch(static_cast<ActivityId>(dispatched_), schedule_.activity(static_cast<ActivityId>(dispatched_)));
 }
@@ -207,10 +217,17 @@ bool RuntimeLoop::drained(RunStats& st) {
 RunStats RuntimeLoop::run(Time until) {
   RunStats st;
   workload_.start(executor_.now(), pool_, schedule_);
-  if (pool_.queued_count() > 0) plan_and_dispatch(executor_.now(), st);
-  // Faults due already (at 0 s) apply now, before a thread of a real engine can start what
-  // was planned on a device lost at that time; later ones at their first batch of events.
-  while (next_fault_ < faults_.size() && executor_.now() >= faults_[next_fault_].at) apply_fault(faults_[next_fault_++], st);
+  if (pool_.queued_count() > 0) plan(executor_.now(), st);
+  // Faults due already (at 0 s) apply between the first plan and its dispatch, so no thread
+  // of a real engine can start what was planned on a device lost at that time (the plan's
+  // work there is planned again); later ones apply at their first batch of events.
+  bool faulted = false;
+  while (next_fault_ < faults_.size() && executor_.now() >= faults_[next_fault_].at) {
+    apply_fault(faults_[next_fault_++], st);
+    faulted = true;
+  }
+  if (faulted && pool_.queued_count() > 0) plan(executor_.now(), st);
+  dispatch_new();
   // The executor runs until nothing is in flight (then the workload may add more, or the
   // run is over) or until `until`; every batch it reports may trigger a plan (Sec. 4.2).
   const Executor::Sink sink = [&](std::vector<ExecutorEvent>& events) {

@@ -54,6 +54,8 @@ class RuntimeLoop {
 
  private:
   void plan_and_dispatch(Time now, RunStats& st);
+  void plan(Time now, RunStats& st);
+  void dispatch_new();  // what the plans committed since the last dispatch, to the executor
   bool handle(std::vector<ExecutorEvent>& events, RunStats& st);  // true: re-plan now
   // After the executor drained: true when the run is over (finished or stalled).
   bool drained(RunStats& st);

@@ -31,9 +31,9 @@ void expect_whole(const RenderResult& r) {
 TEST(RenderFaults, LaneLostMidRenderSameImage) {
   const RenderResult clean = render(base());
   expect_whole(clean);
-  // W.cpu0 at 0 s takes the first plan's E-job (ties go to the first device) before its
-  // block is loaded: planned work is always re-planned. W.cpu1 later: mid-render, with or
-  // without planned work there at that moment (timing).
+  // W.cpu0 at 0 s: the fault lands between the first plan and its dispatch, so the first
+  // plan's work there (ties go to the first device) is always planned again. W.cpu1 later:
+  // mid-render, with or without planned work there at that moment (timing).
   for (const char* fault : {"W.cpu0@0s", "W.cpu1@10ms", "W.cpu1@40ms"}) {
     RenderOptions o = base();
     o.memory_budget = clean.scene_block_bytes / 4;

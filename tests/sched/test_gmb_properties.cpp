@@ -499,7 +499,7 @@ TEST(GmbExhaustive, WithinReportedRatioOfOptimumOnSmallInstances) {
 // work on the devices left and completes: every job done by exactly one E-job, the plan
 // invariants hold, and nothing runs on a lost device after its fault.
 TEST(GmbFaults, ComputeDevicesLostMidRunEveryJobStillDoneOnce) {
-  std::uint64_t aborted = 0, requeued = 0;
+  std::uint64_t aborted = 0, requeued = 0, start_requeued = 0;
   int applied = 0;
   for (int seed = 0; seed < 60; ++seed) {
     std::mt19937 rng(7000 + seed);
@@ -516,7 +516,8 @@ TEST(GmbFaults, ComputeDevicesLostMidRunEveryJobStillDoneOnce) {
     Instance clean = base;
     const Time m0 = run(clean, horizon, nullptr, false).makespan;
     Fault f;
-    f.at = m0 * std::uniform_real_distribution<double>(0.05, 0.8)(rng);
+    // Every sixth at the start: between the first plan and its dispatch.
+    f.at = seed % 6 == 5 ? 0.0 : m0 * std::uniform_real_distribution<double>(0.05, 0.8)(rng);
     std::vector<DeviceId> all(base.g.computes.size());
     for (std::size_t d = 0; d < all.size(); ++d) all[d] = static_cast<DeviceId>(d);
     std::shuffle(all.begin(), all.end(), rng);
@@ -530,6 +531,7 @@ TEST(GmbFaults, ComputeDevicesLostMidRunEveryJobStillDoneOnce) {
     applied += st.faults;
     aborted += st.aborted;
     requeued += st.requeued;
+    if (f.at == 0.0) start_requeued += st.requeued;
     if (HasFailure()) {
       ADD_FAILURE() << "first failing seed " << seed;
       return;
@@ -537,6 +539,7 @@ TEST(GmbFaults, ComputeDevicesLostMidRunEveryJobStillDoneOnce) {
   }
   EXPECT_GT(applied, 40);
   EXPECT_GT(requeued, 20u) << "the faults must actually hit planned work";
+  EXPECT_GT(start_requeued, 0u) << "a fault at 0 s must take back the first plan's work on the lost devices";
   std::printf("[faults] %d faults applied, %llu activities aborted, %llu jobs queued again; every job done once\n",
               applied, static_cast<unsigned long long>(aborted), static_cast<unsigned long long>(requeued));
 }
