@@ -61,6 +61,7 @@ void JobPool::mark_discarded(JobId j) {
 void JobPool::add_input(JobId j, BlockId b) {
   if (state_[j] != JobState::Queued) throw std::logic_error("can only merge into a queued job");
   jobs_[j].inputs.push_back(b);
+  merged_.push_back(j);
   ++input_count_[j];
   ++demand_.at(b);
 }

@@ -47,6 +47,9 @@ class JobPool {
   // Sec. 5.1: a ray queue arriving where a queued job already holds one for the same block
   // merges into it: the block becomes one more input of that (still unplanned) job.
   void add_input(JobId j, BlockId b);
+  // The jobs that took an input by add_input, one entry per merge, in order (a policy reads
+  // those since its last look).
+  const std::vector<JobId>& merged() const { return merged_; }
 
   // Queued jobs that read block b (eviction value: data still wanted by the queue).
   int queued_demand(BlockId b) const { return demand_[b]; }
@@ -54,6 +57,7 @@ class JobPool {
  private:
   void remove_from_queue(JobId j);
   std::size_t first_numbered(std::int64_t number) const;  // the first queue entry numbered >= number
+  std::vector<JobId> merged_;
   std::vector<DataBlock> blocks_;
   std::vector<JobId> producer_;
   std::vector<int> demand_;

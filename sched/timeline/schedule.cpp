@@ -28,6 +28,7 @@ Schedule::Schedule(const DeviceGraph& graph, const JobPool& pool)
       resource_tl_(graph.resources.size()),
       channel_finish_(graph.channels.size(), 0.0),
       resource_version_(graph.resources.size(), 0),
+      node_epoch_(graph.nodes.size(), 0),
       used_(graph.memories.size(), 0),
       device_pending_(graph.computes.size(), 0) {
   std::vector<std::int32_t> fanout(graph.resources.size(), 0);
@@ -83,6 +84,16 @@ void Schedule::resource_busy_raised(ResourceId r, Time t) {
   }
 }
 
+void Schedule::touch(const Activity& a) {
+  if (a.kind == ActivityKind::Exec) {
+    touch_node(graph_->computes[a.device].node);
+    return;
+  }
+  const Channel& ch = graph_->channels[a.channel];
+  touch_memory(ch.from);
+  touch_memory(ch.to);
+}
+
 Copy* Schedule::mutable_copy(BlockId b, MemId m) {
   return const_cast<Copy*>(static_cast<const Schedule*>(this)->copy_at(b, m));
 }
@@ -95,6 +106,7 @@ void Schedule::add_copy(BlockId b, Copy c) {
   }
   if (copy_at(b, c.mem)) throw std::logic_error("block already on that memory device: " + pool_->block(b).name);
   used_[c.mem] += pool_->block(b).bytes;
+  touch_memory(c.mem);
   ++holders_version_[b];
   if (static_cast<std::uint32_t>(c.mem) < 64u) holder_mask_[static_cast<std::size_t>(b)] |= std::uint64_t{1} << c.mem;
   note_cached(b, c.mem);
@@ -356,6 +368,7 @@ void Schedule::evict(BlockId b, MemId m, Time at, ActivityId for_activity, const
     if (!it->users.empty()) evicted_readers_[it->producer].append(it->users.begin(), it->users.end());
   }
   used_[m] -= pool_->block(b).bytes;
+  touch_memory(m);
   v.erase(it);
   ++holders_version_[b];
   forget_holder(b, m);
@@ -457,6 +470,7 @@ ActivityId Schedule::commit_transfer(BlockId b, ChannelId c, JobId for_job, Time
   }
   // (start >= FinishTime(c) >= every busy_until on c, so each was raised to a.end.)
   for (ResourceId r : ch.resources) resource_busy_raised(r, a.end);
+  touch(a);
   acts_.push_back(std::move(a));
   pending_.push_back(id);
   ++unfinished_;
@@ -526,6 +540,7 @@ ActivityId Schedule::commit_exec(JobId j, DeviceId d, Time not_before, const Adm
   if (!tl.items.empty()) a.timeline_prev.push_back(tl.items.back());
   tl.items.push_back(id);
   tl.busy_until = a.end;
+  touch(a);
   acts_.push_back(std::move(a));
   pending_.push_back(id);
   ++unfinished_;
@@ -602,6 +617,7 @@ bool Schedule::cancel(ActivityId id) {
     for (BlockId o : job.outputs) withdraw_copy(o, m, id);
     for (BlockId b : job.inputs) forget_user(mutable_copy(b, m), id);
   }
+  touch(a);
   a.cancelled = true;
   a.duration = a.setup = 0;
   a.end = a.start;
@@ -612,6 +628,7 @@ bool Schedule::retime(ActivityId id, Time duration) {
   ++ends_epoch_;  // (leaving_order)
   Activity& a = acts_[id];
   if (a.kind != ActivityKind::Exec || a.state != ActivityState::Planned || a.cancelled) return false;
+  touch(a);
   a.duration = duration;
   a.setup = std::min(a.setup, duration);
   a.end = a.start + duration;
@@ -641,6 +658,7 @@ void Schedule::on_started(ActivityId id, Time t) {
   ++ends_epoch_;  // (leaving_order)
   Activity& a = acts_[id];
   if (a.state == ActivityState::Failed) return;  // aborted by fail() before it was reported
+  touch(a);
   a.state = ActivityState::Running;
   a.start = t;
   a.end = std::max(a.end, t);
@@ -650,6 +668,7 @@ void Schedule::on_finished(ActivityId id, Time t) {
   ++ends_epoch_;  // (leaving_order)
   Activity& a = acts_[id];
   if (a.state == ActivityState::Done || a.state == ActivityState::Failed) return;
+  touch(a);
   if (a.state == ActivityState::Planned) a.start = t;
   a.state = ActivityState::Done;
   a.end = t;
@@ -666,6 +685,7 @@ void Schedule::on_finished(ActivityId id, Time t) {
     l.after.erase(id);
     if (!l.after.empty()) continue;
     used_[l.mem] -= l.bytes;  // every activity it waited for has ended: the room is free
+    touch_memory(l.mem);
     l.bytes = 0;
     std::size_t& dead = dead_leaving_[static_cast<std::size_t>(w.mem)];
     if (++dead * 2 > lv.size()) {
@@ -762,6 +782,7 @@ void Schedule::reproject(Time now) {
     }
     for (ActivityId p : a.timeline_prev) s = std::max(s, acts_[p].end);
     a.start = s;
+    if (s + a.duration < a.end) touch(a);  // earlier than planned: room on its node's timelines (node_epoch)
     a.end = s + a.duration;
   }
   pending_.resize(w);

@@ -120,6 +120,13 @@ class Schedule {
   }
   // Bytes reserved on m (present, incoming, or leaving at a planned time).
   Bytes used(MemId m) const { return used_[m]; }
+  // Per node: moves whenever something on it changes: an activity on its compute devices,
+  // or on a channel from or to its memories, is committed, starts, ends, is cancelled,
+  // retimed or aborted; a copy on its memories comes, goes, or its room is freed. A policy
+  // that plans node by node (Rayline's) asks a node again only when this moved or time did.
+  std::uint64_t node_epoch(NodeId n) const {
+    return static_cast<std::size_t>(n) < node_epoch_.size() ? node_epoch_[static_cast<std::size_t>(n)] : 0;
+  }
   std::uint64_t holders_version(BlockId b) const {
     return static_cast<std::size_t>(b) < holders_version_.size() ? holders_version_[b] : 0;
   }
@@ -270,6 +277,14 @@ class Schedule {
   // channel on r finishes at the larger of what it did and t.
   void resource_busy_raised(ResourceId r, Time t);
   std::vector<std::uint64_t> resource_version_, holders_version_;
+  std::vector<std::uint64_t> node_epoch_;  // node_epoch()
+  void touch_node(NodeId n) {
+    if (n == kNone) return;
+    if (static_cast<std::size_t>(n) >= node_epoch_.size()) node_epoch_.resize(static_cast<std::size_t>(n) + 1, 0);
+    ++node_epoch_[static_cast<std::size_t>(n)];
+  }
+  void touch_memory(MemId m) { touch_node(graph_->memories[m].node); }
+  void touch(const Activity& a);  // the nodes a's device or channel belongs to
   std::vector<std::vector<Copy>> copies_;          // per block (grows with the pool)
   // Per memory device: the blocks that may be cache there (neither consumed nor pinned) and
   // had a copy there, ascending; admission() reads only these and drops the ones gone

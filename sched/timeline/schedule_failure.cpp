@@ -53,6 +53,7 @@ Schedule::Failure Schedule::fail(Time now, const std::vector<ActivityId>& seeds,
     --unfinished_;
     a.placeholder = a.state == ActivityState::Planned;
     a.state = ActivityState::Failed;
+    touch(a);
     a.cancelled = true;  // (read_after_eviction and the metrics skip it)
     a.duration = a.setup = 0;
     if (a.placeholder) {

@@ -174,3 +174,64 @@ TEST(ScheduleCancel, RefusesStartedActivitiesAndRayQueueMoves) {
   EXPECT_FALSE(s.cancel(t2)) << "already running";
   EXPECT_FALSE(s.activity(t2).cancelled);
 }
+
+// Schedule::node_epoch (what Rayline's policy reads to skip nodes whose plan would be the
+// same): it moves on a node exactly when something there changes. Two nodes, a disk and a
+// RAM on the first, a RAM on the second, a LAN channel between the RAMs.
+TEST(ScheduleNodeEpoch, MovesOnlyOnTheNodesAChangeTouches) {
+  DcgBuilder b;
+  const NodeId n0 = b.node("n0"), n1 = b.node("n1");
+  const MemId disk = b.mem("n0.disk", Bytes(1) << 40, MemoryKind::Disk, n0);
+  const MemId ram0 = b.mem("n0.ram", 100 * MB, MemoryKind::Host, n0);
+  const MemId ram1 = b.mem("n1.ram", 100 * MB, MemoryKind::Host, n1);
+  const ChannelId c_disk = b.channel(disk, ram0, 1e6);
+  const ChannelId c_lan = b.channel(ram0, ram1, 1e6);
+  const DeviceId cpu0 = b.dev("n0.cpu", ram0);
+  const DeviceId cpu1 = b.dev("n1.cpu", ram1);
+  b.timing(0, DataKind::SceneData, 1e9);
+  const DeviceGraph g = b.build();
+  JobPool pool;
+  const BlockId a = add_block(pool, "sceneA", DataKind::SceneData, MB);
+  const BlockId c = add_block(pool, "sceneC", DataKind::SceneData, MB);
+  const JobId j0 = add_job(pool, "j0", 0, {a});
+  const JobId j1 = add_job(pool, "j1", 0, {a});
+  Schedule s(g, pool);
+  auto epochs = [&] { return std::pair{s.node_epoch(n0), s.node_epoch(n1)}; };
+  s.put_initial(a, disk);
+  auto e = epochs();
+  EXPECT_EQ(e.second, 0u) << "a copy on n0 leaves n1 as it was";
+  // A load and an E-job on n0 touch n0 only.
+  const ActivityId t0 = s.commit_transfer(a, c_disk, j0, 0, s.admission(ram0, MB, {}));
+  s.commit_exec(j0, cpu0, 0, {});
+  EXPECT_GT(s.node_epoch(n0), e.first);
+  EXPECT_EQ(s.node_epoch(n1), e.second);
+  // A LAN transfer touches both ends; an E-job on n1 touches n1 only.
+  e = epochs();
+  s.commit_transfer(a, c_lan, j1, s.activity(t0).end, s.admission(ram1, MB, {}));
+  EXPECT_GT(s.node_epoch(n0), e.first);
+  EXPECT_GT(s.node_epoch(n1), e.second);
+  e = epochs();
+  s.commit_exec(j1, cpu1, 0, {});
+  EXPECT_EQ(s.node_epoch(n0), e.first);
+  EXPECT_GT(s.node_epoch(n1), e.second);
+  // Starts and ends move the nodes of what started or ended.
+  e = epochs();
+  s.on_started(t0, 0);
+  EXPECT_GT(s.node_epoch(n0), e.first);
+  EXPECT_EQ(s.node_epoch(n1), e.second);
+  // A reprojection that moves nothing earlier moves no epoch; the load ending early (it
+  // was planned to end at 1 s) pulls the LAN transfer and n1's E-job forward: both move.
+  s.reproject(0.5);
+  e = epochs();
+  s.reproject(0.6);
+  EXPECT_EQ(epochs(), e);
+  s.on_finished(t0, 0.7);
+  e = epochs();
+  s.reproject(0.7);
+  EXPECT_GT(s.node_epoch(n1), e.second) << "n1's work now starts earlier than planned";
+  // A copy placed on n1 touches n1 only.
+  e = epochs();
+  s.put_initial(c, ram1, 0, false);
+  EXPECT_EQ(s.node_epoch(n0), e.first);
+  EXPECT_GT(s.node_epoch(n1), e.second);
+}

@@ -163,6 +163,10 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     fresh_.clear();
     recheck_.clear();
     planned_at_.clear();
+    seen_epoch_.clear();
+    wake_at_.clear();
+    merged_into_.clear();
+    merged_seen_ = 0;
     reprojected_ = -kNever;
     long_wait_job_.clear();
   }
@@ -194,6 +198,21 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   if (recheck_.size() != g.nodes.size()) recheck_.assign(g.nodes.size(), -kNever);
   if (planned_at_.size() != g.nodes.size()) planned_at_.assign(g.nodes.size(), -kNever);
   if (held_until_.size() != g.nodes.size()) held_until_.assign(g.nodes.size(), -kNever);
+  if (seen_epoch_.size() != g.nodes.size()) seen_epoch_.assign(g.nodes.size(), ~std::uint64_t{0});
+  if (wake_at_.size() != g.nodes.size()) wake_at_.assign(g.nodes.size(), -kNever);
+  if (merged_into_.size() != g.nodes.size()) merged_into_.assign(g.nodes.size(), 1);
+  // Rays merged into a queued job change what its node's plan would find (rule 4's sizes,
+  // rule 3's order).
+  const std::vector<JobId>& merged = pool.merged();
+  for (; merged_seen_ < merged.size(); ++merged_seen_) {
+    const JobId j = merged[merged_seen_];
+    // (A job not bucketed yet is new when it is; its home is not asked early, as home()
+    // decides it from where its rays are.)
+    if (pool.state(j) != JobState::Queued || pool.queue_number(j) >= bucketed_) continue;
+    const NodeId h = static_cast<std::size_t>(j) < homes_.size() ? homes_[static_cast<std::size_t>(j)] : kNone;
+    if (h == kNone) std::fill(merged_into_.begin(), merged_into_.end(), 1);
+    else merged_into_[static_cast<std::size_t>(h)] = 1;
+  }
   for (JobId j : pool.queued_since(bucketed_)) {
     const NodeId h = home(j, pool, s);
     const std::size_t k = h == kNone ? g.nodes.size() : static_cast<std::size_t>(h);
@@ -202,7 +221,11 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   }
   bucketed_ = pool.appended();
   // A node is planned when a device wants work and it has jobs: new ones, or held ones
-  // whose recheck time came (a pass that left jobs queued looks again after `hold` / 4).
+  // whose recheck time came (a pass that left jobs queued looks again after `hold` / 4), or
+  // an idle device while something on the node changed since its last plan (new jobs, an
+  // activity there started, ended or was committed, data came or went, rays merged into
+  // its jobs, a job held for a time may go): with nothing changed the plan would find
+  // what the last one found.
   const std::size_t any_bucket = g.nodes.size();
   const bool drained = s.unfinished() == 0;
   std::vector<std::size_t>& todo = todo_;
@@ -222,32 +245,52 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     s.reproject(now);
     reprojected_ = now;
   }
+  // A node planned only for an idle device, with nothing changed since its last plan, is
+  // planned as it was: only its clocks and buckets move, as a plan's would.
+  std::size_t kept = 0;
+  for (const std::size_t n : todo) {
+    const bool due = (fresh_[n] || fresh_[any_bucket]) ? now >= planned_at_[n] + opt_.slack : now >= recheck_[n];
+    const bool changed = fresh_[n] || fresh_[any_bucket] || s.node_epoch(static_cast<NodeId>(n)) != seen_epoch_[n] ||
+                         merged_into_[n] || now >= wake_at_[n];
+    if (due || drained || changed || !opt_.skip_unchanged) {
+      todo[kept++] = n;
+      continue;
+    }
+    scan_buckets(n, pool, s, [](const Queued) {});
+    ++skipped_;
+    planned_at_[n] = now;
+    recheck_[n] = now + 0.25 * opt_.hold;
+  }
+  todo.resize(kept);
   placer_->finder().clear();
   placer_->finder().set_now(now);
   placer_->finder().set_scene_from_origin_or_local(true);  // rule 1: no scene data between nodes
   for (std::size_t n : todo) {
     fresh_[n] = false;
     planned_at_[n] = now;
+    // What the plan itself commits counts as a change: data it brings can make other jobs
+    // of the node placeable at its next plan.
+    seen_epoch_[n] = s.node_epoch(static_cast<NodeId>(n));
     plan_node(n, now, pool, s, st);
+    // A device planned to the horizon's end takes more once the horizon moves past it; jobs
+    // rule 4 held while the node was busy may go once a device is free.
+    for (const auto& [ready, d] : devices_) {
+      if (ready >= now + opt_.horizon) wake_at_[n] = std::min(wake_at_[n], ready - opt_.horizon);
+      if (held_while_busy_ && ready > now) wake_at_[n] = std::min(wake_at_[n], ready);
+    }
     recheck_[n] = now + 0.25 * opt_.hold;
+    merged_into_[n] = 0;
   }
   fresh_[any_bucket] = false;
   return done();
 }
 
-void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedule& s, PlanStats& st) {
-  const DeviceGraph& g = s.graph();
-  const Time limit = now + opt_.horizon;
-  devices_.clear();
-  for (DeviceId d : g.nodes[n].computes)
-    if (s.compute_alive(d)) devices_.push_back({free_at(d, now, s), d});
-  std::sort(devices_.begin(), devices_.end());
-  // Rule 4 holds rays back only while the node has other work: an idle device takes them.
-  const bool idle = !devices_.empty() && devices_.front().first <= now;
-  const bool node_busy = !devices_.empty() && devices_.back().first > now;  // rule 4, every ray job
-  held_until_[n] = -kNever;
-  cand_.clear();
-  const std::size_t any_bucket = g.nodes.size();
+// The live jobs of node n's bucket, then those of the any-node bucket whose home is n, to
+// `visit`, in bucket order; entries gone stale (planned, or queued again later) drop out,
+// and any-node entries whose home is known now move to their node's bucket.
+template <class Visit>
+void RaylineScheduler::scan_buckets(std::size_t n, JobPool& pool, const Schedule& s, Visit&& visit) {
+  const std::size_t any_bucket = by_node_.size() - 1;
   for (const std::size_t k : {n, any_bucket}) {
     std::vector<Queued>& bucket = by_node_[k];
     std::size_t keep = 0;
@@ -264,34 +307,59 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
       } else {
         bucket[keep++] = q;
       }
-      const std::vector<BlockId>& scene_in = inputs_.of(q.job, pool).scene;
-      bool resident = true;  // every scene input on one of this node's working memories
-      for (BlockId b : scene_in) {
-        bool here = false;
-        for (MemId m : g.nodes[n].memories)
-          if (g.memories[m].kind != MemoryKind::Disk && s.copy_at(b, m)) here = true;
-        resident = resident && here;
-      }
-      const Bytes rays = inputs_.rays(q.job, pool);
-      // Rule 4: rays on another node wait to be worth a transfer.
-      const NodeId at = rays_at_[static_cast<std::size_t>(q.job)];
-      if (!idle && at != kNone && static_cast<std::size_t>(at) != n && rays < opt_.min_remote_bytes &&
-          now - pool.job(q.job).created < opt_.hold)
-        continue;
-      // Rule 4, every ray job (with "hold" or rule 8 on): it waits to hold min_local_bytes
-      // (or `hold`), its rays here or elsewhere, idle devices or not, while a device of its
-      // node runs something (a later event plans again; a node with every device idle takes
-      // what there is); its node is planned again when it may go.
-      if (node_busy && opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes && !scene_in.empty() &&
-          now - pool.job(q.job).created < opt_.hold) {
-        const Time until = pool.job(q.job).created + opt_.hold;
-        held_until_[n] = held_until_[n] == -kNever ? until : std::min(held_until_[n], until);
-        continue;
-      }
-      cand_.push_back({q.job, resident, rays, q.number});
+      visit(q);
     }
     bucket.resize(keep);
   }
+}
+
+void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedule& s, PlanStats& st) {
+  const DeviceGraph& g = s.graph();
+  const Time limit = now + opt_.horizon;
+  devices_.clear();
+  for (DeviceId d : g.nodes[n].computes)
+    if (s.compute_alive(d)) devices_.push_back({free_at(d, now, s), d});
+  std::sort(devices_.begin(), devices_.end());
+  // Rule 4 holds rays back only while the node has other work: an idle device takes them.
+  const bool idle = !devices_.empty() && devices_.front().first <= now;
+  const bool node_busy = !devices_.empty() && devices_.back().first > now;  // rule 4, every ray job
+  held_until_[n] = -kNever;
+  wake_at_[n] = kNever;
+  held_while_busy_ = false;
+  auto wake = [&](Time t) { wake_at_[n] = std::min(wake_at_[n], t); };
+  cand_.clear();
+  scan_buckets(n, pool, s, [&](const Queued q) {
+    const std::vector<BlockId>& scene_in = inputs_.of(q.job, pool).scene;
+    bool resident = true;  // every scene input on one of this node's working memories
+    for (BlockId b : scene_in) {
+      bool here = false;
+      for (MemId m : g.nodes[n].memories)
+        if (g.memories[m].kind != MemoryKind::Disk && s.copy_at(b, m)) here = true;
+      resident = resident && here;
+    }
+    const Bytes rays = inputs_.rays(q.job, pool);
+    // Rule 4: rays on another node wait to be worth a transfer.
+    const NodeId at = rays_at_[static_cast<std::size_t>(q.job)];
+    if (!idle && at != kNone && static_cast<std::size_t>(at) != n && rays < opt_.min_remote_bytes &&
+        now - pool.job(q.job).created < opt_.hold) {
+      wake(pool.job(q.job).created + opt_.hold);
+      held_while_busy_ = true;
+      return;
+    }
+    // Rule 4, every ray job (with "hold" or rule 8 on): it waits to hold min_local_bytes
+    // (or `hold`), its rays here or elsewhere, idle devices or not, while a device of its
+    // node runs something (a later event plans again; a node with every device idle takes
+    // what there is); its node is planned again when it may go.
+    if (node_busy && opt_.min_local_bytes > 0 && rays < opt_.min_local_bytes && !scene_in.empty() &&
+        now - pool.job(q.job).created < opt_.hold) {
+      const Time until = pool.job(q.job).created + opt_.hold;
+      held_until_[n] = held_until_[n] == -kNever ? until : std::min(held_until_[n], until);
+      wake(until);
+      held_while_busy_ = true;
+      return;
+    }
+    cand_.push_back({q.job, resident, rays, q.number});
+  });
   // Rule 3's order: resident first, then the most rays, then queue order (a heap: the
   // horizon usually fills long before the candidates run out).
   auto after = [](const Cand& a, const Cand& b) {
@@ -454,7 +522,10 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
     if (p.d == kNone) p = pick(c.job, c.resident);
     if (p.d == kNone) continue;
     if (p.start >= limit) {
-      if (!disk_free()) continue;
+      if (!disk_free()) {
+        wake(p.start - opt_.horizon);  // within the horizon then
+        continue;
+      }
       long_wait_job_[n] = c.job;
     }
     commit(c.job, p);

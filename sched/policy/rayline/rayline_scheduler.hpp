@@ -24,7 +24,8 @@
 //      previous such job has started;
 //   6. look-ahead: each device is planned up to now + horizon, so ray queues travel to
 //      their owner while the device still works, and a node is planned again only once
-//      one of its devices has less than half the horizon left;
+//      one of its devices has less than half the horizon left (and, for an idle device,
+//      only once something on the node changed: RaylineOptions::skip_unchanged);
 //   7. device-sized jobs (job_size.hpp): a ray job stops taking merged queues once it holds
 //      what the fastest device traces in a quarter of the horizon;
 //   8. (off by default) camera rays made by the owners of the blocks they enter;
@@ -69,6 +70,11 @@ struct RaylineOptions {
   // block (rayline_scheduler.cpp, plan_node).
   bool room = true;
   double room_factor = 3;
+  // Not a rule, a shortcut with the same plans: a node that is asked again only because a
+  // device of it is idle, with nothing on it changed since its last plan (Schedule::
+  // node_epoch, merged rays, the times its held jobs may go), is not planned again. Off:
+  // every such node is planned at every call (the reference the tests compare against).
+  bool skip_unchanged = true;
 };
 
 // The rules that can be switched off (docs/rayline-policy.md), for the ablation: bit i is
@@ -95,6 +101,8 @@ class RaylineScheduler final : public Scheduler {
   std::string describe() const override;
   PlanStats plan(Time now, JobPool& pool, Schedule& schedule) override;
   const Ownership& ownership() const { return own_; }
+  // Nodes not planned again because nothing on them changed (RaylineOptions::skip_unchanged).
+  std::uint64_t skipped() const { return skipped_; }
   // The node job j belongs to (kNone: any node); exposed for tests.
   NodeId home(JobId j, const JobPool& pool, const Schedule& s);
   // Rule 8 (Scheduler::ray_origin): the owner of `entry` in the group that rule 2's image
@@ -105,6 +113,8 @@ class RaylineScheduler final : public Scheduler {
  private:
   void update_scene(const JobPool& pool, const DeviceGraph& g);
   void plan_node(std::size_t n, Time now, JobPool& pool, Schedule& s, PlanStats& st);
+  template <class Visit>
+  void scan_buckets(std::size_t n, JobPool& pool, const Schedule& s, Visit&& visit);
   static Time free_at(DeviceId d, Time now, const Schedule& s);  // when d can start new work
 
   RaylineOptions opt_;
@@ -131,6 +141,14 @@ class RaylineScheduler final : public Scheduler {
   std::vector<bool> fresh_;    // per bucket: jobs joined since its node was last planned
   std::vector<Time> recheck_;  // per node: when held jobs are looked at again
   std::vector<Time> planned_at_;  // per node: its last plan
+  // Per node: Schedule::node_epoch() after its last plan, and whether a queued job of it
+  // took merged rays since (JobPool::merged(), read up to merged_seen_).
+  std::vector<std::uint64_t> seen_epoch_;
+  std::vector<char> merged_into_;
+  std::vector<Time> wake_at_;  // per node: when a job its last plan left for a time rule may go
+  bool held_while_busy_ = false;
+  std::uint64_t skipped_ = 0;  // plan_node: rule 4 held a job because the node was busy
+  std::size_t merged_seen_ = 0;
   std::vector<Time> held_until_;  // per node: when its first held job may go (-kNever: none held)
   std::vector<std::size_t> todo_;
   Time reprojected_ = -kNever;
