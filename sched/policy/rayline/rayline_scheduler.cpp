@@ -367,6 +367,15 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
     if (a.rays != b.rays) return a.rays < b.rays;
     return a.number > b.number;
   };
+  // With rule 5, a job whose scene block comes from the disk goes to the waiting pass, in
+  // that order, after every resident one: such jobs are kept apart and ordered only if
+  // the waiting pass reaches them with the disk free (below).
+  far_.clear();
+  if (opt_.no_waiting) {
+    const auto mid = std::stable_partition(cand_.begin(), cand_.end(), [](const Cand& c) { return c.resident; });
+    far_.assign(mid, cand_.end());
+    cand_.erase(mid, cand_.end());
+  }
   std::make_heap(cand_.begin(), cand_.end(), after);
   // Rule 3: the device that finishes j first (kNone: none can run it).
   struct Pick {
@@ -487,10 +496,6 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
   for (auto end = cand_.end(); end != cand_.begin(); --end) {
     if (devices_.empty() || devices_.front().first >= limit) return;
     std::pop_heap(cand_.begin(), end, after);
-    if (opt_.no_waiting && !(end - 1)->resident) {  // its scene block comes from the disk: a long wait (below)
-      waiting_.push_back(*(end - 1));
-      continue;
-    }
     const Pick p = pick((end - 1)->job, true);
     if (p.d == kNone) continue;
     if (opt_.no_waiting && p.start - p.ready > std::max(opt_.slack, p.exec)) {
@@ -510,26 +515,35 @@ void RaylineScheduler::plan_node(std::size_t n, Time now, JobPool& pool, Schedul
     const JobId w = long_wait_job_[n];
     return w == kNone || pool.state(w) != JobState::Planned || s.activity(pool.activity(w)).state != ActivityState::Planned;
   };
-  for (const Cand& c : waiting_) {
-    if (devices_.empty() || devices_.front().first >= limit) return;
-    if (!c.resident && !disk_free()) continue;
-    // The first pass's pick stands while its device's timeline is as it was then.
-    Pick p;
-    if (c.device != kNone) {
-      for (const auto& [ready, d] : devices_)
-        if (d == c.device && ready == c.ready && ready < limit) p = {d, ready, ready, ready, 0};
-    }
-    if (p.d == kNone) p = pick(c.job, c.resident);
-    if (p.d == kNone) continue;
-    if (p.start >= limit) {
-      if (!disk_free()) {
-        wake(p.start - opt_.horizon);  // within the horizon then
-        continue;
+  auto wait_pass = [&](const std::vector<Cand>& jobs) {
+    for (const Cand& c : jobs) {
+      if (devices_.empty() || devices_.front().first >= limit) return false;
+      if (!c.resident && !disk_free()) continue;
+      // The first pass's pick stands while its device's timeline is as it was then.
+      Pick p;
+      if (c.device != kNone) {
+        for (const auto& [ready, d] : devices_)
+          if (d == c.device && ready == c.ready && ready < limit) p = {d, ready, ready, ready, 0};
       }
-      long_wait_job_[n] = c.job;
+      if (p.d == kNone) p = pick(c.job, c.resident);
+      if (p.d == kNone) continue;
+      if (p.start >= limit) {
+        if (!disk_free()) {
+          wake(p.start - opt_.horizon);  // within the horizon then
+          continue;
+        }
+        long_wait_job_[n] = c.job;
+      }
+      commit(c.job, p);
     }
-    commit(c.job, p);
-  }
+    return true;
+  };
+  if (!wait_pass(waiting_) || far_.empty() || devices_.empty() || devices_.front().first >= limit) return;
+  // The jobs from the disk, all skipped while the node's last one waits (nothing in the
+  // pass below changes that unless one of them is committed).
+  if (!disk_free()) return;
+  std::sort(far_.begin(), far_.end(), [&](const Cand& a, const Cand& b) { return after(b, a); });
+  wait_pass(far_);
 }
 
 }  // namespace rayline

@@ -161,7 +161,7 @@ class RaylineScheduler final : public Scheduler {
     DeviceId device = kNone;  // waiting: the device the first pass picked, at `ready`
     Time ready = 0;
   };
-  std::vector<Cand> cand_, waiting_;
+  std::vector<Cand> cand_, waiting_, far_;  // far_: rule 5's jobs whose block comes from the disk
   std::vector<std::pair<Time, DeviceId>> devices_;
   static constexpr Bytes kNoFloor = ~Bytes{0};
   std::vector<Bytes> drop_floor_;  // per memory: the least room found to drop a last copy
