@@ -89,6 +89,16 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
                 format_rate(s.steady_rays_shot_per_second, "rays shot").c_str(),
                 format_rate(s.steady_rays_per_second, "block visits").c_str(), static_cast<unsigned long long>(s.frames_delivered),
                 100 * s.busy, 100 * s.setup, 100 * s.fetching, 100 * s.idle);
+    // The clients' framebuffers stay on one host memory for the whole run: a memory they
+    // fill has little room left for blocks and rays (and none once they overflow it).
+    if (s.client_memory_capacity > 0 && s.client_framebuffer_bytes >= 0.5 * s.client_memory_capacity)
+      std::printf("note: the clients' framebuffers (%s) take %.0f%% of %s (%s), the host memory where the clients keep "
+                  "them (the platform's first): %s left there for scene blocks and rays\n",
+                  format_size(s.client_framebuffer_bytes).c_str(), 100 * s.client_framebuffer_bytes / s.client_memory_capacity,
+                  s.client_memory.c_str(), format_size(s.client_memory_capacity).c_str(),
+                  s.client_framebuffer_bytes >= s.client_memory_capacity
+                      ? "no room is"
+                      : (format_size(s.client_memory_capacity - s.client_framebuffer_bytes) + " is").c_str());
     if (!s.nothing_delivered.empty()) std::printf("note: %s\n", s.nothing_delivered.c_str());
     if (!s.steady)
       std::printf("note: not a steady state: the rays alive grew by %.0f%% of the rays shot after the warm-up (more "

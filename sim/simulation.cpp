@@ -828,6 +828,15 @@ json run_metrics(const SimulationConfig& cfg, const Inputs& in, const Engine& e,
   if (e.stream) m["activities"]["queue_merges"] = e.stream->merges();
   if (e.path_trace) {
     path_trace_metrics(m, *e.path_trace, *in.profile, cfg, end, sum);
+    if (const MemId cm = e.path_trace->client_memory(); cm != kNone) {
+      const MemoryDevice& md = e.schedule.graph().memories[static_cast<std::size_t>(cm)];
+      sum.client_memory = md.name;
+      sum.client_framebuffer_bytes = static_cast<double>(e.path_trace->client_framebuffer_bytes());
+      sum.client_memory_capacity = static_cast<double>(md.capacity);
+      m["path_trace"]["client_framebuffers"] = {{"memory", md.name},
+                                                {"bytes", e.path_trace->client_framebuffer_bytes()},
+                                                {"share_of_memory", sum.client_framebuffer_bytes / std::max(1.0, sum.client_memory_capacity)}};
+    }
     bound_metrics(m["path_trace"], e.schedule.graph(), *in.profile, e.path_trace->model().fidelity(), sum);
     if (sum.steady_rays_shot_per_second <= 0) {
       sum.nothing_delivered = why_nothing_ended(e, cfg.warmup >= 0 ? cfg.warmup : end / 3, end);

@@ -87,6 +87,10 @@ struct SimulationSummary {
   bool draining = false;          // the rays alive shrank by more than kSteadyGrowth of the rays shot: part of the rate is a backlog
   double prediction_accuracy = -1, prediction_ray_accuracy = -1;  // <0: prediction off
   std::uint64_t frames_delivered = 0;
+  // Path tracing: the clients' framebuffers, pinned on one host memory device (its name and
+  // capacity), against its capacity.
+  std::string client_memory;
+  double client_framebuffer_bytes = 0, client_memory_capacity = 0;
   std::string nothing_delivered;          // path tracing with no ray ended after the warm-up: why, what to change
   int faults_applied = 0;                 // --fail: faults that happened before the run ended
   std::uint64_t rays_lost = 0, frames_abandoned = 0;

@@ -156,6 +156,11 @@ void PathTraceWorkload::start(Time now, JobPool& pool, Schedule& s) {
   top_up(now, pool, s);
 }
 
+Bytes PathTraceWorkload::client_framebuffer_bytes() const {
+  return static_cast<Bytes>(opt_.clients) * static_cast<Bytes>(p_.width) * static_cast<Bytes>(p_.height) *
+         p_.framebuffer_bytes_per_pixel;
+}
+
 void PathTraceWorkload::request_frame(int c, Time now, int index) {
   ClientState& cl = clients_[static_cast<std::size_t>(c)];
   FrameState f;

@@ -110,6 +110,10 @@ class PathTraceWorkload final : public Workload {
   const std::vector<FrameReport>& abandoned_frames() const { return abandoned_; }
   const PredictionStats* prediction() const { return predictor_ ? &predictor_->stats() : nullptr; }
   const RayFlowModel& model() const { return model_; }
+  // Where the clients keep their framebuffers (a host memory device, pinned there for the
+  // run) and how many bytes they take in all.
+  MemId client_memory() const { return opt_.client_memory; }
+  Bytes client_framebuffer_bytes() const;
   std::uint64_t merges() const { return merges_; }
   std::uint64_t merges_into_planned() const { return merges_planned_; }
   // What withdrawing failed predictions removed from the plan (and the T-jobs it kept

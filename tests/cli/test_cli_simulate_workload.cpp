@@ -159,6 +159,17 @@ TEST(CliSimulateWorkload, MemoryBudgetIsTheHostRam) {
   const auto stall = rayline_cli(base + "--memory-budget 50MB --out " + bad.string());
   EXPECT_EQ(stall.code, 1) << stall.all;
   EXPECT_NE(stall.err.find("room for input 'scene"), std::string::npos) << stall.err;
+  // The clients' framebuffers (64 x 48 x 16 B each) stay on the first host memory: reported,
+  // and named in a note once they take half of it.
+  const auto fb = metrics(small)["path_trace"]["client_framebuffers"];
+  EXPECT_EQ(fb["memory"], "A0.ram");
+  EXPECT_EQ(fb["bytes"], 2u * 64u * 48u * 16u);
+  EXPECT_EQ(stall.out.find("note: the clients' framebuffers"), std::string::npos) << stall.out;
+  const auto crowded = rayline_cli(base + "--memory-budget 150kB --out " + bad.string() + "-fb");
+  EXPECT_EQ(crowded.code, 1) << crowded.all;
+  EXPECT_NE(crowded.out.find("note: the clients' framebuffers (96.0 KiB) take 66% of A0.ram"), std::string::npos)
+      << crowded.out;
+  fs::remove_all(bad.string() + "-fb");
   for (const std::string v : {"0", "lots", "-5MB"}) {
     const auto b = rayline_cli(base + "--memory-budget " + v + " --out " + bad.string() + "-2");
     EXPECT_EQ(b.code, 2) << v << ": " << b.all;
