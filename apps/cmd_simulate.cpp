@@ -93,7 +93,7 @@ void print_summary(const sim::SimulationSummary& s, const std::string& out, bool
     // fill has little room left for blocks and rays (and none once they overflow it).
     if (s.client_memory_capacity > 0 && s.client_framebuffer_bytes >= 0.5 * s.client_memory_capacity)
       std::printf("note: the clients' framebuffers (%s) take %.0f%% of %s (%s), the host memory where the clients keep "
-                  "them (the platform's first): %s left there for scene blocks and rays\n",
+                  "them (the platform's \"clients\", else its first): %s left there for scene blocks and rays\n",
                   format_size(s.client_framebuffer_bytes).c_str(), 100 * s.client_framebuffer_bytes / s.client_memory_capacity,
                   s.client_memory.c_str(), format_size(s.client_memory_capacity).c_str(),
                   s.client_framebuffer_bytes >= s.client_memory_capacity

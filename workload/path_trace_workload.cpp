@@ -32,6 +32,7 @@ PathTraceWorkload::PathTraceWorkload(const DeviceGraph& g, const SceneProfile& p
   if (opt_.prediction_depth < 0 || opt_.prediction_depth > 16) throw InputError("--prediction-depth", "", "must be in [0, 16]");
   if (opt_.fidelity == Fidelity::Replay && !opt_.replay)
     throw InputError("--replay", "", "replay fidelity needs a replay log (--replay FILE)");
+  if (opt_.client_memory == kNone) opt_.client_memory = g.client_memory;  // the platform's "clients"
   if (opt_.client_memory == kNone)
     for (std::size_t m = 0; m < g.memories.size() && opt_.client_memory == kNone; ++m)
       if (g.memories[m].kind == MemoryKind::Host) opt_.client_memory = static_cast<MemId>(m);

@@ -35,7 +35,7 @@ struct PathTraceOptions {
   int frames_per_client = 0;          // 0: frame after frame until the run ends
   int frames_in_flight = 1;           // frames each client keeps requested at once (offered load)
   Time stop_new_frames = kNever;      // no new frame requests after this time
-  MemId client_memory = kNone;        // default: the first host memory of the platform
+  MemId client_memory = kNone;        // default: the platform's "clients", else its first host memory
   std::uint64_t seed = 1;
   // Rays arriving where a planned (not yet started) job holds a queue of the same kind and
   // block join it, so that E-job runs longer than planned (see add_queue). Off: they

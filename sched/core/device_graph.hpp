@@ -119,6 +119,7 @@ class DeviceGraph {
   std::vector<std::string> job_types;  // JobTypeId -> name
   TimingModel timing;                  // per compute device x job type (Eq. 2)
   ControlLoop loop;                    // the master's control loop (platform "control_loop")
+  MemId client_memory = kNone;         // where path-tracing clients keep their framebuffers (platform "clients")
 
   // Build adjacency and check structural invariants; throws InputError naming the field.
   void finalize();

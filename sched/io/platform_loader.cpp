@@ -113,7 +113,7 @@ class PlatformReader {
   explicit PlatformReader(const JsonInput& input) : in_(input) {}
 
   DeviceGraph read(const JsonField& root) {
-    root.only_keys({"name", "description", "job_types", "node_types", "nodes", "networks", "control_loop"});
+    root.only_keys({"name", "description", "job_types", "node_types", "nodes", "networks", "control_loop", "clients"});
     g_.source_file = in_.file();
     g_.name = root.at("name").non_empty_string();
     if (const auto d = root.find("description"); d && !d->json().is_string()) d->fail("expected a string");
@@ -125,6 +125,7 @@ class PlatformReader {
     if (const auto nets = root.find("networks"))
       for (const JsonField& net : nets->elements()) network(net);
     if (const auto cl = root.find("control_loop")) control_loop(*cl);
+    if (const auto c = root.find("clients")) clients(*c);
     g_.finalize();
     for (const PendingTiming& pt : timings_) timing(pt);
     check_reachable();
@@ -132,6 +133,17 @@ class PlatformReader {
   }
 
  private:
+  // "clients": "NODE.MEMORY", the host memory where path-tracing clients keep their
+  // framebuffers (the paper ran its clients on a node of their own).
+  void clients(const JsonField& f) {
+    const std::string name = f.non_empty_string();
+    const MemId m = g_.find_memory(name);
+    if (m == kNone) f.fail("no memory device named '" + name + "' (expected NODE.MEMORY, e.g. \"K.ram\")");
+    if (g_.memories[static_cast<std::size_t>(m)].kind != MemoryKind::Host)
+      f.fail("'" + name + "' is not a host memory device: clients keep their framebuffers in host memory");
+    g_.client_memory = m;
+  }
+
   // "control_loop": {"per_job": DURATION, "per_exec_second": NUMBER >= 0} (ControlLoop).
   void control_loop(const JsonField& f) {
     f.object().only_keys({"per_job", "per_exec_second", "description"});

@@ -388,8 +388,21 @@ TEST(PlatformLoader, BadInputNamesTheField) {
        "control_loop.per_job", ""},
       {"control loop: unknown key", [](json& j) { j["control_loop"] = {{"per_jobs", "1ms"}}; },
        "control_loop.per_jobs", "unknown key"},
+      {"clients: unknown memory", [](json& j) { j["clients"] = "n2.ram"; }, "clients", "no memory device named 'n2.ram'"},
+      {"clients: not host memory", [](json& j) { j["clients"] = "n1.gpu0mem"; }, "clients", "not a host memory"},
+      {"clients: not a string", [](json& j) { j["clients"] = 1; }, "clients", "string"},
   };
   expect_errors(base, cases);
+}
+
+// "clients": the host memory where path-tracing clients keep their framebuffers (kNone
+// without the key: the workload takes the first host memory).
+TEST(PlatformLoader, ClientsNameAHostMemory) {
+  json j = base();
+  EXPECT_EQ(parse_platform(j.dump(), "p.json").client_memory, kNone);
+  j["clients"] = "n1.ram";
+  const DeviceGraph g = parse_platform(j.dump(), "p.json");
+  EXPECT_EQ(g.client_memory, g.find_memory("n1.ram"));
 }
 
 TEST(PlatformLoader, ControlLoopIsOptionalAndReadInSeconds) {

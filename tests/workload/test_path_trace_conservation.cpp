@@ -494,6 +494,34 @@ TEST(PathTraceFaults, NodeLostMidFrameFramesRenderedAgainConservationExact) {
   EXPECT_GT(hit, 0) << "some fault must have taken work that a frame needed";
 }
 
+// The platform's "clients" names the host memory the clients keep their framebuffers on:
+// there, not on the first host memory, and every frame is composed there, exact.
+TEST(PathTraceClients, FramebuffersLiveOnThePlatformsClientMemory) {
+  DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
+  const MemId second = g.find_memory(g.nodes.back().name + ".ram");
+  ASSERT_NE(second, kNone);
+  g.client_memory = second;
+  const SceneProfile prof = load_scene_profile(kProfile);
+  PathTraceOptions o;
+  o.clients = 2;
+  o.frames_per_client = 1;
+  o.seed = 3;
+  GmbRun r(g, prof, o);
+  EXPECT_FALSE(r.stats.stalled);
+  EXPECT_EQ(r.wl.client_memory(), second);
+  EXPECT_EQ(r.wl.client_framebuffer_bytes(), 2u * Bytes(prof.width) * Bytes(prof.height) * prof.framebuffer_bytes_per_pixel);
+  int framebuffers = 0;
+  for (std::size_t b = 0; b < r.pool.block_count(); ++b)
+    if (r.pool.block(static_cast<BlockId>(b)).name.starts_with("framebuffer.client")) {
+      ++framebuffers;
+      EXPECT_NE(r.s.copy_at(static_cast<BlockId>(b), second), nullptr) << r.pool.block(static_cast<BlockId>(b)).name;
+      EXPECT_EQ(r.s.copies(static_cast<BlockId>(b)).size(), 1u);
+    }
+  EXPECT_EQ(framebuffers, 2);
+  ASSERT_EQ(r.wl.frames().size(), 2u);
+  for (const FrameReport& f : r.wl.frames()) EXPECT_TRUE(f.exact) << "client " << f.client;
+}
+
 // Several frames in flight per client (more offered load): conservation stays exact, every
 // frame is delivered exact, frame indices along each client's camera path are 0..n-1.
 TEST(PathTraceFramesInFlight, ConservationExactWithThreeFramesInFlight) {
