@@ -6,7 +6,8 @@
 
 namespace rayline {
 
-std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks) {
+namespace {
+std::vector<std::int32_t> by_demand(const std::vector<std::uint64_t>& demand) {
   std::vector<std::int32_t> order;
   for (std::size_t d = 0; d < demand.size(); ++d)
     if (demand[d] > 0) order.push_back(static_cast<std::int32_t>(d));
@@ -17,8 +18,31 @@ std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>&
       return demand[static_cast<std::size_t>(a)] > demand[static_cast<std::size_t>(b)];
     return a > b;
   });
+  return order;
+}
+}  // namespace
+
+std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks) {
+  const std::vector<std::int32_t> order = by_demand(demand);
   std::vector<std::int32_t> map(static_cast<std::size_t>(std::max(0, ranks)), kNone);
   for (std::size_t r = 0; r < map.size() && r < order.size(); ++r) map[r] = order[r];
+  return map;
+}
+
+std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks,
+                                               const std::function<bool(int rank, std::int32_t domain)>& can) {
+  const std::vector<std::int32_t> order = by_demand(demand);
+  std::vector<std::int32_t> map(static_cast<std::size_t>(std::max(0, ranks)), kNone);
+  std::size_t first_free = 0;  // ranks before it are all taken
+  for (const std::int32_t dom : order) {
+    while (first_free < map.size() && map[first_free] != kNone) ++first_free;
+    if (first_free == map.size()) break;
+    for (std::size_t r = first_free; r < map.size(); ++r)
+      if (map[r] == kNone && can(static_cast<int>(r), dom)) {
+        map[r] = dom;
+        break;
+      }
+  }
   return map;
 }
 
@@ -74,7 +98,16 @@ PlanStats LoadAnyOnceScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   std::vector<DeviceId> live;
   for (std::size_t d = 0; d < g.computes.size(); ++d)
     if (s.compute_alive(static_cast<DeviceId>(d))) live.push_back(static_cast<DeviceId>(d));
-  const auto map = load_any_once_assign(demand, static_cast<int>(live.size()));
+  // A rank can run a domain when its device runs the type of one of the domain's jobs.
+  // (Where the device's memory lacks a job's input that cannot move, a client's
+  // framebuffer, the job still waits for a round that maps its domain to a device there.)
+  const auto can = [&](int r, std::int32_t dom) {
+    const DeviceId d = live[static_cast<std::size_t>(r)];
+    for (JobId j : jobs[static_cast<std::size_t>(dom)])
+      if (g.timing.supports(d, pool.job(j).type)) return true;
+    return false;
+  };
+  const auto map = load_any_once_assign(demand, static_cast<int>(live.size()), can);
   for (std::size_t r = 0; r < map.size(); ++r) {
     if (map[r] == kNone) continue;
     const DeviceId d = live[r];

@@ -6,7 +6,9 @@
 //     for a later round instead of being committed before what it follows);
 //   * domains sorted by demand (ties: higher domain id first, as GraviT's
 //     (count << 7) + id key popped from the back), the i-th goes to rank i, each domain
-//     to at most one rank ("Once"); ranks beyond the demanded domains stay idle;
+//     to at most one rank ("Once"); ranks beyond the demanded domains stay idle (GraviT's
+//     ranks all trace anything; here a domain skips a rank that can run none of its jobs,
+//     such as a client node's thread, and goes to the next);
 //   * the rank drains the whole domain: every queued job of that domain runs on it, and
 //     whole ray queues are sent there;
 //   * scene data is loaded from storage, never sent between ranks (SEND_DOMS is compiled
@@ -16,6 +18,7 @@
 // rank per GPU — stated, not hidden. Domains are SceneData blocks (a job's key input).
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -27,6 +30,11 @@ namespace rayline {
 // The decision rule: rank -> index into `demand` (kNone: idle). Zero demand is never
 // assigned. Pure, for unit tests.
 std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks);
+// The same on ranks that cannot all run every domain (a client node's thread that only
+// composes frames): each domain, in the same order, goes to the first rank still free that
+// `can` run it. With every rank able, the plain rule's map.
+std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks,
+                                               const std::function<bool(int rank, std::int32_t domain)>& can);
 
 class LoadAnyOnceScheduler final : public Scheduler {
  public:

@@ -24,6 +24,42 @@ TEST(LoadAnyOnce, HighestDemandDomainsGoToRanksZeroOneTwoRestIdle) {
   EXPECT_TRUE(load_any_once_assign({}, 4) == std::vector<std::int32_t>(4, kNone));
 }
 
+// Ranks that cannot run every domain (a client node's thread that only composes): each
+// domain, in demand order, goes to the first free rank that can run it; with every rank
+// able, the plain rule's map; a domain no free rank can run waits.
+TEST(LoadAnyOnce, ADomainSkipsRanksThatCannotRunIt) {
+  const std::vector<std::uint64_t> demand = {5, 50, 0, 30, 40};
+  const auto all = [](int, std::int32_t) { return true; };
+  for (int ranks = 0; ranks <= 6; ++ranks)
+    EXPECT_EQ(load_any_once_assign(demand, ranks, all), load_any_once_assign(demand, ranks)) << ranks;
+  // Rank 0 runs only domain 0 (the lowest demand): the larger domains go to the ranks after
+  // it, and domain 0, last in the order, to rank 0, before domain 3 that no free rank runs.
+  const auto client = [](int r, std::int32_t d) { return r != 0 || d == 0; };
+  EXPECT_EQ(load_any_once_assign(demand, 3, client), (std::vector<std::int32_t>{0, 1, 4}));
+  EXPECT_EQ(load_any_once_assign(demand, 5, client), (std::vector<std::int32_t>{0, 1, 4, 3, kNone}));
+  // Nobody runs domain 1: it is given to no rank.
+  const auto no_one = [](int, std::int32_t d) { return d != 1; };
+  EXPECT_EQ(load_any_once_assign(demand, 3, no_one), (std::vector<std::int32_t>{4, 3, 0}));
+  // Property: every assignment is to a rank that can run it, each domain at most once.
+  std::mt19937 rng(5);
+  for (int t = 0; t < 200; ++t) {
+    std::vector<std::uint64_t> dm(std::uniform_int_distribution<int>(0, 8)(rng));
+    for (auto& x : dm) x = std::uniform_int_distribution<int>(0, 4)(rng);
+    const int ranks = std::uniform_int_distribution<int>(0, 8)(rng);
+    const std::uint32_t mask_seed = static_cast<std::uint32_t>(rng());
+    const auto can = [&](int r, std::int32_t d) { return ((mask_seed >> ((r * 3 + d) % 31)) & 1u) != 0; };
+    const auto map = load_any_once_assign(dm, ranks, can);
+    std::vector<int> seen(dm.size(), 0);
+    for (int r = 0; r < ranks; ++r) {
+      const std::int32_t d = map[static_cast<std::size_t>(r)];
+      if (d == kNone) continue;
+      EXPECT_TRUE(can(r, d));
+      EXPECT_GT(dm[static_cast<std::size_t>(d)], 0u);
+      EXPECT_EQ(++seen[static_cast<std::size_t>(d)], 1);
+    }
+  }
+}
+
 namespace {
 struct TwoNodes {
   DeviceGraph g;
