@@ -348,7 +348,7 @@ for s in ['budge', 'loadanyonce']:
     elif len(r):
         axes[0].text(0.5, 0.1, f'{s}: {r.iloc[0].status}/no rays', transform=axes[0].transAxes, color='red')
 mem = df[df.label.astype(str).str.startswith('memory')].copy(); mem['f'] = mem.label.str.extract(r'x([0-9.e-]+)').astype(float)
-pan(axes[1], mem, 'f', 'RAM and GPU memory x f (A, museum 12.3 GiB)', 'memory factor f', logx=True)
+pan(axes[1], mem, 'f', 'RAM and GPU memory x f (A; clients on a node of their own)', 'memory factor f', logx=True)
 lan = df[df.label.astype(str).str.startswith('LAN')].copy(); lan['f'] = lan.label.str.extract(r'x([0-9.e-]+)').astype(float)
 pan(axes[2], lan, 'f', 'LAN bandwidth x f (' + str(lan.platform.iloc[0]).split('-lan')[0] + ')', 'LAN factor f', logx=True)
 gpu = df[df.label.astype(str).str.startswith('GPU')].copy(); gpu['f'] = gpu.label.str.extract(r'GPU x([0-9.e-]+)').astype(float)

@@ -328,6 +328,32 @@ def scaled_memory(p, factor, kinds=("host", "gpu")):
     return p
 
 
+def with_client_node(p, bandwidth="1Gb/s"):
+    """The clients on a node of their own, as the paper ran them (platforms/README.md,
+    "clients"): node K with 64 GiB of RAM and one CPU thread that runs AdditiveCompose (the
+    first node type's timing), on the platform's LAN (made if there is none) at `bandwidth`.
+    Without it the clients keep their framebuffers on the first node's RAM."""
+    p = copy.deepcopy(p)
+    first = p["node_types"][p["nodes"][0]["type"]]
+    compose = next(c["timing"]["AdditiveCompose"] for c in first["compute"] if "AdditiveCompose" in c["timing"])
+    p["node_types"]["client"] = {
+        "description": "the clients: their framebuffers, and a thread that composes frames",
+        "memory": [{"name": "ram", "kind": "host", "capacity": "64GiB"}],
+        "compute": [{"name": "cpu", "kind": "cpu", "count": 1, "memory": "ram", "timing": {"AdditiveCompose": compose}}],
+        "channels": [],
+    }
+    p["nodes"].append({"name": "K", "type": "client"})
+    member = {"node": "K", "memory": "ram", "bandwidth": bandwidth}
+    if p.get("networks"):
+        p["networks"][0]["members"].append(member)
+    else:
+        p["networks"] = [{"name": "lan", "kind": "lan", "latency": "100us", "duplex": "full",
+                          "members": [{"node": n["name"], "memory": "ram", "bandwidth": bandwidth} for n in p["nodes"][:-1]]
+                          + [member]}]
+    p["clients"] = "K.ram"
+    return p
+
+
 def central_database(p, master):
     """Only `master` keeps a disk (the scene database, Sec. 6.2); every other node is a
     diskless copy of its type, caching what it fetches in RAM and GPU memory (the paper's
