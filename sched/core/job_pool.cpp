@@ -38,6 +38,7 @@ void JobPool::remove_from_queue(JobId j) {
   if (queue_pos_[j] < 0) return;
   queue_[first_numbered(queue_pos_[j])].job = kNone;  // a hole: the order of the rest is kept (deterministic, FIFO-fair)
   queue_pos_[j] = -1;
+  left_queue_.push_back(j);
   for (BlockId i : jobs_[j].inputs) --demand_[i];
   if (++holes_ * 2 > queue_.size() && queue_.size() > 64) {
     std::erase_if(queue_, [](const Entry& e) { return e.job == kNone; });

@@ -50,6 +50,8 @@ class JobPool {
   // The jobs that took an input by add_input, one entry per merge, in order (a policy reads
   // those since its last look).
   const std::vector<JobId>& merged() const { return merged_; }
+  // The jobs that left the queue (planned or discarded), one entry each time, in order.
+  const std::vector<JobId>& left_queue() const { return left_queue_; }
 
   // Queued jobs that read block b (eviction value: data still wanted by the queue).
   int queued_demand(BlockId b) const { return demand_[b]; }
@@ -57,7 +59,7 @@ class JobPool {
  private:
   void remove_from_queue(JobId j);
   std::size_t first_numbered(std::int64_t number) const;  // the first queue entry numbered >= number
-  std::vector<JobId> merged_;
+  std::vector<JobId> merged_, left_queue_;
   std::vector<DataBlock> blocks_;
   std::vector<JobId> producer_;
   std::vector<int> demand_;

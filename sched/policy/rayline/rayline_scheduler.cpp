@@ -165,6 +165,8 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     planned_at_.clear();
     seen_epoch_.clear();
     wake_at_.clear();
+    stale_.clear();
+    left_seen_ = pool.left_queue().size();
     merged_into_.clear();
     merged_seen_ = 0;
     reprojected_ = -kNever;
@@ -213,6 +215,14 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     if (h == kNone) std::fill(merged_into_.begin(), merged_into_.end(), 1);
     else merged_into_[static_cast<std::size_t>(h)] = 1;
   }
+  // A bucket holds entries gone stale only once one of its jobs left the queue: the nodes
+  // whose buckets need pruning (a skipped node prunes only then, as its plan would).
+  if (stale_.size() != g.nodes.size()) stale_.assign(g.nodes.size(), 1);
+  const std::vector<JobId>& left = pool.left_queue();
+  for (; left_seen_ < left.size(); ++left_seen_) {
+    const auto j = static_cast<std::size_t>(left[left_seen_]);
+    if (j < homes_.size() && homes_[j] != kNone) stale_[static_cast<std::size_t>(homes_[j])] = 1;
+  }
   for (JobId j : pool.queued_since(bucketed_)) {
     const NodeId h = home(j, pool, s);
     const std::size_t k = h == kNone ? g.nodes.size() : static_cast<std::size_t>(h);
@@ -256,7 +266,8 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
       todo[kept++] = n;
       continue;
     }
-    scan_buckets(n, pool, s, [](const Queued) {});
+    if (stale_[n] || !by_node_[any_bucket].empty() || s.any_lost()) scan_buckets(n, pool, s, [](const Queued) {});
+    stale_[n] = 0;
     ++skipped_;
     planned_at_[n] = now;
     recheck_[n] = now + 0.25 * opt_.hold;
@@ -271,6 +282,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
     // What the plan itself commits counts as a change: data it brings can make other jobs
     // of the node placeable at its next plan.
     seen_epoch_[n] = s.node_epoch(static_cast<NodeId>(n));
+    stale_[n] = 0;  // (plan_node's scan prunes its bucket)
     plan_node(n, now, pool, s, st);
     // A device planned to the horizon's end takes more once the horizon moves past it; jobs
     // rule 4 held while the node was busy may go once a device is free.

@@ -149,6 +149,8 @@ class RaylineScheduler final : public Scheduler {
   bool held_while_busy_ = false;
   std::uint64_t skipped_ = 0;  // plan_node: rule 4 held a job because the node was busy
   std::size_t merged_seen_ = 0;
+  std::vector<char> stale_;  // per node: a job of its bucket left the queue since it was last pruned
+  std::size_t left_seen_ = 0;  // JobPool::left_queue() read up to here
   std::vector<Time> held_until_;  // per node: when its first held job may go (-kNever: none held)
   std::vector<std::size_t> todo_;
   Time reprojected_ = -kNever;
