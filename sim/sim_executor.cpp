@@ -30,6 +30,7 @@ void SimExecutor::dispatch(ActivityId id, const Activity& a) {
   }
   State& s = st_[id];
   s.dispatched = true;
+  s.dispatched_at = platform_.now();
   s.placeholder = s.placeholder || a.state == ActivityState::Failed;  // aborted before its dispatch
   s.release = release_;
   if (a.kind == ActivityKind::Transfer) {
@@ -63,6 +64,16 @@ void SimExecutor::try_start(ActivityId id) {
     s.started = s.done = true;
     wake_waiters(id);
     return;
+  }
+  // A T-job that, once dispatched, waited for an activity of another thread (not its own
+  // channel's previous transfer, after which the loader goes straight on): that thread is
+  // woken when it may start (ControlLoop::wake).
+  if (const Time wake = schedule_.graph().loop.wake; wake > 0 && !s.woken && a.kind == ActivityKind::Transfer) {
+    s.woken = true;
+    Time dep_end = -kNever, prev_end = -kNever;
+    for (ActivityId p : a.deps) dep_end = std::max(dep_end, schedule_.activity(p).end);
+    for (ActivityId p : a.timeline_prev) prev_end = std::max(prev_end, schedule_.activity(p).end);
+    if (dep_end > s.dispatched_at && dep_end >= prev_end) s.release = std::max(s.release, dep_end + wake);
   }
   if (s.release > platform_.now()) {  // the control loop has not dispatched it yet
     if (!s.timer) {

@@ -74,6 +74,8 @@ class SimExecutor final : public Executor {
     // starts no earlier than that job's end plus the loop's latency.
     Time release = 0;
     bool timer = false;  // a timer will try it again at `release`
+    Time dispatched_at = 0;
+    bool woken = false;  // ControlLoop::wake applied (once, when it first could start)
   };
   Time release_ = 0;  // for activities dispatched during the current report (0: none)
   void wake_waiters(ActivityId id);

@@ -144,9 +144,14 @@ class PlatformReader {
     g_.client_memory = m;
   }
 
-  // "control_loop": {"per_job": DURATION, "per_exec_second": NUMBER >= 0} (ControlLoop).
+  // "control_loop": {"per_job": DURATION, "per_exec_second": NUMBER >= 0, "wake": DURATION}
+  // (ControlLoop).
   void control_loop(const JsonField& f) {
-    f.object().only_keys({"per_job", "per_exec_second", "description"});
+    f.object().only_keys({"per_job", "per_exec_second", "wake", "description"});
+    if (const auto p = f.find("wake")) {
+      g_.loop.wake = p->quantity(JsonUnit::duration);
+      if (!(g_.loop.wake >= 0)) p->fail("expected a duration of at least 0");
+    }
     if (const auto p = f.find("per_job")) {
       g_.loop.per_job = p->quantity(JsonUnit::duration);
       if (!(g_.loop.per_job >= 0)) p->fail("expected a duration of at least 0");

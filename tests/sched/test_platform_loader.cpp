@@ -388,6 +388,8 @@ TEST(PlatformLoader, BadInputNamesTheField) {
        "control_loop.per_job", ""},
       {"control loop: unknown key", [](json& j) { j["control_loop"] = {{"per_jobs", "1ms"}}; },
        "control_loop.per_jobs", "unknown key"},
+      {"control loop: wake not a duration", [](json& j) { j["control_loop"] = {{"wake", "1MB"}}; },
+       "control_loop.wake", ""},
       {"clients: unknown memory", [](json& j) { j["clients"] = "n2.ram"; }, "clients", "no memory device named 'n2.ram'"},
       {"clients: not host memory", [](json& j) { j["clients"] = "n1.gpu0mem"; }, "clients", "not a host memory"},
       {"clients: not a string", [](json& j) { j["clients"] = 1; }, "clients", "string"},
@@ -408,10 +410,11 @@ TEST(PlatformLoader, ClientsNameAHostMemory) {
 TEST(PlatformLoader, ControlLoopIsOptionalAndReadInSeconds) {
   json j = base();
   EXPECT_FALSE(parse_platform(j.dump(), "p.json").loop.modelled());
-  j["control_loop"] = {{"per_job", "250us"}, {"per_exec_second", 0.2}};
+  j["control_loop"] = {{"per_job", "250us"}, {"per_exec_second", 0.2}, {"wake", "300us"}};
   const DeviceGraph g = parse_platform(j.dump(), "p.json");
   EXPECT_DOUBLE_EQ(g.loop.per_job, 250e-6);
   EXPECT_DOUBLE_EQ(g.loop.per_exec_second, 0.2);
+  EXPECT_DOUBLE_EQ(g.loop.wake, 300e-6);
   EXPECT_DOUBLE_EQ(g.loop.latency(0.01), 250e-6 + 0.002);
 }
 

@@ -302,3 +302,45 @@ void expect_chain_gaps(bool modelled) {
 
 TEST(SimExecutor, WithoutAControlLoopTheNextJobStartsAtOnce) { expect_chain_gaps(false); }
 TEST(SimExecutor, ControlLoopDelaysWhatIsDispatchedAfterAFinishedJob) { expect_chain_gaps(true); }
+
+// ControlLoop::wake: a load that waits after its dispatch for an E-job (here the one whose
+// block it evicts: RAM holds one block) starts that E-job's end + wake; the first load, ready
+// when dispatched, and everything else start at once.
+namespace {
+void expect_wake(Time wake) {
+  DcgBuilder b;
+  const NodeId n = b.node("n0");
+  const MemId disk = b.mem("n0.disk", Bytes(1) << 40, MemoryKind::Disk, n);
+  const MemId ram = b.mem("n0.ram", static_cast<Bytes>(100 * MB), MemoryKind::Host, n);
+  b.dev("n0.cpu", ram);
+  b.half_duplex(disk, ram, 100 * MB, 0);
+  b.timing(0, DataKind::SceneData, 100 * MB, 0);
+  DeviceGraph g = b.build();
+  g.loop.wake = wake;
+  JobPool pool;
+  std::vector<std::pair<BlockId, MemId>> init;
+  for (int k = 0; k < 2; ++k) {
+    DataBlock blk;
+    blk.name = "scene" + std::to_string(k);
+    blk.kind = DataKind::SceneData;
+    blk.bytes = static_cast<Bytes>(100 * MB);
+    const BlockId id = pool.add_block(blk);
+    init.push_back({id, disk});
+    rayline::testing::add_job(pool, "j" + std::to_string(k), 0, {id});
+  }
+  SimRun run(g, pool, init, {});
+  ASSERT_FALSE(run.r.stalled);
+  // load 0 [0, 1], E-job 0 [1, 2], load 1 after E-job 0 (+ wake), E-job 1 after it.
+  const Schedule& s = run.s;
+  ASSERT_EQ(s.activity_count(), 4u);
+  EXPECT_NEAR(s.activity(0).start, 0.0, 1e-9);
+  EXPECT_NEAR(s.activity(1).start, 1.0, 1e-9);
+  EXPECT_EQ(s.activity(2).kind, ActivityKind::Transfer);
+  EXPECT_NEAR(s.activity(2).start, 2.0 + wake, 1e-9);
+  EXPECT_NEAR(s.activity(3).start, 3.0 + wake, 1e-9);
+  EXPECT_NEAR(run.r.makespan, 4.0 + wake, 1e-9);
+}
+}  // namespace
+
+TEST(SimExecutor, WithoutWakeALoadWaitingForAnEJobStartsAtItsEnd) { expect_wake(0); }
+TEST(SimExecutor, WakeDelaysALoadThatWaitedForAnEJob) { expect_wake(0.25); }
