@@ -320,11 +320,8 @@ void expect_wake(Time wake) {
   JobPool pool;
   std::vector<std::pair<BlockId, MemId>> init;
   for (int k = 0; k < 2; ++k) {
-    DataBlock blk;
-    blk.name = "scene" + std::to_string(k);
-    blk.kind = DataKind::SceneData;
-    blk.bytes = static_cast<Bytes>(100 * MB);
-    const BlockId id = pool.add_block(blk);
+    const BlockId id = rayline::testing::add_block(pool, "scene" + std::to_string(k), DataKind::SceneData,
+                                                   static_cast<Bytes>(100 * MB));
     init.push_back({id, disk});
     rayline::testing::add_job(pool, "j" + std::to_string(k), 0, {id});
   }
