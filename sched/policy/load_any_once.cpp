@@ -6,8 +6,12 @@
 
 namespace rayline {
 
-namespace {
-std::vector<std::int32_t> by_demand(const std::vector<std::uint64_t>& demand) {
+std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks) {
+  return load_any_once_assign(demand, ranks, [](int, std::int32_t) { return true; });
+}
+
+std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks,
+                                               const std::function<bool(int rank, std::int32_t domain)>& can) {
   std::vector<std::int32_t> order;
   for (std::size_t d = 0; d < demand.size(); ++d)
     if (demand[d] > 0) order.push_back(static_cast<std::int32_t>(d));
@@ -18,20 +22,6 @@ std::vector<std::int32_t> by_demand(const std::vector<std::uint64_t>& demand) {
       return demand[static_cast<std::size_t>(a)] > demand[static_cast<std::size_t>(b)];
     return a > b;
   });
-  return order;
-}
-}  // namespace
-
-std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks) {
-  const std::vector<std::int32_t> order = by_demand(demand);
-  std::vector<std::int32_t> map(static_cast<std::size_t>(std::max(0, ranks)), kNone);
-  for (std::size_t r = 0; r < map.size() && r < order.size(); ++r) map[r] = order[r];
-  return map;
-}
-
-std::vector<std::int32_t> load_any_once_assign(const std::vector<std::uint64_t>& demand, int ranks,
-                                               const std::function<bool(int rank, std::int32_t domain)>& can) {
-  const std::vector<std::int32_t> order = by_demand(demand);
   std::vector<std::int32_t> map(static_cast<std::size_t>(std::max(0, ranks)), kNone);
   std::size_t first_free = 0;  // ranks before it are all taken
   for (const std::int32_t dom : order) {

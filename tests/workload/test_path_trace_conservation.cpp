@@ -589,6 +589,55 @@ TEST(PathTraceClients, PartialTilesIsTheExpectedCoverage) {
   }
 }
 
+namespace {
+// paper-NAME with RAM half and GPU memory a quarter of the scene's bytes.
+DeviceGraph tight_platform(const std::string& name, const SceneProfile& prof) {
+  Bytes scene = 0;
+  for (const ProfileBlock& b : prof.blocks) scene += b.bytes;
+  DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/" + name + ".json");
+  for (MemoryDevice& m : g.memories) {
+    if (m.kind == MemoryKind::Host) m.capacity = scene / 2;
+    if (m.kind == MemoryKind::Gpu) m.capacity = scene / 4;
+  }
+  return g;
+}
+
+// Every activity of a whole run under `sched`, with reality off the plan: each activity runs
+// 0.5-1.8x its planned time (seeded by o.seed).
+std::vector<Activity> perturbed_plan(const DeviceGraph& g, const SceneProfile& prof, const PathTraceOptions& o,
+                                     Scheduler& sched, bool kept_leaving_order = true) {
+  JobPool pool;
+  Schedule s(g, pool);
+  s.set_kept_leaving_order(kept_leaving_order);
+  PathTraceWorkload wl(g, prof, o);
+  ExactExecutor ex(s);
+  auto rng = std::make_shared<std::mt19937>(static_cast<std::uint32_t>(o.seed));
+  ex.perturb = [rng](ActivityId, const Activity& a) {
+    return a.duration * std::uniform_real_distribution<double>(0.5, 1.8)(*rng);
+  };
+  RuntimeLoop loop(sched, ex, wl, pool, s);
+  if (loop.run().stalled) ADD_FAILURE() << "stalled";
+  std::vector<Activity> plan;
+  for (std::size_t i = 0; i < s.activity_count(); ++i) plan.push_back(s.activity(static_cast<ActivityId>(i)));
+  return plan;
+}
+
+// The same plan, activity by activity: placement, planned and actual times, state, deps.
+void expect_same_plan(const std::vector<Activity>& x, const std::vector<Activity>& y, const std::string& what) {
+  for (std::size_t i = 0; i < std::min(x.size(), y.size()); ++i) {
+    const Activity& a = x[i];
+    const Activity& b = y[i];
+    ASSERT_TRUE(a.kind == b.kind && a.job == b.job && a.device == b.device && a.channel == b.channel &&
+                a.block == b.block && a.planned_start == b.planned_start && a.planned_end == b.planned_end &&
+                a.start == b.start && a.end == b.end && a.state == b.state && a.cancelled == b.cancelled &&
+                std::equal(a.deps.begin(), a.deps.end(), b.deps.begin(), b.deps.end()))
+        << what << ": activity " << i << " differs (job " << a.job << "/" << b.job << ", start " << a.start << "/"
+        << b.start << ")";
+  }
+  ASSERT_EQ(x.size(), y.size()) << what;
+}
+}  // namespace
+
 // Schedule::admission keeps each device's leaving entries sorted while no activity's end
 // moves (new entries merged in, gone ones dropped where met). It must choose exactly what
 // a fresh sort at every call chooses: the same plan, activity by activity, for GMB and
@@ -596,46 +645,21 @@ TEST(PathTraceClients, PartialTilesIsTheExpectedCoverage) {
 // predictions withdrawn (ends move, entries come and go).
 TEST(PathTraceDeterminism, KeptLeavingOrderPlansAsAFreshSort) {
   const SceneProfile prof = load_scene_profile(kProfile);
-  Bytes scene = 0;
-  for (const ProfileBlock& b : prof.blocks) scene += b.bytes;
+  const DeviceGraph g = tight_platform("paper-2A", prof);
   for (const std::string scheduler : {"gmb", "rayline"}) {
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      PathTraceOptions o;
+      o.clients = 3;
+      o.frames_per_client = 2;
+      o.prediction_depth = 2;
+      o.seed = seed;
       std::vector<Activity> plan[2];
       for (int kept = 0; kept < 2; ++kept) {
-        DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/paper-2A.json");
-        for (MemoryDevice& m : g.memories) {
-          if (m.kind == MemoryKind::Host) m.capacity = scene / 2;
-          if (m.kind == MemoryKind::Gpu) m.capacity = scene / 4;
-        }
-        PathTraceOptions o;
-        o.clients = 3;
-        o.frames_per_client = 2;
-        o.prediction_depth = 2;
-        o.seed = seed;
-        JobPool pool;
-        Schedule s(g, pool);
-        s.set_kept_leaving_order(kept == 1);
-        PathTraceWorkload wl(g, prof, o);
         const std::unique_ptr<Scheduler> sched = make_scheduler(scheduler, 2.0);
-        ExactExecutor ex(s);
-        auto rng = std::make_shared<std::mt19937>(static_cast<std::uint32_t>(seed));
-        ex.perturb = [rng](ActivityId, const Activity& a) {
-          return a.duration * std::uniform_real_distribution<double>(0.5, 1.8)(*rng);
-        };
-        RuntimeLoop loop(*sched, ex, wl, pool, s);
-        ASSERT_FALSE(loop.run().stalled) << scheduler << " seed " << seed;
-        for (std::size_t i = 0; i < s.activity_count(); ++i) plan[kept].push_back(s.activity(static_cast<ActivityId>(i)));
+        plan[kept] = perturbed_plan(g, prof, o, *sched, kept == 1);
       }
-      ASSERT_EQ(plan[0].size(), plan[1].size()) << scheduler << " seed " << seed;
-      for (std::size_t i = 0; i < plan[0].size(); ++i) {
-        const Activity& a = plan[0][i];
-        const Activity& b = plan[1][i];
-        ASSERT_TRUE(a.kind == b.kind && a.job == b.job && a.device == b.device && a.channel == b.channel &&
-                    a.block == b.block && a.planned_start == b.planned_start && a.planned_end == b.planned_end &&
-                    a.start == b.start && a.end == b.end && a.state == b.state && a.cancelled == b.cancelled &&
-                    std::equal(a.deps.begin(), a.deps.end(), b.deps.begin(), b.deps.end()))
-            << scheduler << " seed " << seed << ": activity " << i << " differs";
-      }
+      expect_same_plan(plan[0], plan[1], scheduler + " seed " + std::to_string(seed));
+      if (HasFatalFailure()) return;
     }
   }
 }
@@ -647,59 +671,29 @@ TEST(PathTraceDeterminism, KeptLeavingOrderPlansAsAFreshSort) {
 // (jobs held while the node is busy), and without ownership; on two nodes and on eight.
 TEST(PathTraceDeterminism, RaylineSkipsOnlyNodesWhosePlanWouldBeTheSame) {
   const SceneProfile prof = load_scene_profile(kProfile);
-  Bytes scene = 0;
-  for (const ProfileBlock& b : prof.blocks) scene += b.bytes;
   std::uint64_t skipped = 0;
   for (const std::string platform : {"paper-2A", "paper-cluster"}) {
+    const DeviceGraph g = tight_platform(platform, prof);
     for (const std::string rules : {"", "hold", "no-ownership"}) {
       for (std::uint64_t seed = 1; seed <= 2; ++seed) {
+        PathTraceOptions o;
+        o.clients = 4;
+        o.frames_per_client = 2;
+        o.seed = seed;
         std::vector<Activity> plan[2];
         for (int skip = 0; skip < 2; ++skip) {
-          DeviceGraph g = load_platform(std::string(RAYLINE_PLATFORMS) + "/" + platform + ".json");
-          for (MemoryDevice& m : g.memories) {
-            if (m.kind == MemoryKind::Host) m.capacity = scene / 2;
-            if (m.kind == MemoryKind::Gpu) m.capacity = scene / 4;
-          }
-          PathTraceOptions o;
-          o.clients = 4;
-          o.frames_per_client = 2;
-          o.seed = seed;
-          JobPool pool;
-          Schedule s(g, pool);
-          PathTraceWorkload wl(g, prof, o);
           RaylineOptions ro = rayline_options(0.5, rules == "no-ownership" ? rayline_rule_bit("ownership") : 0u,
                                               rules == "hold" ? rayline_rule_bit("hold") : 0u);
           ro.skip_unchanged = skip == 1;
           RaylineScheduler sched(ro);
-          ExactExecutor ex(s);
-          auto rng = std::make_shared<std::mt19937>(static_cast<std::uint32_t>(seed));
-          ex.perturb = [rng](ActivityId, const Activity& a) {
-            return a.duration * std::uniform_real_distribution<double>(0.5, 1.8)(*rng);
-          };
-          RuntimeLoop loop(sched, ex, wl, pool, s);
-          ASSERT_FALSE(loop.run().stalled) << platform << " " << rules << " seed " << seed;
-          for (std::size_t i = 0; i < s.activity_count(); ++i) plan[skip].push_back(s.activity(static_cast<ActivityId>(i)));
+          plan[skip] = perturbed_plan(g, prof, o, sched);
           if (skip == 0) {
             EXPECT_EQ(sched.skipped(), 0u);
           }
           skipped += sched.skipped();
         }
-        if (getenv("RL_DUMP")) {
-          for (int k = 0; k < 2; ++k) {
-            std::ofstream f("/tmp/plan" + std::to_string(k) + ".txt");
-            for (std::size_t i = 0; i < plan[k].size(); ++i) { const Activity& a = plan[k][i]; f << i << " " << int(a.kind) << " j" << a.job << " d" << a.device << " c" << a.channel << " b" << a.block << " ps" << a.planned_start << " s" << a.start << " e" << a.end << "\n"; }
-          }
-        }
-        for (std::size_t i = 0; i < std::min(plan[0].size(), plan[1].size()); ++i) {
-          const Activity& a = plan[0][i];
-          const Activity& b = plan[1][i];
-          ASSERT_TRUE(a.kind == b.kind && a.job == b.job && a.device == b.device && a.channel == b.channel &&
-                      a.block == b.block && a.planned_start == b.planned_start && a.planned_end == b.planned_end &&
-                      a.start == b.start && a.end == b.end && a.state == b.state && a.cancelled == b.cancelled &&
-                      std::equal(a.deps.begin(), a.deps.end(), b.deps.begin(), b.deps.end()))
-              << platform << " " << rules << " seed " << seed << ": activity " << i << " differs: job " << a.job << "/" << b.job << " dev " << a.device << "/" << b.device << " ch " << a.channel << "/" << b.channel << " start " << a.planned_start << "/" << b.planned_start << " actual " << a.start << "/" << b.start << "-" << a.end << "/" << b.end;
-        }
-        ASSERT_EQ(plan[0].size(), plan[1].size()) << platform << " " << rules << " seed " << seed;
+        expect_same_plan(plan[0], plan[1], platform + " " + rules + " seed " + std::to_string(seed));
+        if (HasFatalFailure()) return;
       }
     }
   }

@@ -240,12 +240,15 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   const bool drained = s.unfinished() == 0;
   std::vector<std::size_t>& todo = todo_;
   todo.clear();
+  // New jobs are looked at no more than once per `slack`; held ones once their recheck came.
+  auto due = [&](std::size_t n) {
+    return (fresh_[n] || fresh_[any_bucket]) ? now >= planned_at_[n] + opt_.slack : now >= recheck_[n];
+  };
   for (std::size_t n = 0; n < g.nodes.size(); ++n) {
     if (by_node_[n].empty() && by_node_[any_bucket].empty()) continue;
     // New jobs are looked at no more than once per `slack` unless a device is idle, or
     // nothing at all is in flight (no later event would call again).
-    const bool due = (fresh_[n] || fresh_[any_bucket]) ? now >= planned_at_[n] + opt_.slack : now >= recheck_[n];
-    if (!due && !drained && (idle(n) == 0 || now < held_until_[n])) continue;
+    if (!due(n) && !drained && (idle(n) == 0 || now < held_until_[n])) continue;
     if (wants_work(n)) todo.push_back(n);
   }
   if (todo.empty()) return done();
@@ -259,10 +262,9 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   // planned as it was: only its clocks and buckets move, as a plan's would.
   std::size_t kept = 0;
   for (const std::size_t n : todo) {
-    const bool due = (fresh_[n] || fresh_[any_bucket]) ? now >= planned_at_[n] + opt_.slack : now >= recheck_[n];
     const bool changed = fresh_[n] || fresh_[any_bucket] || s.node_epoch(static_cast<NodeId>(n)) != seen_epoch_[n] ||
                          merged_into_[n] || now >= wake_at_[n];
-    if (due || drained || changed || !opt_.skip_unchanged) {
+    if (due(n) || drained || changed || !opt_.skip_unchanged) {
       todo[kept++] = n;
       continue;
     }
