@@ -467,9 +467,10 @@ int calibrate_here(const CalibrateCliOptions& opt, const ClusterLan* lan, int lo
     std::fputs(lan->report.c_str(), stdout);
   }
   write_file_atomic(opt.out, c.platform_json);
-  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %s, bandwidth %s; %s\n", c.load_samples,
-              format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),
-              fit_quality(c.load_fit, "load").c_str());
+  std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %s, bandwidth %s with the CPU threads "
+              "idle, x%.2f the time with all of them busy; %s\n",
+              c.load_samples, format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),
+              1 + c.model.disk_cpu_contention, fit_quality(c.load_fit, "load").c_str());
   std::printf("control loop after a finished job, over %d waits of a thread that ran dry: %s + %.3g x the job's "
               "duration (mean wait per job %s); %s\n",
               c.loop_samples, format_duration(c.model.loop.per_job).c_str(), c.model.loop.per_exec_second,

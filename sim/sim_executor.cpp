@@ -20,6 +20,7 @@ std::optional<TransferOrder> parse_transfer_order(std::string_view name) {
 SimExecutor::SimExecutor(SgPlatform& platform, const Schedule& schedule, SimExecutorOptions opt)
     : platform_(platform), schedule_(schedule), opt_(std::move(opt)),
       last_on_channel_(schedule.graph().channels.size(), kNone),
+      running_(schedule.graph().computes.size(), 0),
       resource_user_(schedule.graph().resources.size(), kNone),
       resource_waiters_(schedule.graph().resources.size()) {}
 
@@ -98,11 +99,27 @@ void SimExecutor::try_start(ActivityId id) {
   }
   auto cb = [this, id](const SgCompletion& c) { on_done(id, c.finish_s, c.ok); };
   if (a.kind == ActivityKind::Transfer) {
-    s.sg = platform_.start_transfer(a.channel, a.bytes, cb);
+    s.sg = platform_.start_transfer(a.channel, contended_bytes(a.channel, a.bytes), cb);
   } else {
     const double f = opt_.exec_factor ? opt_.exec_factor(id, a) : 1.0;
+    running_[static_cast<std::size_t>(a.device)] = 1;
     s.sg = platform_.start_exec(a.device, a.duration * f, cb);
   }
+}
+
+Bytes SimExecutor::contended_bytes(ChannelId c, Bytes bytes) const {
+  const DeviceGraph& g = schedule_.graph();
+  const Channel& ch = g.channels[static_cast<std::size_t>(c)];
+  if (!(ch.cpu_contention > 0)) return bytes;
+  const NodeId node = g.memories[static_cast<std::size_t>(ch.to)].node;
+  int threads = 0, busy = 0;
+  for (DeviceId d : g.nodes[static_cast<std::size_t>(node)].computes)
+    if (g.computes[static_cast<std::size_t>(d)].kind == ComputeKind::Cpu) {
+      ++threads;
+      busy += running_[static_cast<std::size_t>(d)];
+    }
+  if (busy == 0) return bytes;
+  return static_cast<Bytes>(static_cast<double>(bytes) * (1 + ch.cpu_contention * busy / threads));
 }
 
 bool SimExecutor::resources_free(ActivityId id, const Activity& a) {
@@ -136,6 +153,8 @@ void SimExecutor::release_resources(const Activity& a) {
 void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   const auto t0 = std::chrono::steady_clock::now();
   st_[id].done = true;
+  if (const Activity& a = schedule_.activity(id); a.kind == ActivityKind::Exec)
+    running_[static_cast<std::size_t>(a.device)] = 0;
   std::vector<ActivityId> freed;
   if (st_[id].holds_resources) {
     st_[id].holds_resources = false;
@@ -187,6 +206,7 @@ void SimExecutor::halt(const std::vector<DeviceId>& computes, const std::vector<
     if (!lost) continue;
     if (s.sg != 0) platform_.cancel(s.sg);
     s.done = true;
+    if (a.kind == ActivityKind::Exec) running_[static_cast<std::size_t>(a.device)] = 0;
     if (s.holds_resources) {
       s.holds_resources = false;
       release_resources(a);

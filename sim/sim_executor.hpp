@@ -59,6 +59,9 @@ class SimExecutor final : public Executor {
   // TransferOrder::Exclusive: are all of the channel's resources free? If not, wait on them.
   bool resources_free(ActivityId id, const Activity& a);
   void release_resources(const Activity& a);
+  // Channel::cpu_contention: the bytes a T-job on `c` moves at the channel's bandwidth
+  // when it starts now (its own bytes when the channel's node has no busy CPU thread).
+  Bytes contended_bytes(ChannelId c, Bytes bytes) const;
 
   SgPlatform& platform_;
   const Schedule& schedule_;
@@ -83,6 +86,7 @@ class SimExecutor final : public Executor {
   std::vector<State> st_;
   std::vector<std::vector<ActivityId>> waiters_;
   std::vector<ActivityId> last_on_channel_;
+  std::vector<char> running_;  // per compute device: an E-job runs on it
   // TransferOrder::Exclusive, per resource: the T-job using it (kNone: free), and the
   // T-jobs waiting for it (tried in plan order when it frees).
   std::vector<ActivityId> resource_user_;

@@ -1,11 +1,13 @@
 #include "render/engine/calibrate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
 
 #include "render/store/temp_partition.hpp"
 #include "sched/core/data_block.hpp"
+#include "sched/core/nnls.hpp"
 #include "sched/core/timing_model.hpp"
 
 namespace rayline::engine {
@@ -37,11 +39,58 @@ FitErrors fit_channel(const std::vector<std::pair<Bytes, Time>>& s, Time& latenc
   return fit_errors(pred, meas);
 }
 
+// Eq. 1 of the disk->RAM channel with the CPU threads' share in it (Channel::cpu_contention):
+//   t = lat + bytes / bw x (1 + contention x busy),
+// busy the threads' mean busy share while the load ran (its BVH build shares the cores),
+// by non-negative least squares over [bytes, bytes x busy] and, when the loads' sizes
+// differ enough to tell it from the slope, [1] (even median-split blocks are all about one
+// size: then lat = 0, as fit_channel does). Loads that all saw about the same share cannot
+// tell the two slopes apart: then Eq. 1 alone, contention 0.
+FitErrors fit_load_channel(const std::vector<RenderResult::LoadSample>& s, Time& latency, double& bandwidth,
+                           double& contention) {
+  contention = 0;
+  double lo = 1, hi = 0;
+  Bytes small = ~Bytes(0), large = 0;
+  for (const auto& x : s) {
+    lo = std::min(lo, x.busy), hi = std::max(hi, x.busy);
+    small = std::min(small, x.bytes), large = std::max(large, x.bytes);
+  }
+  if (s.size() >= 3 && hi - lo >= 0.25 && small > 0) {
+    const bool with_latency = double(large) >= 1.5 * double(small);
+    const int cols = with_latency ? 3 : 2;
+    constexpr double kMB = 1e6;  // columns of like magnitude
+    std::vector<double> a, t;
+    for (const auto& x : s) {
+      const double mb = double(x.bytes) / kMB;
+      if (with_latency) a.push_back(1.0);
+      a.insert(a.end(), {mb, mb * x.busy});
+      t.push_back(x.seconds);
+    }
+    const NnlsResult f = solve_nnls(a, int(s.size()), cols, t);
+    const double slope = f.ok ? f.x[cols - 2] : 0;
+    if (slope > 0) {
+      latency = with_latency ? f.x[0] : 0;
+      bandwidth = kMB / slope;
+      contention = f.x[cols - 1] / slope;
+      std::vector<double> pred, meas;
+      for (const auto& x : s) {
+        pred.push_back(latency + double(x.bytes) / bandwidth * (1 + contention * x.busy));
+        meas.push_back(x.seconds);
+      }
+      return fit_errors(pred, meas);
+    }
+  }
+  std::vector<std::pair<Bytes, Time>> plain;
+  for (const auto& x : s) plain.emplace_back(x.bytes, x.seconds);
+  return fit_channel(plain, latency, bandwidth);
+}
+
 }  // namespace
 
 void fit_model(const RenderResult& r, CalibrationResult& c) {
   c.load_samples = static_cast<int>(r.load_samples.size());
-  if (r.load_samples.size() >= 2) c.load_fit = fit_channel(r.load_samples, c.model.disk_latency, c.model.disk_bandwidth);
+  if (r.load_samples.size() >= 2)
+    c.load_fit = fit_load_channel(r.load_samples, c.model.disk_latency, c.model.disk_bandwidth, c.model.disk_cpu_contention);
 
   // All CPU hardware threads are identical: fit them as one device (0); the GPU is device 1.
   TimingModel tm;

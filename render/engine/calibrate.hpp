@@ -1,7 +1,8 @@
 // `rayline calibrate`: measure this machine by rendering a scene under a memory
 // budget that forces block loads, then fit the timing model (Sec. 3.2) by least squares:
-//   Eq. 1 for the disk→RAM channel: T = LAT + bytes / BW over every measured load
-//     (read with O_DIRECT + BVH build);
+//   Eq. 1 for the disk→RAM channel: T = LAT + bytes / BW x (1 + C x busy) over every
+//     measured load (read with O_DIRECT + BVH build), busy the CPU threads' share while it
+//     ran: the build shares the cores with them (C: the channel's cpu_contention);
 //   Eq. 2 per job type for a CPU hardware thread: T = SETUP + RATE·|rays| over every
 //     measured RayIntersect / ShadowIntersect (TimingModel::fit, Eigen);
 //   with a Vulkan device (--gpu): Eq. 2 for the GPU's jobs and Eq. 1 for the RAM->GPU

@@ -434,6 +434,27 @@ void report_samples(const Schedule& schedule, const JobPool& pool, const Platfor
                     RenderResult& res) {
   const DeviceGraph& g = p.g;
   res.first_exec_start = res.seconds;
+  // The CPU threads' E-jobs, by start: a load's busy share is their overlap with it.
+  std::vector<std::pair<Time, Time>> cpu_jobs;
+  Time longest = 0;
+  int threads = 0;
+  for (std::size_t d = 0; d < g.computes.size(); ++d) threads += g.computes[d].kind == ComputeKind::Cpu;
+  for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
+    const Activity& a = schedule.activity(id);
+    if (a.state == ActivityState::Done && a.kind == ActivityKind::Exec && !a.cancelled &&
+        g.computes[std::size_t(a.device)].kind == ComputeKind::Cpu) {
+      cpu_jobs.emplace_back(a.start, a.end);
+      longest = std::max(longest, a.end - a.start);
+    }
+  }
+  std::sort(cpu_jobs.begin(), cpu_jobs.end());
+  auto busy_share = [&](Time s, Time e) {
+    if (e <= s || threads == 0) return 0.0;
+    double overlap = 0;
+    auto it = std::lower_bound(cpu_jobs.begin(), cpu_jobs.end(), std::pair<Time, Time>(s - longest, -kNever));
+    for (; it != cpu_jobs.end() && it->first < e; ++it) overlap += std::max(0.0, std::min(e, it->second) - std::max(s, it->first));
+    return overlap / ((e - s) * threads);
+  };
   for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
     const Activity& a = schedule.activity(id);
     if (a.state != ActivityState::Done) continue;
@@ -449,7 +470,7 @@ void report_samples(const Schedule& schedule, const JobPool& pool, const Platfor
     } else if (g.channels[a.channel].network != kNone) {
       res.lan_samples.emplace_back(a.bytes, a.end - a.start);
     } else if (sb.cell_of.count(a.block) && g.channels[a.channel].to == p.ram) {
-      res.load_samples.emplace_back(a.bytes, a.end - a.start);
+      res.load_samples.push_back({a.bytes, a.end - a.start, busy_share(a.start, a.end)});
     } else if (g.channels[a.channel].to == p.gmem) {
       res.pcie_samples.emplace_back(a.bytes, a.end - a.start);
     }

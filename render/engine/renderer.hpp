@@ -105,9 +105,14 @@ struct RenderResult {
   std::string metrics_json, timeline_json, jobs_csv;
   // Measured activities, for `rayline calibrate` (Eq. 1 and Eq. 2 fits): every finished
   // E-job as a TimingSample (type 0: RayIntersect, 1: ShadowIntersect), every disk→RAM
-  // T-job as (bytes, seconds).
+  // T-job as a LoadSample (its BVH build shares the cores with the CPU threads' E-jobs).
+  struct LoadSample {
+    Bytes bytes = 0;
+    Time seconds = 0;
+    double busy = 0;  // the CPU threads' mean busy share (0..1) while it ran
+  };
   std::vector<TimingSample> exec_samples;
-  std::vector<std::pair<Bytes, Time>> load_samples;
+  std::vector<LoadSample> load_samples;
   // Per E-job on a CPU thread (the first on each excepted): how long the thread stood idle
   // after the job's inputs and the thread itself were ready, before the job started — the
   // loop's dispatch latency (events, planning, thread wake-up), which the plan does not see.

@@ -49,7 +49,8 @@ std::string node_type_json(const WorkstationModel& m) {
   for (int k = 0; k < std::max(1, m.loaders); ++k)
     s += std::string(k ? "," : "") + "\n        {\"name\": \"disk" + (k ? std::to_string(k + 1) : "") +
          "\", \"kind\": \"disk\", \"between\": [\"disk\", \"ram\"], \"duplex\": \"half\", \"latency\": " +
-         us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) + "}";
+         us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) +
+         (m.disk_cpu_contention > 0 ? ", \"cpu_contention\": " + num(m.disk_cpu_contention) : std::string()) + "}";
   for (std::size_t i = 0; i < m.gpus.size(); ++i)
     s += ",\n        {\"name\": \"pcie" + std::to_string(i) + "\", \"kind\": \"pcie\", \"between\": [\"ram\", \"gpu" +
          std::to_string(i) + "mem\"], \"duplex\": \"full\", \"latency\": " + us(m.gpus[i].pcie_latency) +
@@ -154,6 +155,7 @@ WorkstationModel load_node_model(const std::string& path, int* nodes, LanModel* 
   m.loaders = loaders;
   m.disk_latency = dc->latency;
   m.disk_bandwidth = dc->bandwidth;
+  m.disk_cpu_contention = dc->cpu_contention;
   m.loop = g.loop;
   // Both job types with a rate on their ray queue, per compute device model.
   auto coefficients = [&](DeviceId d, Time& ri_setup, double& ri_rate, Time& si_setup, double& si_rate) {

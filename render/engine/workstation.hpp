@@ -33,6 +33,7 @@ struct WorkstationModel {
   int loaders = 1;                     // disk->RAM channels: loads (read + BVH build) in flight at once
   Time disk_latency = 1e-3;            // s per block: open, first read, BVH build setup
   double disk_bandwidth = 150e6;       // footprint bytes/s: read + BVH build
+  double disk_cpu_contention = 0;      // Channel::cpu_contention: the build shares the cores
   Time intersect_setup = 20e-6;        // RayIntersect, per job
   double intersect_rate = 1.0 / 64e6;  // s per RayQueue byte (1 M rays/s per thread, 64 B rays)
   Time shadow_setup = 20e-6;

@@ -59,6 +59,11 @@ struct Channel {
   double bandwidth = 0;    // T_BW, bytes/s
   std::vector<ResourceId> resources;
   std::int32_t network = kNone;  // the Network it joins two members of; kNone: a point-to-point channel
+  // Work its T-jobs do on the node's CPU (a load's BVH build) competes with the E-jobs of
+  // its CPU threads: a T-job that starts while k of the node's n CPU threads run E-jobs
+  // moves its bytes at bandwidth / (1 + cpu_contention x k / n). 0: no competition. The
+  // simulator only; the plan's Eq. 1 uses `bandwidth` (docs/validation.md).
+  double cpu_contention = 0;
 };
 
 // A switched network as the platform file describes it, kept beside the channels it

@@ -322,7 +322,7 @@ class PlatformReader {
   // Intra-node channels: a half-duplex medium (SATA) is one resource for both
   // directions; a full-duplex one (PCIe) one resource per direction.
   void channel(const NodeScope& n, const JsonField& f, std::set<std::string>& names) {
-    f.only_keys({"name", "kind", "between", "duplex", "latency", "bandwidth", "media", "description"});
+    f.only_keys({"name", "kind", "between", "duplex", "latency", "bandwidth", "media", "cpu_contention", "description"});
     const std::string cname = f.at("name").non_empty_string();
     const std::vector<ResourceId> shared = channel_media(n, f);
     if (!names.insert(cname).second) f.at("name").fail("duplicate channel name '" + cname + "'");
@@ -332,6 +332,10 @@ class PlatformReader {
     c.latency = f.at("latency").quantity(JsonUnit::duration);
     c.bandwidth = f.at("bandwidth").quantity(JsonUnit::bandwidth);
     c.kind = optional_name(f, "kind", cname);
+    if (const auto p = f.find("cpu_contention")) {
+      c.cpu_contention = p->number();
+      if (!(c.cpu_contention >= 0)) p->fail("expected a number of at least 0");
+    }
     const std::string base = n.name + "." + cname;
     std::array<ResourceId, 2> res{};
     if (dup == Duplex::Half) {

@@ -341,6 +341,10 @@ TEST(PlatformLoader, BadInputNamesTheField) {
        "node_types.N.channels[1].bandwidth", "> 0"},
       {"bandwidth without /s", [](json& j) { j["node_types"]["N"]["channels"][0]["bandwidth"] = "150MB"; },
        "node_types.N.channels[0].bandwidth", "expected"},
+      {"negative cpu_contention", [](json& j) { j["node_types"]["N"]["channels"][0]["cpu_contention"] = -0.5; },
+       "node_types.N.channels[0].cpu_contention", "at least 0"},
+      {"cpu_contention not a number", [](json& j) { j["node_types"]["N"]["channels"][0]["cpu_contention"] = "1x"; },
+       "node_types.N.channels[0].cpu_contention", ""},
       {"missing latency", [](json& j) { j["node_types"]["N"]["channels"][0].erase("latency"); },
        "node_types.N.channels[0].latency", "missing"},
       {"bad duplex", [](json& j) { j["node_types"]["N"]["channels"][0]["duplex"] = "simplex"; },
@@ -405,6 +409,21 @@ TEST(PlatformLoader, ClientsNameAHostMemory) {
   j["clients"] = "n1.ram";
   const DeviceGraph g = parse_platform(j.dump(), "p.json");
   EXPECT_EQ(g.client_memory, g.find_memory("n1.ram"));
+}
+
+// Channel::cpu_contention: optional (0), on both directions of the channel.
+TEST(PlatformLoader, CpuContentionIsOptionalPerChannel) {
+  json j = base();
+  for (const Channel& c : parse(j).channels) EXPECT_EQ(c.cpu_contention, 0.0) << c.name;
+  j["node_types"]["N"]["channels"][0]["cpu_contention"] = 1.25;
+  int with = 0;
+  for (const Channel& c : parse(j).channels)
+    if (c.cpu_contention > 0) {
+      EXPECT_EQ(c.cpu_contention, 1.25);
+      EXPECT_NE(c.name.find(".sata:"), std::string::npos) << c.name;
+      ++with;
+    }
+  EXPECT_EQ(with, 4);  // two nodes, both directions
 }
 
 TEST(PlatformLoader, ControlLoopIsOptionalAndReadInSeconds) {

@@ -341,3 +341,47 @@ void expect_wake(Time wake) {
 
 TEST(SimExecutor, WithoutWakeALoadWaitingForAnEJobStartsAtItsEnd) { expect_wake(0); }
 TEST(SimExecutor, WakeDelaysALoadThatWaitedForAnEJob) { expect_wake(0.25); }
+
+// Channel::cpu_contention: a load that starts while k of the node's 2 CPU threads run E-jobs
+// moves its bytes at bandwidth / (1 + c k / 2). k blocks start in RAM, each with a 1 s
+// E-job; GMB plans those first (they start at once), then the load of a block from the disk.
+namespace {
+void expect_contention(double c, int busy) {
+  DcgBuilder b;
+  const NodeId n = b.node("n0");
+  const MemId disk = b.mem("n0.disk", Bytes(1) << 40, MemoryKind::Disk, n);
+  const MemId ram = b.mem("n0.ram", static_cast<Bytes>(300 * MB), MemoryKind::Host, n);
+  b.dev("n0.cpu0", ram);
+  b.dev("n0.cpu1", ram);
+  b.half_duplex(disk, ram, 100 * MB, 0);
+  b.timing(0, DataKind::SceneData, 100 * MB, 0);
+  DeviceGraph g = b.build();
+  for (Channel& ch : g.channels) ch.cpu_contention = c;
+  JobPool pool;
+  std::vector<std::pair<BlockId, MemId>> init;
+  for (int k = 0; k <= busy; ++k) {
+    const BlockId id = rayline::testing::add_block(pool, "scene" + std::to_string(k), DataKind::SceneData,
+                                                   static_cast<Bytes>(100 * MB));
+    init.push_back({id, k < busy ? ram : disk});
+    rayline::testing::add_job(pool, "j" + std::to_string(k), 0, {id});
+  }
+  SimRun run(g, pool, init, {});
+  ASSERT_FALSE(run.r.stalled);
+  const Schedule& s = run.s;
+  int loads = 0;
+  for (std::size_t i = 0; i < s.activity_count(); ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.kind != ActivityKind::Transfer) continue;
+    ++loads;
+    EXPECT_NEAR(a.start, 0.0, 1e-9);
+    EXPECT_NEAR(a.end - a.start, 1.0 * (1 + c * busy / 2.0), 1e-9) << "c " << c << ", busy " << busy;
+    EXPECT_NEAR(a.planned_end - a.planned_start, 1.0, 1e-9);  // the plan's Eq. 1 ignores it
+  }
+  EXPECT_EQ(loads, 1);
+}
+}  // namespace
+
+// (One SgPlatform per process: one run per TEST.)
+TEST(SimExecutor, ALoadBesideIdleThreadsTakesEq1) { expect_contention(1.5, 0); }
+TEST(SimExecutor, ALoadBesideOneBusyThreadOfTwoSharesTheCores) { expect_contention(1.0, 1); }
+TEST(SimExecutor, ALoadBesideTwoBusyThreadsSharesTheCores) { expect_contention(0.5, 2); }
