@@ -471,10 +471,14 @@ int calibrate_here(const CalibrateCliOptions& opt, const ClusterLan* lan, int lo
               "idle, x%.2f the time with all of them busy; %s\n",
               c.load_samples, format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),
               1 + c.model.disk_cpu_contention, fit_quality(c.load_fit, "load").c_str());
+  std::printf("CPU threads' jobs beside a load run x%.2f slower (over %d such jobs; Eq. 2 below from the others)\n",
+              1 + c.model.disk_exec_contention, c.beside_load_samples);
   std::printf("control loop after a finished job, over %d waits of a thread that ran dry: %s + %.3g x the job's "
               "duration (mean wait per job %s); %s\n",
               c.loop_samples, format_duration(c.model.loop.per_job).c_str(), c.model.loop.per_exec_second,
               format_duration(c.dispatch_gap).c_str(), fit_quality(c.loop_fit, "wait").c_str());
+  std::printf("loader woken after another thread's job, mean over %d loads: %s\n", c.wake_samples,
+              c.wake_samples >= 10 ? format_duration(c.model.loop.wake).c_str() : "too few to fit (0)");
   std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %s, %s; %s\n", c.exec_samples,
               format_duration(c.model.intersect_setup).c_str(), ray_rate(c.model.intersect_rate).c_str(),
               fit_quality(c.intersect_fit, "job").c_str());

@@ -157,6 +157,7 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
   m.channel_src.resize(g.channels.size());
   m.channel_dst.resize(g.channels.size());
   auto needs_own_link = [&](const Channel& c) {
+    if (c.cpu_contention > 0) return true;  // its bandwidth moves with the CPU threads (set_channel_bandwidth)
     double slowest = std::numeric_limits<double>::infinity();
     for (ResourceId r : c.resources) slowest = std::min(slowest, g.resources[r].bandwidth);
     return c.bandwidth < slowest * (1 - 1e-12);
@@ -266,6 +267,8 @@ SgPlatform::SgPlatform(const DeviceGraph& graph, const SgOptions& options) : imp
   m.channel_done_bytes.assign(g.channels.size(), 0.0);
   m.device_work_s.assign(g.computes.size(), 0.0);
   m.device_active.assign(g.computes.size(), 0);
+  m.device_slowdown.assign(g.computes.size(), 1.0);
+  m.device_exec.assign(g.computes.size(), 0);
   m.device_since.assign(g.computes.size(), 0.0);
 
   Impl* self = &m;
@@ -340,7 +343,16 @@ double SgPlatform::Impl::moved_bytes(const Pending& p, bool finished) {
 
 void SgPlatform::Impl::launch_comm(SgActivityId id, Bytes bytes) {
   Pending& p = pending.at(id);
+  // SimGrid bounds a flow's rate by its route's bandwidths when it starts and never lifts
+  // that bound: a flow that starts on a contended channel (set_channel_bandwidth) starts at
+  // the channel's full bandwidth, so that it speeds up again when the contention ends; the
+  // link's own bandwidth then holds it to the contended rate meanwhile.
+  sg4::Link* own = channel_links[static_cast<std::size_t>(p.channel)];
+  const double full = graph.channels[static_cast<std::size_t>(p.channel)].bandwidth;
+  const double now_bw = own ? own->get_bandwidth() : full;
+  if (now_bw != full) own->set_bandwidth(full);
   sg4::CommPtr comm = sg4::Comm::sendto_async(channel_src[p.channel], channel_dst[p.channel], bytes);
+  if (now_bw != full) own->set_bandwidth(now_bw);
   by_activity[comm.get()] = id;
   p.activity = comm;
   p.bytes = bytes;
@@ -351,7 +363,10 @@ void SgPlatform::Impl::complete(SgActivityId id, Time finish_s, bool ok) {
   if (it == pending.end()) return;
   Pending p = std::move(it->second);
   pending.erase(it);
-  if (p.timed_exec) mark_device(p.device, -1);
+  if (p.timed_exec) {
+    mark_device(p.device, -1);
+    if (device_exec[p.device] == id) device_exec[p.device] = 0;
+  }
   if (p.activity) {
     if (p.channel != kNone) add_route_bytes(p.channel, moved_bytes(p, ok));
     graveyard.push_back(std::move(p.activity));  // SimGrid still uses it after this signal
@@ -490,11 +505,15 @@ SgActivityId SgPlatform::start_exec(DeviceId d, Time seconds, SgCallback done) {
     if (m.device_active[d] > 0)
       throw std::logic_error("SgPlatform::start_exec: device " + m.graph.computes[d].name + " already runs an exec (exclusive_execs)");
     p.timed_exec = true;
+    p.work_left = seconds;
+    p.since = now_s;
+    m.device_exec[d] = id;
     m.mark_device(d, +1);
-    m.set_timer(id, now_s + seconds, false, 0);
+    m.set_timer(id, now_s + seconds * m.device_slowdown[d], false, 0);
     return id;
   }
-  // Convention: hosts run at 1 flop/s, so flops = seconds of device time.
+  // Convention: hosts run at 1 flop/s, so flops = seconds of device time. (Here, with
+  // SimGrid's own Execs for its Paje trace, set_device_slowdown is not applied.)
   sg4::ExecPtr exec = sg4::Exec::init();
   exec->set_flops_amount(seconds);
   exec->set_host(m.compute_hosts[d]);
@@ -523,6 +542,7 @@ void SgPlatform::cancel(SgActivityId id) {
   m.pending.erase(it);  // complete() ignores it from now on; a latency timer finds nothing to do
   if (p.timed_exec) {  // its end must not keep the engine's clock running
     m.mark_device(p.device, -1);
+    if (m.device_exec[p.device] == id) m.device_exec[p.device] = 0;
     if (auto t = m.timers.find(id); t != m.timers.end()) {
       t->second->remove();
       m.timers.erase(t);
@@ -593,6 +613,32 @@ double SgPlatform::device_busy_s(DeviceId d) const {
 }
 
 const DeviceGraph& SgPlatform::graph() const { return impl_->graph; }
+
+void SgPlatform::set_device_slowdown(DeviceId d, double factor) {
+  Impl& m = *impl_;
+  const auto di = static_cast<std::size_t>(d);
+  if (m.device_slowdown.at(di) == factor) return;
+  const SgActivityId id = m.exclusive_execs ? m.device_exec[di] : 0;
+  if (auto it = id ? m.pending.find(id) : m.pending.end(); it != m.pending.end()) {
+    // The running exec: what it did at the old speed, the rest at the new one.
+    Impl::Pending& p = it->second;
+    const Time now_s = now();
+    p.work_left = std::max(0.0, p.work_left - (now_s - p.since) / m.device_slowdown[di]);
+    p.since = now_s;
+    if (auto t = m.timers.find(id); t != m.timers.end()) {
+      t->second->remove();
+      m.timers.erase(t);
+    }
+    m.set_timer(id, now_s + p.work_left * factor, false, 0);
+  }
+  m.device_slowdown[di] = factor;
+}
+
+void SgPlatform::set_channel_bandwidth(ChannelId c, double bandwidth) {
+  sg4::Link* l = impl_->channel_links.at(static_cast<std::size_t>(c));
+  if (!l) throw std::logic_error("SgPlatform::set_channel_bandwidth: channel " + std::to_string(c) + " has no link of its own");
+  if (l->get_bandwidth() != bandwidth) l->set_bandwidth(bandwidth);
+}
 
 std::string SgPlatform::resource_link_name(ResourceId r) const { return impl_->resource_links.at(r)->get_name(); }
 

@@ -81,6 +81,12 @@ class SgPlatform {
   // any other exec running on d). 0 seconds completes at now.
   SgActivityId start_exec(DeviceId d, Time seconds, SgCallback done);
 
+  // From now on, compute device d runs its execs `factor` times slower (1: full speed), the
+  // one running included (its remaining work; with SgOptions::exclusive_execs only).
+  void set_device_slowdown(DeviceId d, double factor);
+  // From now on, the flows on channel c share `bandwidth` (those in flight too). Only for a
+  // channel with Channel::cpu_contention > 0, which has a link of its own for this.
+  void set_channel_bandwidth(ChannelId c, double bandwidth);
   // `done` fires at now + delay (a wake-up; nothing is used).
   SgActivityId start_timer(Time delay, SgCallback done);
   // Stops a pending activity now, as a device turned off would (SimGrid's Host::turn_off

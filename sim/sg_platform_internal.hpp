@@ -33,6 +33,8 @@ struct SgPlatform::Impl {
   std::vector<int> device_active;      // execs running on it
   std::vector<double> device_since;    // while device_active > 0: when the busy interval began
   bool exclusive_execs = false;        // SgOptions::exclusive_execs
+  std::vector<double> device_slowdown;  // set_device_slowdown (1: full speed)
+  std::vector<SgActivityId> device_exec;  // exclusive_execs: the timed exec running on it (0: none)
 
   struct Pending {
     SgActivityId id = 0;
@@ -40,6 +42,7 @@ struct SgPlatform::Impl {
     ChannelId channel = kNone;  // transfer, or
     DeviceId device = kNone;    // exec
     bool timed_exec = false;    // an exec run as a timer (SgOptions::exclusive_execs)
+    Time work_left = 0, since = 0;  // a timed exec: device seconds still to run at `since`
     Bytes bytes = 0;            // a transfer's payload, once its Comm started
     SgCallback done;
     simgrid::s4u::ActivityPtr activity;  // null during the latency phase

@@ -22,7 +22,19 @@ SimExecutor::SimExecutor(SgPlatform& platform, const Schedule& schedule, SimExec
       last_on_channel_(schedule.graph().channels.size(), kNone),
       running_(schedule.graph().computes.size(), 0),
       resource_user_(schedule.graph().resources.size(), kNone),
-      resource_waiters_(schedule.graph().resources.size()) {}
+      resource_waiters_(schedule.graph().resources.size()) {
+  const DeviceGraph& g = schedule.graph();
+  contended_.resize(g.nodes.size());
+  threads_.assign(g.nodes.size(), 0);
+  busy_.assign(g.nodes.size(), 0);
+  exec_slowdown_.assign(g.nodes.size(), 0.0);
+  for (const ComputeDevice& c : g.computes)
+    if (c.kind == ComputeKind::Cpu) ++threads_[static_cast<std::size_t>(c.node)];
+  for (std::size_t i = 0; i < g.channels.size(); ++i)
+    if (g.channels[i].cpu_contention > 0)
+      contended_[static_cast<std::size_t>(g.memories[static_cast<std::size_t>(g.channels[i].to)].node)].push_back(
+          static_cast<ChannelId>(i));
+}
 
 void SimExecutor::dispatch(ActivityId id, const Activity& a) {
   if (static_cast<std::size_t>(id) >= st_.size()) {
@@ -99,27 +111,40 @@ void SimExecutor::try_start(ActivityId id) {
   }
   auto cb = [this, id](const SgCompletion& c) { on_done(id, c.finish_s, c.ok); };
   if (a.kind == ActivityKind::Transfer) {
-    s.sg = platform_.start_transfer(a.channel, contended_bytes(a.channel, a.bytes), cb);
+    if (const Channel& ch = schedule_.graph().channels[static_cast<std::size_t>(a.channel)]; ch.exec_contention > 0) {
+      s.slows_cpu = true;
+      load_changed(ch, +1);
+    }
+    s.sg = platform_.start_transfer(a.channel, a.bytes, cb);
   } else {
     const double f = opt_.exec_factor ? opt_.exec_factor(id, a) : 1.0;
-    running_[static_cast<std::size_t>(a.device)] = 1;
+    cpu_changed(a.device, true);
     s.sg = platform_.start_exec(a.device, a.duration * f, cb);
   }
 }
 
-Bytes SimExecutor::contended_bytes(ChannelId c, Bytes bytes) const {
+void SimExecutor::load_changed(const Channel& c, int delta) {
   const DeviceGraph& g = schedule_.graph();
-  const Channel& ch = g.channels[static_cast<std::size_t>(c)];
-  if (!(ch.cpu_contention > 0)) return bytes;
-  const NodeId node = g.memories[static_cast<std::size_t>(ch.to)].node;
-  int threads = 0, busy = 0;
-  for (DeviceId d : g.nodes[static_cast<std::size_t>(node)].computes)
-    if (g.computes[static_cast<std::size_t>(d)].kind == ComputeKind::Cpu) {
-      ++threads;
-      busy += running_[static_cast<std::size_t>(d)];
-    }
-  if (busy == 0) return bytes;
-  return static_cast<Bytes>(static_cast<double>(bytes) * (1 + ch.cpu_contention * busy / threads));
+  const auto n = static_cast<std::size_t>(g.memories[static_cast<std::size_t>(c.to)].node);
+  exec_slowdown_[n] = std::max(0.0, exec_slowdown_[n] + delta * c.exec_contention);
+  if (delta < 0 && exec_slowdown_[n] < 1e-12) exec_slowdown_[n] = 0;
+  for (DeviceId d : g.nodes[n].computes)
+    if (g.computes[static_cast<std::size_t>(d)].kind == ComputeKind::Cpu) platform_.set_device_slowdown(d, 1 + exec_slowdown_[n]);
+}
+
+void SimExecutor::cpu_changed(DeviceId d, bool running) {
+  const auto di = static_cast<std::size_t>(d);
+  if (running_[di] == static_cast<char>(running)) return;
+  running_[di] = running;
+  const DeviceGraph& g = schedule_.graph();
+  if (g.computes[di].kind != ComputeKind::Cpu) return;
+  const auto n = static_cast<std::size_t>(g.computes[di].node);
+  busy_[n] += running ? 1 : -1;
+  const double share = static_cast<double>(busy_[n]) / threads_[n];
+  for (ChannelId c : contended_[n]) {
+    const Channel& ch = g.channels[static_cast<std::size_t>(c)];
+    platform_.set_channel_bandwidth(c, ch.bandwidth / (1 + ch.cpu_contention * share));
+  }
 }
 
 bool SimExecutor::resources_free(ActivityId id, const Activity& a) {
@@ -153,8 +178,12 @@ void SimExecutor::release_resources(const Activity& a) {
 void SimExecutor::on_done(ActivityId id, Time finish, bool ok) {
   const auto t0 = std::chrono::steady_clock::now();
   st_[id].done = true;
-  if (const Activity& a = schedule_.activity(id); a.kind == ActivityKind::Exec)
-    running_[static_cast<std::size_t>(a.device)] = 0;
+  if (const Activity& a = schedule_.activity(id); a.kind == ActivityKind::Exec) {
+    cpu_changed(a.device, false);
+  } else if (st_[id].slows_cpu) {
+    st_[id].slows_cpu = false;
+    load_changed(schedule_.graph().channels[static_cast<std::size_t>(a.channel)], -1);
+  }
   std::vector<ActivityId> freed;
   if (st_[id].holds_resources) {
     st_[id].holds_resources = false;
@@ -206,7 +235,11 @@ void SimExecutor::halt(const std::vector<DeviceId>& computes, const std::vector<
     if (!lost) continue;
     if (s.sg != 0) platform_.cancel(s.sg);
     s.done = true;
-    if (a.kind == ActivityKind::Exec) running_[static_cast<std::size_t>(a.device)] = 0;
+    if (a.kind == ActivityKind::Exec) cpu_changed(a.device, false);
+    if (s.slows_cpu) {
+      s.slows_cpu = false;
+      load_changed(schedule_.graph().channels[static_cast<std::size_t>(a.channel)], -1);
+    }
     if (s.holds_resources) {
       s.holds_resources = false;
       release_resources(a);

@@ -59,9 +59,12 @@ class SimExecutor final : public Executor {
   // TransferOrder::Exclusive: are all of the channel's resources free? If not, wait on them.
   bool resources_free(ActivityId id, const Activity& a);
   void release_resources(const Activity& a);
-  // Channel::cpu_contention: the bytes a T-job on `c` moves at the channel's bandwidth
-  // when it starts now (its own bytes when the channel's node has no busy CPU thread).
-  Bytes contended_bytes(ChannelId c, Bytes bytes) const;
+  // Channel::cpu_contention: an E-job started or ended on CPU device d; the bandwidth of
+  // its node's contended channels follows the threads that run E-jobs.
+  void cpu_changed(DeviceId d, bool running);
+  // A T-job on a channel with Channel::exec_contention started (+1) or ended (-1): the
+  // node's CPU threads run their E-jobs slower while it runs.
+  void load_changed(const Channel& c, int delta);
 
   SgPlatform& platform_;
   const Schedule& schedule_;
@@ -79,6 +82,7 @@ class SimExecutor final : public Executor {
     bool timer = false;  // a timer will try it again at `release`
     Time dispatched_at = 0;
     bool woken = false;  // ControlLoop::wake applied (once, when it first could start)
+    bool slows_cpu = false;  // a running T-job counted in exec_slowdown_
   };
   Time release_ = 0;  // for activities dispatched during the current report (0: none)
   void wake_waiters(ActivityId id);
@@ -87,6 +91,10 @@ class SimExecutor final : public Executor {
   std::vector<std::vector<ActivityId>> waiters_;
   std::vector<ActivityId> last_on_channel_;
   std::vector<char> running_;  // per compute device: an E-job runs on it
+  // Per node: its CPU threads and the contended channels into its memories (empty: none).
+  std::vector<std::vector<ChannelId>> contended_;
+  std::vector<int> threads_, busy_;
+  std::vector<double> exec_slowdown_;  // per node: the sum of its running T-jobs' exec_contention
   // TransferOrder::Exclusive, per resource: the T-job using it (kNone: free), and the
   // T-jobs waiting for it (tried in plan order when it frees).
   std::vector<ActivityId> resource_user_;

@@ -93,10 +93,24 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
     c.load_fit = fit_load_channel(r.load_samples, c.model.disk_latency, c.model.disk_bandwidth, c.model.disk_cpu_contention);
 
   // All CPU hardware threads are identical: fit them as one device (0); the GPU is device 1.
+  // A CPU thread's jobs that ran beside a load ran slower (its BVH build takes cores):
+  // Eq. 2 is fitted to the jobs that ran beside none, when there are enough of them, and
+  // the slowdown (Channel::exec_contention) to the others below.
   TimingModel tm;
   tm.resize(2, 2);
+  constexpr double kQuiet = 0.02;  // a job beside loads for under 2 % of its time ran beside none
+  auto share = [&](std::size_t i) { return i < r.exec_load_share.size() ? r.exec_load_share[i] : 0.0; };
+  std::size_t cpu = 0, quiet = 0;
+  for (std::size_t i = 0; i < r.exec_samples.size(); ++i)
+    if (r.exec_samples[i].device != r.gpu_device_id) {
+      ++cpu;
+      quiet += share(i) < kQuiet;
+    }
+  const bool quiet_only = quiet >= 100 && 2 * quiet >= cpu;
   std::vector<TimingSample> samples;
-  for (TimingSample s : r.exec_samples) {
+  std::vector<std::pair<std::size_t, double>> beside;  // CPU samples beside loads: (index in samples, share)
+  for (std::size_t i = 0; i < r.exec_samples.size(); ++i) {
+    TimingSample s = r.exec_samples[i];
     s.device = s.device == r.gpu_device_id ? 1 : 0;
     (s.device == 1 ? c.gpu_exec_samples : c.exec_samples) += 1;
     // Eq. 2 with the ray queue as the only sized input (SceneData's cost is in SETUP).
@@ -104,10 +118,17 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
     for (const InputSize& x : s.inputs)
       if (x.kind != DataKind::SceneData) in.push_back(x);
     s.inputs = std::move(in);
+    if (s.device == 0 && quiet_only && share(i) >= kQuiet) {
+      beside.emplace_back(samples.size(), share(i));
+      s.duration = -1;  // kept for the slowdown fit below, left out of Eq. 2's
+    }
     samples.push_back(std::move(s));
   }
+  std::vector<TimingSample> eq2;
+  for (const TimingSample& s : samples)
+    if (s.duration >= 0) eq2.push_back(s);
   // RenderResult's sample types: RayIntersect 0, ShadowIntersect 1.
-  for (auto& e : tm.fit(samples).entries) {
+  for (auto& e : tm.fit(eq2).entries) {
     if (!e.ok) continue;
     FitErrors& f = e.device == 0 ? (e.type == 0 ? c.intersect_fit : c.shadow_fit)
                                  : (e.type == 0 ? c.gpu_intersect_fit : c.gpu_shadow_fit);
@@ -115,6 +136,24 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
   }
   const ExecCoefficients& a = tm.at(0, 0);
   const ExecCoefficients& b = tm.at(0, 1);
+  // The slowdown beside loads: t = Eq. 2 x (1 + exec_contention x share), least squares
+  // through the origin over the jobs that ran beside loads.
+  c.model.disk_exec_contention = 0;
+  c.beside_load_samples = static_cast<int>(beside.size());
+  if (beside.size() >= 20) {
+    double num = 0, den = 0;
+    for (auto [k, sh] : beside) {
+      const TimingSample& x = samples[k];
+      const ExecCoefficients& k2 = tm.at(0, x.type);
+      if (!k2.supported) continue;
+      double pred = k2.setup;
+      for (const InputSize& in : x.inputs) pred += k2.rate[static_cast<int>(in.kind)] * static_cast<double>(in.bytes);
+      const Time t = r.exec_samples[k].duration;
+      num += pred * sh * (t - pred);
+      den += (pred * sh) * (pred * sh);
+    }
+    if (den > 0) c.model.disk_exec_contention = std::clamp(num / den, 0.0, 10.0);
+  }
   double gaps = 0;
   for (Time g : r.dispatch_gaps) gaps += g;
   c.dispatch_gap = r.dispatch_gaps.empty() ? 0 : gaps / double(r.dispatch_gaps.size());
@@ -127,6 +166,14 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
     c.loop_fit = fit_channel(s, c.model.loop.per_job, bw);
     c.model.loop.per_exec_second = bw > 0 && bw < 1e15 ? 1e6 / bw : 0;
     c.loop_samples = static_cast<int>(r.loop_samples.size());
+  }
+  // The loader's wake-up (ControlLoop::wake): the mean of its samples, as the simulator
+  // adds it to each such load.
+  c.wake_samples = static_cast<int>(r.wake_samples.size());
+  if (r.wake_samples.size() >= 10) {
+    double sum = 0;
+    for (Time w : r.wake_samples) sum += w;
+    c.model.loop.wake = sum / double(r.wake_samples.size());
   }
   if (a.supported && a.rate[int(DataKind::RayQueue)] > 0) {
     c.model.intersect_setup = a.setup;

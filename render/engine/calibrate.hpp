@@ -3,8 +3,9 @@
 //   Eq. 1 for the disk→RAM channel: T = LAT + bytes / BW x (1 + C x busy) over every
 //     measured load (read with O_DIRECT + BVH build), busy the CPU threads' share while it
 //     ran: the build shares the cores with them (C: the channel's cpu_contention);
-//   Eq. 2 per job type for a CPU hardware thread: T = SETUP + RATE·|rays| over every
-//     measured RayIntersect / ShadowIntersect (TimingModel::fit, Eigen);
+//   the slowdown of the threads' jobs beside loads (the channel's exec_contention);
+//   Eq. 2 per job type for a CPU hardware thread: T = SETUP + RATE·|rays| over the
+//     measured RayIntersect / ShadowIntersect that ran beside no load (TimingModel::fit);
 //   with a Vulkan device (--gpu): Eq. 2 for the GPU's jobs and Eq. 1 for the RAM->GPU
 //     channel over every upload; when the mixed render gave the GPU too few jobs, a second
 //     render with every GPU-capable job planned on the GPU measures it (calibrate.cpp).
@@ -28,7 +29,8 @@ struct CalibrationResult {
   // loop's latency fitted to the gaps of threads that ran dry (model.loop; loop_fit, over
   // loop_samples gaps).
   Time dispatch_gap = 0;
-  int loop_samples = 0;
+  int loop_samples = 0, wake_samples = 0;
+  int beside_load_samples = 0;  // CPU jobs that ran beside loads (Channel::exec_contention's fit)
   FitErrors loop_fit;
   // The GPU, when one was used: samples and whether each fit replaced the defaults.
   std::string gpu_device;

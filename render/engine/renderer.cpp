@@ -448,6 +448,25 @@ void report_samples(const Schedule& schedule, const JobPool& pool, const Platfor
     }
   }
   std::sort(cpu_jobs.begin(), cpu_jobs.end());
+  // The loads, by start: an E-job's load share is their overlap with it.
+  std::vector<std::pair<Time, Time>> loads;
+  Time longest_load = 0;
+  for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
+    const Activity& a = schedule.activity(id);
+    if (a.state == ActivityState::Done && a.kind == ActivityKind::Transfer && !a.cancelled && sb.cell_of.count(a.block) &&
+        g.channels[std::size_t(a.channel)].to == p.ram) {
+      loads.emplace_back(a.start, a.end);
+      longest_load = std::max(longest_load, a.end - a.start);
+    }
+  }
+  std::sort(loads.begin(), loads.end());
+  auto load_share = [&](Time s, Time e) {
+    if (e <= s) return 0.0;
+    double overlap = 0;
+    auto it = std::lower_bound(loads.begin(), loads.end(), std::pair<Time, Time>(s - longest_load, -kNever));
+    for (; it != loads.end() && it->first < e; ++it) overlap += std::max(0.0, std::min(e, it->second) - std::max(s, it->first));
+    return overlap / (e - s);
+  };
   auto busy_share = [&](Time s, Time e) {
     if (e <= s || threads == 0) return 0.0;
     double overlap = 0;
@@ -467,6 +486,7 @@ void report_samples(const Schedule& schedule, const JobPool& pool, const Platfor
       for (BlockId blk : pool.job(a.job).inputs) t.inputs.push_back({pool.block(blk).kind, pool.block(blk).bytes});
       t.duration = a.end - a.start;
       res.exec_samples.push_back(std::move(t));
+      res.exec_load_share.push_back(load_share(a.start, a.end));
     } else if (g.channels[a.channel].network != kNone) {
       res.lan_samples.emplace_back(a.bytes, a.end - a.start);
     } else if (sb.cell_of.count(a.block) && g.channels[a.channel].to == p.ram) {
@@ -503,6 +523,21 @@ void report_dispatch(const Schedule& schedule, const JobPool& pool, const Platfo
       }
       prev_end = a.end;
     }
+  }
+  // ControlLoop::wake: loads dispatched before a dependency on another thread's activity
+  // ended (the E-job whose block they evict), which then were not behind their channel's
+  // previous load: from that dependency's end to their start (the loader thread woken).
+  for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
+    const Activity& a = schedule.activity(id);
+    const auto i = static_cast<std::size_t>(id);
+    if (a.kind != ActivityKind::Transfer || a.state != ActivityState::Done || a.cancelled || i >= triggers.size() ||
+        triggers[i].planned_at < 0 || g.channels[std::size_t(a.channel)].to != p.ram ||
+        g.memories[std::size_t(g.channels[std::size_t(a.channel)].from)].kind != MemoryKind::Disk)
+      continue;
+    Time dep_end = -kNever, prev_end = -kNever;
+    for (ActivityId d : a.deps) dep_end = std::max(dep_end, schedule.activity(d).end);
+    for (ActivityId d : a.timeline_prev) prev_end = std::max(prev_end, schedule.activity(d).end);
+    if (dep_end > triggers[i].planned_at && dep_end >= prev_end) res.wake_samples.push_back(std::max<Time>(0, a.start - dep_end));
   }
 }
 

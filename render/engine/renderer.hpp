@@ -112,6 +112,7 @@ struct RenderResult {
     double busy = 0;  // the CPU threads' mean busy share (0..1) while it ran
   };
   std::vector<TimingSample> exec_samples;
+  std::vector<double> exec_load_share;  // per exec sample: the mean number of loads running beside it
   std::vector<LoadSample> load_samples;
   // Per E-job on a CPU thread (the first on each excepted): how long the thread stood idle
   // after the job's inputs and the thread itself were ready, before the job started — the
@@ -122,6 +123,9 @@ struct RenderResult {
   // minus the later of the ready time above and that E-job's end). The control loop's
   // latency (DeviceGraph::loop) is fitted to them.
   std::vector<std::pair<Time, Time>> loop_samples;
+  // Loads dispatched before the activity of another thread they waited for had ended: from
+  // its end to their start (ControlLoop::wake, the loader thread woken on busy cores).
+  std::vector<Time> wake_samples;
   // The GPU: the device used ("" when none), why none or what failed.
   std::string gpu_device, gpu_status = "none";
   int gpu_device_id = -1;                 // its compute device in the DCG (TimingSample::device)

@@ -50,7 +50,11 @@ std::string node_type_json(const WorkstationModel& m) {
     s += std::string(k ? "," : "") + "\n        {\"name\": \"disk" + (k ? std::to_string(k + 1) : "") +
          "\", \"kind\": \"disk\", \"between\": [\"disk\", \"ram\"], \"duplex\": \"half\", \"latency\": " +
          us(m.disk_latency) + ", \"bandwidth\": " + bps(m.disk_bandwidth) +
-         (m.disk_cpu_contention > 0 ? ", \"cpu_contention\": " + num(m.disk_cpu_contention) : std::string()) + "}";
+         (m.disk_cpu_contention > 0 || m.disk_exec_contention > 0
+              ? ", \"cpu_contention\": {\"transfer\": " + num(m.disk_cpu_contention) + ", \"exec\": " +
+                    num(m.disk_exec_contention) + "}"
+              : std::string()) +
+         "}";
   for (std::size_t i = 0; i < m.gpus.size(); ++i)
     s += ",\n        {\"name\": \"pcie" + std::to_string(i) + "\", \"kind\": \"pcie\", \"between\": [\"ram\", \"gpu" +
          std::to_string(i) + "mem\"], \"duplex\": \"full\", \"latency\": " + us(m.gpus[i].pcie_latency) +
@@ -62,7 +66,7 @@ std::string loop_json(const WorkstationModel& m) {
   std::string s;
   if (m.loop.modelled())
     s += ",\n  \"control_loop\": {\"per_job\": " + us(m.loop.per_job) + ", \"per_exec_second\": " +
-         num(m.loop.per_exec_second) + "}";
+         num(m.loop.per_exec_second) + (m.loop.wake > 0 ? ", \"wake\": " + us(m.loop.wake) : std::string()) + "}";
   return s;
 }
 }  // namespace
@@ -156,6 +160,7 @@ WorkstationModel load_node_model(const std::string& path, int* nodes, LanModel* 
   m.disk_latency = dc->latency;
   m.disk_bandwidth = dc->bandwidth;
   m.disk_cpu_contention = dc->cpu_contention;
+  m.disk_exec_contention = dc->exec_contention;
   m.loop = g.loop;
   // Both job types with a rate on their ray queue, per compute device model.
   auto coefficients = [&](DeviceId d, Time& ri_setup, double& ri_rate, Time& si_setup, double& si_rate) {

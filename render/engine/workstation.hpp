@@ -34,6 +34,7 @@ struct WorkstationModel {
   Time disk_latency = 1e-3;            // s per block: open, first read, BVH build setup
   double disk_bandwidth = 150e6;       // footprint bytes/s: read + BVH build
   double disk_cpu_contention = 0;      // Channel::cpu_contention: the build shares the cores
+  double disk_exec_contention = 0;     // Channel::exec_contention: ... and slows the threads
   Time intersect_setup = 20e-6;        // RayIntersect, per job
   double intersect_rate = 1.0 / 64e6;  // s per RayQueue byte (1 M rays/s per thread, 64 B rays)
   Time shadow_setup = 20e-6;

@@ -59,11 +59,13 @@ struct Channel {
   double bandwidth = 0;    // T_BW, bytes/s
   std::vector<ResourceId> resources;
   std::int32_t network = kNone;  // the Network it joins two members of; kNone: a point-to-point channel
-  // Work its T-jobs do on the node's CPU (a load's BVH build) competes with the E-jobs of
-  // its CPU threads: a T-job that starts while k of the node's n CPU threads run E-jobs
-  // moves its bytes at bandwidth / (1 + cpu_contention x k / n). 0: no competition. The
-  // simulator only; the plan's Eq. 1 uses `bandwidth` (docs/validation.md).
-  double cpu_contention = 0;
+  // Work its T-jobs do on the CPU of the node they go to (a load's BVH build) competes with
+  // the E-jobs of its CPU threads. While k of the node's n CPU threads run E-jobs, its
+  // T-jobs move their bytes at bandwidth / (1 + cpu_contention x k / n); while m of its
+  // T-jobs run, the node's CPU threads run E-jobs 1 + exec_contention x m times slower.
+  // 0: no competition. The simulator only; the plan's Eq. 1 and Eq. 2 ignore it
+  // (docs/validation.md, "Loads that share the cores").
+  double cpu_contention = 0, exec_contention = 0;
 };
 
 // A switched network as the platform file describes it, kept beside the channels it

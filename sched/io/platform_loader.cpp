@@ -332,9 +332,14 @@ class PlatformReader {
     c.latency = f.at("latency").quantity(JsonUnit::duration);
     c.bandwidth = f.at("bandwidth").quantity(JsonUnit::bandwidth);
     c.kind = optional_name(f, "kind", cname);
+    // "cpu_contention": {"transfer": NUMBER >= 0, "exec": NUMBER >= 0} (Channel).
     if (const auto p = f.find("cpu_contention")) {
-      c.cpu_contention = p->number();
-      if (!(c.cpu_contention >= 0)) p->fail("expected a number of at least 0");
+      p->object().only_keys({"transfer", "exec"});
+      for (const auto& [key, to] : {std::pair{"transfer", &c.cpu_contention}, std::pair{"exec", &c.exec_contention}})
+        if (const auto q = p->find(key)) {
+          *to = q->number();
+          if (!(*to >= 0)) q->fail("expected a number of at least 0");
+        }
     }
     const std::string base = n.name + "." + cname;
     std::array<ResourceId, 2> res{};

@@ -18,9 +18,9 @@ void RuntimeLoop::plan(Time now, RunStats& st) {
   st.execs += static_cast<std::uint64_t>(ps.execs);
   st.transfers += static_cast<std::uint64_t>(ps.transfers);
   st.evictions += static_cast<std::uint64_t>(ps.evictions);
-  if (record_triggers && batch_trigger_.end >= 0 && dispatched_ < schedule_.activity_count()) {
+  if (record_triggers && dispatched_ < schedule_.activity_count()) {
     triggers_.resize(schedule_.activity_count());
-    for (std::size_t id = dispatched_; id < triggers_.size(); ++id) triggers_[id] = batch_trigger_;
+    for (std::size_t id = dispatched_; id < triggers_.size(); ++id) triggers_[id] = {batch_trigger_.end, batch_trigger_.exec_seconds, now};
   }
   batch_trigger_ = {};
 }

@@ -46,8 +46,10 @@ class RuntimeLoop {
   // that committed it answered, the earliest to finish in the batch of events before that
   // plan, as its end and its duration (end < 0: the plan followed no finished E-job). The
   // renderer fits the loop's latency from a job's start to this end (DeviceGraph::loop).
+  // `planned_at`: when that plan ran (the activity was dispatched then); -1: no plan
+  // recorded. The renderer fits ControlLoop::wake from it.
   struct Trigger {
-    Time end = -1, exec_seconds = 0;
+    Time end = -1, exec_seconds = 0, planned_at = -1;
   };
   const std::vector<Trigger>& triggers() const { return triggers_; }
   bool record_triggers = false;  // off: triggers() stays empty (the simulator needs none)

@@ -56,3 +56,29 @@ TEST(CalibrateFit, OneShareGivesEq1Alone) {
   EXPECT_NEAR(c.model.disk_latency, 1e-3, 1e-7);
   EXPECT_NEAR(c.model.disk_bandwidth / (2e9 / 1.4), 1, 1e-6);  // busy 0.4 folded into the bandwidth
 }
+
+// The CPU threads' jobs beside loads ran 1 + e x share times slower: Eq. 2 from the jobs
+// beside none, e from the others.
+TEST(CalibrateFit, JobsBesideLoadsGiveTheSlowdownAndEq2TheOthers) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  const double setup = 50e-6, rate = 1.0 / 50e6, e = 0.4;  // 50 MB/s of RayQueue
+  RenderResult r;
+  for (int i = 0; i < 600; ++i) {
+    rayline::TimingSample s;
+    s.device = i % 2;
+    s.type = 0;
+    const Bytes bytes = static_cast<Bytes>(64 * (100 + 20000 * u(rng)));
+    s.inputs = {{rayline::DataKind::SceneData, Bytes(10) << 20}, {rayline::DataKind::RayQueue, bytes}};
+    const double share = i % 4 == 0 ? 0.25 + 0.75 * u(rng) : 0.0;  // a quarter of them beside loads
+    s.duration = (setup + rate * double(bytes)) * (1 + e * share);
+    r.exec_samples.push_back(s);
+    r.exec_load_share.push_back(share);
+  }
+  CalibrationResult c;
+  rayline::engine::fit_model(r, c);
+  EXPECT_EQ(c.beside_load_samples, 150);
+  EXPECT_NEAR(c.model.intersect_setup / setup, 1, 1e-6);
+  EXPECT_NEAR(c.model.intersect_rate / rate, 1, 1e-6);
+  EXPECT_NEAR(c.model.disk_exec_contention, e, 1e-6);
+}

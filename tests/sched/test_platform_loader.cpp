@@ -341,10 +341,17 @@ TEST(PlatformLoader, BadInputNamesTheField) {
        "node_types.N.channels[1].bandwidth", "> 0"},
       {"bandwidth without /s", [](json& j) { j["node_types"]["N"]["channels"][0]["bandwidth"] = "150MB"; },
        "node_types.N.channels[0].bandwidth", "expected"},
-      {"negative cpu_contention", [](json& j) { j["node_types"]["N"]["channels"][0]["cpu_contention"] = -0.5; },
-       "node_types.N.channels[0].cpu_contention", "at least 0"},
-      {"cpu_contention not a number", [](json& j) { j["node_types"]["N"]["channels"][0]["cpu_contention"] = "1x"; },
-       "node_types.N.channels[0].cpu_contention", ""},
+      {"negative cpu_contention",
+       [](json& j) { j["node_types"]["N"]["channels"][0]["cpu_contention"] = {{"transfer", -0.5}}; },
+       "node_types.N.channels[0].cpu_contention.transfer", "at least 0"},
+      {"cpu_contention.exec not a number",
+       [](json& j) { j["node_types"]["N"]["channels"][0]["cpu_contention"] = {{"exec", "1x"}}; },
+       "node_types.N.channels[0].cpu_contention.exec", ""},
+      {"cpu_contention a number", [](json& j) { j["node_types"]["N"]["channels"][0]["cpu_contention"] = 1.5; },
+       "node_types.N.channels[0].cpu_contention", "object"},
+      {"cpu_contention unknown key",
+       [](json& j) { j["node_types"]["N"]["channels"][0]["cpu_contention"] = {{"exe", 1}}; },
+       "node_types.N.channels[0].cpu_contention.exe", "unknown key"},
       {"missing latency", [](json& j) { j["node_types"]["N"]["channels"][0].erase("latency"); },
        "node_types.N.channels[0].latency", "missing"},
       {"bad duplex", [](json& j) { j["node_types"]["N"]["channels"][0]["duplex"] = "simplex"; },
@@ -414,12 +421,13 @@ TEST(PlatformLoader, ClientsNameAHostMemory) {
 // Channel::cpu_contention: optional (0), on both directions of the channel.
 TEST(PlatformLoader, CpuContentionIsOptionalPerChannel) {
   json j = base();
-  for (const Channel& c : parse(j).channels) EXPECT_EQ(c.cpu_contention, 0.0) << c.name;
-  j["node_types"]["N"]["channels"][0]["cpu_contention"] = 1.25;
+  for (const Channel& c : parse(j).channels) EXPECT_EQ(c.cpu_contention + c.exec_contention, 0.0) << c.name;
+  j["node_types"]["N"]["channels"][0]["cpu_contention"] = {{"transfer", 1.25}, {"exec", 0.5}};
   int with = 0;
   for (const Channel& c : parse(j).channels)
     if (c.cpu_contention > 0) {
       EXPECT_EQ(c.cpu_contention, 1.25);
+      EXPECT_EQ(c.exec_contention, 0.5);
       EXPECT_NE(c.name.find(".sata:"), std::string::npos) << c.name;
       ++with;
     }

@@ -66,10 +66,10 @@ struct SimRun {
   std::unique_ptr<sim::SgPlatform> platform;
   RunStats r;
   SimRun(const DeviceGraph& g, JobPool& pool, const std::vector<std::pair<BlockId, MemId>>& init,
-         const sim::SimExecutorOptions& xo)
+         const sim::SimExecutorOptions& xo, const sim::SgOptions& so = {})
       : s(g, pool) {
     for (auto [b, m] : init) s.put_initial(b, m);
-    platform = std::make_unique<sim::SgPlatform>(g);
+    platform = std::make_unique<sim::SgPlatform>(g, so);
     GmbScheduler gmb({.horizon = 1e9});
     sim::SimExecutor ex(*platform, s, xo);
     StaticWorkload wl;
@@ -342,11 +342,13 @@ void expect_wake(Time wake) {
 TEST(SimExecutor, WithoutWakeALoadWaitingForAnEJobStartsAtItsEnd) { expect_wake(0); }
 TEST(SimExecutor, WakeDelaysALoadThatWaitedForAnEJob) { expect_wake(0.25); }
 
-// Channel::cpu_contention: a load that starts while k of the node's 2 CPU threads run E-jobs
-// moves its bytes at bandwidth / (1 + c k / 2). k blocks start in RAM, each with a 1 s
-// E-job; GMB plans those first (they start at once), then the load of a block from the disk.
+// Channel::cpu_contention: while k of the node's 2 CPU threads run E-jobs, a load moves its
+// bytes at bandwidth / (1 + c k / 2). k blocks start in RAM, each with a 1 s E-job that
+// starts at once; a 1 s load (at full bandwidth) of a block from the disk starts at 0 too.
+// It moves 1 / f of its bytes in the first second (f = 1 + c k / 2), the rest at full speed
+// once the E-jobs have ended: 2 - 1 / f seconds.
 namespace {
-void expect_contention(double c, int busy) {
+void expect_contention(double c, int busy, double e = 0) {
   DcgBuilder b;
   const NodeId n = b.node("n0");
   const MemId disk = b.mem("n0.disk", Bytes(1) << 40, MemoryKind::Disk, n);
@@ -356,7 +358,10 @@ void expect_contention(double c, int busy) {
   b.half_duplex(disk, ram, 100 * MB, 0);
   b.timing(0, DataKind::SceneData, 100 * MB, 0);
   DeviceGraph g = b.build();
-  for (Channel& ch : g.channels) ch.cpu_contention = c;
+  for (Channel& ch : g.channels) {
+    ch.cpu_contention = c;
+    ch.exec_contention = e;
+  }
   JobPool pool;
   std::vector<std::pair<BlockId, MemId>> init;
   for (int k = 0; k <= busy; ++k) {
@@ -365,7 +370,9 @@ void expect_contention(double c, int busy) {
     init.push_back({id, k < busy ? ram : disk});
     rayline::testing::add_job(pool, "j" + std::to_string(k), 0, {id});
   }
-  SimRun run(g, pool, init, {});
+  sim::SgOptions so;
+  so.exclusive_execs = true;  // as rayline simulate runs (execs as timers that a slowdown can stretch)
+  SimRun run(g, pool, init, {}, so);
   ASSERT_FALSE(run.r.stalled);
   const Schedule& s = run.s;
   int loads = 0;
@@ -374,14 +381,24 @@ void expect_contention(double c, int busy) {
     if (a.kind != ActivityKind::Transfer) continue;
     ++loads;
     EXPECT_NEAR(a.start, 0.0, 1e-9);
-    EXPECT_NEAR(a.end - a.start, 1.0 * (1 + c * busy / 2.0), 1e-9) << "c " << c << ", busy " << busy;
+    const double f = 1 + c * busy / 2.0;
+    EXPECT_NEAR(a.end - a.start, 2 - 1 / f, 1e-6) << "c " << c << ", busy " << busy;
     EXPECT_NEAR(a.planned_end - a.planned_start, 1.0, 1e-9);  // the plan's Eq. 1 ignores it
   }
   EXPECT_EQ(loads, 1);
+  // With exec_contention e (and c = 0): the resident blocks' E-jobs run 1 + e times slower
+  // while the load runs, [0, 1], and the rest at full speed: they end at 2 - 1 / (1 + e).
+  for (std::size_t i = 0; i < s.activity_count() && e > 0; ++i) {
+    const Activity& a = s.activity(static_cast<ActivityId>(i));
+    if (a.kind == ActivityKind::Exec && a.start == 0) {
+      EXPECT_NEAR(a.end, 2 - 1 / (1 + e), 1e-6);
+    }
+  }
 }
 }  // namespace
 
 // (One SgPlatform per process: one run per TEST.)
 TEST(SimExecutor, ALoadBesideIdleThreadsTakesEq1) { expect_contention(1.5, 0); }
 TEST(SimExecutor, ALoadBesideOneBusyThreadOfTwoSharesTheCores) { expect_contention(1.0, 1); }
-TEST(SimExecutor, ALoadBesideTwoBusyThreadsSharesTheCores) { expect_contention(0.5, 2); }
+TEST(SimExecutor, ALoadBesideTwoBusyThreadsSharesTheCores) { expect_contention(2.0, 2); }
+TEST(SimExecutor, ThreadsBesideALoadRunTheirJobsSlower) { expect_contention(0, 2, 0.5); }
