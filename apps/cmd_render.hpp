@@ -48,6 +48,7 @@ struct CalibrateCliOptions {
   int threads = 0, spp = 4;
   std::string resolution = "256x256";
   double budget_fraction = 0.3;
+  int repeats = 3;  // measuring renders; the fit takes the median one
   std::string bvh_quality = "low";   // the builder whose loads are measured (a budget's default)
   std::string gpu = "auto";
   std::string out = "out/this-machine.json";

@@ -364,6 +364,11 @@ void add_calibrate(CLI::App& app, std::function<int()>& action) {
   c->add_option("--resolution", opt->resolution, "Resolution of the measuring render, WIDTHxHEIGHT")->type_name(kResolution)->default_val(opt->resolution);
   c->add_option("--budget-fraction", opt->budget_fraction, "RAM budget as a share of the scene's block bytes (forces loads)")
       ->default_val(opt->budget_fraction);
+  c->add_option("--repeats", opt->repeats,
+                "Measuring renders; the fit uses the one of median wall time (a machine shared with other work "
+                "runs slow for a while now and then)")
+      ->default_val(opt->repeats)
+      ->check(CLI::Range(1, 100));
   c->add_option("--bvh-quality", opt->bvh_quality,
                 "BVH builder of the measured loads: low (what renders under a budget use), medium (in core), high; "
                 "a load's time is mostly its build, so calibrate with the builder your renders use")

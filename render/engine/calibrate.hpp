@@ -30,7 +30,9 @@ struct CalibrationResult {
   // loop_samples gaps).
   Time dispatch_gap = 0;
   int loop_samples = 0, wake_samples = 0;
-  int beside_load_samples = 0;  // CPU jobs that ran beside loads (Channel::exec_contention's fit)
+  int beside_load_samples = 0;
+  int repeats = 1;                    // measuring renders made
+  Time median_render_seconds = 0;     // the wall time of the one fitted  // CPU jobs that ran beside loads (Channel::exec_contention's fit)
   FitErrors loop_fit;
   // The GPU, when one was used: samples and whether each fit replaced the defaults.
   std::string gpu_device;
@@ -57,6 +59,8 @@ inline constexpr int kMinGpuJobsPerType = 32;
 // when opt.memory_budget is 0) and fits the model. Throws std::runtime_error when there
 // are too few samples to fit.
 // `min_gpu_jobs`: the GPU's own pass runs when the mixed render gave it fewer jobs of a type.
-CalibrationResult calibrate(RenderOptions opt, double budget_fraction = 0.3, int min_gpu_jobs = kMinGpuJobsPerType);
+// `repeats`: measuring renders; the fit uses the one of median wall time.
+CalibrationResult calibrate(RenderOptions opt, double budget_fraction = 0.3, int min_gpu_jobs = kMinGpuJobsPerType,
+                            int repeats = 1);
 
 }  // namespace rayline::engine
