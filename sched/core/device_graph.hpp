@@ -111,8 +111,8 @@ struct ControlLoop {
   double per_exec_second = 0;
   // A T-job dispatched before it could start (waiting for the E-job whose block it evicts,
   // or for another dependency) starts this much after it could: the loader thread, woken
-  // on cores the compute threads keep busy. The simulator only; rayline calibrate does not
-  // fit it yet (docs/validation.md).
+  // on cores the compute threads keep busy. The simulator applies it; rayline calibrate
+  // fits it as the mean of such waits in its render (docs/validation.md).
   Time wake = 0;
   bool modelled() const { return per_job > 0 || per_exec_second > 0; }
   Time latency(Time exec_seconds) const { return per_job + per_exec_second * exec_seconds; }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "sched/timeline/activity_list.hpp"
+#include "sched/timeline/chunked_store.hpp"
 #include "sched/core/device_graph.hpp"
 #include "sched/core/job_pool.hpp"
 
@@ -260,7 +261,7 @@ class Schedule {
 
   const DeviceGraph* graph_;
   const JobPool* pool_;
-  std::vector<Activity> acts_;
+  ChunkedStore<Activity> acts_;
   std::vector<Timeline> device_tl_, resource_tl_;
   std::vector<Time> channel_finish_;  // per channel: max(0, busy_until of its resources)
   static constexpr std::int32_t kKeptFanout = 64;  // channels per resource above which its channels are on demand
