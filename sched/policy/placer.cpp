@@ -58,21 +58,42 @@ Time Placer::earliest_start(JobId j, DeviceId d, Time ready, const Schedule& s) 
     arrive = std::max(arrive, finder_.arrival_within(b, m, arrive, never_lost));
     if (arrive == kNever) return kNever;
   }
-  // Per (memory device, kind): the latest ready first, the larger first among equals; a
-  // block is on the front when it is larger than every block ready later.
-  std::sort(one_copy_.begin(), one_copy_.end(), [](const OneCopyInput& x, const OneCopyInput& y) {
-    if (x.from != y.from) return x.from < y.from;
-    if (x.kind != y.kind) return x.kind < y.kind;
-    if (x.ready != y.ready) return x.ready > y.ready;
-    return x.bytes > y.bytes;
-  });
-  Bytes larger_than = 0;
-  for (std::size_t i = 0; i < one_copy_.size() && arrive != kNever; ++i) {
-    const OneCopyInput& in = one_copy_[i];
-    const bool first = i == 0 || in.from != one_copy_[i - 1].from || in.kind != one_copy_[i - 1].kind;
-    if (!first && in.bytes <= larger_than) continue;  // a block ready no earlier is no smaller
-    larger_than = in.bytes;
-    arrive = std::max(arrive, finder_.arrival_within(in.block, m, arrive, never_lost));
+  // Per (memory device, kind), the front: the block ready latest (the larger among equals),
+  // then the one ready latest among those larger than it, and so on. Each is found by a
+  // scan of the group (fronts are short), not by sorting the inputs; the order of the
+  // searches does not change the maximum. Two blocks alike in group, ready time and size
+  // arrive at the same time, so one of them is searched.
+  groups_.clear();
+  for (const OneCopyInput& in : one_copy_)
+    if (std::find(groups_.begin(), groups_.end(), std::pair{in.from, in.kind}) == groups_.end())
+      groups_.emplace_back(in.from, in.kind);
+  constexpr int kScans = 16;  // a longer front: the rest of the group is sorted once
+  for (const auto& [from, kind] : groups_) {
+    rest_.clear();
+    for (const OneCopyInput& in : one_copy_)
+      if (in.from == from && in.kind == kind) rest_.push_back(in);
+    // rest_: the group's blocks larger than every one searched so far.
+    for (int scans = 0; arrive != kNever && !rest_.empty(); ++scans) {
+      if (scans == kScans) {
+        std::sort(rest_.begin(), rest_.end(), [](const OneCopyInput& x, const OneCopyInput& y) {
+          return x.ready != y.ready ? x.ready > y.ready : x.bytes > y.bytes;
+        });
+        Bytes larger_than = 0;
+        for (const OneCopyInput& in : rest_) {
+          if (arrive == kNever) break;
+          if (in.bytes <= larger_than) continue;  // a block ready no earlier is no smaller
+          larger_than = in.bytes;
+          arrive = std::max(arrive, finder_.arrival_within(in.block, m, arrive, never_lost));
+        }
+        break;
+      }
+      const OneCopyInput* best = &rest_.front();
+      for (const OneCopyInput& in : rest_)
+        if (in.ready > best->ready || (in.ready == best->ready && in.bytes > best->bytes)) best = &in;
+      const OneCopyInput pick = *best;
+      arrive = std::max(arrive, finder_.arrival_within(pick.block, m, arrive, never_lost));
+      std::erase_if(rest_, [&](const OneCopyInput& in) { return in.bytes <= pick.bytes; });
+    }
   }
   return arrive;
 }

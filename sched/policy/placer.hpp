@@ -50,7 +50,8 @@ class Placer {
     Bytes bytes;
     BlockId block;
   };
-  std::vector<OneCopyInput> one_copy_;
+  std::vector<OneCopyInput> one_copy_, rest_;
+  std::vector<std::pair<MemId, DataKind>> groups_;  // earliest_start's (memory device, kind) groups
 };
 
 }  // namespace rayline

@@ -534,7 +534,8 @@ int FetchPathFinder::via_hops(MemId m, MemId* root) const {
 
 void FetchPathFinder::path(BlockId b, MemId m, std::vector<ChannelId>& out) {
   out.clear();
-  if (rest_ && !scene_local_) {
+  if (rest_ && !restricted(b)) {
+    // (A restricted block's paths are the tree's alone.)
     // The best path when it is the only one (no tie anywhere along it): every search,
     // whatever its order, finds exactly this one.
     // Its arrival first (memoised, or a search cut at the best label found), so that the

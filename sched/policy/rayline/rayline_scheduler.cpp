@@ -150,6 +150,7 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   };
   if (bound_ != &s || !placer_) {
     placer_ = std::make_unique<Placer>(s);
+    fetch_bound_ = std::make_unique<FetchBound>(s.graph());
     bound_ = &s;
     own_ = {};
     scene_.clear();
@@ -278,6 +279,10 @@ PlanStats RaylineScheduler::plan(Time now, JobPool& pool, Schedule& s) {
   placer_->finder().clear();
   placer_->finder().set_now(now);
   placer_->finder().set_scene_from_origin_or_local(true);  // rule 1: no scene data between nodes
+  // Lower bounds that cut the fetch-path searches and answer a ray queue's one direct hop
+  // at once (GMB's; the same arrivals and paths as plain searches, sched/sdc/README.md).
+  fetch_bound_->reset();
+  placer_->finder().set_bounds(fetch_bound_.get());
   for (std::size_t n : todo) {
     fresh_[n] = false;
     planned_at_[n] = now;

@@ -42,6 +42,7 @@
 #include "sched/policy/placer.hpp"
 #include "sched/policy/rayline/ownership.hpp"
 #include "sched/policy/scheduler.hpp"
+#include "sched/sdc/fetch_bound.hpp"
 
 namespace rayline {
 
@@ -120,6 +121,7 @@ class RaylineScheduler final : public Scheduler {
   RaylineOptions opt_;
   const Schedule* bound_ = nullptr;
   std::unique_ptr<Placer> placer_;
+  std::unique_ptr<FetchBound> fetch_bound_;
   Ownership own_;
   std::vector<BlockId> scene_;             // scene blocks in id order
   Bytes largest_scene_ = 0;                // rule 9: the largest of them
