@@ -429,51 +429,50 @@ void report_image(const RenderWorkload& workload, const BlockStore& store, const
   for (std::size_t px = 0; px < res.samples.size(); ++px) res.samples[px] = film.samples(static_cast<std::uint32_t>(px));
 }
 
+// Finished intervals of one kind (the CPU threads' E-jobs, or the loads), by start: how
+// long they overlap a span, summed.
+class Intervals {
+ public:
+  void add(Time start, Time end) {
+    all_.emplace_back(start, end);
+    longest_ = std::max(longest_, end - start);
+  }
+  void sort() { std::sort(all_.begin(), all_.end()); }
+  Time overlap(Time s, Time e) const {
+    Time sum = 0;
+    for (auto it = std::lower_bound(all_.begin(), all_.end(), std::pair<Time, Time>(s - longest_, -kNever));
+         it != all_.end() && it->first < e; ++it)
+      sum += std::max(0.0, std::min(e, it->second) - std::max(s, it->first));
+    return sum;
+  }
+
+ private:
+  std::vector<std::pair<Time, Time>> all_;
+  Time longest_ = 0;
+};
+
 // Measured activities for `rayline calibrate` (Eq. 1 and Eq. 2 fits).
 void report_samples(const Schedule& schedule, const JobPool& pool, const Platform& p, const SceneBlocks& sb,
                     RenderResult& res) {
   const DeviceGraph& g = p.g;
   res.first_exec_start = res.seconds;
-  // The CPU threads' E-jobs, by start: a load's busy share is their overlap with it.
-  std::vector<std::pair<Time, Time>> cpu_jobs;
-  Time longest = 0;
+  // A load's busy share is the CPU threads' E-jobs' overlap with it; an E-job's load share
+  // the loads' overlap with it.
+  Intervals cpu_jobs, loads;
   int threads = 0;
   for (std::size_t d = 0; d < g.computes.size(); ++d) threads += g.computes[d].kind == ComputeKind::Cpu;
   for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
     const Activity& a = schedule.activity(id);
-    if (a.state == ActivityState::Done && a.kind == ActivityKind::Exec && !a.cancelled &&
-        g.computes[std::size_t(a.device)].kind == ComputeKind::Cpu) {
-      cpu_jobs.emplace_back(a.start, a.end);
-      longest = std::max(longest, a.end - a.start);
-    }
+    if (a.state != ActivityState::Done || a.cancelled) continue;
+    if (a.kind == ActivityKind::Exec && g.computes[std::size_t(a.device)].kind == ComputeKind::Cpu)
+      cpu_jobs.add(a.start, a.end);
+    else if (a.kind == ActivityKind::Transfer && sb.cell_of.count(a.block) && g.channels[std::size_t(a.channel)].to == p.ram)
+      loads.add(a.start, a.end);
   }
-  std::sort(cpu_jobs.begin(), cpu_jobs.end());
-  // The loads, by start: an E-job's load share is their overlap with it.
-  std::vector<std::pair<Time, Time>> loads;
-  Time longest_load = 0;
-  for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
-    const Activity& a = schedule.activity(id);
-    if (a.state == ActivityState::Done && a.kind == ActivityKind::Transfer && !a.cancelled && sb.cell_of.count(a.block) &&
-        g.channels[std::size_t(a.channel)].to == p.ram) {
-      loads.emplace_back(a.start, a.end);
-      longest_load = std::max(longest_load, a.end - a.start);
-    }
-  }
-  std::sort(loads.begin(), loads.end());
-  auto load_share = [&](Time s, Time e) {
-    if (e <= s) return 0.0;
-    double overlap = 0;
-    auto it = std::lower_bound(loads.begin(), loads.end(), std::pair<Time, Time>(s - longest_load, -kNever));
-    for (; it != loads.end() && it->first < e; ++it) overlap += std::max(0.0, std::min(e, it->second) - std::max(s, it->first));
-    return overlap / (e - s);
-  };
-  auto busy_share = [&](Time s, Time e) {
-    if (e <= s || threads == 0) return 0.0;
-    double overlap = 0;
-    auto it = std::lower_bound(cpu_jobs.begin(), cpu_jobs.end(), std::pair<Time, Time>(s - longest, -kNever));
-    for (; it != cpu_jobs.end() && it->first < e; ++it) overlap += std::max(0.0, std::min(e, it->second) - std::max(s, it->first));
-    return overlap / ((e - s) * threads);
-  };
+  cpu_jobs.sort();
+  loads.sort();
+  auto load_share = [&](Time s, Time e) { return e <= s ? 0.0 : loads.overlap(s, e) / (e - s); };
+  auto busy_share = [&](Time s, Time e) { return e <= s || threads == 0 ? 0.0 : cpu_jobs.overlap(s, e) / ((e - s) * threads); };
   for (ActivityId id = 0; id < ActivityId(schedule.activity_count()); ++id) {
     const Activity& a = schedule.activity(id);
     if (a.state != ActivityState::Done) continue;
