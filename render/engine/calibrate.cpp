@@ -107,26 +107,19 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
       quiet += share(i) < kQuiet;
     }
   const bool quiet_only = quiet >= 100 && 2 * quiet >= cpu;
-  std::vector<TimingSample> samples;
-  std::vector<std::pair<std::size_t, double>> beside;  // CPU samples beside loads: (index in samples, share)
+  std::vector<TimingSample> eq2;
+  std::vector<std::pair<TimingSample, double>> beside;  // CPU samples beside loads, with their share
   for (std::size_t i = 0; i < r.exec_samples.size(); ++i) {
     TimingSample s = r.exec_samples[i];
     s.device = s.device == r.gpu_device_id ? 1 : 0;
     (s.device == 1 ? c.gpu_exec_samples : c.exec_samples) += 1;
     // Eq. 2 with the ray queue as the only sized input (SceneData's cost is in SETUP).
-    std::vector<InputSize> in;
-    for (const InputSize& x : s.inputs)
-      if (x.kind != DataKind::SceneData) in.push_back(x);
-    s.inputs = std::move(in);
-    if (s.device == 0 && quiet_only && share(i) >= kQuiet) {
-      beside.emplace_back(samples.size(), share(i));
-      s.duration = -1;  // kept for the slowdown fit below, left out of Eq. 2's
-    }
-    samples.push_back(std::move(s));
+    std::erase_if(s.inputs, [](const InputSize& x) { return x.kind == DataKind::SceneData; });
+    if (s.device == 0 && quiet_only && share(i) >= kQuiet)
+      beside.emplace_back(std::move(s), share(i));  // for the slowdown fit below, not Eq. 2's
+    else
+      eq2.push_back(std::move(s));
   }
-  std::vector<TimingSample> eq2;
-  for (const TimingSample& s : samples)
-    if (s.duration >= 0) eq2.push_back(s);
   // RenderResult's sample types: RayIntersect 0, ShadowIntersect 1.
   for (auto& e : tm.fit(eq2).entries) {
     if (!e.ok) continue;
@@ -142,14 +135,10 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
   c.beside_load_samples = static_cast<int>(beside.size());
   if (beside.size() >= 20) {
     double num = 0, den = 0;
-    for (auto [k, sh] : beside) {
-      const TimingSample& x = samples[k];
-      const ExecCoefficients& k2 = tm.at(0, x.type);
-      if (!k2.supported) continue;
-      double pred = k2.setup;
-      for (const InputSize& in : x.inputs) pred += k2.rate[static_cast<int>(in.kind)] * static_cast<double>(in.bytes);
-      const Time t = r.exec_samples[k].duration;
-      num += pred * sh * (t - pred);
+    for (const auto& [x, sh] : beside) {
+      const Time pred = tm.exec_time(0, x.type, x.inputs);
+      if (pred == kNever) continue;
+      num += pred * sh * (x.duration - pred);
       den += (pred * sh) * (pred * sh);
     }
     if (den > 0) c.model.disk_exec_contention = std::clamp(num / den, 0.0, 10.0);
@@ -228,10 +217,9 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
   // make every prediction from the file slow by as much (docs/validation.md).
   std::vector<RenderResult> runs;
   for (int k = 0; k < std::max(1, repeats); ++k) runs.push_back(render(opt));
-  std::vector<std::size_t> order(runs.size());
-  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return runs[a].seconds < runs[b].seconds; });
-  RenderResult r = std::move(runs[order[order.size() / 2]]);
+  const auto median = runs.begin() + static_cast<std::ptrdiff_t>(runs.size() / 2);
+  std::nth_element(runs.begin(), median, runs.end(), [](const RenderResult& a, const RenderResult& b) { return a.seconds < b.seconds; });
+  RenderResult r = std::move(*median);
   runs.clear();
   CalibrationResult c;
   c.repeats = std::max(1, repeats);
