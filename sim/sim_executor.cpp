@@ -41,6 +41,10 @@ void SimExecutor::dispatch(ActivityId id, const Activity& a) {
     st_.resize(static_cast<std::size_t>(id) + 1);
     waiters_.resize(static_cast<std::size_t>(id) + 1);
   }
+  if (first_hold_) {  // the first plan's dispatch: the loop's start-up (stays until a completion resets it)
+    release_ = std::max(release_, first_hold_());
+    first_hold_ = nullptr;
+  }
   State& s = st_[id];
   s.dispatched = true;
   s.dispatched_at = platform_.now();

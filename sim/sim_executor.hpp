@@ -48,6 +48,11 @@ class SimExecutor final : public Executor {
             std::vector<ExecutorEvent>& events) override;
   void abort(const std::vector<ActivityId>& ids) override;
 
+  // What the first plan dispatches starts no earlier than `hold()`, asked at that
+  // dispatch: the loop's work before its first plan (ControlLoop::per_camera_ray, the
+  // workload's first wave). Set before the run.
+  void hold_first_dispatch(std::function<Time()> hold) { first_hold_ = std::move(hold); }
+
   // Wall seconds spent in our completion handling (runtime loop, scheduler, bookkeeping);
   // the rest of run() is SimGrid's own work (max-min solver, event queue).
   double callback_wall_seconds() const { return callback_wall_; }
@@ -85,6 +90,7 @@ class SimExecutor final : public Executor {
     bool slows_cpu = false;  // a running T-job counted in exec_slowdown_
   };
   Time release_ = 0;  // for activities dispatched during the current report (0: none)
+  std::function<Time()> first_hold_;  // hold_first_dispatch, until the first dispatch
   void wake_waiters(ActivityId id);
   std::vector<ActivityId> halted_;  // stopped by halt(), their waiters woken by abort()
   std::vector<State> st_;

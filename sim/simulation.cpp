@@ -400,6 +400,10 @@ struct Engine {
     if (path_trace && scheduler->places_ray_origins())  // Rayline's rule 8
       path_trace->set_ray_origin([this](std::uint64_t wave, BlockId entry) { return scheduler->ray_origin(wave, entry, pool, schedule); });
     loop.on_fault = [this](const Fault& f, const RunStats& st) { faults.push_back({f, st, executor.now()}); };
+    // A render's loop makes the first wave of camera rays before its first plan
+    // (ControlLoop::per_camera_ray); the twin's first dispatch waits for it.
+    if (const Time per_ray = in.graph.loop.per_camera_ray; twin && per_ray > 0)
+      executor.hold_first_dispatch([this, per_ray] { return double(twin->first_wave()) * per_ray; });
   }
 
   std::unique_ptr<Workload> make_workload(const SimulationConfig& cfg, Inputs& in) {

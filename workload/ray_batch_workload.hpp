@@ -111,6 +111,7 @@ class RayBatchWorkload : public Workload {
 
   void start(Time now, JobPool& pool, Schedule& s) override {
     generate(now, pool);
+    first_wave_ = opt_.camera_jobs ? 0 : next_camera_;
     flush(now, pool, s, false);
   }
   void on_job_finished(JobId j, Time now, JobPool& pool, Schedule& s) override {
@@ -184,6 +185,9 @@ class RayBatchWorkload : public Workload {
   std::uint64_t merges() const { return merges_; }
   std::uint64_t jobs_created() const { return jobs_created_; }
   std::uint64_t paths_alive() const { return paths_alive_; }
+  // Camera rays the loop made in start(), before its first plan (0 with camera jobs: the
+  // jobs make them): the loop's start-up work (ControlLoop::per_camera_ray).
+  std::uint64_t first_wave() const { return first_wave_; }
   // The options in force (camera_jobs off where the scene has more than one cell).
   const RayBatchOptions& options() const { return opt_; }
 
@@ -384,6 +388,7 @@ class RayBatchWorkload : public Workload {
   std::unordered_map<BlockId, JobId> consumer_;            // ray queue -> its job
   Counts counts_{};
   std::uint64_t next_camera_ = 0, total_camera_ = 0;
+  std::uint64_t first_wave_ = 0;  // first_wave()
   std::uint64_t paths_alive_ = 0, staged_ = 0, in_jobs_ = 0;
   std::uint64_t merges_ = 0, jobs_created_ = 0;
   bool aborted_ = false;

@@ -156,6 +156,11 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
     c.model.loop.per_exec_second = bw > 0 && bw < 1e15 ? 1e6 / bw : 0;
     c.loop_samples = static_cast<int>(r.loop_samples.size());
   }
+  // The first wave of camera rays, made by the loop before its first plan
+  // (ControlLoop::per_camera_ray): that plan's time over the wave's rays. A render of one
+  // block makes its camera rays in its jobs (camera jobs): no wave, nothing to fit.
+  if (r.first_wave_camera_rays > 0 && r.first_plan_at > 0)
+    c.model.loop.per_camera_ray = r.first_plan_at / double(r.first_wave_camera_rays);
   // The loader's wake-up (ControlLoop::wake): the mean of its samples, as the simulator
   // adds it to each such load.
   c.wake_samples = static_cast<int>(r.wake_samples.size());

@@ -419,6 +419,7 @@ void report_image(const RenderWorkload& workload, const BlockStore& store, const
                   RenderResult& res) {
   res.counts = workload.counts();
   res.camera_rays = workload.camera_rays();
+  res.first_wave_camera_rays = workload.first_wave();
   res.jobs = workload.jobs_created();
   res.merges = workload.merges();
   res.store = store.stats();
@@ -506,6 +507,8 @@ void report_samples(const Schedule& schedule, const JobPool& pool, const Platfor
 void report_dispatch(const Schedule& schedule, const JobPool& pool, const Platform& p,
                      const std::vector<RuntimeLoop::Trigger>& triggers, RenderResult& res) {
   const DeviceGraph& g = p.g;
+  for (const RuntimeLoop::Trigger& t : triggers)
+    if (t.planned_at >= 0 && (res.first_plan_at < 0 || t.planned_at < res.first_plan_at)) res.first_plan_at = t.planned_at;
   for (std::size_t d = 0; d < g.computes.size(); ++d) {
     if (g.computes[d].kind != ComputeKind::Cpu) continue;
     Time prev_end = -1;

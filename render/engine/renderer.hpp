@@ -91,6 +91,10 @@ struct RenderResult {
   double seconds = 0;                     // wall time of the run (partitioning excluded)
   double partition_seconds = 0;
   double first_exec_start = 0;            // when the first E-job started (after the first load)
+  // When the loop's first plan ran (RuntimeLoop::Trigger::planned_at): before it, the loop
+  // made the first wave of camera rays (ControlLoop::per_camera_ray). -1: no plan.
+  double first_plan_at = -1;
+  std::uint64_t first_wave_camera_rays = 0;  // made before it (RayBatchWorkload::first_wave)
   Bytes scene_block_bytes = 0;            // sum of block footprints
   Bytes memory_budget = 0;
   std::uint32_t path_cap = 0;             // paths alive at once (lowered to fit the budget)

@@ -114,6 +114,11 @@ struct ControlLoop {
   // on cores the compute threads keep busy. The simulator applies it; rayline calibrate
   // fits it as the mean of such waits in its render (docs/validation.md).
   Time wake = 0;
+  // Before its first plan the loop makes the first wave of camera rays (a render of more
+  // than one block: a wave of up to the paths-in-flight cap, each ray walked to its first
+  // cell and queued). What that plan dispatches starts no earlier than the wave's rays x
+  // this. Later waves are made in answer to finished jobs, inside `latency`.
+  Time per_camera_ray = 0;
   bool modelled() const { return per_job > 0 || per_exec_second > 0; }
   Time latency(Time exec_seconds) const { return per_job + per_exec_second * exec_seconds; }
 };

@@ -144,10 +144,14 @@ class PlatformReader {
     g_.client_memory = m;
   }
 
-  // "control_loop": {"per_job": DURATION, "per_exec_second": NUMBER >= 0, "wake": DURATION}
-  // (ControlLoop).
+  // "control_loop": {"per_job": DURATION, "per_exec_second": NUMBER >= 0, "wake": DURATION,
+  // "per_camera_ray": DURATION} (ControlLoop).
   void control_loop(const JsonField& f) {
-    f.object().only_keys({"per_job", "per_exec_second", "wake", "description"});
+    f.object().only_keys({"per_job", "per_exec_second", "wake", "per_camera_ray", "description"});
+    if (const auto p = f.find("per_camera_ray")) {
+      g_.loop.per_camera_ray = p->quantity(JsonUnit::duration);
+      if (!(g_.loop.per_camera_ray >= 0 && g_.loop.per_camera_ray < 1)) p->fail("expected a duration from 0 to 1 s");
+    }
     if (const auto p = f.find("wake")) {
       g_.loop.wake = p->quantity(JsonUnit::duration);
       if (!(g_.loop.wake >= 0)) p->fail("expected a duration of at least 0");

@@ -82,3 +82,23 @@ TEST(CalibrateFit, JobsBesideLoadsGiveTheSlowdownAndEq2TheOthers) {
   EXPECT_NEAR(c.model.intersect_rate / rate, 1, 1e-6);
   EXPECT_NEAR(c.model.disk_exec_contention, e, 1e-6);
 }
+
+// ControlLoop::per_camera_ray: the first plan's time over the camera rays made before it;
+// nothing when the render made none (camera jobs) or recorded no plan.
+TEST(CalibrateFit, TheFirstWaveGivesTheLoopsTimePerCameraRay) {
+  RenderResult r = loads(0, 1e9, 0, true, false, 7);
+  r.first_plan_at = 0.03;
+  r.first_wave_camera_rays = 100000;
+  CalibrationResult c;
+  rayline::engine::fit_model(r, c);
+  EXPECT_DOUBLE_EQ(c.model.loop.per_camera_ray, 0.03 / 100000);
+  r.first_wave_camera_rays = 0;
+  CalibrationResult none;
+  rayline::engine::fit_model(r, none);
+  EXPECT_EQ(none.model.loop.per_camera_ray, 0.0);
+  r.first_wave_camera_rays = 100000;
+  r.first_plan_at = -1;
+  CalibrationResult unplanned;
+  rayline::engine::fit_model(r, unplanned);
+  EXPECT_EQ(unplanned.model.loop.per_camera_ray, 0.0);
+}

@@ -401,6 +401,8 @@ TEST(PlatformLoader, BadInputNamesTheField) {
        "control_loop.per_jobs", "unknown key"},
       {"control loop: wake not a duration", [](json& j) { j["control_loop"] = {{"wake", "1MB"}}; },
        "control_loop.wake", ""},
+      {"control loop: per_camera_ray over a second", [](json& j) { j["control_loop"] = {{"per_camera_ray", "2s"}}; },
+       "control_loop.per_camera_ray", "from 0 to 1 s"},
       {"clients: unknown memory", [](json& j) { j["clients"] = "n2.ram"; }, "clients", "no memory device named 'n2.ram'"},
       {"clients: not host memory", [](json& j) { j["clients"] = "n1.gpu0mem"; }, "clients", "not a host memory"},
       {"clients: not a string", [](json& j) { j["clients"] = 1; }, "clients", "string"},
@@ -437,8 +439,10 @@ TEST(PlatformLoader, CpuContentionIsOptionalPerChannel) {
 TEST(PlatformLoader, ControlLoopIsOptionalAndReadInSeconds) {
   json j = base();
   EXPECT_FALSE(parse_platform(j.dump(), "p.json").loop.modelled());
-  j["control_loop"] = {{"per_job", "250us"}, {"per_exec_second", 0.2}, {"wake", "300us"}};
+  EXPECT_EQ(parse_platform(j.dump(), "p.json").loop.per_camera_ray, 0.0);
+  j["control_loop"] = {{"per_job", "250us"}, {"per_exec_second", 0.2}, {"wake", "300us"}, {"per_camera_ray", "300ns"}};
   const DeviceGraph g = parse_platform(j.dump(), "p.json");
+  EXPECT_DOUBLE_EQ(g.loop.per_camera_ray, 300e-9);
   EXPECT_DOUBLE_EQ(g.loop.per_job, 250e-6);
   EXPECT_DOUBLE_EQ(g.loop.per_exec_second, 0.2);
   EXPECT_DOUBLE_EQ(g.loop.wake, 300e-6);

@@ -339,6 +339,47 @@ void expect_wake(Time wake) {
 }
 }  // namespace
 
+// SimExecutor::hold_first_dispatch (ControlLoop::per_camera_ray): what the first plan
+// dispatches starts at the hold, asked once at that dispatch; the chain's later jobs follow
+// their predecessors at once (no loop latency modelled), so the makespan moves by the hold.
+namespace {
+void expect_first_hold(Time hold) {
+  DcgBuilder b;
+  const NodeId n = b.node("n0");
+  const MemId ram = b.mem("n0.ram", Bytes(8) << 30, MemoryKind::Host, n);
+  b.dev("n0.cpu", ram);
+  b.timing(0, DataKind::SceneData, 100 * MB, 1e-5);
+  DeviceGraph g = b.build();
+  JobPool pool;
+  DataBlock blk;
+  blk.name = "scene";
+  blk.kind = DataKind::SceneData;
+  blk.bytes = static_cast<Bytes>(100 * MB);
+  const BlockId id = pool.add_block(blk);
+  Schedule s(g, pool);
+  s.put_initial(id, ram);
+  sim::SgPlatform platform(g);
+  GmbScheduler gmb({.horizon = 1e9});
+  sim::SimExecutor ex(platform, s, {});
+  int asked = 0;
+  if (hold > 0) ex.hold_first_dispatch([&asked, hold] { ++asked; return hold; });
+  ChainWorkload wl(id, 3);
+  RuntimeLoop loop(gmb, ex, wl, pool, s);
+  const RunStats r = loop.run();
+  ASSERT_FALSE(r.stalled);
+  const Time d = 1.0 + 1e-5;
+  EXPECT_EQ(asked, hold > 0 ? 1 : 0);
+  ASSERT_EQ(s.activity_count(), 3u);
+  EXPECT_NEAR(s.activity(0).start, hold, 1e-9);
+  for (std::size_t i = 1; i < s.activity_count(); ++i)
+    EXPECT_NEAR(s.activity(ActivityId(i)).start, s.activity(ActivityId(i - 1)).end, 1e-9) << i;
+  EXPECT_NEAR(r.makespan, hold + 3 * d, 1e-9);
+}
+}  // namespace
+
+TEST(SimExecutor, WithoutAHoldTheFirstPlanStartsAtZero) { expect_first_hold(0); }
+TEST(SimExecutor, TheFirstPlanWaitsForTheLoopsStartUp) { expect_first_hold(0.375); }
+
 TEST(SimExecutor, WithoutWakeALoadWaitingForAnEJobStartsAtItsEnd) { expect_wake(0); }
 TEST(SimExecutor, WakeDelaysALoadThatWaitedForAnEJob) { expect_wake(0.25); }
 
