@@ -481,6 +481,9 @@ int calibrate_here(const CalibrateCliOptions& opt, const ClusterLan* lan, int lo
               format_duration(c.dispatch_gap).c_str(), fit_quality(c.loop_fit, "wait").c_str());
   std::printf("loader woken after another thread's job, mean over %d loads: %s\n", c.wake_samples,
               c.wake_samples >= 10 ? format_duration(c.model.loop.wake).c_str() : "too few to fit (0)");
+  std::printf("thread's hand-over to a job dispatched before it ran dry, mean over %d jobs: %s\n", c.pickup_samples,
+              c.pickup_samples >= 10 ? format_duration(c.model.loop.pickup).c_str() : "too few to fit (0)");
+  std::printf("loop's first wave of camera rays: %s per ray\n", format_duration(c.model.loop.per_camera_ray).c_str());
   std::printf("RayIntersect per thread, Eq. 2 over %d jobs: setup %s, %s; %s\n", c.exec_samples,
               format_duration(c.model.intersect_setup).c_str(), ray_rate(c.model.intersect_rate).c_str(),
               fit_quality(c.intersect_fit, "job").c_str());

@@ -92,6 +92,15 @@ void SimExecutor::try_start(ActivityId id) {
     for (ActivityId p : a.timeline_prev) prev_end = std::max(prev_end, schedule_.activity(p).end);
     if (dep_end > s.dispatched_at && dep_end >= prev_end) s.release = std::max(s.release, dep_end + wake);
   }
+  // An E-job dispatched before its device's previous activity ended, its inputs there by
+  // then: the thread's hand-over (ControlLoop::pickup).
+  if (const Time pickup = schedule_.graph().loop.pickup; pickup > 0 && !s.picked && a.kind == ActivityKind::Exec) {
+    s.picked = true;
+    Time dep_end = -kNever, prev_end = -kNever;
+    for (ActivityId p : a.deps) dep_end = std::max(dep_end, schedule_.activity(p).end);
+    for (ActivityId p : a.timeline_prev) prev_end = std::max(prev_end, schedule_.activity(p).end);
+    if (prev_end > s.dispatched_at && dep_end <= prev_end) s.release = std::max(s.release, prev_end + pickup);
+  }
   if (s.release > platform_.now()) {  // the control loop has not dispatched it yet
     if (!s.timer) {
       s.timer = true;

@@ -87,6 +87,7 @@ class SimExecutor final : public Executor {
     bool timer = false;  // a timer will try it again at `release`
     Time dispatched_at = 0;
     bool woken = false;  // ControlLoop::wake applied (once, when it first could start)
+    bool picked = false;  // ControlLoop::pickup applied (once, when it first could start)
     bool slows_cpu = false;  // a running T-job counted in exec_slowdown_
   };
   Time release_ = 0;  // for activities dispatched during the current report (0: none)

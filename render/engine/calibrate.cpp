@@ -161,6 +161,14 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
   // block makes its camera rays in its jobs (camera jobs): no wave, nothing to fit.
   if (r.first_wave_camera_rays > 0 && r.first_plan_at > 0)
     c.model.loop.per_camera_ray = r.first_plan_at / double(r.first_wave_camera_rays);
+  // The thread's hand-over to an E-job dispatched before it ran dry (ControlLoop::pickup):
+  // the mean of its samples, as the simulator adds it to each such job.
+  c.pickup_samples = static_cast<int>(r.pickup_samples.size());
+  if (r.pickup_samples.size() >= 10) {
+    double sum = 0;
+    for (Time w : r.pickup_samples) sum += w;
+    c.model.loop.pickup = sum / double(r.pickup_samples.size());
+  }
   // The loader's wake-up (ControlLoop::wake): the mean of its samples, as the simulator
   // adds it to each such load.
   c.wake_samples = static_cast<int>(r.wake_samples.size());

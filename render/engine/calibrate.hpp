@@ -29,7 +29,7 @@ struct CalibrationResult {
   // loop's latency fitted to the gaps of threads that ran dry (model.loop; loop_fit, over
   // loop_samples gaps).
   Time dispatch_gap = 0;
-  int loop_samples = 0, wake_samples = 0;
+  int loop_samples = 0, wake_samples = 0, pickup_samples = 0;
   int beside_load_samples = 0;
   int repeats = 1;                    // measuring renders made
   Time median_render_seconds = 0;     // the wall time of the one fitted  // CPU jobs that ran beside loads (Channel::exec_contention's fit)

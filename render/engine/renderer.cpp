@@ -522,6 +522,8 @@ void report_dispatch(const Schedule& schedule, const JobPool& pool, const Platfo
         const auto i = static_cast<std::size_t>(id);
         if (a.planned_start >= prev_end && a.data_ready <= prev_end && i < triggers.size() && triggers[i].end >= 0)
           res.loop_samples.emplace_back(triggers[i].exec_seconds, std::max<Time>(0, a.start - std::max(ready, triggers[i].end)));
+        if (i < triggers.size() && triggers[i].planned_at >= 0 && triggers[i].planned_at < prev_end && ready <= prev_end)
+          res.pickup_samples.push_back(gap);
       }
       prev_end = a.end;
     }

@@ -130,6 +130,9 @@ struct RenderResult {
   // Loads dispatched before the activity of another thread they waited for had ended: from
   // its end to their start (ControlLoop::wake, the loader thread woken on busy cores).
   std::vector<Time> wake_samples;
+  // E-jobs dispatched before their thread's previous job ended, with their inputs in place
+  // by then: from that end to their start (ControlLoop::pickup, the thread's hand-over).
+  std::vector<Time> pickup_samples;
   // The GPU: the device used ("" when none), why none or what failed.
   std::string gpu_device, gpu_status = "none";
   int gpu_device_id = -1;                 // its compute device in the DCG (TimingSample::device)

@@ -64,10 +64,11 @@ std::string node_type_json(const WorkstationModel& m) {
 }
 std::string loop_json(const WorkstationModel& m) {
   std::string s;
-  if (m.loop.modelled() || m.loop.wake > 0 || m.loop.per_camera_ray > 0)
+  if (m.loop.modelled() || m.loop.wake > 0 || m.loop.per_camera_ray > 0 || m.loop.pickup > 0)
     s += ",\n  \"control_loop\": {\"per_job\": " + us(m.loop.per_job) + ", \"per_exec_second\": " +
          num(m.loop.per_exec_second) + (m.loop.wake > 0 ? ", \"wake\": " + us(m.loop.wake) : std::string()) +
-         (m.loop.per_camera_ray > 0 ? ", \"per_camera_ray\": " + us(m.loop.per_camera_ray) : std::string()) + "}";
+         (m.loop.per_camera_ray > 0 ? ", \"per_camera_ray\": " + us(m.loop.per_camera_ray) : std::string()) +
+         (m.loop.pickup > 0 ? ", \"pickup\": " + us(m.loop.pickup) : std::string()) + "}";
   return s;
 }
 }  // namespace

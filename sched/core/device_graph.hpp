@@ -119,6 +119,10 @@ struct ControlLoop {
   // cell and queued). What that plan dispatches starts no earlier than the wave's rays x
   // this. Later waves are made in answer to finished jobs, inside `latency`.
   Time per_camera_ray = 0;
+  // An E-job dispatched before its thread's previous job ended, its inputs in place, starts
+  // this much after that job's end: the worker thread reports the end and takes the next
+  // job from the loop's hands (a hand-over between threads).
+  Time pickup = 0;
   bool modelled() const { return per_job > 0 || per_exec_second > 0; }
   Time latency(Time exec_seconds) const { return per_job + per_exec_second * exec_seconds; }
 };

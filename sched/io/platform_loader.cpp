@@ -145,9 +145,13 @@ class PlatformReader {
   }
 
   // "control_loop": {"per_job": DURATION, "per_exec_second": NUMBER >= 0, "wake": DURATION,
-  // "per_camera_ray": DURATION} (ControlLoop).
+  // "per_camera_ray": DURATION, "pickup": DURATION} (ControlLoop).
   void control_loop(const JsonField& f) {
-    f.object().only_keys({"per_job", "per_exec_second", "wake", "per_camera_ray", "description"});
+    f.object().only_keys({"per_job", "per_exec_second", "wake", "per_camera_ray", "pickup", "description"});
+    if (const auto p = f.find("pickup")) {
+      g_.loop.pickup = p->quantity(JsonUnit::duration);
+      if (!(g_.loop.pickup >= 0 && g_.loop.pickup < 1)) p->fail("expected a duration from 0 to 1 s");
+    }
     if (const auto p = f.find("per_camera_ray")) {
       g_.loop.per_camera_ray = p->quantity(JsonUnit::duration);
       if (!(g_.loop.per_camera_ray >= 0 && g_.loop.per_camera_ray < 1)) p->fail("expected a duration from 0 to 1 s");

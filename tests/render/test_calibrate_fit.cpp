@@ -102,3 +102,18 @@ TEST(CalibrateFit, TheFirstWaveGivesTheLoopsTimePerCameraRay) {
   rayline::engine::fit_model(r, unplanned);
   EXPECT_EQ(unplanned.model.loop.per_camera_ray, 0.0);
 }
+
+// ControlLoop::pickup: the mean hand-over of jobs dispatched before their thread ran dry,
+// from ten samples on; fewer leave it at 0.
+TEST(CalibrateFit, PickupIsTheMeanHandOverFromTenSamples) {
+  RenderResult r = loads(0, 1e9, 0, true, false, 9);
+  for (int i = 0; i < 9; ++i) r.pickup_samples.push_back(40e-6 + 2e-6 * i);
+  CalibrationResult few;
+  rayline::engine::fit_model(r, few);
+  EXPECT_EQ(few.model.loop.pickup, 0.0);
+  r.pickup_samples.push_back(62e-6);
+  CalibrationResult c;
+  rayline::engine::fit_model(r, c);
+  EXPECT_NEAR(c.model.loop.pickup, (9 * 40e-6 + 2e-6 * 36 + 62e-6) / 10, 1e-15);
+  EXPECT_EQ(c.pickup_samples, 10);
+}

@@ -403,6 +403,7 @@ TEST(PlatformLoader, BadInputNamesTheField) {
        "control_loop.wake", ""},
       {"control loop: per_camera_ray over a second", [](json& j) { j["control_loop"] = {{"per_camera_ray", "2s"}}; },
        "control_loop.per_camera_ray", "from 0 to 1 s"},
+      {"control loop: pickup not a duration", [](json& j) { j["control_loop"] = {{"pickup", 3}}; }, "control_loop.pickup", ""},
       {"clients: unknown memory", [](json& j) { j["clients"] = "n2.ram"; }, "clients", "no memory device named 'n2.ram'"},
       {"clients: not host memory", [](json& j) { j["clients"] = "n1.gpu0mem"; }, "clients", "not a host memory"},
       {"clients: not a string", [](json& j) { j["clients"] = 1; }, "clients", "string"},
@@ -440,9 +441,10 @@ TEST(PlatformLoader, ControlLoopIsOptionalAndReadInSeconds) {
   json j = base();
   EXPECT_FALSE(parse_platform(j.dump(), "p.json").loop.modelled());
   EXPECT_EQ(parse_platform(j.dump(), "p.json").loop.per_camera_ray, 0.0);
-  j["control_loop"] = {{"per_job", "250us"}, {"per_exec_second", 0.2}, {"wake", "300us"}, {"per_camera_ray", "300ns"}};
+  j["control_loop"] = {{"per_job", "250us"}, {"per_exec_second", 0.2}, {"wake", "300us"}, {"per_camera_ray", "300ns"}, {"pickup", "60us"}};
   const DeviceGraph g = parse_platform(j.dump(), "p.json");
   EXPECT_DOUBLE_EQ(g.loop.per_camera_ray, 300e-9);
+  EXPECT_DOUBLE_EQ(g.loop.pickup, 60e-6);
   EXPECT_DOUBLE_EQ(g.loop.per_job, 250e-6);
   EXPECT_DOUBLE_EQ(g.loop.per_exec_second, 0.2);
   EXPECT_DOUBLE_EQ(g.loop.wake, 300e-6);

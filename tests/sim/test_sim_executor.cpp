@@ -377,6 +377,35 @@ void expect_first_hold(Time hold) {
 }
 }  // namespace
 
+// ControlLoop::pickup: three jobs known at the start on one thread are all planned and
+// dispatched at 0, so the second and third were dispatched before their predecessor ended
+// and start `pickup` after it; the first, on an idle thread, starts at once.
+namespace {
+void expect_pickup(Time pickup) {
+  DcgBuilder b;
+  const NodeId n = b.node("n0");
+  const MemId ram = b.mem("n0.ram", Bytes(8) << 30, MemoryKind::Host, n);
+  b.dev("n0.cpu", ram);
+  b.timing(0, DataKind::SceneData, 100 * MB, 0);
+  DeviceGraph g = b.build();
+  g.loop.pickup = pickup;
+  JobPool pool;
+  const BlockId id = rayline::testing::add_block(pool, "scene", DataKind::SceneData, static_cast<Bytes>(100 * MB));
+  for (int k = 0; k < 3; ++k) rayline::testing::add_job(pool, "j" + std::to_string(k), 0, {id});
+  SimRun run(g, pool, {{id, ram}}, {});
+  ASSERT_FALSE(run.r.stalled);
+  const Schedule& s = run.s;
+  ASSERT_EQ(s.activity_count(), 3u);
+  EXPECT_NEAR(s.activity(0).start, 0.0, 1e-9);
+  for (std::size_t i = 1; i < 3; ++i)
+    EXPECT_NEAR(s.activity(ActivityId(i)).start, s.activity(ActivityId(i - 1)).end + pickup, 1e-9) << i;
+  EXPECT_NEAR(run.r.makespan, 3.0 + 2 * pickup, 1e-9);
+}
+}  // namespace
+
+TEST(SimExecutor, WithoutPickupAPreDispatchedJobStartsAtItsPredecessorsEnd) { expect_pickup(0); }
+TEST(SimExecutor, PickupDelaysAJobDispatchedBeforeItsThreadRanDry) { expect_pickup(0.125); }
+
 TEST(SimExecutor, WithoutAHoldTheFirstPlanStartsAtZero) { expect_first_hold(0); }
 TEST(SimExecutor, TheFirstPlanWaitsForTheLoopsStartUp) { expect_first_hold(0.375); }
 
