@@ -458,7 +458,7 @@ int calibrate_here(const CalibrateCliOptions& opt, const ClusterLan* lan, int lo
     ro.progress = progress_bar(line, "calibrate");
     ro.partition_progress = partition_progress(line);
   }
-  engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction, engine::kMinGpuJobsPerType, opt.repeats);
+  engine::CalibrationResult c = engine::calibrate(ro, opt.budget_fraction, engine::kMinGpuJobsPerType, opt.repeats, opt.passes);
   line.done();
   if (lan) {
     c.platform_json = engine::cluster_json(c.model, lan->ranks, engine::lan_for_plan(lan->model, c.model),
@@ -467,8 +467,8 @@ int calibrate_here(const CalibrateCliOptions& opt, const ClusterLan* lan, int lo
     std::fputs(lan->report.c_str(), stdout);
   }
   write_file_atomic(opt.out, c.platform_json);
-  std::printf("fitted to the measuring render of median wall time (%s) of %d\n", format_duration(c.median_render_seconds).c_str(),
-              c.repeats);
+  std::printf("fitted to the measuring render of median wall time (%s) of %d%s\n", format_duration(c.median_render_seconds).c_str(),
+              c.repeats, c.passes > 1 ? ", planned on a first render's fit" : "");
   std::printf("disk->RAM (read + BVH build), Eq. 1 over %d loads: latency %s, bandwidth %s with the CPU threads "
               "idle, x%.2f the time with all of them busy; %s\n",
               c.load_samples, format_duration(c.model.disk_latency).c_str(), format_bandwidth(c.model.disk_bandwidth).c_str(),

@@ -49,6 +49,7 @@ struct CalibrateCliOptions {
   std::string resolution = "256x256";
   double budget_fraction = 0.3;
   int repeats = 3;  // measuring renders; the fit takes the median one
+  int passes = 2;   // the last pass's renders are planned on the pass before's fit
   std::string bvh_quality = "low";   // the builder whose loads are measured (a budget's default)
   std::string gpu = "auto";
   std::string out = "out/this-machine.json";

@@ -369,6 +369,11 @@ void add_calibrate(CLI::App& app, std::function<int()>& action) {
                 "runs slow for a while now and then)")
       ->default_val(opt->repeats)
       ->check(CLI::Range(1, 100));
+  c->add_option("--passes", opt->passes,
+                "Measuring passes: the first renders are planned on default timings; with 2, one such render, then "
+                "--repeats renders planned on its fit (as the renders that use the file are), and those are fitted")
+      ->default_val(opt->passes)
+      ->check(CLI::Range(1, 2));
   c->add_option("--bvh-quality", opt->bvh_quality,
                 "BVH builder of the measured loads: low (what renders under a budget use), medium (in core), high; "
                 "a load's time is mostly its build, so calibrate with the builder your renders use")

@@ -31,7 +31,8 @@ struct CalibrationResult {
   Time dispatch_gap = 0;
   int loop_samples = 0, wake_samples = 0, pickup_samples = 0;
   int beside_load_samples = 0;
-  int repeats = 1;                    // measuring renders made
+  int repeats = 1;                    // measuring renders made (per pass)
+  int passes = 1;                     // measuring passes (calibrate())
   Time median_render_seconds = 0;     // the wall time of the one fitted  // CPU jobs that ran beside loads (Channel::exec_contention's fit)
   FitErrors loop_fit;
   // The GPU, when one was used: samples and whether each fit replaced the defaults.
@@ -60,7 +61,10 @@ inline constexpr int kMinGpuJobsPerType = 32;
 // are too few samples to fit.
 // `min_gpu_jobs`: the GPU's own pass runs when the mixed render gave it fewer jobs of a type.
 // `repeats`: measuring renders; the fit uses the one of median wall time.
+// `passes`: 1 measures renders planned on the default platform; 2 (what a render that uses
+// the file plans with) measures them once so, then `repeats` renders planned on that first
+// fit, and fits those (docs/validation.md, "Calibrating in the regime of use").
 CalibrationResult calibrate(RenderOptions opt, double budget_fraction = 0.3, int min_gpu_jobs = kMinGpuJobsPerType,
-                            int repeats = 1);
+                            int repeats = 1, int passes = 1);
 
 }  // namespace rayline::engine

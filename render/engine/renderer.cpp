@@ -295,7 +295,7 @@ void make_platform(const RenderOptions& opt, const Blocks& b, const RenderWorklo
     }
     if (opt.platform.empty() || opt.platform == "auto") lan = lan_for_plan(lan, p.wm);
   } else {
-    p.wm = workstation_model(opt.platform);
+    p.wm = opt.model ? *opt.model : workstation_model(opt.platform);
   }
   p.wm.threads = res.threads;
   p.wm.ram_capacity = ram_capacity;

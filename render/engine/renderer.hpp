@@ -27,6 +27,8 @@ struct RenderOptions {
   std::string blocks_dir;          // a partition to use (made there when absent); "" = temporary
   std::uint32_t blocks = 0;        // cells when partitioning; 0 = chosen from scene size and budget
   std::string platform = "auto";   // "auto" or a platform file from `rayline calibrate`
+  // A model in memory instead of the file (calibrate's fitted pass); `platform` names it.
+  const WorkstationModel* model = nullptr;
   std::string scheduler = "gmb";   // gmb | gmb-ca | budge | loadanyonce
   int spp = 0, width = 0, height = 0, max_depth = 0;  // 0 = the scene's values
   Bytes memory_budget = 0;         // bytes of scene blocks in RAM; 0 = unlimited (in core)

@@ -2,10 +2,13 @@
 and their simulated twins (`rayline simulate --like`), point by point.
 
 Grid: generated museum-like scenes of three sizes x memory budgets (in core, 50, 25, 10 %
-of the scene's block bytes) x schedulers (gmb, budge, loadanyonce). Per scene, `rayline
-calibrate` at the grid's resolution and spp gives the platform every render drives: with
-the low-quality BVH builder for the budgets, the medium one in core (the renders ask for
-it: `render --bvh-quality auto` would take the low one in core on the 10 M scene). Per point:
+of the scene's block bytes) x schedulers (gmb, budge, loadanyonce). Per scene and budget,
+right before that budget's renders, `rayline calibrate` at the grid's resolution and spp
+gives the platform they drive: with the low-quality BVH builder for the budgets, the medium
+one in core (the renders ask for it: `render --bvh-quality auto` would take the low one in
+core on the 10 M scene). The development VM drifts by 10-15 % within minutes; one
+calibration per scene, made up to ten minutes before some of the renders it predicts, put
+that drift into the prediction (docs/validation.md). Per point:
   * real: R unrecorded renders, alternated across the schedulers (the machine is shared:
     alternating spreads its noise over all of them); their median and spread
     ((max - min) / median);
@@ -87,11 +90,12 @@ def scene_files(out, name, triangles, blocks, log):
     return scene, parts
 
 
-def calibrate(out, name, scene, blocks, res, spp, quality):
+def calibrate(out, name, scene, blocks, res, spp, quality, tag=""):
     """`rayline calibrate` with the BVH builder the renders use (low under a budget, medium in
-    core, as the renders ask for; a load's time is mostly its build)."""
-    cal = os.path.join(out, "scenes", name, f"calibrated-{quality}.json")
-    if not os.path.exists(cal):
+    core, as the renders ask for; a load's time is mostly its build). `tag`: one file per
+    budget, made again unless RAYLINE_EXP_REUSE keeps it."""
+    cal = os.path.join(out, "scenes", name, f"calibrated-{quality}{tag}.json")
+    if not reuse(cal) and (tag or not os.path.exists(cal)):
         run(["calibrate", "--scene", scene, "-n", str(blocks), "--resolution", res, "--spp", str(spp),
              "--threads", str(THREADS), "--budget-fraction", "0.25", "--bvh-quality", quality, "--out", cal, "-q"])
     return cal
@@ -113,11 +117,10 @@ def run_grid(reduced, out):
     rows, real_rows = [], []
     for name, triangles, blocks in g["scenes"]:
         scene, parts = scene_files(out, name, triangles, blocks, print)
-        cals = {q: calibrate(out, name, scene, blocks, res, spp, q)
-                for q in (["low", "medium"] if 1.0 in g["budgets"] else ["low"])}
-        total = scene_bytes(out, name, scene, parts, cals["low"])
+        total = scene_bytes(out, name, scene, parts, calibrate(out, name, scene, blocks, res, spp, "low"))
         for budget in g["budgets"]:
-            cal = cals["medium" if budget >= 1 else "low"]
+            cal = calibrate(out, name, scene, blocks, res, spp, "medium" if budget >= 1 else "low",
+                            f"-b{int(round(budget * 100))}")
             flags = ["--bvh-quality", "medium"] if budget >= 1 else ["--memory-budget", f"{int(total * budget)}B"]
             tag = f"{name}-b{int(round(budget * 100))}"
             base = ["render", "--scene", scene, "--blocks-dir", parts, "--platform", cal, "--resolution", res,

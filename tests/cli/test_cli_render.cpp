@@ -342,6 +342,8 @@ TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
   for (std::size_t at = 0; (at = r.out.find("% of the measured time (median", at)) != std::string::npos; ++at) ++fits;
   EXPECT_EQ(fits, 4u) << r.out;
   EXPECT_NE(r.out.find("control loop after a finished job"), std::string::npos) << r.out;
+  // Two passes by default: the fitted renders were planned on a first render's fit.
+  EXPECT_NE(r.out.find("of 3, planned on a first render's fit"), std::string::npos) << r.out;
   std::ifstream platform(path("me.json"));
   const auto p = nlohmann::json::parse(platform);
   ASSERT_TRUE(p.contains("control_loop")) << p.dump(2);
@@ -352,6 +354,17 @@ TEST_F(CliRender, CalibrateWritesAPlatformTheRendererReads) {
   r = rayline_cli("render -q --resolution 16x16 --spp 1 --platform " + path("me.json") + " --out " + path("p.exr"));
   ASSERT_EQ(r.code, 0) << r.all;
   EXPECT_EQ(metrics("p").at("platform"), path("me.json"));
+}
+
+// One pass: the renders fitted are planned on the default platform.
+TEST_F(CliRender, CalibrateInOnePassFitsRendersPlannedOnDefaults) {
+  auto r = rayline_cli("calibrate -q --passes 1 --repeats 1 --resolution 32x32 --spp 1 --blocks 8 --out " + path("one.json"));
+  ASSERT_EQ(r.code, 0) << r.all;
+  EXPECT_NE(r.out.find("median wall time"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("planned on a first render's fit"), std::string::npos) << r.out;
+  r = rayline_cli("calibrate -q --passes 3 --out " + path("bad.json"));
+  EXPECT_EQ(r.code, 2) << r.all;
+  EXPECT_NE(r.err.find("--passes"), std::string::npos) << r.err;
 }
 
 // calibration measures the GPU too (its jobs' Eq. 2, the RAM->GPU channel's
