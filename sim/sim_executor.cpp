@@ -64,6 +64,12 @@ bool SimExecutor::ready(ActivityId dep, ActivityId waiter) {
   return false;
 }
 
+Time SimExecutor::latest_end(const ActivityList& ids) const {
+  Time t = -kNever;
+  for (ActivityId p : ids) t = std::max(t, schedule_.activity(p).end);
+  return t;
+}
+
 void SimExecutor::try_start(ActivityId id) {
   State& s = st_[id];
   if (!s.dispatched || s.started) return;
@@ -87,18 +93,14 @@ void SimExecutor::try_start(ActivityId id) {
   // woken when it may start (ControlLoop::wake).
   if (const Time wake = schedule_.graph().loop.wake; wake > 0 && !s.woken && a.kind == ActivityKind::Transfer) {
     s.woken = true;
-    Time dep_end = -kNever, prev_end = -kNever;
-    for (ActivityId p : a.deps) dep_end = std::max(dep_end, schedule_.activity(p).end);
-    for (ActivityId p : a.timeline_prev) prev_end = std::max(prev_end, schedule_.activity(p).end);
+    const Time dep_end = latest_end(a.deps), prev_end = latest_end(a.timeline_prev);
     if (dep_end > s.dispatched_at && dep_end >= prev_end) s.release = std::max(s.release, dep_end + wake);
   }
   // An E-job dispatched before its device's previous activity ended, its inputs there by
   // then: the thread's hand-over (ControlLoop::pickup).
   if (const Time pickup = schedule_.graph().loop.pickup; pickup > 0 && !s.picked && a.kind == ActivityKind::Exec) {
     s.picked = true;
-    Time dep_end = -kNever, prev_end = -kNever;
-    for (ActivityId p : a.deps) dep_end = std::max(dep_end, schedule_.activity(p).end);
-    for (ActivityId p : a.timeline_prev) prev_end = std::max(prev_end, schedule_.activity(p).end);
+    const Time dep_end = latest_end(a.deps), prev_end = latest_end(a.timeline_prev);
     if (prev_end > s.dispatched_at && dep_end <= prev_end) s.release = std::max(s.release, prev_end + pickup);
   }
   if (s.release > platform_.now()) {  // the control loop has not dispatched it yet

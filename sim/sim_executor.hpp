@@ -59,6 +59,7 @@ class SimExecutor final : public Executor {
 
  private:
   void try_start(ActivityId id);
+  Time latest_end(const ActivityList& ids) const;  // the latest end of `ids`; -kNever when empty
   void on_done(ActivityId id, Time finish, bool ok);
   bool ready(ActivityId dep, ActivityId waiter);
   // TransferOrder::Exclusive: are all of the channel's resources free? If not, wait on them.

@@ -161,22 +161,19 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
   // block makes its camera rays in its jobs (camera jobs): no wave, nothing to fit.
   if (r.first_wave_camera_rays > 0 && r.first_plan_at > 0)
     c.model.loop.per_camera_ray = r.first_plan_at / double(r.first_wave_camera_rays);
-  // The thread's hand-over to an E-job dispatched before it ran dry (ControlLoop::pickup):
-  // the mean of its samples, as the simulator adds it to each such job.
+  // The thread's hand-over to an E-job dispatched before it ran dry (ControlLoop::pickup)
+  // and the loader's wake-up (ControlLoop::wake): each the mean of its samples, as the
+  // simulator adds it to each such job or load, from ten samples on (else kept).
+  auto mean_of_ten_or_more = [](const std::vector<Time>& w, Time& out) {
+    if (w.size() < 10) return;
+    double sum = 0;
+    for (Time x : w) sum += x;
+    out = sum / double(w.size());
+  };
   c.pickup_samples = static_cast<int>(r.pickup_samples.size());
-  if (r.pickup_samples.size() >= 10) {
-    double sum = 0;
-    for (Time w : r.pickup_samples) sum += w;
-    c.model.loop.pickup = sum / double(r.pickup_samples.size());
-  }
-  // The loader's wake-up (ControlLoop::wake): the mean of its samples, as the simulator
-  // adds it to each such load.
+  mean_of_ten_or_more(r.pickup_samples, c.model.loop.pickup);
   c.wake_samples = static_cast<int>(r.wake_samples.size());
-  if (r.wake_samples.size() >= 10) {
-    double sum = 0;
-    for (Time w : r.wake_samples) sum += w;
-    c.model.loop.wake = sum / double(r.wake_samples.size());
-  }
+  mean_of_ten_or_more(r.wake_samples, c.model.loop.wake);
   if (a.supported && a.rate[int(DataKind::RayQueue)] > 0) {
     c.model.intersect_setup = a.setup;
     c.model.intersect_rate = a.rate[int(DataKind::RayQueue)];
@@ -209,6 +206,18 @@ void fit_model(const RenderResult& r, CalibrationResult& c) {
   }
 }
 
+namespace {
+// The render of median wall time (`runs` is left empty): a machine shared with other work
+// runs slow for a while now and then (docs/validation.md).
+RenderResult take_median(std::vector<RenderResult>& runs) {
+  const auto mid = runs.begin() + static_cast<std::ptrdiff_t>(runs.size() / 2);
+  std::nth_element(runs.begin(), mid, runs.end(), [](const RenderResult& a, const RenderResult& b) { return a.seconds < b.seconds; });
+  RenderResult r = std::move(*mid);
+  runs.clear();
+  return r;
+}
+}  // namespace
+
 CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_gpu_jobs, int repeats, int passes) {
   if (opt.memory_budget == 0) {
     // One quick in-core pass to learn the block sizes, then the budgeted run that loads.
@@ -232,10 +241,7 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
   if (opt.cluster) passes = 1;  // a distributed render plans on a cluster file, not on a model in memory
   const int first_repeats = passes > 1 ? 1 : std::max(1, repeats);  // the later pass is the one fitted
   for (int k = 0; k < first_repeats; ++k) runs.push_back(render(opt));
-  const auto median = runs.begin() + static_cast<std::ptrdiff_t>(runs.size() / 2);
-  std::nth_element(runs.begin(), median, runs.end(), [](const RenderResult& a, const RenderResult& b) { return a.seconds < b.seconds; });
-  RenderResult r = std::move(*median);
-  runs.clear();
+  RenderResult r = take_median(runs);
   CalibrationResult c;
   c.repeats = std::max(1, repeats);
   c.median_render_seconds = r.seconds;
@@ -280,10 +286,7 @@ CalibrationResult calibrate(RenderOptions opt, double budget_fraction, int min_g
     o.model = &first;
     o.platform = "<calibrate's fit, pass " + std::to_string(pass) + ">";
     for (int k = 0; k < std::max(1, repeats); ++k) runs.push_back(render(o));
-    const auto mid = runs.begin() + static_cast<std::ptrdiff_t>(runs.size() / 2);
-    std::nth_element(runs.begin(), mid, runs.end(), [](const RenderResult& a, const RenderResult& b) { return a.seconds < b.seconds; });
-    RenderResult rp = std::move(*mid);
-    runs.clear();
+    RenderResult rp = take_median(runs);
     c.median_render_seconds = rp.seconds;
     if (rp.load_samples.size() >= 2) fit_model(rp, c);
   }

@@ -268,32 +268,46 @@ class ChainWorkload final : public Workload {
 // that job's end + per_job + per_exec_second x its duration later; without the model, at once.
 // (One SimGrid platform per process: one TEST each.)
 namespace {
-void expect_chain_gaps(bool modelled) {
-  DcgBuilder b;
-  const NodeId n = b.node("n0");
-  const MemId ram = b.mem("n0.ram", Bytes(8) << 30, MemoryKind::Host, n);
-  b.dev("n0.cpu", ram);
-  b.timing(0, DataKind::SceneData, 100 * MB, 1e-5);
-  DeviceGraph g = b.build();
-  if (modelled) g.loop = {0.5, 0.25};
+// Three chained 1 s jobs on one CPU thread (ChainWorkload), run under GMB with the given
+// control loop and, if set, a hold on the first dispatch.
+struct ChainRun {
+  DeviceGraph g;
   JobPool pool;
-  DataBlock blk;
-  blk.name = "scene";
-  blk.kind = DataKind::SceneData;
-  blk.bytes = static_cast<Bytes>(100 * MB);
-  const BlockId id = pool.add_block(blk);
-  Schedule s(g, pool);
-  s.put_initial(id, ram);
-  sim::SgPlatform platform(g);
-  GmbScheduler gmb({.horizon = 1e9});
-  sim::SimExecutor ex(platform, s, {});
-  ChainWorkload wl(id, 3);
-  RuntimeLoop loop(gmb, ex, wl, pool, s);
-  const RunStats r = loop.run();
-  ASSERT_FALSE(r.stalled);
+  std::unique_ptr<Schedule> s;
+  RunStats r;
+  int holds_asked = 0;
+  ChainRun(ControlLoop loop, Time hold) {
+    DcgBuilder b;
+    const NodeId n = b.node("n0");
+    const MemId ram = b.mem("n0.ram", Bytes(8) << 30, MemoryKind::Host, n);
+    b.dev("n0.cpu", ram);
+    b.timing(0, DataKind::SceneData, 100 * MB, 1e-5);
+    g = b.build();
+    g.loop = loop;
+    DataBlock blk;
+    blk.name = "scene";
+    blk.kind = DataKind::SceneData;
+    blk.bytes = static_cast<Bytes>(100 * MB);
+    const BlockId id = pool.add_block(blk);
+    s = std::make_unique<Schedule>(g, pool);
+    s->put_initial(id, ram);
+    sim::SgPlatform platform(g);
+    GmbScheduler gmb({.horizon = 1e9});
+    sim::SimExecutor ex(platform, *s, {});
+    if (hold > 0) ex.hold_first_dispatch([this, hold] { ++holds_asked; return hold; });
+    ChainWorkload wl(id, 3);
+    RuntimeLoop rl(gmb, ex, wl, pool, *s);
+    r = rl.run();
+  }
+};
+
+void expect_chain_gaps(bool modelled) {
+  const ChainRun run(modelled ? ControlLoop{0.5, 0.25} : ControlLoop{}, 0);
+  const Schedule& s = *run.s;
+  ASSERT_FALSE(run.r.stalled);
   const Time d = 1.0 + 1e-5;
   const Time gap = modelled ? 0.5 + 0.25 * d : 0.0;
-  EXPECT_NEAR(r.makespan, 3 * d + 2 * gap, 1e-9);
+  EXPECT_NEAR(run.r.makespan, 3 * d + 2 * gap, 1e-9);
   ASSERT_EQ(s.activity_count(), 3u);
   for (std::size_t i = 1; i < s.activity_count(); ++i)
     EXPECT_NEAR(s.activity(ActivityId(i)).start, s.activity(ActivityId(i - 1)).end + gap, 1e-9) << i;
@@ -344,36 +358,16 @@ void expect_wake(Time wake) {
 // their predecessors at once (no loop latency modelled), so the makespan moves by the hold.
 namespace {
 void expect_first_hold(Time hold) {
-  DcgBuilder b;
-  const NodeId n = b.node("n0");
-  const MemId ram = b.mem("n0.ram", Bytes(8) << 30, MemoryKind::Host, n);
-  b.dev("n0.cpu", ram);
-  b.timing(0, DataKind::SceneData, 100 * MB, 1e-5);
-  DeviceGraph g = b.build();
-  JobPool pool;
-  DataBlock blk;
-  blk.name = "scene";
-  blk.kind = DataKind::SceneData;
-  blk.bytes = static_cast<Bytes>(100 * MB);
-  const BlockId id = pool.add_block(blk);
-  Schedule s(g, pool);
-  s.put_initial(id, ram);
-  sim::SgPlatform platform(g);
-  GmbScheduler gmb({.horizon = 1e9});
-  sim::SimExecutor ex(platform, s, {});
-  int asked = 0;
-  if (hold > 0) ex.hold_first_dispatch([&asked, hold] { ++asked; return hold; });
-  ChainWorkload wl(id, 3);
-  RuntimeLoop loop(gmb, ex, wl, pool, s);
-  const RunStats r = loop.run();
-  ASSERT_FALSE(r.stalled);
+  const ChainRun run(ControlLoop{}, hold);
+  const Schedule& s = *run.s;
+  ASSERT_FALSE(run.r.stalled);
   const Time d = 1.0 + 1e-5;
-  EXPECT_EQ(asked, hold > 0 ? 1 : 0);
+  EXPECT_EQ(run.holds_asked, hold > 0 ? 1 : 0);
   ASSERT_EQ(s.activity_count(), 3u);
   EXPECT_NEAR(s.activity(0).start, hold, 1e-9);
   for (std::size_t i = 1; i < s.activity_count(); ++i)
     EXPECT_NEAR(s.activity(ActivityId(i)).start, s.activity(ActivityId(i - 1)).end, 1e-9) << i;
-  EXPECT_NEAR(r.makespan, hold + 3 * d, 1e-9);
+  EXPECT_NEAR(run.r.makespan, hold + 3 * d, 1e-9);
 }
 }  // namespace
 
